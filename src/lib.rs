@@ -1,0 +1,26 @@
+//! slipbayes: Bayesian inference of how friction starts.
+//!
+//! The crate is layered so that each part knows only what it must:
+//!
+//! - [`special`]: the exponential integral Ei and its scaled forms, to full double precision.
+//! - [`law`]: the aging-rejuvenation friction law of Farain and Bonn, its elastic correction,
+//!   the repeat-slide model and the static friction peak. Knows nothing of files or sampling.
+//! - [`data`]: reading and writing data sets (`time_s,force_N` CSV) and their true values.
+//! - [`simulate`]: synthetic data sets from known parameters.
+//! - [`sampler`]: an affine-invariant ensemble MCMC sampler over any log-density. Knows nothing
+//!   of friction.
+//! - [`diagnostics`]: autocorrelation time, R-hat, ESS, MCSE and credible intervals.
+//! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
+//! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
+#![deny(clippy::float_cmp)]
+
+pub mod cli;
+pub mod data;
+pub mod diagnostics;
+pub mod law;
+pub mod prec;
+pub mod sampler;
+pub mod simulate;
+pub mod special;
+#[cfg(feature = "parquet")]
+pub mod storage;
