@@ -1,1 +1,313 @@
-//! (placeholder: filled in by its own work)
+//! Data sets: friction force against instrument time, as CSV, and files written atomically.
+//!
+//! The simplest format is the one `slipbayes simulate` writes: a header `time_s,force_N`
+//! (optionally `,normal_force_N`) and one row per sample, numbers in shortest round-trip
+//! notation so that a file reads back bit-exactly. Every output file goes through
+//! [`write_atomically`], so no half-written file is ever left looking complete.
+//!
+//! This module knows nothing of the friction law.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::io::{self, Write as _};
+use std::path::{Path, PathBuf};
+
+/// Column names of the simple CSV format.
+pub const TIME_COLUMN: &str = "time_s";
+/// Friction force column.
+pub const FORCE_COLUMN: &str = "force_N";
+/// Optional normal force column.
+pub const NORMAL_FORCE_COLUMN: &str = "normal_force_N";
+
+/// Errors reading or writing data sets.
+#[derive(Debug, thiserror::Error)]
+pub enum DataError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: io::Error,
+    },
+    /// The content is malformed at a known place.
+    #[error("{path}:{line}:{column}: {message}")]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column (field number).
+        column: usize,
+        /// What is wrong and what to do.
+        message: String,
+    },
+    /// Columns of a series differ in length.
+    #[error("series columns differ in length: {what}")]
+    Ragged {
+        /// Which columns.
+        what: String,
+    },
+}
+
+/// A recorded slide: force against instrument time, SI units.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Series {
+    /// Instrument time (s), strictly increasing.
+    pub time_s: Vec<f64>,
+    /// Friction force (N).
+    pub force_n: Vec<f64>,
+    /// Normal force (N), when recorded.
+    pub normal_force_n: Option<Vec<f64>>,
+}
+
+impl Series {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// Whether the series has no samples.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    fn check_shape(&self) -> Result<(), DataError> {
+        let n = self.time_s.len();
+        let normal_ok = self.normal_force_n.as_ref().is_none_or(|v| v.len() == n);
+        if self.force_n.len() != n || !normal_ok {
+            return Err(DataError::Ragged {
+                what: format!(
+                    "{} times, {} forces, {} normal forces",
+                    n,
+                    self.force_n.len(),
+                    self.normal_force_n.as_ref().map_or(0, Vec::len)
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// The series as CSV text in the simple format.
+    ///
+    /// # Errors
+    /// [`DataError::Ragged`] when the columns differ in length.
+    pub fn to_csv(&self) -> Result<String, DataError> {
+        self.check_shape()?;
+        let mut out = String::with_capacity(40 * (self.len() + 1));
+        out.push_str(TIME_COLUMN);
+        out.push(',');
+        out.push_str(FORCE_COLUMN);
+        if self.normal_force_n.is_some() {
+            out.push(',');
+            out.push_str(NORMAL_FORCE_COLUMN);
+        }
+        out.push('\n');
+        for i in 0..self.len() {
+            // `{:?}` is Rust's shortest representation that reads back to the same double.
+            let _ = write!(out, "{:?},{:?}", self.time_s[i], self.force_n[i]);
+            if let Some(normal) = &self.normal_force_n {
+                let _ = write!(out, ",{:?}", normal[i]);
+            }
+            out.push('\n');
+        }
+        Ok(out)
+    }
+
+    /// Writes the series to `path` atomically.
+    ///
+    /// # Errors
+    /// [`DataError::Io`] naming the path, or [`DataError::Ragged`].
+    pub fn write_csv(&self, path: &Path) -> Result<(), DataError> {
+        let text = self.to_csv()?;
+        write_atomically(path, text.as_bytes()).map_err(|source| DataError::Io {
+            path: path.to_owned(),
+            source,
+        })
+    }
+
+    /// Reads a series in the simple format (`time_s,force_N[,normal_force_N]`).
+    ///
+    /// # Errors
+    /// [`DataError::Io`] when the file cannot be read; [`DataError::Malformed`] naming line and
+    /// column for a wrong header, a missing or extra field, or a number that does not parse.
+    pub fn read_csv(path: &Path) -> Result<Self, DataError> {
+        let text = fs::read_to_string(path).map_err(|source| DataError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse_csv(&text, path)
+    }
+
+    /// Parses CSV text in the simple format; `path` is used in error messages only.
+    ///
+    /// # Errors
+    /// As [`Series::read_csv`].
+    pub fn parse_csv(text: &str, path: &Path) -> Result<Self, DataError> {
+        let malformed = |line: usize, column: usize, message: String| DataError::Malformed {
+            path: path.to_owned(),
+            line,
+            column,
+            message,
+        };
+        let mut lines = text.lines().enumerate();
+        let (_, header) = lines.next().ok_or_else(|| {
+            malformed(
+                1,
+                1,
+                "the file is empty; expected a header line `time_s,force_N`".into(),
+            )
+        })?;
+        let names: Vec<&str> = header
+            .trim_start_matches('\u{feff}')
+            .split(',')
+            .map(str::trim)
+            .collect();
+        let with_normal = match names.as_slice() {
+            [TIME_COLUMN, FORCE_COLUMN] => false,
+            [TIME_COLUMN, FORCE_COLUMN, NORMAL_FORCE_COLUMN] => true,
+            _ => {
+                return Err(malformed(
+                    1,
+                    1,
+                    format!(
+                        "header is `{header}`; expected `{TIME_COLUMN},{FORCE_COLUMN}` \
+                         optionally followed by `,{NORMAL_FORCE_COLUMN}`"
+                    ),
+                ))
+            }
+        };
+        let width = names.len();
+        let mut series = Series {
+            normal_force_n: with_normal.then(Vec::new),
+            ..Series::default()
+        };
+        for (index, line) in lines {
+            let line_no = index + 1;
+            if line.trim().is_empty() {
+                continue;
+            }
+            let fields: Vec<&str> = line.split(',').collect();
+            if fields.len() != width {
+                return Err(malformed(
+                    line_no,
+                    fields.len().min(width) + 1,
+                    format!(
+                        "expected {width} comma-separated fields, found {}",
+                        fields.len()
+                    ),
+                ));
+            }
+            let mut values = [0.0; 3];
+            for (column, field) in fields.iter().enumerate() {
+                values[column] = field.trim().parse::<f64>().map_err(|_| {
+                    malformed(
+                        line_no,
+                        column + 1,
+                        format!(
+                            "`{}` in column `{}` is not a number",
+                            field.trim(),
+                            names[column]
+                        ),
+                    )
+                })?;
+            }
+            series.time_s.push(values[0]);
+            series.force_n.push(values[1]);
+            if let Some(normal) = series.normal_force_n.as_mut() {
+                normal.push(values[2]);
+            }
+        }
+        Ok(series)
+    }
+}
+
+/// Writes `bytes` to `path` so that `path` either keeps its old content or holds all of the
+/// new: the bytes go to a temporary file in the same directory, are flushed to disk, and the
+/// file is renamed over `path`.
+///
+/// # Errors
+/// Any I/O error; the temporary file is removed on failure.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path has no file name"))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".{}.tmp", std::process::id()));
+    let tmp = dir.join(tmp_name);
+    let result = (|| {
+        let mut file = fs::File::create(&tmp)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        fs::rename(&tmp, path)?;
+        // Make the rename itself durable where the platform allows syncing a directory.
+        if let Ok(d) = fs::File::open(dir) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_round_trip_is_bit_exact() {
+        let series = Series {
+            time_s: vec![0.0, 0.1, 1.0 / 3.0, 1e300, 5e-324],
+            force_n: vec![
+                0.0,
+                -1.5e-3,
+                std::f64::consts::PI,
+                1e-300,
+                2.2250738585072014e-308,
+            ],
+            normal_force_n: Some(vec![0.05, 0.05, 0.0501, 1.0, 2.0]),
+        };
+        let text = series.to_csv().unwrap();
+        let back = Series::parse_csv(&text, Path::new("mem.csv")).unwrap();
+        for (a, b) in series.force_n.iter().zip(&back.force_n) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+        for (a, b) in series.time_s.iter().zip(&back.time_s) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
+
+    #[test]
+    fn malformed_number_names_line_and_column() {
+        let err =
+            Series::parse_csv("time_s,force_N\n0,1\n1,abc\n", Path::new("x.csv")).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.starts_with("x.csv:3:2:"), "{msg}");
+        assert!(msg.contains("force_N"), "{msg}");
+    }
+
+    #[test]
+    fn wrong_header_is_rejected() {
+        let err = Series::parse_csv("t,F\n0,1\n", Path::new("x.csv")).unwrap_err();
+        assert!(err.to_string().contains("expected `time_s,force_N`"));
+    }
+
+    #[test]
+    fn atomic_write_replaces_whole_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.txt");
+        write_atomically(&p, b"first").unwrap();
+        write_atomically(&p, b"second").unwrap();
+        assert_eq!(fs::read(&p).unwrap(), b"second");
+        let leftovers: Vec<_> = fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(leftovers.len(), 1, "no temporary file may remain");
+    }
+}

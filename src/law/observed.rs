@@ -1,0 +1,177 @@
+//! The elastic correction (paper Eq. 1): what the instrument records.
+//!
+//! The rheometer advances at a constant rate v; part of that motion is stored in the spring of
+//! stiffness k instead of sliding the interface. Instrument time t and interface time τ obey
+//! `t = τ + F(τ)/(kv)`, and the recorded force at t is F(τ(t)). t(τ) increases as long as
+//! dF/dτ > −kv; where friction weakens faster than that, there is no quasi-static path
+//! (stick-slip) and [`LawError::StickSlip`] is returned instead of a number.
+//!
+//! Before t0 the interface does not evolve and the force is zero. The published law jumps to
+//! F(t0) = F_d(1 − e^(−x0)) at t0; the instrument sees that jump as elastic loading,
+//! F = kv(t − t0), while τ waits at t0 — which keeps the recorded force continuous.
+
+use super::root::increasing_root;
+use super::{positive, Law, LawError};
+
+/// How the machine's elasticity enters a slide.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Elastic {
+    /// k → ∞, or a fast slide declared stiff: τ = t.
+    Stiff,
+    /// A spring of stiffness k driven at velocity v; holds the product kv (N/s).
+    Spring {
+        /// k·v in N/s.
+        kv: f64,
+    },
+}
+
+impl Elastic {
+    /// A spring of stiffness `k_n_per_m` driven at `velocity_m_per_s`.
+    ///
+    /// # Errors
+    /// [`LawError::InvalidParameter`] naming `k` or `v` when either is not finite and positive.
+    pub fn spring(k_n_per_m: f64, velocity_m_per_s: f64) -> Result<Self, LawError> {
+        let k = positive("k", k_n_per_m)?;
+        let v = positive("v", velocity_m_per_s)?;
+        Ok(Self::Spring {
+            kv: positive("k*v", k * v)?,
+        })
+    }
+}
+
+/// A first (or fast) slide as the instrument records it.
+#[derive(Debug, Clone)]
+pub struct ObservedSlide {
+    law: Law,
+    elastic: Elastic,
+}
+
+impl ObservedSlide {
+    /// The slide of `law` seen through `elastic`.
+    pub fn new(law: Law, elastic: Elastic) -> Self {
+        Self { law, elastic }
+    }
+
+    /// The law in interface time.
+    pub fn law(&self) -> &Law {
+        &self.law
+    }
+
+    /// The machine's elasticity.
+    pub fn elastic(&self) -> Elastic {
+        self.elastic
+    }
+
+    /// Recorded force at each instrument time of `times` (strictly increasing), written into
+    /// `forces`; the interface times are written into `taus` when given.
+    ///
+    /// Each point is solved by a safeguarded Newton iteration on the bracket
+    /// [τ of the previous point, t], warm-started by extrapolating along the previous point's
+    /// slope dτ/dt = 1/(1 + F'/(kv)); it always converges.
+    ///
+    /// # Errors
+    /// [`LawError::UnsortedTimes`] when times do not increase, [`LawError::LengthMismatch`] for
+    /// outputs of the wrong length, and [`LawError::StickSlip`] when dF/dτ ≤ −kv anywhere on
+    /// the path up to the last point.
+    pub fn forces(
+        &self,
+        times: &[f64],
+        forces: &mut [f64],
+        mut taus: Option<&mut [f64]>,
+    ) -> Result<(), LawError> {
+        check_len(times.len(), forces.len())?;
+        if let Some(taus) = taus.as_deref() {
+            check_len(times.len(), taus.len())?;
+        }
+        let mut previous_time = f64::NEG_INFINITY;
+        for (index, &time) in times.iter().enumerate() {
+            // Written so that NaN fails too.
+            if !(time > previous_time) {
+                return Err(LawError::UnsortedTimes { index, time });
+            }
+            previous_time = time;
+        }
+        let kv = match self.elastic {
+            Elastic::Stiff => {
+                for (i, &t) in times.iter().enumerate() {
+                    forces[i] = self.law.force(t);
+                    if let Some(taus) = taus.as_deref_mut() {
+                        taus[i] = t;
+                    }
+                }
+                return Ok(());
+            }
+            Elastic::Spring { kv } => kv,
+        };
+
+        let law = &self.law;
+        let t0 = law.t0();
+        let (force_t0, rate_t0) = law.force_and_rate(t0);
+        let loading_ends = t0 + force_t0 / kv;
+        // The previous solved point: (t, τ, dF/dτ), the warm start of the next.
+        let mut previous = (loading_ends, t0, rate_t0);
+        for (i, &t) in times.iter().enumerate() {
+            let (tau, force) = if t <= t0 {
+                (t, 0.0)
+            } else if t <= loading_ends {
+                (t0, kv * (t - t0))
+            } else {
+                let (t_prev, tau_prev, rate_prev) = previous;
+                let guess = tau_prev + (t - t_prev) / (1.0 + rate_prev / kv);
+                let mut last = (f64::NAN, 0.0, 0.0);
+                let root = increasing_root(
+                    |tau| {
+                        let (f, r) = law.force_and_rate(tau);
+                        last = (tau, f, r);
+                        (tau + f / kv - t, 1.0 + r / kv)
+                    },
+                    tau_prev.max(t0),
+                    t,
+                    guess,
+                )
+                .ok_or(LawError::NotFinite { tau: last.0 })?;
+                let (tau_eval, f_eval, r_eval) = last;
+                // The root is one tiny Newton step from the last evaluation: carry F along
+                // its tangent rather than paying for one more evaluation.
+                let force = f_eval + r_eval * (root.root - tau_eval);
+                previous = (t, root.root, r_eval);
+                (root.root, force)
+            };
+            forces[i] = force;
+            if let Some(taus) = taus.as_deref_mut() {
+                taus[i] = tau;
+            }
+        }
+        if let Some(&t_last) = times.last() {
+            if t_last > loading_ends {
+                let (tau_min, rate_min) = law.min_rate_up_to(previous.1);
+                if rate_min <= -kv {
+                    return Err(LawError::StickSlip {
+                        tau: tau_min,
+                        rate: rate_min,
+                        limit: -kv,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Recorded force at one instrument time, solved without a warm start.
+    ///
+    /// # Errors
+    /// As [`ObservedSlide::forces`].
+    pub fn force_at(&self, time: f64) -> Result<f64, LawError> {
+        let mut out = [0.0];
+        self.forces(&[time], &mut out, None)?;
+        Ok(out[0])
+    }
+}
+
+fn check_len(expected: usize, got: usize) -> Result<(), LawError> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(LawError::LengthMismatch { expected, got })
+    }
+}

@@ -1,0 +1,401 @@
+//! The friction law, its elastic correction and its peak against 50-digit mpmath references
+//! (tests/reference/make_law_reference.py), and on the hard cases of MODEL.md §8.
+
+mod common;
+
+use common::Table;
+use proptest::prelude::*;
+use slipbayes::law::{Elastic, Law, LawError, LawParams, ObservedSlide, PeakOutcome, RepeatSlide};
+
+/// The bar for the law's value: 1e−13 relative, or 1e−13·(a + F_d) absolute where F is
+/// tiny.
+const LAW_REL: f64 = 1e-13;
+
+fn law_row(t: &Table, row: &[String]) -> Law {
+    Law::from_rate(
+        t.f64(row, "alpha_v"),
+        t.f64(row, "a"),
+        t.f64(row, "f_d"),
+        t.f64(row, "t0"),
+    )
+    .unwrap()
+}
+
+/// Error of `got` against `want`, in units of the bar (≤ 1 passes).
+fn law_error(got: f64, want: f64, scale: f64) -> f64 {
+    let abs = (got - want).abs();
+    let rel = abs / want.abs();
+    (rel / LAW_REL).min(abs / (LAW_REL * scale))
+}
+
+#[test]
+fn law_matches_50_digit_reference_on_hard_cases() {
+    let t = Table::load("law_mpmath.csv");
+    let mut worst = (0.0, String::new());
+    let mut worst_rel = 0.0_f64;
+    for row in &t.rows {
+        let law = law_row(&t, row);
+        let tau = t.f64(row, "tau");
+        let want = t.f64(row, "force");
+        let got = law.force(tau);
+        let err = law_error(got, want, law.a() + law.f_d());
+        if want.abs() > 0.0 {
+            worst_rel = worst_rel.max((got - want).abs() / want.abs());
+        }
+        if err > worst.0 {
+            worst = (
+                err,
+                format!(
+                    "{} tau={tau:e}: got {got:e} want {want:e}",
+                    t.str(row, "case")
+                ),
+            );
+        }
+    }
+    eprintln!(
+        "law: worst error {:.3} of the bar ({}); worst relative {:.2} eps",
+        worst.0,
+        worst.1,
+        worst_rel / f64::EPSILON
+    );
+    assert!(worst.0 <= 1.0, "law off the reference: {}", worst.1);
+}
+
+#[test]
+fn rate_matches_reference() {
+    let t = Table::load("law_mpmath.csv");
+    for row in &t.rows {
+        let law = law_row(&t, row);
+        let tau = t.f64(row, "tau");
+        let want = t.f64(row, "rate");
+        let (f, got) = law.force_and_rate(tau);
+        // dF/dτ is a difference of a/τ and αv(F − F_d): judge it on the size of its terms.
+        let scale = law.a() / tau + law.alpha_v() * (f.abs() + law.f_d());
+        assert!(
+            (got - want).abs() <= 1e-13 * scale,
+            "{} tau={tau:e}: rate {got:e} want {want:e}",
+            t.str(row, "case")
+        );
+    }
+}
+
+#[test]
+fn observed_time_model_matches_reference() {
+    let t = Table::load("observed_mpmath.csv");
+    let mut case = String::new();
+    let mut times = Vec::new();
+    let mut want_f = Vec::new();
+    let mut want_tau = Vec::new();
+    let mut slide: Option<ObservedSlide> = None;
+    let check =
+        |slide: &ObservedSlide, case: &str, times: &[f64], want_f: &[f64], want_tau: &[f64]| {
+            let mut f = vec![0.0; times.len()];
+            let mut tau = vec![0.0; times.len()];
+            slide.forces(times, &mut f, Some(&mut tau)).unwrap();
+            let law = slide.law();
+            for i in 0..times.len() {
+                let err = law_error(f[i], want_f[i], law.a() + law.f_d());
+                assert!(
+                    err <= 1.0,
+                    "{case} t={:e}: F {:e} want {:e}",
+                    times[i],
+                    f[i],
+                    want_f[i]
+                );
+                assert!(
+                    (tau[i] - want_tau[i]).abs() <= 1e-13 * want_tau[i],
+                    "{case} t={:e}: tau {:e} want {:e}",
+                    times[i],
+                    tau[i],
+                    want_tau[i]
+                );
+            }
+        };
+    for row in &t.rows {
+        let name = t.str(row, "case").to_owned();
+        if name != case {
+            if let Some(s) = slide.take() {
+                check(&s, &case, &times, &want_f, &want_tau);
+            }
+            times.clear();
+            want_f.clear();
+            want_tau.clear();
+            let law = Law::from_rate(
+                t.f64(row, "alpha_v"),
+                t.f64(row, "a"),
+                t.f64(row, "f_d"),
+                t.f64(row, "t0"),
+            )
+            .unwrap();
+            slide = Some(ObservedSlide::new(
+                law,
+                Elastic::Spring {
+                    kv: t.f64(row, "kv"),
+                },
+            ));
+            case = name;
+        }
+        times.push(t.f64(row, "t"));
+        want_f.push(t.f64(row, "force"));
+        want_tau.push(t.f64(row, "tau"));
+    }
+    check(&slide.unwrap(), &case, &times, &want_f, &want_tau);
+}
+
+/// Plain Newton from τ = t − F_d/(kv) with a generous fixed iteration budget, as a naive fit
+/// would do it.
+fn plain_newton(law: &Law, kv: f64, t: f64) -> Option<f64> {
+    let mut tau = t - law.f_d() / kv;
+    for _ in 0..100 {
+        let (f, r) = law.force_and_rate(tau);
+        let step = (tau + f / kv - t) / (1.0 + r / kv);
+        tau -= step;
+        if !tau.is_finite() {
+            return None;
+        }
+        if step.abs() <= 1e-14 * tau.abs() {
+            return Some(tau);
+        }
+    }
+    None
+}
+
+#[test]
+fn steep_rise_of_slow_first_slide_defeats_plain_newton_but_not_ours() {
+    // PTFE near the paper's Fig. 2 fit at 1 nm/s, k = 1.2e4 N/m.
+    let law = Law::new(&LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(), 1e-9).unwrap();
+    let kv = 1.2e4 * 1e-9;
+    let slide = ObservedSlide::new(law.clone(), Elastic::Spring { kv });
+    let times: Vec<f64> = (1..=3000).map(|i| i as f64 * 10.0).collect();
+    let mut f = vec![0.0; times.len()];
+    let mut tau = vec![0.0; times.len()];
+    slide.forces(&times, &mut f, Some(&mut tau)).unwrap();
+    let mut plain_failures = 0;
+    for (i, &t) in times.iter().enumerate() {
+        if tau[i] <= law.t0() {
+            // Elastic loading up to the law's jump at t0.
+            continue;
+        }
+        // Ours solves the elastic equation at every point...
+        let residual = tau[i] + law.force(tau[i]) / kv - t;
+        assert!(residual.abs() <= 1e-12 * t, "t={t}: residual {residual:e}");
+        // ...and is the unique solution, which plain Newton misses on the rise.
+        match plain_newton(&law, kv, t) {
+            Some(p) if (p - tau[i]).abs() <= 1e-9 * t => {}
+            _ => plain_failures += 1,
+        }
+    }
+    assert!(plain_failures > 0, "the case must be hard for plain Newton");
+    eprintln!(
+        "plain Newton failed at {plain_failures} of {} points",
+        times.len()
+    );
+}
+
+#[test]
+fn peak_matches_reference() {
+    let t = Table::load("peak_mpmath.csv");
+    for row in &t.rows {
+        let law = law_row(&t, row);
+        let PeakOutcome::Interior(p) = law.peak() else {
+            panic!("{}: no peak", t.str(row, "case"));
+        };
+        let want_f = t.f64(row, "force_peak");
+        let want_tau = t.f64(row, "tau_peak");
+        assert!(
+            (p.force_n - want_f).abs() <= LAW_REL * want_f,
+            "{}: F_peak {:e} want {want_f:e}",
+            t.str(row, "case"),
+            p.force_n
+        );
+        // F is flat at the peak, so τ_peak is determined to about √ε less than F_peak.
+        assert!(
+            (p.tau_s - want_tau).abs() <= 1e-7 * want_tau,
+            "{}: tau_peak {:e} want {want_tau:e}",
+            t.str(row, "case"),
+            p.tau_s
+        );
+    }
+}
+
+#[test]
+fn fig4_peak_rises_as_t0_falls_logarithmically() {
+    let t = Table::load("peak_mpmath.csv");
+    let rows: Vec<_> = t
+        .rows
+        .iter()
+        .filter(|r| t.str(r, "case") == "fig4")
+        .collect();
+    assert!(rows.len() >= 5);
+    let ln_t0: Vec<f64> = rows.iter().map(|r| t.f64(r, "t0").ln()).collect();
+    let ours: Vec<f64> = rows
+        .iter()
+        .map(|r| law_row(&t, r).peak().interior().unwrap().force_n)
+        .collect();
+    let reference: Vec<f64> = rows.iter().map(|r| t.f64(r, "force_peak")).collect();
+    // t0 falls along the table: the peak must rise at every step.
+    for i in 1..ours.len() {
+        assert!(ln_t0[i] < ln_t0[i - 1]);
+        assert!(ours[i] > ours[i - 1], "peak must rise as t0 falls");
+    }
+    // Slopes dF_peak/d ln t0 and their change (the curvature the exact law gives) agree with
+    // the reference's exact values.
+    let slope = |f: &[f64], i: usize| (f[i] - f[i - 1]) / (ln_t0[i] - ln_t0[i - 1]);
+    for i in 1..ours.len() {
+        let (s, r) = (slope(&ours, i), slope(&reference, i));
+        assert!((s - r).abs() <= 1e-11 * r.abs(), "slope {s} want {r}");
+        assert!(s < 0.0);
+    }
+    for i in 2..ours.len() {
+        let c = slope(&ours, i) - slope(&ours, i - 1);
+        let r = slope(&reference, i) - slope(&reference, i - 1);
+        assert!(
+            (c - r).abs() <= 1e-10 * slope(&reference, i).abs(),
+            "curvature {c} want {r}"
+        );
+    }
+}
+
+#[test]
+fn no_aging_means_no_interior_peak() {
+    let law = Law::from_rate(0.007, 0.0, 1.0, 0.1).unwrap();
+    assert_eq!(law.peak(), PeakOutcome::NoInteriorPeak);
+    // F rises monotonically to F_d.
+    let f: Vec<f64> = [1.0, 10.0, 100.0, 1e3, 1e4]
+        .iter()
+        .map(|&t| law.force(t))
+        .collect();
+    assert!(f.windows(2).all(|w| w[1] > w[0]));
+    assert!((f[4] - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn vanishing_rejuvenation_is_pure_logarithmic_aging() {
+    // αv = 1e−12 1/s: over τ ≤ 1e8 s, x ≤ 1e−4 and F = a ln(τ/t0) + O(x) corrections.
+    let (a, f_d, t0) = (6.2e-3, 10e-3, 14.8);
+    let law = Law::from_rate(1e-12, a, f_d, t0).unwrap();
+    for &tau in &[15.0, 100.0, 1e4, 1e8] {
+        let x = 1e-12 * tau;
+        let bound = (a * (tau / t0).ln() + f_d) * x * 2.0;
+        assert!((law.force(tau) - a * (tau / t0).ln()).abs() <= bound + 1e-18);
+    }
+}
+
+#[test]
+fn force_is_zero_before_t0_and_jumps_to_fd_term_at_t0() {
+    let law = Law::from_rate(0.007, 0.3, 1.0, 0.5).unwrap();
+    assert!(law.force(0.4999).abs() < f64::MIN_POSITIVE);
+    let jump = -(-0.007_f64 * 0.5).exp_m1();
+    assert!((law.force(0.5) - jump).abs() <= 4.0 * f64::EPSILON * jump);
+}
+
+#[test]
+fn stiff_slide_is_the_law_in_instrument_time() {
+    let law = Law::from_rate(3.68, 6.2e-3, 10e-3, 4e-3).unwrap();
+    let slide = ObservedSlide::new(law.clone(), Elastic::Stiff);
+    let times: Vec<f64> = (0..500).map(|i| i as f64 * 0.01).collect();
+    let mut f = vec![0.0; times.len()];
+    slide.forces(&times, &mut f, None).unwrap();
+    for (t, f) in times.iter().zip(&f) {
+        assert!((law.force(*t) - f).abs() <= 0.0_f64.max(f64::EPSILON * f.abs()));
+    }
+}
+
+#[test]
+fn stick_slip_is_a_typed_error_just_below_the_limit() {
+    // Strong weakening after the peak: a ≫ F_d.
+    let law = Law::from_rate(0.01, 5.0, 1.0, 0.1).unwrap();
+    let times: Vec<f64> = (1..=2000).map(|i| i as f64).collect();
+    // The steepest weakening on (roughly) the path decides the limit.
+    let (_, min_rate) = law.min_rate_up_to(2000.0);
+    assert!(min_rate < 0.0);
+    let critical_kv = -min_rate;
+    let mut f = vec![0.0; times.len()];
+    let stable = ObservedSlide::new(
+        law.clone(),
+        Elastic::Spring {
+            kv: critical_kv * 1.01,
+        },
+    );
+    stable.forces(&times, &mut f, None).unwrap();
+    let unstable = ObservedSlide::new(
+        law,
+        Elastic::Spring {
+            kv: critical_kv * 0.99,
+        },
+    );
+    match unstable.forces(&times, &mut f, None) {
+        Err(LawError::StickSlip { rate, limit, .. }) => assert!(rate < limit),
+        other => panic!("expected stick-slip, got {other:?}"),
+    }
+}
+
+#[test]
+fn unsorted_or_nan_times_are_rejected_with_their_index() {
+    let law = Law::from_rate(0.007, 0.3, 1.0, 0.1).unwrap();
+    let slide = ObservedSlide::new(law, Elastic::Spring { kv: 1.0 });
+    let mut f = vec![0.0; 3];
+    assert_eq!(
+        slide.forces(&[1.0, 3.0, 2.0], &mut f, None),
+        Err(LawError::UnsortedTimes {
+            index: 2,
+            time: 2.0
+        })
+    );
+    assert!(matches!(
+        slide.forces(&[1.0, f64::NAN, 2.0], &mut f, None),
+        Err(LawError::UnsortedTimes { index: 1, .. })
+    ));
+}
+
+#[test]
+fn invalid_parameters_name_themselves() {
+    let e = LawParams::new(0.92e6, 1e-3, 1e-2, -1.0).unwrap_err();
+    assert!(e.to_string().contains("t0"), "{e}");
+    let e = Elastic::spring(f64::NAN, 1e-9).unwrap_err();
+    assert!(e.to_string().contains('k'), "{e}");
+}
+
+#[test]
+fn repeat_slide_loads_elastically_then_slides_at_f_end() {
+    let r = RepeatSlide::new(1.2e-5, 10e-3).unwrap();
+    assert!(r.force(-1.0).abs() < f64::MIN_POSITIVE);
+    assert!((r.force(100.0) - 1.2e-3).abs() < 1e-18);
+    assert!((r.force(1e4) - 10e-3).abs() < 1e-18);
+    assert!(RepeatSlide::from_elastic(Elastic::Stiff, 1.0).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Wherever the path is stable, every solved point satisfies the elastic equation, τ and
+    /// the recorded force are consistent, and τ increases with t.
+    #[test]
+    fn solved_points_satisfy_the_elastic_equation(
+        log_alpha_v in -6.0..1.0_f64,
+        ratio in 0.0..3.0_f64,
+        log_t0 in -6.0..2.0_f64,
+        log_kv_scale in 0.3..3.0_f64,
+    ) {
+        let (alpha_v, f_d) = (10f64.powf(log_alpha_v), 1e-2);
+        let t0 = 10f64.powf(log_t0);
+        let law = Law::from_rate(alpha_v, ratio * f_d, f_d, t0).unwrap();
+        let t_end = 20.0 / alpha_v + 10.0 * t0;
+        let (_, min_rate) = law.min_rate_up_to(t_end);
+        let kv = (-min_rate).max(f_d * alpha_v) * 10f64.powf(log_kv_scale);
+        let slide = ObservedSlide::new(law.clone(), Elastic::Spring { kv });
+        let times: Vec<f64> = (1..=400).map(|i| t_end * i as f64 / 400.0).collect();
+        let mut f = vec![0.0; times.len()];
+        let mut tau = vec![0.0; times.len()];
+        slide.forces(&times, &mut f, Some(&mut tau)).unwrap();
+        for i in 0..times.len() {
+            if tau[i] > t0 {
+                let lhs = tau[i] + law.force(tau[i]) / kv;
+                prop_assert!((lhs - times[i]).abs() <= 1e-12 * times[i]);
+                prop_assert!((law.force(tau[i]) - f[i]).abs() <= 1e-12 * (f[i].abs() + f_d));
+            }
+            if i > 0 {
+                prop_assert!(tau[i] >= tau[i - 1]);
+            }
+        }
+    }
+}
