@@ -5,3 +5,16 @@
 
 /// Machine epsilon of `f64`.
 pub const EPS: f64 = f64::EPSILON;
+
+/// Relative error allowed for Ei(x) and S(x) = e^(−x) Ei(x) against 50-digit references.
+pub const EI_REL_TOL: f64 = 5.0 * EPS;
+
+/// Half-width of the band around the root of Ei (x ≈ 0.3725) where Ei is compared absolutely.
+pub const EI_ROOT_BAND: f64 = 1e-3;
+
+/// Absolute error allowed for Ei(x) inside [`EI_ROOT_BAND`] (relative accuracy there is kept
+/// too in practice, but a value that passes through zero is judged absolutely).
+pub const EI_ROOT_ABS_TOL: f64 = 5.0 * EPS;
+
+/// Relative error allowed for D(x, x0) = e^(−x) [Ei(x) − Ei(x0)] against 50-digit references.
+pub const EI_DIFF_REL_TOL: f64 = 6.0 * EPS;
