@@ -1,8 +1,10 @@
 //! D(x, x0) = e^(−x) [Ei(x) − Ei(x0)] for 0 < x0 ≤ x, without cancellation.
 //!
 //! Three regimes of h = x − x0:
-//! - h < 1, x ≤ 2: the series D = e^(−x) [ln(x/x0) + Σ_{k≥1} (x^k − x0^k)/(k k!)], every
-//!   term positive, x^k − x0^k built by d_k = x d_{k−1} + h x0^(k−1).
+//! - h < 1, x ≤ 2: the series D = e^(−x) [ln(x/x0) + Σ_{k≥1} (x^k − x0^k)/(k k!)]. For
+//!   x ≥ 2 x0 the two power sums are fixed-degree polynomials (Estrin) and subtract with at
+//!   most one bit lost; for x < 2 x0, x^k − x0^k is built by d_k = x d_{k−1} + h x0^(k−1),
+//!   every term positive.
 //! - otherwise, if h < 2 and x0 ≥ h (this includes every h < 1, x > 2):
 //!   D = ∫_0^h e^(−u)/(x − u) du by Gauss–Legendre with 4, 8 or 12 nodes; the pole at u = x
 //!   is at least x0 ≥ h away, and the node count is chosen from x0/h and h so that the
@@ -88,10 +90,12 @@ const H_SERIES_MAX: f64 = 1.0;
 const X_SERIES_MAX: f64 = 2.0;
 /// Below this h, and with x0 ≥ h (pole of the integrand at least h away), by quadrature.
 const H_QUADRATURE_MAX: f64 = 2.0;
+/// Past this h, e^(−h) rounds to zero in double precision.
+const H_EXP_ZERO: f64 = 745.2;
 /// The 8-node rule is used up to this h (its error at h = 2 grows to ~1e−18).
 const H_GL8_MAX: f64 = 1.5;
-/// The series stops once a term is below this fraction of the running total (the remaining
-/// terms then sum to less than the last one, for x ≤ 2 and k ≥ 3).
+/// The series stops once a pair of terms is below this fraction of the running total (the
+/// remaining terms then sum to less than that pair, for x ≤ 2 and k ≥ 3).
 const SERIES_STOP: f64 = 1.0 / (1u64 << 56) as f64;
 
 /// e^(−x) [Ei(x) − Ei(x0)] for 0 < x0 ≤ x, accurate to a few ε relative for every such pair
@@ -158,40 +162,93 @@ fn diff(x: f64, x0: f64, s0: impl FnOnce() -> f64) -> f64 {
     } else {
         // Fast2Sum (|x| ≥ |x0|): x − x0 = h + err exactly; e^(−(h+err)) ≈ e^(−h) (1 − err).
         let err = -x0 - (h - x);
-        let e = (-h).exp();
+        // e^(−h) rounds to 0 past h ≈ 745.13; skip exp's slow underflow path there.
+        let e = if h < H_EXP_ZERO { (-h).exp() } else { 0.0 };
         let w = e - e * err;
         ei_scaled(x) - w * s0()
     }
 }
 
-/// h < 1, x ≤ 2: e^(−x) [ln(x/x0) + Σ (x^k − x0^k)/(k k!)], all terms positive.
+/// h < 1, x ≤ 2: e^(−x) [ln(x/x0) + Σ_{k≥1} (x^k − x0^k)/(k k!)].
 #[inline]
 fn series(x: f64, x0: f64, h: f64) -> f64 {
-    let lg = if x < 2.0 * x0 {
+    if x < 2.0 * x0 {
         // x0 ≤ x < 2 x0: h is exact (Sterbenz) and h/x0 < 1.
-        (h / x0).ln_1p()
+        return (-x).exp() * ((h / x0).ln_1p() + series_close(x, x0, h));
+    }
+    let q = x / x0;
+    let lg = if q.is_finite() {
+        q.ln()
     } else {
-        let q = x / x0;
-        if q.is_finite() {
-            q.ln()
-        } else {
-            // Subnormal x0: ln x − ln x0 > 709, no cancellation.
-            x.ln() - x0.ln()
-        }
+        // Subnormal x0: ln x − ln x0 > 709, no cancellation.
+        x.ln() - x0.ln()
     };
-    let mut d = h; // x^k − x0^k
-    let mut p = x0; // x0^(k−1) for the next k
-    let mut sum = d; // k = 1: 1/(1·1!) = 1
-    for &c in &INV_K_KFACT[1..] {
-        d = x * d + h * p;
-        p *= x0;
-        let term = d * c;
+    // x ≥ 2 x0: Ein(x) − Ein(x0) with Ein(t) = Σ t^k/(k k!) loses at most one bit
+    // (Ein(x0) ≤ Ein(x)/2), so both are summed as fixed-degree polynomials. The degree is
+    // chosen from x so that the dropped tail is below 2^−56 Ein(x).
+    let sum = if x <= 1.0 / 32.0 {
+        ein_diff::<8>(x, x0)
+    } else if x <= 0.25 {
+        ein_diff::<12>(x, x0)
+    } else if x <= 1.0 {
+        ein_diff::<17>(x, x0)
+    } else {
+        ein_diff::<22>(x, x0)
+    };
+    (-x).exp() * (lg + sum)
+}
+
+/// Σ_{k=1}^{N} (x^k − x0^k)/(k k!) as x E(x) − x0 E(x0), E(t) = Σ t^(k−1)/(k k!), for
+/// x0 ≤ x/2 (every coefficient positive, at most one bit lost in the difference).
+#[inline(always)]
+fn ein_diff<const N: usize>(x: f64, x0: f64) -> f64 {
+    let mut c = [0.0; N];
+    c.copy_from_slice(&INV_K_KFACT[..N]);
+    x * estrin(c, x) - x0 * estrin(c, x0)
+}
+
+/// c[0] + c[1] t + … + c[N−1] t^(N−1) by Estrin's scheme: pairs combined with t, t², t⁴, …,
+/// so the dependency chain is log2 N deep instead of N (Horner's).
+#[inline(always)]
+fn estrin<const N: usize>(mut c: [f64; N], t: f64) -> f64 {
+    let mut len = N;
+    let mut p = t;
+    while len > 1 {
+        let half = len / 2;
+        for i in 0..half {
+            c[i] = c[2 * i] + c[2 * i + 1] * p;
+        }
+        if len % 2 == 1 {
+            c[half] = c[len - 1];
+        }
+        len = half + len % 2;
+        p *= p;
+    }
+    c[0]
+}
+
+/// Σ (x^k − x0^k)/(k k!) for x0 ≤ x < 2 x0, where the two sums would cancel: d_k = x^k − x0^k
+/// and q_k = x0^k advanced two steps at a time (odd and even chains in parallel),
+/// d_(k+2) = x² d_k + h (x + x0) q_k, every term positive.
+#[inline]
+fn series_close(x: f64, x0: f64, h: f64) -> f64 {
+    let (x2, x02, hs) = (x * x, x0 * x0, h * (x + x0));
+    let (mut d_odd, mut q_odd) = (h, x0);
+    let (mut d_even, mut q_even) = (hs, x02);
+    let mut sum = d_odd * INV_K_KFACT[0] + d_even * INV_K_KFACT[1];
+    for c in INV_K_KFACT[2..].chunks_exact(2) {
+        d_odd = x2 * d_odd + hs * q_odd;
+        q_odd *= x02;
+        d_even = x2 * d_even + hs * q_even;
+        q_even *= x02;
+        let term = d_odd * c[0] + d_even * c[1];
         sum += term;
-        if term <= (sum + lg) * SERIES_STOP {
+        // Relative to the sum alone (the log term only adds): the tail is below the last pair.
+        if term <= sum * SERIES_STOP {
             break;
         }
     }
-    (-x).exp() * (lg + sum)
+    sum
 }
 
 /// h < 2, x0 ≥ h: ∫_0^h e^(−u)/(x − u) du by Gauss–Legendre.

@@ -44,7 +44,8 @@ DIGITS = 50
 ROOT = mpf("0.37250741078136663446199186658011913353568949777165")
 S_BOUNDARIES = [6.0, 10.0, 20.0, 40.0, 60.0, 700.0, 709.78, 716.0, 716.35, 1e-300,
                 float(ROOT) - 0.1, float(ROOT) + 0.1]
-# Difference: series for h < 1 and x <= 2; quadrature for h < 2 and x0 >= h, with tiers
+# Difference: series for h < 1 and x <= 2 (polynomials of degree 8/12/17/22 for x up to
+# 1/32, 1/4, 1, 2 when x >= 2 x0; a recurrence when x < 2 x0); quadrature for h < 2 and x0 >= h, with tiers
 # (4 nodes: h <= 1/64 and x0 >= 64h; 8 nodes: h <= 1.5 and x0 >= 3h); subtraction otherwise.
 H_SPLIT = 1.0
 X_SERIES_MAX = 2.0
@@ -164,6 +165,16 @@ def diff_pairs(rng):
         for f in [1.0, 3.0, 64.0]:
             for x0 in [f * h * (1 - 1e-12), f * h, f * h * (1 + 1e-12)]:
                 add_h(x0, h)
+    # Series: degree switches of the polynomial form (x = 1/32, 1/4, 1, 2) and the switch
+    # to the recurrence at x = 2 x0.
+    for xb in [1.0 / 32, 0.25, 1.0, 2.0]:
+        for x in ulps_around(xb, 2) + [xb * (1 - 1e-9), xb * (1 + 1e-9)]:
+            for x0 in [1e-300, x * 1e-12, x * 1e-3, x * 0.3] + ulps_around(x / 2, 2):
+                if x - x0 < 1.0:
+                    add(x0, x)
+    for x in [1e-200, 1e-5, 0.01, 0.3, 0.9, 1.5, 1.99]:
+        for x0 in ulps_around(x / 2, 3) + [x / 2 * (1 - 1e-9), x / 2 * (1 + 1e-9)]:
+            add(x0, x)
     # Across the root of Ei.
     r = float(ROOT)
     for x0 in [r - 1e-3, r - 1e-9, float(np.nextafter(r, 0.0)), r]:
