@@ -13,6 +13,17 @@
 //! `tests/reference/make_ei_reference.py`) is stated in [`crate::prec`].
 //!
 //! This module knows nothing of friction: x and x0 are plain dimensionless numbers.
+//!
+//! ```
+//! use slipbayes::special::{ei, ei_scaled, ei_scaled_diff, ScaledEiDiff};
+//! assert!((ei(1.0) - 1.895_117_816_355_936_8).abs() < 1e-15);
+//! assert!((ei_scaled(1e12) * 1e12 - 1.000_000_000_001).abs() < 1e-15);
+//! // Pure logarithmic aging as αv → 0: D(αvτ, αvt0) → ln(τ/t0).
+//! let d = ei_scaled_diff(1e-12 * 1e8, 1e-12 * 1e-3);
+//! assert!((d / (1e11f64).ln() - 1.0).abs() < 1e-3);
+//! let prepared = ScaledEiDiff::new(1e-15);
+//! assert_eq!(prepared.eval(1e-4).to_bits(), ei_scaled_diff(1e-4, 1e-15).to_bits());
+//! ```
 
 mod diff;
 mod fits;
