@@ -7,8 +7,11 @@
 //!   thinning and stopping).
 //! - [`arviz`]: ArviZ's rank-normalised split R-hat, bulk/tail/mean ESS, MCSE, HDI and
 //!   quantiles over independent chains, numerically identical to arviz 0.23.
+//! - [`ensemble`]: the summary of an ensemble run: R-hat *between independent ensembles*, ESS
+//!   over walkers, intervals over all draws (the design is argued in its documentation).
 pub mod arviz;
 pub mod autocorr;
+pub mod ensemble;
 mod error;
 mod special;
 
@@ -20,4 +23,5 @@ pub use autocorr::{
     integrated_time, mean_acf, AutocorrTime, DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR,
     TAU_RELIABLE_FACTOR,
 };
+pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
