@@ -115,6 +115,10 @@ pub fn mean_acf(walkers: &[&[f64]]) -> Result<Vec<f64>, DiagnosticsError> {
 /// `rho` = walker-averaged normalised ACF; `tau(M) = 2 sum_{t=0}^{M} rho(t) - 1`;
 /// `window = min { M : M >= c tau(M) }` (or `n - 1`); `tau = tau(window)`.
 ///
+/// As in emcee, `tau` is not clamped: an anti-correlated series can give `tau < 1`, even
+/// `tau <= 0`. Callers that derive a thinning interval or a burn-in from it should use at
+/// least one step.
+///
 /// # Errors
 /// As [`mean_acf`], and [`DiagnosticsError::InvalidArgument`] if `c` is not finite and
 /// positive.

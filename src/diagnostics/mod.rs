@@ -9,6 +9,26 @@
 //!   quantiles over independent chains, numerically identical to arviz 0.23.
 //! - [`ensemble`]: the summary of an ensemble run: R-hat *between independent ensembles*, ESS
 //!   over walkers, intervals over all draws (the design is argued in its documentation).
+//!
+//! Inputs are validated once, at the entry of each function: empty, ragged, too short or
+//! non-finite draws give a [`DiagnosticsError`] naming the chain and index at fault.
+//!
+//! ```
+//! use slipbayes::diagnostics::{integrated_time, summarize, EnsembleDraws, DEFAULT_WINDOW_FACTOR};
+//!
+//! // 2 ensembles x 3 walkers x 100 steps of one parameter, walker-major.
+//! let draws = EnsembleDraws::from_fn(2, 3, 100, |e, w, t| {
+//!     (t as f64 / 10.0 + w as f64).sin() + 0.1 * e as f64
+//! })?;
+//! let s = summarize(&draws, 0.94)?;
+//! assert!(s.r_hat.is_some() && s.ess_bulk > 0.0 && s.hdi_low <= s.median);
+//!
+//! // The sampler's view: emcee's tau over the walkers of one ensemble.
+//! let walkers: Vec<&[f64]> = (0..3).map(|w| draws.series(0, w)).collect();
+//! let tau = integrated_time(&walkers, DEFAULT_WINDOW_FACTOR)?;
+//! assert!(tau.tau > 0.0);
+//! # Ok::<(), slipbayes::diagnostics::DiagnosticsError>(())
+//! ```
 pub mod arviz;
 pub mod autocorr;
 pub mod ensemble;
