@@ -50,7 +50,6 @@ pub struct SamplerState {
 
 /// Affine-invariant ensemble sampler over a [`LogDensity`], running several independent
 /// ensembles side by side.
-#[derive(Debug)]
 pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     density: &'a D,
     config: SamplerConfig,
@@ -62,6 +61,16 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     history: History,
     last_tau: Option<Vec<Vec<f64>>>,
     poisoned: bool,
+}
+
+impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EnsembleSampler")
+            .field("config", &self.config)
+            .field("ndim", &self.ndim)
+            .field("step", &self.step)
+            .finish_non_exhaustive()
+    }
 }
 
 fn shape(what: String, expected: usize, got: usize) -> Result<(), SamplerError> {
