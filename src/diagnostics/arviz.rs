@@ -1,0 +1,505 @@
+//! ArviZ's convergence diagnostics (arviz 0.23 `rhat`, `ess`, `mcse`, `hdi`), reproduced
+//! operation for operation so that the numbers agree to rounding.
+//!
+//! `chains[c]` is chain `c`'s draws, all chains the same length. As in ArviZ every statistic
+//! except the plain Geyer ESS works on *split* chains (first and last `n/2` draws, the middle
+//! draw dropped when `n` is odd), ranks are average ranks over all draws, and the normal scores
+//! use Blom's offset 3/8. Where ArviZ returns NaN for too little input these functions return a
+//! [`DiagnosticsError`]; R-hat of draws that are all equal is NaN, as in ArviZ (it is undefined).
+
+use rustfft::{num_complex::Complex, FftPlanner};
+
+use super::error::{check_prob, validate_chains, DiagnosticsError};
+use super::special::{beta_ppf, norm_ppf};
+
+/// Fewest draws per chain for R-hat, ESS and MCSE (ArviZ's `min_draws = 4`).
+pub const MIN_DRAWS: usize = 4;
+/// Fewest chains for R-hat (ArviZ's `min_chains = 2`).
+pub const MIN_CHAINS_RHAT: usize = 2;
+/// Probabilities of the two quantile indicators whose smaller ESS is the tail ESS.
+pub const TAIL_PROBS: (f64, f64) = (0.05, 0.95);
+/// ArviZ's `np.finfo(float).resolution`: draws spanning less than this count as constant and
+/// get ESS = number of draws.
+const CONSTANT_RANGE: f64 = 1e-15;
+/// Blom's fractional offset for normal scores of ranks.
+const BLOM_C: f64 = 3.0 / 8.0;
+/// Beta probabilities at minus and plus one standard deviation used by ArviZ's quantile MCSE.
+const MCSE_QUANTILE_PROBS: [f64; 2] = [0.158_655_3, 0.841_344_7];
+
+/// Rows of equal length stored flat, row-major: chains (or split half-chains) by draws.
+#[derive(Debug, Clone)]
+pub(crate) struct Mat {
+    pub(crate) rows: usize,
+    pub(crate) cols: usize,
+    pub(crate) data: Vec<f64>,
+}
+
+impl Mat {
+    pub(crate) fn from_chains(chains: &[&[f64]]) -> Self {
+        let cols = chains.first().map_or(0, |c| c.len());
+        let data = chains.iter().flat_map(|c| c.iter().copied()).collect();
+        Mat {
+            rows: chains.len(),
+            cols,
+            data,
+        }
+    }
+
+    pub(crate) fn row(&self, r: usize) -> &[f64] {
+        &self.data[r * self.cols..(r + 1) * self.cols]
+    }
+
+    fn map(&self, f: impl Fn(f64) -> f64) -> Mat {
+        Mat {
+            rows: self.rows,
+            cols: self.cols,
+            data: self.data.iter().map(|&v| f(v)).collect(),
+        }
+    }
+
+    /// ArviZ `_split_chains`: the first `n/2` draws of every chain, then the last `n/2`.
+    pub(crate) fn split(&self) -> Mat {
+        let half = self.cols / 2;
+        let mut data = Vec::with_capacity(2 * self.rows * half);
+        for r in 0..self.rows {
+            data.extend_from_slice(&self.row(r)[..half]);
+        }
+        for r in 0..self.rows {
+            data.extend_from_slice(&self.row(r)[self.cols - half..]);
+        }
+        Mat {
+            rows: 2 * self.rows,
+            cols: half,
+            data,
+        }
+    }
+}
+
+/// Arithmetic mean in index order (numpy uses pairwise summation; the difference is rounding).
+pub(crate) fn mean(x: &[f64]) -> f64 {
+    x.iter().sum::<f64>() / x.len() as f64
+}
+
+/// Two-pass variance with `ddof` degrees of freedom removed, as `np.var`.
+pub(crate) fn var(x: &[f64], ddof: usize) -> f64 {
+    let m = mean(x);
+    x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - ddof) as f64
+}
+
+/// Values sorted ascending (inputs are validated finite, so `total_cmp` is the usual order).
+pub(crate) fn sorted(x: &[f64]) -> Vec<f64> {
+    let mut s = x.to_vec();
+    s.sort_by(f64::total_cmp);
+    s
+}
+
+/// `np.median`: the middle value, or the mean of the two middle values.
+pub(crate) fn median_of_sorted(s: &[f64]) -> f64 {
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    }
+}
+
+/// Average ranks (1-based, ties share the mean rank), as `scipy.stats.rankdata`.
+fn average_ranks(x: &[f64]) -> Vec<f64> {
+    let mut idx: Vec<usize> = (0..x.len()).collect();
+    idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+    let mut ranks = vec![0.0; x.len()];
+    let mut start = 0;
+    while start < idx.len() {
+        let mut end = start + 1;
+        // partial_cmp treats -0.0 and 0.0 as tied, as numpy does.
+        while end < idx.len()
+            && x[idx[end]].partial_cmp(&x[idx[start]]) == Some(std::cmp::Ordering::Equal)
+        {
+            end += 1;
+        }
+        let r = 0.5 * ((start + 1) as f64 + end as f64);
+        for &i in &idx[start..end] {
+            ranks[i] = r;
+        }
+        start = end;
+    }
+    ranks
+}
+
+/// ArviZ `_z_scale`: normal scores of the pooled average ranks.
+pub(crate) fn z_scale(m: &Mat) -> Mat {
+    let size = m.data.len() as f64;
+    let data = average_ranks(&m.data)
+        .into_iter()
+        .map(|r| norm_ppf((r - BLOM_C) / (size - 2.0 * BLOM_C + 1.0)))
+        .collect();
+    Mat {
+        rows: m.rows,
+        cols: m.cols,
+        data,
+    }
+}
+
+/// ArviZ `_rhat`: the classic potential scale reduction of the rows of `m`.
+pub(crate) fn rhat_raw(m: &Mat) -> f64 {
+    let n = m.cols as f64;
+    let means: Vec<f64> = (0..m.rows).map(|r| mean(m.row(r))).collect();
+    let vars: Vec<f64> = (0..m.rows).map(|r| var(m.row(r), 1)).collect();
+    let between = n * var(&means, 1);
+    let within = mean(&vars);
+    ((between / within + n - 1.0) / n).sqrt()
+}
+
+/// Autocovariances of every row at lags `0..cols` (biased, divided by `cols`), by FFT of the
+/// mean-subtracted row zero-padded to `2 cols` (ArviZ `autocov`; any padding of at least
+/// `2 cols - 1` gives the same linear autocovariance up to rounding).
+fn autocov_rows(m: &Mat) -> Vec<Vec<f64>> {
+    let n = m.cols;
+    let len = 2 * n;
+    let mut planner = FftPlanner::<f64>::new();
+    let fft = planner.plan_fft_forward(len);
+    let ifft = planner.plan_fft_inverse(len);
+    let mut buf = vec![Complex::new(0.0, 0.0); len];
+    (0..m.rows)
+        .map(|r| {
+            let row = m.row(r);
+            let mu = mean(row);
+            for (b, &v) in buf.iter_mut().zip(row) {
+                *b = Complex::new(v - mu, 0.0);
+            }
+            for b in buf.iter_mut().skip(n) {
+                *b = Complex::new(0.0, 0.0);
+            }
+            fft.process(&mut buf);
+            for b in buf.iter_mut() {
+                *b = Complex::new(b.norm_sqr(), 0.0);
+            }
+            ifft.process(&mut buf);
+            // rustfft's inverse is unnormalised: divide by the FFT length, then by n.
+            buf[..n]
+                .iter()
+                .map(|b| b.re / len as f64 / n as f64)
+                .collect()
+        })
+        .collect()
+}
+
+/// ArviZ `_ess`: multi-chain effective sample size with Geyer's initial positive and initial
+/// monotone sequences (Vehtari et al. 2021, eq. 10-11), rows of `m` as chains.
+pub(crate) fn ess_raw(m: &Mat) -> f64 {
+    let (lo, hi) = m
+        .data
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    if hi - lo < CONSTANT_RANGE {
+        return m.data.len() as f64;
+    }
+    let n_chain = m.rows;
+    let n_draw = m.cols;
+    let nd = n_draw as f64;
+    let acov = autocov_rows(m);
+    let mean_acov = |t: usize| acov.iter().map(|a| a[t]).sum::<f64>() / n_chain as f64;
+    let chain_means: Vec<f64> = (0..n_chain).map(|r| mean(m.row(r))).collect();
+    let mean_var = mean_acov(0) * nd / (nd - 1.0);
+    let mut var_plus = mean_var * (nd - 1.0) / nd;
+    if n_chain > 1 {
+        var_plus += var(&chain_means, 1);
+    }
+
+    let mut rho = vec![0.0; n_draw];
+    let mut rho_even = 1.0;
+    rho[0] = rho_even;
+    let mut rho_odd = 1.0 - (mean_var - mean_acov(1)) / var_plus;
+    rho[1] = rho_odd;
+
+    // Geyer's initial positive sequence. Indices are signed because ArviZ's max_t can be -1.
+    let mut t: isize = 1;
+    while t < n_draw as isize - 3 && rho_even + rho_odd > 0.0 {
+        let tu = t as usize;
+        rho_even = 1.0 - (mean_var - mean_acov(tu + 1)) / var_plus;
+        rho_odd = 1.0 - (mean_var - mean_acov(tu + 2)) / var_plus;
+        if rho_even + rho_odd >= 0.0 {
+            rho[tu + 1] = rho_even;
+            rho[tu + 2] = rho_odd;
+        }
+        t += 2;
+    }
+    let max_t = t - 2;
+    if rho_even > 0.0 {
+        rho[(max_t + 1) as usize] = rho_even;
+    }
+    // Geyer's initial monotone sequence.
+    let mut t: isize = 1;
+    while t <= max_t - 2 {
+        let tu = t as usize;
+        if rho[tu + 1] + rho[tu + 2] > rho[tu - 1] + rho[tu] {
+            rho[tu + 1] = (rho[tu - 1] + rho[tu]) / 2.0;
+            rho[tu + 2] = rho[tu + 1];
+        }
+        t += 2;
+    }
+    let ess = (n_chain * n_draw) as f64;
+    let head: f64 = rho[..(max_t + 1) as usize].iter().sum();
+    let next = rho.get((max_t + 1) as usize).copied().unwrap_or(0.0);
+    let tau_hat = (-1.0 + 2.0 * head + next).max(1.0 / ess.log10());
+    if rho.iter().any(|v| v.is_nan()) {
+        return f64::NAN;
+    }
+    ess / tau_hat
+}
+
+/// Quantile by Hyndman and Fan's type 7 with scipy `mquantiles(alphap=1, betap=1)` arithmetic
+/// (what ArviZ uses for the tail and quantile indicators).
+fn mquantile_sorted(s: &[f64], p: f64) -> f64 {
+    let n = s.len();
+    if n == 1 {
+        return s[0];
+    }
+    let nf = n as f64;
+    // m = alphap + p (1 - alphap - betap) = 1 - p
+    let aleph = nf * p + (1.0 - p);
+    let k = aleph.clamp(1.0, nf - 1.0).floor();
+    let gamma = (aleph - k).clamp(0.0, 1.0);
+    let k = k as usize;
+    (1.0 - gamma) * s[k - 1] + gamma * s[k]
+}
+
+/// ESS of the indicator `draw <= q_p` (ArviZ `_ess_quantile`), on split chains.
+pub(crate) fn ess_quantile_mat(m: &Mat, p: f64) -> f64 {
+    let q = mquantile_sorted(&sorted(&m.data), p);
+    ess_raw(&m.map(|v| if v <= q { 1.0 } else { 0.0 }).split())
+}
+
+/// Rank-normalised split R-hat of `m` (ArviZ `_rhat_rank`): the larger of the bulk R-hat
+/// (normal scores of the draws) and the tail R-hat (normal scores of the draws folded about
+/// their median).
+pub(crate) fn rhat_rank_mat(m: &Mat) -> f64 {
+    rhat_rank_of_split(&m.split())
+}
+
+/// As [`rhat_rank_mat`] for rows that are already the split half-chains.
+pub(crate) fn rhat_rank_of_split(split: &Mat) -> f64 {
+    let bulk = rhat_raw(&z_scale(split));
+    let med = median_of_sorted(&sorted(&split.data));
+    let tail = rhat_raw(&z_scale(&split.map(|v| (v - med).abs())));
+    // ArviZ uses Python's max(): NaN if the first is NaN.
+    if bulk.is_nan() || tail.is_nan() {
+        f64::NAN
+    } else {
+        bulk.max(tail)
+    }
+}
+
+pub(crate) fn ess_bulk_mat(m: &Mat) -> f64 {
+    ess_raw(&z_scale(&m.split()))
+}
+
+pub(crate) fn ess_tail_mat(m: &Mat) -> f64 {
+    ess_quantile_mat(m, TAIL_PROBS.0).min(ess_quantile_mat(m, TAIL_PROBS.1))
+}
+
+pub(crate) fn ess_mean_mat(m: &Mat) -> f64 {
+    ess_raw(&m.split())
+}
+
+pub(crate) fn mcse_mean_mat(m: &Mat) -> f64 {
+    var(&m.data, 1).sqrt() / ess_mean_mat(m).sqrt()
+}
+
+pub(crate) fn mcse_sd_mat(m: &Mat) -> f64 {
+    let mu = mean(&m.data);
+    let sims_c2 = m.map(|v| (v - mu) * (v - mu));
+    let ess = ess_mean_mat(&sims_c2);
+    let evar = mean(&sims_c2.data);
+    let mean_sq = sims_c2.data.iter().map(|v| v * v).sum::<f64>() / sims_c2.data.len() as f64;
+    let varvar = (mean_sq - evar * evar) / ess;
+    (varvar / evar / 4.0).sqrt()
+}
+
+pub(crate) fn mcse_quantile_mat(m: &Mat, prob: f64) -> f64 {
+    let ess = ess_quantile_mat(m, prob);
+    let a = ess * prob + 1.0;
+    let b = ess * (1.0 - prob) + 1.0;
+    let s = sorted(&m.data);
+    let size = s.len() as f64;
+    let lo = (beta_ppf(MCSE_QUANTILE_PROBS[0], a, b) * size - 1.0).max(0.0);
+    let hi = (beta_ppf(MCSE_QUANTILE_PROBS[1], a, b) * size - 1.0).min(size - 1.0);
+    let th1 = s[lo.floor() as usize];
+    let th2 = s[hi.ceil() as usize];
+    (th2 - th1) / 2.0
+}
+
+fn checked(chains: &[&[f64]], what: &'static str) -> Result<Mat, DiagnosticsError> {
+    validate_chains(chains, MIN_DRAWS, what)?;
+    Ok(Mat::from_chains(chains))
+}
+
+/// Rank-normalised split R-hat, the larger of bulk and folded-tail R-hat (ArviZ
+/// `rhat(method="rank")`, Vehtari et al. 2021). NaN when all draws are equal.
+///
+/// # Errors
+/// Fewer than [`MIN_CHAINS_RHAT`] chains or [`MIN_DRAWS`] draws, ragged or non-finite input.
+pub fn rhat(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
+    let m = checked(chains, "R-hat")?;
+    if m.rows < MIN_CHAINS_RHAT {
+        return Err(DiagnosticsError::TooFewChains {
+            what: "R-hat",
+            have: m.rows,
+            needed: MIN_CHAINS_RHAT,
+        });
+    }
+    Ok(rhat_rank_mat(&m))
+}
+
+/// Bulk ESS: Geyer ESS of the rank-normalised split chains (ArviZ `ess(method="bulk")`).
+///
+/// # Errors
+/// Fewer than [`MIN_DRAWS`] draws, empty, ragged or non-finite input.
+pub fn ess_bulk(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
+    Ok(ess_bulk_mat(&checked(chains, "bulk ESS")?))
+}
+
+/// Tail ESS: the smaller ESS of the 5% and 95% quantile indicators (ArviZ
+/// `ess(method="tail")`).
+///
+/// # Errors
+/// As [`ess_bulk`].
+pub fn ess_tail(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
+    Ok(ess_tail_mat(&checked(chains, "tail ESS")?))
+}
+
+/// ESS of the mean: Geyer ESS of the split chains, no rank transform (ArviZ
+/// `ess(method="mean")`).
+///
+/// # Errors
+/// As [`ess_bulk`].
+pub fn ess_mean(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
+    Ok(ess_mean_mat(&checked(chains, "ESS of the mean")?))
+}
+
+/// Monte-Carlo standard error of the mean: `sd / sqrt(ess_mean)` (ArviZ `mcse(method="mean")`).
+///
+/// # Errors
+/// As [`ess_bulk`].
+pub fn mcse_mean(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
+    Ok(mcse_mean_mat(&checked(chains, "MCSE of the mean")?))
+}
+
+/// Monte-Carlo standard error of the standard deviation (ArviZ `mcse(method="sd")`).
+///
+/// # Errors
+/// As [`ess_bulk`].
+pub fn mcse_sd(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
+    Ok(mcse_sd_mat(&checked(chains, "MCSE of the sd")?))
+}
+
+/// Monte-Carlo standard error of the `prob` quantile (ArviZ `mcse(method="quantile")`): half
+/// the distance between the order statistics at the beta quantiles of the +-1 sd band.
+///
+/// # Errors
+/// As [`ess_bulk`], and `prob` outside (0, 1).
+pub fn mcse_quantile(chains: &[&[f64]], prob: f64) -> Result<f64, DiagnosticsError> {
+    check_prob("prob", prob, false)?;
+    Ok(mcse_quantile_mat(
+        &checked(chains, "MCSE of a quantile")?,
+        prob,
+    ))
+}
+
+fn checked_draws(draws: &[f64], what: &'static str) -> Result<(), DiagnosticsError> {
+    validate_chains(&[draws], 1, what).map(|_| ())
+}
+
+/// numpy's default (`method="linear"`) quantile of sorted values.
+pub(crate) fn quantile_sorted(s: &[f64], p: f64) -> f64 {
+    let n = s.len();
+    let virt = (n - 1) as f64 * p;
+    if virt >= (n - 1) as f64 {
+        return s[n - 1];
+    }
+    if virt < 0.0 {
+        return s[0];
+    }
+    let prev = virt.floor();
+    let gamma = virt - prev;
+    let (a, b) = (s[prev as usize], s[prev as usize + 1]);
+    let diff = b - a;
+    // numpy's _lerp: interpolate from the nearer end for accuracy.
+    if gamma >= 0.5 {
+        b - diff * (1.0 - gamma)
+    } else {
+        a + diff * gamma
+    }
+}
+
+/// The `p` quantile of pooled draws, numpy's default linear interpolation (type 7).
+///
+/// # Errors
+/// Empty or non-finite draws, `p` outside [0, 1].
+pub fn quantile(draws: &[f64], p: f64) -> Result<f64, DiagnosticsError> {
+    if !(0.0..=1.0).contains(&p) {
+        return Err(DiagnosticsError::InvalidArgument {
+            name: "p",
+            value: p,
+            reason: "a quantile probability must lie in [0, 1]",
+        });
+    }
+    checked_draws(draws, "a quantile")?;
+    Ok(quantile_sorted(&sorted(draws), p))
+}
+
+/// The equal-tailed interval of probability `prob`: the `(1 - prob)/2` and `(1 + prob)/2`
+/// quantiles (numpy linear).
+///
+/// # Errors
+/// Empty or non-finite draws, `prob` outside (0, 1].
+pub fn equal_tailed_interval(draws: &[f64], prob: f64) -> Result<(f64, f64), DiagnosticsError> {
+    check_prob("prob", prob, true)?;
+    checked_draws(draws, "an equal-tailed interval")?;
+    let s = sorted(draws);
+    Ok(eti_sorted(&s, prob))
+}
+
+pub(crate) fn eti_sorted(s: &[f64], prob: f64) -> (f64, f64) {
+    (
+        quantile_sorted(s, (1.0 - prob) / 2.0),
+        quantile_sorted(s, (1.0 + prob) / 2.0),
+    )
+}
+
+/// Highest-density interval of probability `prob` for a unimodal posterior (ArviZ `hdi`): the
+/// narrowest interval between two order statistics `floor(prob n)` apart.
+///
+/// # Errors
+/// Empty or non-finite draws, `prob` outside (0, 1) (ArviZ fails at `prob = 1` as well).
+pub fn hdi(draws: &[f64], prob: f64) -> Result<(f64, f64), DiagnosticsError> {
+    check_prob("prob", prob, false)?;
+    checked_draws(draws, "an HDI")?;
+    hdi_sorted(&sorted(draws), prob)
+}
+
+pub(crate) fn hdi_sorted(s: &[f64], prob: f64) -> Result<(f64, f64), DiagnosticsError> {
+    let n = s.len();
+    let inc = (prob * n as f64).floor() as usize;
+    if inc >= n {
+        // Only reachable when prob * n rounds up to n.
+        return Err(DiagnosticsError::InvalidArgument {
+            name: "prob",
+            value: prob,
+            reason: "floor(prob * n) must be below the number of draws n for an HDI",
+        });
+    }
+    let mut best = 0;
+    let mut best_w = f64::INFINITY;
+    for i in 0..n - inc {
+        let w = s[i + inc] - s[i];
+        // Strict: the first narrowest interval wins, as np.argmin.
+        if w < best_w {
+            best_w = w;
+            best = i;
+        }
+    }
+    Ok((s[best], s[best + inc]))
+}
