@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::history::History;
-use crate::diagnostics::{integrated_time, DEFAULT_WINDOW_FACTOR};
+use crate::diagnostics::{integrated_time, rhat, DEFAULT_WINDOW_FACTOR};
 
 /// Acceptance fraction below which a walker is reported as stuck.
 pub const STUCK_ACCEPTANCE: f64 = 0.01;
@@ -131,44 +131,34 @@ pub(crate) fn tau_report(per_ensemble: Vec<Vec<f64>>, steps: u64, tau_factor: f6
     }
 }
 
-/// Split-R̂ (Gelman–Rubin, split in time) between ensembles per parameter, from the history
-/// rows after `burn_in` steps. Each ensemble's draws at one row (all its walkers) form one
-/// block of its chain, so R̂ compares ensembles, never walkers of one ensemble (which are
-/// not independent). `None` with fewer than two ensembles or too few rows.
+/// Rank-normalised split R̂ (ArviZ, Vehtari et al. 2021) between ensembles per parameter,
+/// from the history rows after `burn_in` steps. The chain of an ensemble is its draws in
+/// step order, walkers interleaved within a step, so R̂ compares ensembles (and early with
+/// late halves), never walkers of one ensemble (which are not independent). `None` with
+/// fewer than two ensembles or too few rows.
 pub(crate) fn rhat_from_history(history: &History, ndim: usize, burn_in: u64) -> Option<Vec<f64>> {
-    let ensembles = history.series.len();
-    if ensembles < 2 {
+    if history.series.len() < 2 {
         return None;
     }
     let first = (0..history.rows).find(|&r| history.step_of(r) >= burn_in)?;
-    let rows = history.rows - first;
-    let half = rows / 2;
-    if half < 2 {
+    if history.rows - first < 4 {
         return None;
     }
     let walkers = history.series[0].len() / ndim;
-    let n = (half * walkers) as f64;
     (0..ndim)
         .map(|p| {
-            // Means and variances of the 2·ensembles half-chains.
-            let mut means = Vec::with_capacity(2 * ensembles);
-            let mut vars = Vec::with_capacity(2 * ensembles);
-            for cols in &history.series {
-                for part in 0..2 {
-                    let lo = first + part * half;
-                    let draws = || (0..walkers).flat_map(|w| cols[w * ndim + p][lo..lo + half].iter().copied());
-                    let mean = draws().sum::<f64>() / n;
-                    let var = draws().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-                    means.push(mean);
-                    vars.push(var);
-                }
-            }
-            let m = means.len() as f64;
-            let grand = means.iter().sum::<f64>() / m;
-            let between = means.iter().map(|v| (v - grand).powi(2)).sum::<f64>() / (m - 1.0);
-            let within = vars.iter().sum::<f64>() / m;
-            let var_plus = (n - 1.0) / n * within + between;
-            Some((var_plus / within).sqrt())
+            let chains: Vec<Vec<f64>> = history
+                .series
+                .iter()
+                .map(|cols| {
+                    (first..history.rows)
+                        .flat_map(|r| (0..walkers).map(move |w| (w, r)))
+                        .map(|(w, r)| cols[w * ndim + p][r])
+                        .collect()
+                })
+                .collect();
+            let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
+            rhat(&refs).ok()
         })
         .collect()
 }

@@ -5,6 +5,7 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use slipbayes::diagnostics::mcse_mean;
 use slipbayes::sampler::{LogDensity, LogDensityError, MemoryChain};
 
 /// A zero-mean Gaussian with a given covariance.
@@ -31,10 +32,10 @@ impl Gaussian {
         Self::new((&cov + cov.transpose()) * 0.5)
     }
 
-    /// Strongly correlated: unit variances, correlation `rho` between neighbours' chain.
+    /// Correlation `rho^|i−j|` (AR(1)-like), variances `1 + i`.
     pub fn correlated(ndim: usize, rho: f64) -> Self {
         Self::new(DMatrix::from_fn(ndim, ndim, |i, j| {
-            rho.powi((i as i32 - j as i32).abs()) * (1.0 + i as f64)
+            rho.powi((i as i32 - j as i32).abs()) * ((1.0 + i as f64) * (1.0 + j as f64)).sqrt()
         }))
     }
 }
@@ -57,39 +58,30 @@ impl LogDensity for Gaussian {
     }
 }
 
-/// Mean of `g` over the draws and its Monte-Carlo standard error by batch means.
+/// Mean of `g` over the draws after `burn` steps and its Monte-Carlo standard error.
 ///
-/// The per-step average over the walkers of one ensemble is a single time series; it is cut
-/// into `batches` batches per ensemble after `burn` steps, and the batch means of all
-/// (independent) ensembles are pooled. Batches much longer than τ make the batch means
-/// nearly independent, so their spread gives the error of the overall mean.
-pub fn batch_means(
-    chains: &[MemoryChain],
-    burn: usize,
-    batches: usize,
-    g: impl Fn(&[f64]) -> f64,
-) -> (f64, f64) {
-    let mut means = Vec::new();
-    for c in chains {
-        let steps = c.steps.len();
-        let stride = c.walkers * c.ndim;
-        let series: Vec<f64> = (burn..steps)
-            .map(|s| {
-                (0..c.walkers)
-                    .map(|w| g(&c.positions[s * stride + w * c.ndim..s * stride + (w + 1) * c.ndim]))
-                    .sum::<f64>()
-                    / c.walkers as f64
-            })
-            .collect();
-        let len = series.len() / batches;
-        for b in 0..batches {
-            means.push(series[b * len..(b + 1) * len].iter().sum::<f64>() / len as f64);
-        }
-    }
-    let n = means.len() as f64;
-    let mean = means.iter().sum::<f64>() / n;
-    let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
+/// The per-step average of `g` over the walkers of one ensemble is one chain (a function of
+/// the ensemble's Markov state); the independent ensembles are the chains handed to the
+/// diagnostics' MCSE (ArviZ's `mcse_mean`: sd / √ESS with Geyer's ESS).
+pub fn mean_and_mcse(chains: &[MemoryChain], burn: usize, g: impl Fn(&[f64]) -> f64) -> (f64, f64) {
+    let series: Vec<Vec<f64>> = chains
+        .iter()
+        .map(|c| {
+            let stride = c.walkers * c.ndim;
+            (burn..c.steps.len())
+                .map(|s| {
+                    (0..c.walkers)
+                        .map(|w| g(&c.positions[s * stride + w * c.ndim..s * stride + (w + 1) * c.ndim]))
+                        .sum::<f64>()
+                        / c.walkers as f64
+                })
+                .collect()
+        })
+        .collect();
+    let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
+    let n: usize = series.iter().map(Vec::len).sum();
+    let mean = series.iter().flatten().sum::<f64>() / n as f64;
+    (mean, mcse_mean(&refs).expect("MCSE"))
 }
 
 /// Asserts that `estimate` is within `k` standard errors of `truth`.
