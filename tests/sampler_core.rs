@@ -4,12 +4,12 @@ mod sampler_util;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use sampler_util::Gaussian;
 use slipbayes::sampler::{
     initial_around_optimum, laplace_covariance, nelder_mead, EnsembleSampler, LogDensity,
     LogDensityError, MemorySink, Move, NelderMeadOptions, SamplerConfig, SamplerError,
     SamplerState, Silent, Steps, StopRule,
 };
-use sampler_util::Gaussian;
 
 /// Bit patterns, compared without printing megabytes on failure.
 fn bits(v: &[f64]) -> BitVec {
@@ -20,7 +20,12 @@ fn bits(v: &[f64]) -> BitVec {
 struct BitVec(Vec<u64>);
 impl std::fmt::Debug for BitVec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} values, hash {:x}", self.0.len(), self.0.iter().fold(0u64, |h, v| h.rotate_left(5) ^ v))
+        write!(
+            f,
+            "{} values, hash {:x}",
+            self.0.len(),
+            self.0.iter().fold(0u64, |h, v| h.rotate_left(5) ^ v)
+        )
     }
 }
 
@@ -57,7 +62,9 @@ fn mixed_moves() -> Vec<(Move, f64)> {
 fn start(d: &impl LogDensity, walkers: usize, ensembles: usize) -> Vec<Vec<Vec<f64>>> {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let x0 = vec![0.5; d.dim()];
-    initial_around_optimum(d, &x0, walkers, ensembles, &mut rng).unwrap().walkers
+    initial_around_optimum(d, &x0, walkers, ensembles, &mut rng)
+        .unwrap()
+        .walkers
 }
 
 fn run_in_pool(threads: usize, parallel: bool) -> MemorySink {
@@ -67,10 +74,14 @@ fn run_in_pool(threads: usize, parallel: bool) -> MemorySink {
         .with_moves(mixed_moves())
         .unwrap()
         .with_parallel(parallel);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     let mut sampler = EnsembleSampler::new(&g, config, start(&g, 10, 3)).unwrap();
     let mut sink = MemorySink::new();
-    pool.install(|| sampler.run(Steps::Fixed(150), &mut sink, &mut Silent)).unwrap();
+    pool.install(|| sampler.run(Steps::Fixed(150), &mut sink, &mut Silent))
+        .unwrap();
     sink
 }
 
@@ -81,12 +92,24 @@ fn same_chains_on_one_or_two_threads_and_serially() {
     let serial = run_in_pool(2, false);
     assert_eq!(one.chains.len(), 3);
     for e in 0..3 {
-        assert_eq!(bits(&one.chains[e].positions), bits(&two.chains[e].positions));
-        assert_eq!(bits(&one.chains[e].positions), bits(&serial.chains[e].positions));
-        assert_eq!(bits(&one.chains[e].log_density), bits(&two.chains[e].log_density));
+        assert_eq!(
+            bits(&one.chains[e].positions),
+            bits(&two.chains[e].positions)
+        );
+        assert_eq!(
+            bits(&one.chains[e].positions),
+            bits(&serial.chains[e].positions)
+        );
+        assert_eq!(
+            bits(&one.chains[e].log_density),
+            bits(&two.chains[e].log_density)
+        );
     }
     // Ensembles use different streams.
-    assert_ne!(bits(&one.chains[0].positions), bits(&one.chains[1].positions));
+    assert_ne!(
+        bits(&one.chains[0].positions),
+        bits(&one.chains[1].positions)
+    );
 }
 
 #[test]
@@ -120,8 +143,14 @@ fn resumed_run_equals_uninterrupted_run() {
 
     for e in 0..2 {
         assert_eq!(full.chains[e].steps, part.chains[e].steps);
-        assert_eq!(bits(&full.chains[e].positions), bits(&part.chains[e].positions));
-        assert_eq!(bits(&full.chains[e].log_density), bits(&part.chains[e].log_density));
+        assert_eq!(
+            bits(&full.chains[e].positions),
+            bits(&part.chains[e].positions)
+        );
+        assert_eq!(
+            bits(&full.chains[e].log_density),
+            bits(&part.chains[e].log_density)
+        );
     }
     assert_eq!(report_full.ensembles, report_resumed.ensembles);
     assert_eq!(report_resumed.total_steps, 100);
@@ -134,7 +163,8 @@ fn resume_with_another_density_is_refused() {
     let other = Gaussian::correlated(3, 0.5);
     let config = SamplerConfig::new(8, 1, 5).unwrap();
     let mut s = EnsembleSampler::new(&g, config.clone(), start(&g, 8, 1)).unwrap();
-    s.run(Steps::Fixed(5), &mut MemorySink::new(), &mut Silent).unwrap();
+    s.run(Steps::Fixed(5), &mut MemorySink::new(), &mut Silent)
+        .unwrap();
     let err = EnsembleSampler::from_state(&other, config, s.state()).unwrap_err();
     assert!(matches!(err, SamplerError::StateMismatch { .. }), "{err}");
 }
@@ -149,8 +179,16 @@ fn rejections_counted_per_reason_and_derived_values_stored() {
     let mut s = EnsembleSampler::new(&Truncated, config, init).unwrap();
     let mut sink = MemorySink::new();
     let report = s.run(Steps::Fixed(400), &mut sink, &mut Silent).unwrap();
-    let out: u64 = report.ensembles.iter().map(|e| e.rejections.get("out_of_support").copied().unwrap_or(0)).sum();
-    let nan: u64 = report.ensembles.iter().map(|e| e.rejections.get("nan").copied().unwrap_or(0)).sum();
+    let out: u64 = report
+        .ensembles
+        .iter()
+        .map(|e| e.rejections.get("out_of_support").copied().unwrap_or(0))
+        .sum();
+    let nan: u64 = report
+        .ensembles
+        .iter()
+        .map(|e| e.rejections.get("nan").copied().unwrap_or(0))
+        .sum();
     assert!(out > 100, "out-of-support rejections: {out}");
     assert!(nan > 0, "NaN rejections: {nan}");
     // Evaluations: initial walkers + one proposal per walker per step.
@@ -172,16 +210,27 @@ fn rejections_counted_per_reason_and_derived_values_stored() {
 fn bad_starts_are_refused_with_clear_errors() {
     let g = Gaussian::correlated(2, 0.5);
     let config = SamplerConfig::new(4, 1, 0).unwrap();
-    let good = vec![vec![vec![0.1, 0.2], vec![-0.3, 0.1], vec![0.2, -0.4], vec![0.5, 0.5]]];
+    let good = vec![vec![
+        vec![0.1, 0.2],
+        vec![-0.3, 0.1],
+        vec![0.2, -0.4],
+        vec![0.5, 0.5],
+    ]];
 
     let mut nonfinite = good.clone();
     nonfinite[0][2][1] = f64::NAN;
     let err = EnsembleSampler::new(&g, config.clone(), nonfinite).unwrap_err();
-    assert!(matches!(err, SamplerError::BadInitialWalker { walker: 2, .. }), "{err}");
+    assert!(
+        matches!(err, SamplerError::BadInitialWalker { walker: 2, .. }),
+        "{err}"
+    );
 
     let degenerate = vec![(0..4).map(|i| vec![i as f64, 2.0 * i as f64]).collect()];
     let err = EnsembleSampler::new(&g, config.clone(), degenerate).unwrap_err();
-    assert!(matches!(err, SamplerError::DegenerateEnsemble { .. }), "{err}");
+    assert!(
+        matches!(err, SamplerError::DegenerateEnsemble { .. }),
+        "{err}"
+    );
 
     let mut outside = good.clone();
     outside[0][1] = vec![-1.0, 0.0];
@@ -193,13 +242,31 @@ fn bad_starts_are_refused_with_clear_errors() {
 
     let three = Gaussian::correlated(3, 0.5);
     let err = EnsembleSampler::new(&three, config, vec![vec![vec![0.0; 3]; 4]]).unwrap_err();
-    assert!(matches!(err, SamplerError::InvalidConfig { name: "walkers", .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            SamplerError::InvalidConfig {
+                name: "walkers",
+                ..
+            }
+        ),
+        "{err}"
+    );
 
     assert!(SamplerConfig::new(5, 1, 0).is_err());
     assert!(SamplerConfig::new(8, 0, 0).is_err());
-    assert!(SamplerConfig::new(8, 1, 0).unwrap().with_moves(vec![(Move::Stretch { a: 0.5 }, 1.0)]).is_err());
-    assert!(SamplerConfig::new(4, 1, 0).unwrap().with_moves(vec![(Move::Walk { subset: Some(3) }, 1.0)]).is_err());
-    assert!(SamplerConfig::new(8, 1, 0).unwrap().with_moves(vec![(Move::stretch(), -1.0)]).is_err());
+    assert!(SamplerConfig::new(8, 1, 0)
+        .unwrap()
+        .with_moves(vec![(Move::Stretch { a: 0.5 }, 1.0)])
+        .is_err());
+    assert!(SamplerConfig::new(4, 1, 0)
+        .unwrap()
+        .with_moves(vec![(Move::Walk { subset: Some(3) }, 1.0)])
+        .is_err());
+    assert!(SamplerConfig::new(8, 1, 0)
+        .unwrap()
+        .with_moves(vec![(Move::stretch(), -1.0)])
+        .is_err());
 }
 
 /// +∞ beyond x0 > 3, a fatal error beyond x1 > 3.
@@ -225,12 +292,20 @@ fn fatal_density_stops_the_run_naming_walker_and_step() {
         let d = Faulty(inf);
         let config = SamplerConfig::new(8, 2, 1).unwrap();
         let init: Vec<Vec<Vec<f64>>> = (0..2)
-            .map(|e| (0..8).map(|w| vec![0.05 * w as f64 - 0.2, 0.03 * ((w * 5 + e) % 8) as f64 - 0.1]).collect())
+            .map(|e| {
+                (0..8)
+                    .map(|w| vec![0.05 * w as f64 - 0.2, 0.03 * ((w * 5 + e) % 8) as f64 - 0.1])
+                    .collect()
+            })
             .collect();
         let mut s = EnsembleSampler::new(&d, config, init).unwrap();
-        let err = s.run(Steps::Fixed(10_000), &mut MemorySink::new(), &mut Silent).unwrap_err();
+        let err = s
+            .run(Steps::Fixed(10_000), &mut MemorySink::new(), &mut Silent)
+            .unwrap_err();
         match &err {
-            SamplerError::FatalDensity { position, message, .. } => {
+            SamplerError::FatalDensity {
+                position, message, ..
+            } => {
                 if inf {
                     assert!(position[0] > 1.0 && message.contains("+inf"), "{err}");
                 } else {
@@ -241,7 +316,9 @@ fn fatal_density_stops_the_run_naming_walker_and_step() {
         }
         let text = err.to_string();
         assert!(text.contains("walker") && text.contains("step"), "{text}");
-        let again = s.run(Steps::Fixed(1), &mut MemorySink::new(), &mut Silent).unwrap_err();
+        let again = s
+            .run(Steps::Fixed(1), &mut MemorySink::new(), &mut Silent)
+            .unwrap_err();
         assert!(matches!(again, SamplerError::Poisoned));
     }
 }
@@ -261,9 +338,17 @@ impl LogDensity for Rosenbrock {
 fn nelder_mead_finds_the_rosenbrock_minimum() {
     let f = |x: &[f64]| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2);
     let (x, fx, evals) = nelder_mead(f, &[-1.2, 1.0], &NelderMeadOptions::default());
-    assert!((x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5, "{x:?} f={fx} after {evals}");
+    assert!(
+        (x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5,
+        "{x:?} f={fx} after {evals}"
+    );
     // A 6-D quadratic with different scales.
-    let g = |x: &[f64]| x.iter().enumerate().map(|(i, v)| (v - i as f64).powi(2) * 10f64.powi(i as i32 - 2)).sum();
+    let g = |x: &[f64]| {
+        x.iter()
+            .enumerate()
+            .map(|(i, v)| (v - i as f64).powi(2) * 10f64.powi(i as i32 - 2))
+            .sum()
+    };
     let (x, _, _) = nelder_mead(g, &[0.0; 6], &NelderMeadOptions::default());
     for (i, v) in x.iter().enumerate() {
         assert!((v - i as f64).abs() < 1e-3, "coordinate {i}: {v}");
@@ -280,7 +365,11 @@ fn laplace_covariance_of_a_gaussian_is_its_covariance() {
         for j in 0..4 {
             let truth = g.cov[(i, j)];
             let scale = (g.cov[(i, i)] * g.cov[(j, j)]).sqrt();
-            assert!((cov[i * 4 + j] - truth).abs() < 1e-5 * scale, "({i},{j}) {} vs {truth}", cov[i * 4 + j]);
+            assert!(
+                (cov[i * 4 + j] - truth).abs() < 1e-5 * scale,
+                "({i},{j}) {} vs {truth}",
+                cov[i * 4 + j]
+            );
         }
     }
     // Not positive definite (a saddle): the fallback spread is used and reported.
@@ -313,8 +402,19 @@ fn stopping_rule_stops_a_gaussian_and_suggests_burn_in_and_thinning() {
     let config = SamplerConfig::new(16, 4, 11).unwrap();
     let mut s = EnsembleSampler::new(&g, config, start(&g, 16, 4)).unwrap();
     let rule = StopRule::new(50_000);
-    let report = s.run(Steps::UntilConverged(rule), &mut slipbayes::sampler::NullSink, &mut Silent).unwrap();
-    assert_eq!(report.stopped_by, slipbayes::sampler::StopReason::Converged, "{:?}", report.problems);
+    let report = s
+        .run(
+            Steps::UntilConverged(rule),
+            &mut slipbayes::sampler::NullSink,
+            &mut Silent,
+        )
+        .unwrap();
+    assert_eq!(
+        report.stopped_by,
+        slipbayes::sampler::StopReason::Converged,
+        "{:?}",
+        report.problems
+    );
     let tau = report.tau.clone().unwrap();
     assert!(report.total_steps as f64 > 50.0 * tau.max && report.total_steps < 50_000);
     assert!(tau.reliable && report.converged, "{:?}", report.problems);

@@ -91,7 +91,11 @@ impl SamplerConfig {
         }
         for (m, w) in &moves {
             if !(w.is_finite() && *w > 0.0) {
-                return Err(invalid("moves", format!("{m:?} with weight {w}"), "weights must be finite and > 0"));
+                return Err(invalid(
+                    "moves",
+                    format!("{m:?} with weight {w}"),
+                    "weights must be finite and > 0",
+                ));
             }
             m.validate()?;
             m.validate_complement(self.walkers / 2)?;
@@ -106,7 +110,11 @@ impl SamplerConfig {
     /// When `every` is `Some(0)`.
     pub fn with_checkpoint_every(mut self, every: Option<u64>) -> Result<Self, SamplerError> {
         if every == Some(0) {
-            return Err(invalid("checkpoint_every", 0, "must be at least 1 (or none)"));
+            return Err(invalid(
+                "checkpoint_every",
+                0,
+                "must be at least 1 (or none)",
+            ));
         }
         self.checkpoint_every = every;
         Ok(self)
@@ -206,10 +214,18 @@ impl StopRule {
             return Err(invalid("check_every", 0, "must be at least 1"));
         }
         if !(self.tau_factor.is_finite() && self.tau_factor > 0.0) {
-            return Err(invalid("tau_factor", self.tau_factor, "must be finite and > 0"));
+            return Err(invalid(
+                "tau_factor",
+                self.tau_factor,
+                "must be finite and > 0",
+            ));
         }
         if !(self.tau_rel_change.is_finite() && self.tau_rel_change > 0.0) {
-            return Err(invalid("tau_rel_change", self.tau_rel_change, "must be finite and > 0"));
+            return Err(invalid(
+                "tau_rel_change",
+                self.tau_rel_change,
+                "must be finite and > 0",
+            ));
         }
         if !(self.rhat_max.is_finite() && self.rhat_max > 1.0) {
             return Err(invalid("rhat_max", self.rhat_max, "must be finite and > 1"));

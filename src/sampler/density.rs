@@ -96,7 +96,11 @@ pub(crate) enum Eval {
 }
 
 /// Evaluates `density` and sorts the result into finite, rejected or fatal.
-pub(crate) fn classify<D: LogDensity + ?Sized>(density: &D, x: &[f64], derived: &mut [f64]) -> Eval {
+pub(crate) fn classify<D: LogDensity + ?Sized>(
+    density: &D,
+    x: &[f64],
+    derived: &mut [f64],
+) -> Eval {
     match density.log_density(x, derived) {
         Ok(v) if v.is_finite() => Eval::Finite(v),
         Ok(v) if v.is_nan() => Eval::Rejected(REJECT_NAN),

@@ -79,7 +79,9 @@ impl Ensemble {
     pub fn fresh_rngs(seed: u64, e: usize, walkers: usize) -> (ChaCha8Rng, Vec<ChaCha8Rng>) {
         (
             stream_rng(seed, ensemble_stream(e)),
-            (0..walkers).map(|w| stream_rng(seed, walker_stream(e, w))).collect(),
+            (0..walkers)
+                .map(|w| stream_rng(seed, walker_stream(e, w)))
+                .collect(),
         )
     }
 

@@ -131,11 +131,12 @@ pub fn nelder_mead<F: FnMut(&[f64]) -> f64>(
                     fv[n] = fc;
                 } else {
                     // Shrink towards the best vertex.
-                    for i in 1..=n {
-                        for j in 0..n {
-                            simplex[i][j] = simplex[0][j] + delta * (simplex[i][j] - simplex[0][j]);
+                    let (head, rest) = simplex.split_at_mut(1);
+                    for (v, f) in rest.iter_mut().zip(fv.iter_mut().skip(1)) {
+                        for (vj, &bj) in v.iter_mut().zip(&head[0]) {
+                            *vj = bj + delta * (*vj - bj);
                         }
-                        fv[i] = eval(&simplex[i], &mut evals);
+                        *f = eval(v, &mut evals);
                     }
                 }
             }
@@ -169,7 +170,10 @@ pub fn laplace_covariance<F: FnMut(&[f64]) -> f64>(
 ) -> (Vec<f64>, bool) {
     let n = mode.len();
     // ε^(1/4): balances truncation (h²) against rounding (ε/h²) of the second difference.
-    let h: Vec<f64> = mode.iter().map(|x| f64::EPSILON.powf(0.25) * x.abs().max(1.0)).collect();
+    let h: Vec<f64> = mode
+        .iter()
+        .map(|x| f64::EPSILON.powf(0.25) * x.abs().max(1.0))
+        .collect();
     let f0 = log_f(mode);
     let mut x = mode.to_vec();
     let mut at = |x: &mut Vec<f64>, moves: &[(usize, f64)]| {
@@ -296,7 +300,9 @@ pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
     let f_start = log_f(start);
     if !f_start.is_finite() {
         return Err(SamplerError::Optimisation {
-            detail: format!("the log-density at the start {start:?} is not finite; start inside the support"),
+            detail: format!(
+                "the log-density at the start {start:?} is not finite; start inside the support"
+            ),
         });
     }
     let (mode, neg, _) = nelder_mead(|x| -log_f(x), start, &NelderMeadOptions::default());
@@ -308,7 +314,8 @@ pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
     let (cov, pd) = laplace_covariance(&mut log_f, &mode, FALLBACK_SPREAD);
     let eig = SymmetricEigen::new(DMatrix::from_row_slice(n, n, &cov));
     // Σ = V Λ Vᵀ, so x = mode + V Λ^{1/2} z with z standard normal.
-    let root = &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
+    let root =
+        &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
     let mut z = DVector::<f64>::zeros(n);
     let mut all = Vec::with_capacity(ensembles);
     for e in 0..ensembles {

@@ -28,7 +28,12 @@ impl MemoryChain {
     /// Series of parameter `p` of walker `w` over all stored steps.
     pub fn walker_series(&self, w: usize, p: usize) -> Vec<f64> {
         let stride = self.walkers * self.ndim;
-        self.positions.iter().skip(w * self.ndim + p).step_by(stride).copied().collect()
+        self.positions
+            .iter()
+            .skip(w * self.ndim + p)
+            .step_by(stride)
+            .copied()
+            .collect()
     }
 }
 
@@ -55,7 +60,8 @@ impl ChainSink for MemorySink {
 
     fn record(&mut self, step: &StepView<'_>) -> Result<(), Self::Error> {
         if self.chains.len() <= step.ensemble {
-            self.chains.resize_with(step.ensemble + 1, MemoryChain::default);
+            self.chains
+                .resize_with(step.ensemble + 1, MemoryChain::default);
         }
         let c = &mut self.chains[step.ensemble];
         c.walkers = step.walkers();

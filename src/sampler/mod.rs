@@ -64,7 +64,9 @@ mod report;
 mod run;
 pub mod sink;
 
-pub use config::{SamplerConfig, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED};
+pub use config::{
+    SamplerConfig, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
+};
 pub use density::{LogDensity, LogDensityError, REJECT_NAN, REJECT_NEG_INFINITY};
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;

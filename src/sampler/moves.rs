@@ -77,11 +77,15 @@ impl Move {
             Self::DifferentialEvolution { gamma, sigma } => {
                 if let Some(g) = gamma {
                     if !(g.is_finite() && g > 0.0) {
-                        return bad(format!("differential-evolution gamma = {g} must be finite and > 0"));
+                        return bad(format!(
+                            "differential-evolution gamma = {g} must be finite and > 0"
+                        ));
                     }
                 }
                 if !(sigma.is_finite() && sigma >= 0.0) {
-                    return bad(format!("differential-evolution sigma = {sigma} must be finite and >= 0"));
+                    return bad(format!(
+                        "differential-evolution sigma = {sigma} must be finite and >= 0"
+                    ));
                 }
                 Ok(())
             }

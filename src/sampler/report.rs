@@ -103,8 +103,9 @@ pub(crate) fn tau_from_history(history: &History, ndim: usize) -> Option<Vec<Vec
             let walkers = cols.len() / ndim;
             (0..ndim)
                 .map(|p| {
-                    let series: Vec<&[f64]> =
-                        (0..walkers).map(|w| cols[w * ndim + p].as_slice()).collect();
+                    let series: Vec<&[f64]> = (0..walkers)
+                        .map(|w| cols[w * ndim + p].as_slice())
+                        .collect();
                     integrated_time(&series, DEFAULT_WINDOW_FACTOR)
                         .ok()
                         .filter(|t| t.tau.is_finite())

@@ -77,7 +77,11 @@ fn shape(what: String, expected: usize, got: usize) -> Result<(), SamplerError> 
     if expected == got {
         Ok(())
     } else {
-        Err(SamplerError::Shape { what, expected, got })
+        Err(SamplerError::Shape {
+            what,
+            expected,
+            got,
+        })
     }
 }
 
@@ -121,7 +125,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let ndim = density.dim();
         let nderived = density.derived_names().len();
         check_dims(ndim, &config)?;
-        shape("initial ensembles".into(), config.ensembles(), initial.len())?;
+        shape(
+            "initial ensembles".into(),
+            config.ensembles(),
+            initial.len(),
+        )?;
         let walkers = config.walkers();
         let mut states = Vec::with_capacity(initial.len());
         for (e, ens) in initial.into_iter().enumerate() {
@@ -202,7 +210,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         check_dims(ndim, &config)?;
         let walkers = config.walkers();
         if state.version != STATE_VERSION {
-            return mismatch(format!("state version {} (expected {STATE_VERSION})", state.version));
+            return mismatch(format!(
+                "state version {} (expected {STATE_VERSION})",
+                state.version
+            ));
         }
         if state.ndim != ndim || state.nderived != nderived {
             return mismatch(format!(
@@ -219,7 +230,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             ));
         }
         if state.history.series.len() != config.ensembles()
-            || state.history.series.iter().any(|c| c.len() != walkers * ndim)
+            || state
+                .history
+                .series
+                .iter()
+                .any(|c| c.len() != walkers * ndim)
         {
             return mismatch("history does not match the ensembles".into());
         }
@@ -256,7 +271,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         } = state;
         let mut history = history;
         history.max_rows = config.history_rows().max(history.rows + 1);
-        Ok(Self::assemble(density, config, ensembles, step, history, last_tau))
+        Ok(Self::assemble(
+            density, config, ensembles, step, history, last_tau,
+        ))
     }
 
     fn assemble(
@@ -269,8 +286,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ) -> Self {
         let ndim = density.dim();
         let nderived = density.derived_names().len();
-        let ensembles: Vec<Ensemble> =
-            states.into_iter().map(|s| Ensemble::new(s, ndim, nderived)).collect();
+        let ensembles: Vec<Ensemble> = states
+            .into_iter()
+            .map(|s| Ensemble::new(s, ndim, nderived))
+            .collect();
         Self {
             pending: (0..ensembles.len()).map(|_| None).collect(),
             density,
@@ -410,7 +429,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 self.checkpoint(sink)?;
                 checkpointed_at = Some(self.step);
             }
-            observer.on_step(&self.progress(first, last, started, tau_max, rule.map(|r| r.tau_factor)));
+            observer.on_step(&self.progress(
+                first,
+                last,
+                started,
+                tau_max,
+                rule.map(|r| r.tau_factor),
+            ));
             if stop {
                 break;
             }
@@ -422,10 +447,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 
     fn checkpoint<S: ChainSink>(&self, sink: &mut S) -> Result<(), SamplerError> {
-        sink.checkpoint(&self.state()).map_err(|err| SamplerError::Sink {
-            step: self.step,
-            source: Box::new(err),
-        })
+        sink.checkpoint(&self.state())
+            .map_err(|err| SamplerError::Sink {
+                step: self.step,
+                source: Box::new(err),
+            })
     }
 
     /// One step of every ensemble (ensembles in parallel when allowed).
@@ -469,7 +495,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let Some(tau) = tau else {
             return (false, None);
         };
-        let tmax = tau.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
+        let tmax = tau
+            .iter()
+            .flatten()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
         let long_enough = self.step as f64 > rule.tau_factor * tmax;
         let settled = previous.is_some_and(|prev| {
             prev.iter()
@@ -537,7 +567,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             })
             .collect();
         let mut problems = Vec::new();
-        let tau = tau_from_history(&self.history, self.ndim).map(|t| tau_report(t, steps, TAU_FACTOR));
+        let tau =
+            tau_from_history(&self.history, self.ndim).map(|t| tau_report(t, steps, TAU_FACTOR));
         match &tau {
             None => problems.push(format!(
                 "no autocorrelation time could be estimated from {steps} steps (too short, or a stuck parameter)"
@@ -564,7 +595,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
         if steps >= STUCK_MIN_STEPS {
             for (e, rep) in ensembles.iter().enumerate() {
-                let stuck = rep.acceptance.iter().filter(|&&a| a < STUCK_ACCEPTANCE).count();
+                let stuck = rep
+                    .acceptance
+                    .iter()
+                    .filter(|&&a| a < STUCK_ACCEPTANCE)
+                    .count();
                 if stuck > 0 {
                     problems.push(format!(
                         "{stuck} walker(s) of ensemble {e} accepted less than {:.0}% of proposals (stuck)",

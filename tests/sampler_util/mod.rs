@@ -45,14 +45,14 @@ impl LogDensity for Gaussian {
         self.cov.nrows()
     }
     fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
-        let n = x.len();
         let mut q = 0.0;
-        for i in 0..n {
-            let mut row = 0.0;
-            for j in 0..n {
-                row += self.precision[(i, j)] * x[j];
-            }
-            q += x[i] * row;
+        for (i, xi) in x.iter().enumerate() {
+            let row: f64 = x
+                .iter()
+                .enumerate()
+                .map(|(j, xj)| self.precision[(i, j)] * xj)
+                .sum();
+            q += xi * row;
         }
         Ok(-0.5 * q)
     }
@@ -64,20 +64,24 @@ impl LogDensity for Gaussian {
 /// the ensemble's Markov state); the independent ensembles are the chains handed to the
 /// diagnostics' MCSE (ArviZ's `mcse_mean`: sd / √ESS with Geyer's ESS).
 pub fn mean_and_mcse(chains: &[MemoryChain], burn: usize, g: impl Fn(&[f64]) -> f64) -> (f64, f64) {
-    let series: Vec<Vec<f64>> = chains
-        .iter()
-        .map(|c| {
-            let stride = c.walkers * c.ndim;
-            (burn..c.steps.len())
-                .map(|s| {
-                    (0..c.walkers)
-                        .map(|w| g(&c.positions[s * stride + w * c.ndim..s * stride + (w + 1) * c.ndim]))
-                        .sum::<f64>()
-                        / c.walkers as f64
-                })
-                .collect()
-        })
-        .collect();
+    let series: Vec<Vec<f64>> =
+        chains
+            .iter()
+            .map(|c| {
+                let stride = c.walkers * c.ndim;
+                (burn..c.steps.len())
+                    .map(|s| {
+                        (0..c.walkers)
+                            .map(|w| {
+                                g(&c.positions
+                                    [s * stride + w * c.ndim..s * stride + (w + 1) * c.ndim])
+                            })
+                            .sum::<f64>()
+                            / c.walkers as f64
+                    })
+                    .collect()
+            })
+            .collect();
     let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
     let n: usize = series.iter().map(Vec::len).sum();
     let mean = series.iter().flatten().sum::<f64>() / n as f64;
