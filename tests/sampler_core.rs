@@ -422,3 +422,46 @@ fn stopping_rule_stops_a_gaussian_and_suggests_burn_in_and_thinning() {
     assert!(tau.thin >= 1 && tau.thin as f64 <= tau.min / 2.0 + 1.0);
     assert!(report.rhat.unwrap().iter().all(|&r| r < 1.01));
 }
+
+#[test]
+fn resumed_stopping_rule_run_stops_at_the_same_step() {
+    let g = Gaussian::correlated(2, 0.8);
+    let config = || {
+        SamplerConfig::new(8, 2, 17)
+            .unwrap()
+            .with_checkpoint_every(Some(100))
+            .unwrap()
+            .with_history_rows(128)
+            .unwrap()
+    };
+    let mut rule = StopRule::new(30_000);
+    rule.check_every = 50;
+    let init = start(&g, 8, 2);
+
+    let mut full = MemorySink::new();
+    let mut s = EnsembleSampler::new(&g, config(), init.clone()).unwrap();
+    let a = s
+        .run(Steps::UntilConverged(rule), &mut full, &mut Silent)
+        .unwrap();
+    assert_eq!(a.stopped_by, slipbayes::sampler::StopReason::Converged);
+    // The history was thinned several times on the way (128 rows kept at most).
+    assert!(a.total_steps > 1000, "{}", a.total_steps);
+
+    let mut part = MemorySink::new();
+    let mut s = EnsembleSampler::new(&g, config(), init).unwrap();
+    s.run(Steps::Fixed(700), &mut part, &mut Silent).unwrap();
+    let state: SamplerState = serde_json::from_str(part.last_checkpoint.as_ref().unwrap()).unwrap();
+    let mut s = EnsembleSampler::from_state(&g, config(), state).unwrap();
+    let b = s
+        .run(Steps::UntilConverged(rule), &mut part, &mut Silent)
+        .unwrap();
+    assert_eq!(a.total_steps, b.total_steps);
+    assert_eq!(a.tau, b.tau);
+    assert_eq!(a.rhat, b.rhat);
+    for e in 0..2 {
+        assert_eq!(
+            bits(&full.chains[e].positions),
+            bits(&part.chains[e].positions)
+        );
+    }
+}
