@@ -465,3 +465,37 @@ fn resumed_stopping_rule_run_stops_at_the_same_step() {
         );
     }
 }
+
+#[test]
+fn tau_from_the_thinned_history_matches_the_full_history() {
+    let g = Gaussian::correlated(3, 0.9);
+    let run = |rows: usize| {
+        let config = SamplerConfig::new(12, 4, 23)
+            .unwrap()
+            .with_history_rows(rows)
+            .unwrap();
+        let mut s = EnsembleSampler::new(&g, config, start(&g, 12, 4)).unwrap();
+        s.run(
+            Steps::Fixed(6000),
+            &mut slipbayes::sampler::NullSink,
+            &mut Silent,
+        )
+        .unwrap()
+        .tau
+        .unwrap()
+    };
+    let full = run(8192); // every step kept
+    let thinned = run(1024); // every 8th step kept at the end
+    assert!(full.max > 10.0, "τ_max {}", full.max);
+    for (a, b) in full
+        .per_ensemble
+        .iter()
+        .flatten()
+        .zip(thinned.per_ensemble.iter().flatten())
+    {
+        assert!(
+            (a - b).abs() < 0.1 * a,
+            "τ {a} (all steps) vs {b} (thinned history)"
+        );
+    }
+}
