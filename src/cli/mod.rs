@@ -1,6 +1,7 @@
 //! The command-line front end. `main` parses arguments, dispatches to one command, and prints
 //! an error once with its chain of causes. All real work lives in the library.
 
+pub mod progress;
 mod simulate;
 
 use std::process::ExitCode;

@@ -1,2 +1,87 @@
-//! Affine-invariant ensemble MCMC over any log-density (placeholder: filled in by its own work).
+//! Affine-invariant ensemble MCMC (Goodman & Weare 2010, as in emcee) over any log-density.
+//!
+//! The sampler knows nothing of friction: it sees a [`LogDensity`] over `&[f64]` with a
+//! fallible result. Points the density refuses (out of support, NaN, −∞) are rejected
+//! proposals counted per reason; only fatal faults (and +∞) stop a run.
+//!
+//! - Moves ([`Move`]): stretch, differential evolution and walk, mixable with weights; the
+//!   red-blue update splits each ensemble randomly in two halves every step and updates one
+//!   from the other.
+//! - Several independent ensembles (default 4) run side by side; R̂ between them detects
+//!   ensembles stuck in different modes.
+//! - Determinism: every walker draws from its own ChaCha8 stream (`seed`, stream id), all
+//!   randomness is drawn serially and only the densities are evaluated in parallel (rayon),
+//!   so a seed gives bit-identical chains on any number of threads.
+//! - Run control ([`Steps`]): fixed steps, or emcee's stopping rule (longer than 50 τ_max, τ
+//!   settled to 1 %, plus R̂ between ensembles) with a cap; the [`RunReport`] gives τ, burn-in
+//!   (≈ 2 τ_max), thinning (≈ τ_min/2), R̂, acceptance, rejections and evaluation counts.
+//! - Draws go to a [`ChainSink`] (contract in [`sink`]); the complete [`SamplerState`] is
+//!   checkpointed through it, and [`EnsembleSampler::from_state`] resumes bit-identically.
+//! - Progress goes to an [`Observer`]; the library never prints.
+//!
+//! # Quick start
+//! ```
+//! use slipbayes::sampler::{
+//!     initial_around_optimum, EnsembleSampler, LogDensity, LogDensityError, MemorySink,
+//!     SamplerConfig, Silent, Steps,
+//! };
+//! use rand::SeedableRng;
+//!
+//! /// A standard normal in two dimensions, restricted to x0 > -5.
+//! struct Target;
+//! impl LogDensity for Target {
+//!     fn dim(&self) -> usize { 2 }
+//!     fn log_density(&self, x: &[f64], _derived: &mut [f64]) -> Result<f64, LogDensityError> {
+//!         if x[0] <= -5.0 {
+//!             return Err(LogDensityError::rejected("out_of_support"));
+//!         }
+//!         Ok(-0.5 * (x[0] * x[0] + x[1] * x[1]))
+//!     }
+//! }
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let config = SamplerConfig::new(8, 2, 42)?;
+//! let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+//! let start = initial_around_optimum(&Target, &[1.0, 1.0], 8, 2, &mut rng)?;
+//! let mut sampler = EnsembleSampler::new(&Target, config, start.walkers)?;
+//! let mut sink = MemorySink::new();
+//! let report = sampler.run(Steps::Fixed(200), &mut sink, &mut Silent)?;
+//! assert_eq!(report.total_steps, 200);
+//! assert_eq!(sink.chains[0].steps.len(), 200);
+//! # Ok(())
+//! # }
+//! ```
+mod config;
+mod density;
+mod ensemble;
+mod error;
+mod history;
+mod init;
+mod memory;
+mod moves;
+mod observer;
+mod report;
+mod run;
 pub mod sink;
+
+pub use config::{
+    SamplerConfig, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
+};
+pub use density::{LogDensity, LogDensityError, REJECT_NAN, REJECT_NEG_INFINITY};
+pub use ensemble::EnsembleState;
+pub use error::SamplerError;
+pub use history::History;
+pub use init::{
+    initial_around_optimum, laplace_covariance, nelder_mead, NelderMeadOptions, Optimum, Start,
+};
+pub use memory::{MemoryChain, MemorySink, NullSink};
+pub use moves::Move;
+pub use observer::{Observer, Progress, RunStart, Silent};
+pub use report::{
+    EnsembleReport, RunReport, StopReason, TauReport, RHAT_CONVERGED, STUCK_ACCEPTANCE, TAU_FACTOR,
+};
+pub use run::{
+    walker_condition_number, EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION,
+    WALKER_CONDITION_LIMIT,
+};
+pub use sink::{ChainSink, StepView};

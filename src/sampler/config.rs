@@ -1,0 +1,235 @@
+//! Validated sampler settings and run lengths.
+
+use serde::{Deserialize, Serialize};
+
+use super::error::SamplerError;
+use super::moves::Move;
+
+/// Default number of independent ensembles.
+pub const DEFAULT_ENSEMBLES: usize = 4;
+/// Default seed; saved with the results so a run can be repeated.
+pub const DEFAULT_SEED: u64 = 20_240_517;
+/// Default maximum number of thinned rows kept per walker for the τ and R̂ estimates.
+pub const DEFAULT_HISTORY_ROWS: usize = 2048;
+
+/// Settings of an [`EnsembleSampler`](super::EnsembleSampler), validated once by
+/// [`SamplerConfig::new`] and the `with_*` methods (also when deserialised).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawConfig")]
+pub struct SamplerConfig {
+    walkers: usize,
+    ensembles: usize,
+    seed: u64,
+    moves: Vec<(Move, f64)>,
+    checkpoint_every: Option<u64>,
+    parallel: bool,
+    history_rows: usize,
+}
+
+#[derive(Deserialize)]
+struct RawConfig {
+    walkers: usize,
+    ensembles: usize,
+    seed: u64,
+    moves: Vec<(Move, f64)>,
+    checkpoint_every: Option<u64>,
+    parallel: bool,
+    history_rows: usize,
+}
+
+impl TryFrom<RawConfig> for SamplerConfig {
+    type Error = SamplerError;
+    fn try_from(r: RawConfig) -> Result<Self, SamplerError> {
+        SamplerConfig::new(r.walkers, r.ensembles, r.seed)?
+            .with_moves(r.moves)?
+            .with_checkpoint_every(r.checkpoint_every)?
+            .with_parallel(r.parallel)
+            .with_history_rows(r.history_rows)
+    }
+}
+
+fn invalid(name: &'static str, value: impl std::fmt::Display, req: &str) -> SamplerError {
+    SamplerError::InvalidConfig {
+        name,
+        value: value.to_string(),
+        requirement: req.to_string(),
+    }
+}
+
+impl SamplerConfig {
+    /// `walkers` per ensemble (even, at least 4; at least `2·ndim` is checked against the
+    /// density later), `ensembles` independent ensembles (≥ 1), a `seed`; the stretch move
+    /// alone, no checkpoints, parallel evaluation.
+    ///
+    /// # Errors
+    /// [`SamplerError::InvalidConfig`] naming the setting.
+    pub fn new(walkers: usize, ensembles: usize, seed: u64) -> Result<Self, SamplerError> {
+        if walkers < 4 || walkers % 2 != 0 {
+            return Err(invalid("walkers", walkers, "must be even and at least 4"));
+        }
+        if ensembles == 0 {
+            return Err(invalid("ensembles", ensembles, "must be at least 1"));
+        }
+        Ok(Self {
+            walkers,
+            ensembles,
+            seed,
+            moves: vec![(Move::stretch(), 1.0)],
+            checkpoint_every: None,
+            parallel: true,
+            history_rows: DEFAULT_HISTORY_ROWS,
+        })
+    }
+
+    /// A weighted mixture of moves; one move is drawn per step with probability ∝ weight.
+    ///
+    /// # Errors
+    /// When the list is empty, a weight is not finite and positive, or a move is invalid.
+    pub fn with_moves(mut self, moves: Vec<(Move, f64)>) -> Result<Self, SamplerError> {
+        if moves.is_empty() {
+            return Err(invalid("moves", "[]", "give at least one move"));
+        }
+        for (m, w) in &moves {
+            if !(w.is_finite() && *w > 0.0) {
+                return Err(invalid(
+                    "moves",
+                    format!("{m:?} with weight {w}"),
+                    "weights must be finite and > 0",
+                ));
+            }
+            m.validate()?;
+            m.validate_complement(self.walkers / 2)?;
+        }
+        self.moves = moves;
+        Ok(self)
+    }
+
+    /// Calls the sink's `checkpoint` every `every` steps (and always at the end of a run).
+    ///
+    /// # Errors
+    /// When `every` is `Some(0)`.
+    pub fn with_checkpoint_every(mut self, every: Option<u64>) -> Result<Self, SamplerError> {
+        if every == Some(0) {
+            return Err(invalid(
+                "checkpoint_every",
+                0,
+                "must be at least 1 (or none)",
+            ));
+        }
+        self.checkpoint_every = every;
+        Ok(self)
+    }
+
+    /// Whether to evaluate the log-densities of half an ensemble in parallel (rayon). The
+    /// chains are identical either way; turn it off for very cheap densities.
+    pub fn with_parallel(mut self, parallel: bool) -> Self {
+        self.parallel = parallel;
+        self
+    }
+
+    /// Maximum number of thinned rows per walker kept for τ and R̂ (memory ∝
+    /// `rows × walkers × ndim × ensembles`).
+    ///
+    /// # Errors
+    /// When `rows < 64` (too few for a τ estimate).
+    pub fn with_history_rows(mut self, rows: usize) -> Result<Self, SamplerError> {
+        if rows < 64 {
+            return Err(invalid("history_rows", rows, "must be at least 64"));
+        }
+        self.history_rows = rows;
+        Ok(self)
+    }
+
+    /// Walkers per ensemble.
+    pub fn walkers(&self) -> usize {
+        self.walkers
+    }
+    /// Number of independent ensembles.
+    pub fn ensembles(&self) -> usize {
+        self.ensembles
+    }
+    /// Seed of all random streams.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+    /// Weighted moves.
+    pub fn moves(&self) -> &[(Move, f64)] {
+        &self.moves
+    }
+    /// Checkpoint interval in steps.
+    pub fn checkpoint_every(&self) -> Option<u64> {
+        self.checkpoint_every
+    }
+    /// Whether densities are evaluated in parallel.
+    pub fn parallel(&self) -> bool {
+        self.parallel
+    }
+    /// Maximum history rows per walker.
+    pub fn history_rows(&self) -> usize {
+        self.history_rows
+    }
+}
+
+/// How long to run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Steps {
+    /// Exactly this many more steps.
+    Fixed(u64),
+    /// Until the stopping rule holds, or the sampler's step counter reaches the cap.
+    UntilConverged(StopRule),
+}
+
+/// emcee-style stopping rule, checked every `check_every` steps: the chains are longer than
+/// `tau_factor · τ_max`, every τ changed by less than `tau_rel_change` since the last check,
+/// and (with two or more ensembles) R̂ between ensembles is below `rhat_max` for every
+/// parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StopRule {
+    /// Steps between checks.
+    pub check_every: u64,
+    /// Required chain length in units of τ_max (emcee: 50).
+    pub tau_factor: f64,
+    /// Largest relative change of τ between checks (emcee: 0.01).
+    pub tau_rel_change: f64,
+    /// Largest R̂ between ensembles (ArviZ: 1.01).
+    pub rhat_max: f64,
+    /// Cap on the total step count (counting earlier runs of a resumed sampler).
+    pub max_steps: u64,
+}
+
+impl StopRule {
+    /// emcee's defaults (check every 100 steps, 50 τ, 1 %), R̂ < 1.01, capped at `max_steps`.
+    pub fn new(max_steps: u64) -> Self {
+        Self {
+            check_every: 100,
+            tau_factor: 50.0,
+            tau_rel_change: 0.01,
+            rhat_max: 1.01,
+            max_steps,
+        }
+    }
+
+    pub(crate) fn validate(&self) -> Result<(), SamplerError> {
+        if self.check_every == 0 {
+            return Err(invalid("check_every", 0, "must be at least 1"));
+        }
+        if !(self.tau_factor.is_finite() && self.tau_factor > 0.0) {
+            return Err(invalid(
+                "tau_factor",
+                self.tau_factor,
+                "must be finite and > 0",
+            ));
+        }
+        if !(self.tau_rel_change.is_finite() && self.tau_rel_change > 0.0) {
+            return Err(invalid(
+                "tau_rel_change",
+                self.tau_rel_change,
+                "must be finite and > 0",
+            ));
+        }
+        if !(self.rhat_max.is_finite() && self.rhat_max > 1.0) {
+            return Err(invalid("rhat_max", self.rhat_max, "must be finite and > 1"));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,112 @@
+//! The one thing the sampler knows about a model: a log-density over a slice of `f64`.
+
+use thiserror::Error;
+
+/// Why a log-density could not be evaluated at a point.
+///
+/// The split mirrors what a sampler can do about it: a [`Rejected`](Self::Rejected) point is
+/// simply not accepted (and counted under its label), a [`Fatal`](Self::Fatal) one stops the
+/// run because the model itself is broken.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LogDensityError {
+    /// The point is outside the support or the model cannot be evaluated there for a reason
+    /// that says nothing bad about the model (e.g. `"out_of_support"`, `"stick_slip"`). The
+    /// proposal is rejected and counted under `reason`.
+    #[error("point rejected: {reason}")]
+    Rejected {
+        /// Short label under which rejections are counted.
+        reason: &'static str,
+    },
+    /// A genuine fault (a bug, an inconsistent model): the run stops with this message.
+    #[error("fatal: {message}")]
+    Fatal {
+        /// What went wrong, for a human.
+        message: String,
+    },
+}
+
+impl LogDensityError {
+    /// A recoverable rejection counted under `reason`.
+    pub fn rejected(reason: &'static str) -> Self {
+        Self::Rejected { reason }
+    }
+
+    /// A fatal fault with a message.
+    pub fn fatal(message: impl Into<String>) -> Self {
+        Self::Fatal {
+            message: message.into(),
+        }
+    }
+
+    /// Whether the sampler may carry on after this error (by rejecting the point).
+    pub fn is_recoverable(&self) -> bool {
+        matches!(self, Self::Rejected { .. })
+    }
+}
+
+/// Rejection label used when a density returns NaN.
+pub const REJECT_NAN: &str = "nan";
+/// Rejection label used when a density returns −∞.
+pub const REJECT_NEG_INFINITY: &str = "neg_infinity";
+
+/// An unnormalised log-density (log-posterior) over `dim()` real parameters.
+///
+/// Must be pure: the same `x` gives the same result on any thread, because the sampler
+/// evaluates the points of half an ensemble in parallel and promises bit-identical chains
+/// however many threads run.
+///
+/// Derived quantities (emcee's "blobs") are written by the same call that computes the
+/// log-density, because they usually share its work (a forward model evaluated once); the
+/// caller owns the buffer so that the hot loop allocates nothing.
+pub trait LogDensity: Sync {
+    /// Number of sampled parameters.
+    fn dim(&self) -> usize;
+
+    /// Names of the sampled parameters (stored with the chains); `x0, x1, …` by default.
+    fn param_names(&self) -> Vec<String> {
+        (0..self.dim()).map(|i| format!("x{i}")).collect()
+    }
+
+    /// Names of the derived quantities written by [`log_density`](Self::log_density); none
+    /// by default.
+    fn derived_names(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// The log-density at `x` (length [`dim`](Self::dim)), writing the derived quantities
+    /// into `derived` (length `derived_names().len()`).
+    ///
+    /// Returning NaN or −∞ is treated like [`LogDensityError::Rejected`] (labels
+    /// [`REJECT_NAN`], [`REJECT_NEG_INFINITY`]); +∞ is fatal, since it would absorb the chain.
+    ///
+    /// # Errors
+    /// [`LogDensityError::Rejected`] outside the support, [`LogDensityError::Fatal`] on faults.
+    fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError>;
+}
+
+/// Outcome of one evaluation after the sampler's classification of raw values.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Eval {
+    /// A finite log-density.
+    Finite(f64),
+    /// A recoverable rejection, counted under the label.
+    Rejected(&'static str),
+    /// The run must stop.
+    Fatal(String),
+}
+
+/// Evaluates `density` and sorts the result into finite, rejected or fatal.
+pub(crate) fn classify<D: LogDensity + ?Sized>(
+    density: &D,
+    x: &[f64],
+    derived: &mut [f64],
+) -> Eval {
+    match density.log_density(x, derived) {
+        Ok(v) if v.is_finite() => Eval::Finite(v),
+        Ok(v) if v.is_nan() => Eval::Rejected(REJECT_NAN),
+        Ok(v) if v < 0.0 => Eval::Rejected(REJECT_NEG_INFINITY),
+        Ok(_) => Eval::Fatal("log-density is +inf".to_string()),
+        Err(LogDensityError::Rejected { reason }) => Eval::Rejected(reason),
+        Err(LogDensityError::Fatal { message }) => Eval::Fatal(message),
+    }
+}

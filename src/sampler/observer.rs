@@ -1,0 +1,47 @@
+//! Progress reporting: the sampler never prints, it tells an observer.
+
+use std::time::Duration;
+
+use super::report::RunReport;
+
+/// Where a run starts and how far it may go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunStart {
+    /// Steps already in the chains (non-zero after a resume).
+    pub first_step: u64,
+    /// Step count at which the run stops at the latest (the fixed end or the cap).
+    pub last_step: u64,
+    /// Whether the run may stop earlier because it converged.
+    pub until_converged: bool,
+}
+
+/// Progress after one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress {
+    /// Steps completed (including earlier runs).
+    pub step: u64,
+    /// Step count at which the run stops at the latest.
+    pub last_step: u64,
+    /// Mean acceptance fraction over all walkers and ensembles so far.
+    pub acceptance: f64,
+    /// Latest estimate of the largest autocorrelation time, in steps (stopping-rule runs).
+    pub tau_max: Option<f64>,
+    /// Estimated time to the end (the fixed end, or 50 τ_max when converging).
+    pub eta: Option<Duration>,
+}
+
+/// Receives progress of a run; every method does nothing by default.
+pub trait Observer {
+    /// Called once before the first step.
+    fn on_start(&mut self, _start: &RunStart) {}
+    /// Called after every step.
+    fn on_step(&mut self, _progress: &Progress) {}
+    /// Called once after the last step (also when the run fails, with `None`).
+    fn on_finish(&mut self, _report: Option<&RunReport>) {}
+}
+
+/// An observer that ignores everything.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Silent;
+
+impl Observer for Silent {}

@@ -1,0 +1,165 @@
+//! What a run reports: acceptance, rejections, evaluations, τ, R̂ and convergence.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::history::History;
+use crate::diagnostics::{integrated_time, rhat, DEFAULT_WINDOW_FACTOR};
+
+/// Acceptance fraction below which a walker is reported as stuck.
+pub const STUCK_ACCEPTANCE: f64 = 0.01;
+/// Steps before stuck walkers are reported (earlier, a low fraction is noise).
+pub const STUCK_MIN_STEPS: u64 = 100;
+/// Largest R̂ between ensembles of a converged run (ArviZ's threshold).
+pub const RHAT_CONVERGED: f64 = 1.01;
+/// Required chain length in units of τ_max for a trusted τ (emcee's `tol`).
+pub const TAU_FACTOR: f64 = 50.0;
+
+/// Why the run stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StopReason {
+    /// The fixed number of steps was run.
+    FixedSteps,
+    /// The stopping rule was met.
+    Converged,
+    /// The step cap was reached before the stopping rule was met.
+    StepCap,
+}
+
+/// Counters of one ensemble.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EnsembleReport {
+    /// Acceptance fraction of each walker over all steps so far.
+    pub acceptance: Vec<f64>,
+    /// Proposals rejected because the density refused them, per reason.
+    pub rejections: BTreeMap<String, u64>,
+    /// Log-density evaluations (including the initial ones).
+    pub evaluations: u64,
+}
+
+/// Integrated autocorrelation times, in steps, and what follows from them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TauReport {
+    /// τ per ensemble (outer) and parameter (inner).
+    pub per_ensemble: Vec<Vec<f64>>,
+    /// Largest τ.
+    pub max: f64,
+    /// Smallest τ.
+    pub min: f64,
+    /// Whether the chains are longer than 50 τ_max, so that τ can be trusted.
+    pub reliable: bool,
+    /// Suggested burn-in, ⌈2 τ_max⌉ steps.
+    pub burn_in: u64,
+    /// Suggested thinning, max(1, ⌊τ_min / 2⌋) steps.
+    pub thin: u64,
+}
+
+/// Summary of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunReport {
+    /// Steps run by this call.
+    pub steps_run: u64,
+    /// Steps in the chains (including earlier runs).
+    pub total_steps: u64,
+    /// Why the run stopped.
+    pub stopped_by: StopReason,
+    /// Counters per ensemble.
+    pub ensembles: Vec<EnsembleReport>,
+    /// τ estimate at the end, when one could be made.
+    pub tau: Option<TauReport>,
+    /// R̂ between ensembles per parameter after burn-in (two or more ensembles).
+    pub rhat: Option<Vec<f64>>,
+    /// Whether the run looks converged: τ trusted, R̂ below [`RHAT_CONVERGED`], no stuck
+    /// walkers. When false, `problems` says why.
+    pub converged: bool,
+    /// Reasons for not trusting the chains, for a human.
+    pub problems: Vec<String>,
+}
+
+impl RunReport {
+    /// Total log-density evaluations over all ensembles.
+    pub fn evaluations(&self) -> u64 {
+        self.ensembles.iter().map(|e| e.evaluations).sum()
+    }
+
+    /// Mean acceptance fraction over all walkers of all ensembles.
+    pub fn mean_acceptance(&self) -> f64 {
+        let (s, n) = self.ensembles.iter().fold((0.0, 0usize), |(s, n), e| {
+            (s + e.acceptance.iter().sum::<f64>(), n + e.acceptance.len())
+        });
+        s / n.max(1) as f64
+    }
+}
+
+/// τ (in steps) per ensemble and parameter from the history; `None` when the history is too
+/// short or a series is constant.
+pub(crate) fn tau_from_history(history: &History, ndim: usize) -> Option<Vec<Vec<f64>>> {
+    let thin = history.thin as f64;
+    history
+        .series
+        .iter()
+        .map(|cols| {
+            let walkers = cols.len() / ndim;
+            (0..ndim)
+                .map(|p| {
+                    let series: Vec<&[f64]> = (0..walkers)
+                        .map(|w| cols[w * ndim + p].as_slice())
+                        .collect();
+                    integrated_time(&series, DEFAULT_WINDOW_FACTOR)
+                        .ok()
+                        .filter(|t| t.tau.is_finite())
+                        // Thinning by m ≪ τ scales the integrated time by 1/m.
+                        .map(|t| t.tau * thin)
+                })
+                .collect::<Option<Vec<f64>>>()
+        })
+        .collect()
+}
+
+/// τ report from per-ensemble τ and the chain length.
+pub(crate) fn tau_report(per_ensemble: Vec<Vec<f64>>, steps: u64, tau_factor: f64) -> TauReport {
+    let all = per_ensemble.iter().flatten().copied();
+    let max = all.clone().fold(f64::NEG_INFINITY, f64::max);
+    let min = all.fold(f64::INFINITY, f64::min);
+    TauReport {
+        reliable: steps as f64 > tau_factor * max,
+        burn_in: (2.0 * max).ceil() as u64,
+        thin: ((min / 2.0).floor() as u64).max(1),
+        per_ensemble,
+        max,
+        min,
+    }
+}
+
+/// Rank-normalised split R̂ (ArviZ, Vehtari et al. 2021) between ensembles per parameter,
+/// from the history rows after `burn_in` steps. The chain of an ensemble is its draws in
+/// step order, walkers interleaved within a step, so R̂ compares ensembles (and early with
+/// late halves), never walkers of one ensemble (which are not independent). `None` with
+/// fewer than two ensembles or too few rows.
+pub(crate) fn rhat_from_history(history: &History, ndim: usize, burn_in: u64) -> Option<Vec<f64>> {
+    if history.series.len() < 2 {
+        return None;
+    }
+    let first = (0..history.rows).find(|&r| history.step_of(r) >= burn_in)?;
+    if history.rows - first < 4 {
+        return None;
+    }
+    let walkers = history.series[0].len() / ndim;
+    (0..ndim)
+        .map(|p| {
+            let chains: Vec<Vec<f64>> = history
+                .series
+                .iter()
+                .map(|cols| {
+                    (first..history.rows)
+                        .flat_map(|r| (0..walkers).map(move |w| (w, r)))
+                        .map(|(w, r)| cols[w * ndim + p][r])
+                        .collect()
+                })
+                .collect();
+            let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
+            rhat(&refs).ok()
+        })
+        .collect()
+}

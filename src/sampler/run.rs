@@ -1,0 +1,643 @@
+//! The ensemble sampler: construction, checks of the start, the run loop and resuming.
+
+use std::time::{Duration, Instant};
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::config::{SamplerConfig, Steps};
+use super::density::{classify, Eval, LogDensity};
+use super::ensemble::{Ensemble, EnsembleState, Fatal};
+use super::error::SamplerError;
+use super::history::History;
+use super::observer::{Observer, Progress, RunStart};
+use super::report::{
+    rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
+    RHAT_CONVERGED, STUCK_ACCEPTANCE, STUCK_MIN_STEPS, TAU_FACTOR,
+};
+use super::sink::{ChainSink, StepView};
+
+/// Largest condition number of the column-normalised, centred initial walker matrix
+/// (emcee's `walkers_independent` limit).
+pub const WALKER_CONDITION_LIMIT: f64 = 1e8;
+
+/// Version of the [`SamplerState`] layout.
+pub const STATE_VERSION: u32 = 1;
+
+/// Everything needed to continue a run exactly where it stopped (serde-serialisable).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SamplerState {
+    /// Layout version ([`STATE_VERSION`]).
+    pub version: u32,
+    /// Seed the streams were derived from (informative; the streams themselves are stored).
+    pub seed: u64,
+    /// Sampled dimensions.
+    pub ndim: usize,
+    /// Derived values per walker.
+    pub nderived: usize,
+    /// Walkers per ensemble.
+    pub walkers: usize,
+    /// Steps completed.
+    pub step: u64,
+    /// Per-ensemble state.
+    pub ensembles: Vec<EnsembleState>,
+    /// Thinned history used by τ and R̂.
+    pub history: History,
+    /// τ per (ensemble, parameter) at the last stopping-rule check.
+    pub last_tau: Option<Vec<Vec<f64>>>,
+}
+
+/// Affine-invariant ensemble sampler over a [`LogDensity`], running several independent
+/// ensembles side by side.
+pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
+    density: &'a D,
+    config: SamplerConfig,
+    ndim: usize,
+    nderived: usize,
+    ensembles: Vec<Ensemble>,
+    pending: Vec<Option<Fatal>>,
+    step: u64,
+    history: History,
+    last_tau: Option<Vec<Vec<f64>>>,
+    poisoned: bool,
+}
+
+impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EnsembleSampler")
+            .field("config", &self.config)
+            .field("ndim", &self.ndim)
+            .field("step", &self.step)
+            .finish_non_exhaustive()
+    }
+}
+
+fn shape(what: String, expected: usize, got: usize) -> Result<(), SamplerError> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(SamplerError::Shape {
+            what,
+            expected,
+            got,
+        })
+    }
+}
+
+/// Condition number of the centred walker matrix with columns scaled to unit norm
+/// (`walkers × ndim`); +∞ when a column is constant.
+pub fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
+    let walkers = positions.len() / ndim;
+    let mut m = DMatrix::from_row_slice(walkers, ndim, positions);
+    for mut col in m.column_iter_mut() {
+        let mean = col.mean();
+        col.add_scalar_mut(-mean);
+        let norm = col.norm();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return f64::INFINITY;
+        }
+        col /= norm;
+    }
+    let sv = m.singular_values();
+    let max = sv.max();
+    let min = sv.min();
+    if min > 0.0 {
+        max / min
+    } else {
+        f64::INFINITY
+    }
+}
+
+impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
+    /// A sampler starting from `initial[ensemble][walker]` (each of length `density.dim()`).
+    ///
+    /// # Errors
+    /// [`SamplerError::Shape`] for wrong sizes, [`SamplerError::InvalidConfig`] for fewer than
+    /// `2·ndim` walkers, [`SamplerError::BadInitialWalker`] for a non-finite start or one whose
+    /// log-density is not finite, [`SamplerError::DegenerateEnsemble`] for walkers that do not
+    /// span the space.
+    pub fn new(
+        density: &'a D,
+        config: SamplerConfig,
+        initial: Vec<Vec<Vec<f64>>>,
+    ) -> Result<Self, SamplerError> {
+        let ndim = density.dim();
+        let nderived = density.derived_names().len();
+        check_dims(ndim, &config)?;
+        shape(
+            "initial ensembles".into(),
+            config.ensembles(),
+            initial.len(),
+        )?;
+        let walkers = config.walkers();
+        let mut states = Vec::with_capacity(initial.len());
+        for (e, ens) in initial.into_iter().enumerate() {
+            shape(format!("walkers of ensemble {e}"), walkers, ens.len())?;
+            let mut positions = Vec::with_capacity(walkers * ndim);
+            for (w, x) in ens.iter().enumerate() {
+                shape(format!("walker {w} of ensemble {e}"), ndim, x.len())?;
+                if let Some(v) = x.iter().find(|v| !v.is_finite()) {
+                    return Err(SamplerError::BadInitialWalker {
+                        ensemble: e,
+                        walker: w,
+                        position: x.clone(),
+                        reason: format!("coordinate {v} is not finite"),
+                    });
+                }
+                positions.extend_from_slice(x);
+            }
+            let condition = walker_condition_number(&positions, ndim);
+            if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
+                return Err(SamplerError::DegenerateEnsemble {
+                    ensemble: e,
+                    condition,
+                    limit: WALKER_CONDITION_LIMIT,
+                });
+            }
+            let mut derived = vec![0.0; walkers * nderived];
+            let mut log_density = vec![0.0; walkers];
+            let evals: Vec<Eval> = positions
+                .par_chunks(ndim)
+                .zip(derived.par_chunks_mut(nderived.max(1)))
+                .map(|(x, d)| classify(density, x, &mut d[..nderived]))
+                .collect();
+            for (w, ev) in evals.into_iter().enumerate() {
+                let reason = match ev {
+                    Eval::Finite(v) => {
+                        log_density[w] = v;
+                        continue;
+                    }
+                    Eval::Rejected(r) => format!("log-density rejected the point ({r})"),
+                    Eval::Fatal(m) => format!("log-density failed: {m}"),
+                };
+                return Err(SamplerError::BadInitialWalker {
+                    ensemble: e,
+                    walker: w,
+                    position: positions[w * ndim..(w + 1) * ndim].to_vec(),
+                    reason,
+                });
+            }
+            let (ensemble_rng, walker_rngs) = Ensemble::fresh_rngs(config.seed(), e, walkers);
+            states.push(EnsembleState {
+                positions,
+                log_density,
+                derived,
+                ensemble_rng,
+                walker_rngs,
+                accepted: vec![0; walkers],
+                rejections: Default::default(),
+                evaluations: walkers as u64,
+            });
+        }
+        let history = History::new(config.ensembles(), walkers, ndim, config.history_rows());
+        Ok(Self::assemble(density, config, states, 0, history, None))
+    }
+
+    /// A sampler continuing from `state` (as passed to [`ChainSink::checkpoint`]). The
+    /// stored log-densities are re-evaluated to make sure the density is the same one.
+    ///
+    /// # Errors
+    /// [`SamplerError::StateMismatch`] when the state does not fit the density or config.
+    pub fn from_state(
+        density: &'a D,
+        config: SamplerConfig,
+        state: SamplerState,
+    ) -> Result<Self, SamplerError> {
+        let mismatch = |detail: String| Err(SamplerError::StateMismatch { detail });
+        let ndim = density.dim();
+        let nderived = density.derived_names().len();
+        check_dims(ndim, &config)?;
+        let walkers = config.walkers();
+        if state.version != STATE_VERSION {
+            return mismatch(format!(
+                "state version {} (expected {STATE_VERSION})",
+                state.version
+            ));
+        }
+        if state.ndim != ndim || state.nderived != nderived {
+            return mismatch(format!(
+                "state has {} parameters and {} derived values, the density {ndim} and {nderived}",
+                state.ndim, state.nderived
+            ));
+        }
+        if state.walkers != walkers || state.ensembles.len() != config.ensembles() {
+            return mismatch(format!(
+                "state has {} ensembles of {} walkers, the configuration {} of {walkers}",
+                state.ensembles.len(),
+                state.walkers,
+                config.ensembles()
+            ));
+        }
+        if state.history.series.len() != config.ensembles()
+            || state
+                .history
+                .series
+                .iter()
+                .any(|c| c.len() != walkers * ndim)
+        {
+            return mismatch("history does not match the ensembles".into());
+        }
+        let mut scratch = vec![0.0; nderived];
+        for (e, s) in state.ensembles.iter().enumerate() {
+            if s.positions.len() != walkers * ndim
+                || s.log_density.len() != walkers
+                || s.derived.len() != walkers * nderived
+                || s.walker_rngs.len() != walkers
+                || s.accepted.len() != walkers
+            {
+                return mismatch(format!("arrays of ensemble {e} have the wrong sizes"));
+            }
+            for w in 0..walkers {
+                let x = &s.positions[w * ndim..(w + 1) * ndim];
+                let stored = s.log_density[w];
+                match classify(density, x, &mut scratch) {
+                    Eval::Finite(v) if (v - stored).abs() <= RESUME_RTOL * v.abs().max(1.0) => {}
+                    other => {
+                        return mismatch(format!(
+                            "walker {w} of ensemble {e} at {x:?} has stored log-density {stored} but the \
+                             density gives {other:?}; resume with the same model and data"
+                        ))
+                    }
+                }
+            }
+        }
+        let SamplerState {
+            ensembles,
+            step,
+            history,
+            last_tau,
+            ..
+        } = state;
+        let mut history = history;
+        history.max_rows = config.history_rows().max(history.rows + 1);
+        Ok(Self::assemble(
+            density, config, ensembles, step, history, last_tau,
+        ))
+    }
+
+    fn assemble(
+        density: &'a D,
+        config: SamplerConfig,
+        states: Vec<EnsembleState>,
+        step: u64,
+        history: History,
+        last_tau: Option<Vec<Vec<f64>>>,
+    ) -> Self {
+        let ndim = density.dim();
+        let nderived = density.derived_names().len();
+        let ensembles: Vec<Ensemble> = states
+            .into_iter()
+            .map(|s| Ensemble::new(s, ndim, nderived))
+            .collect();
+        Self {
+            pending: (0..ensembles.len()).map(|_| None).collect(),
+            density,
+            config,
+            ndim,
+            nderived,
+            ensembles,
+            step,
+            history,
+            last_tau,
+            poisoned: false,
+        }
+    }
+
+    /// A copy of the complete state, from which [`from_state`](Self::from_state) continues.
+    pub fn state(&self) -> SamplerState {
+        SamplerState {
+            version: STATE_VERSION,
+            seed: self.config.seed(),
+            ndim: self.ndim,
+            nderived: self.nderived,
+            walkers: self.config.walkers(),
+            step: self.step,
+            ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
+            history: self.history.clone(),
+            last_tau: self.last_tau.clone(),
+        }
+    }
+
+    /// Steps completed so far.
+    pub fn step(&self) -> u64 {
+        self.step
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SamplerConfig {
+        &self.config
+    }
+
+    /// Current walker positions of ensemble `e` (`walkers × ndim`, row-major).
+    pub fn positions(&self, e: usize) -> &[f64] {
+        &self.ensembles[e].s.positions
+    }
+
+    /// Runs `steps`, handing every (ensemble, step) to `sink` in order and progress to
+    /// `observer`. The sink's `checkpoint` is called every `checkpoint_every` steps and at the
+    /// end.
+    ///
+    /// # Errors
+    /// [`SamplerError::FatalDensity`] when the density fails fatally (the sampler must then be
+    /// rebuilt from the last checkpoint), [`SamplerError::Sink`] when the sink fails,
+    /// [`SamplerError::InvalidConfig`] for an invalid stopping rule.
+    pub fn run<S: ChainSink, O: Observer + ?Sized>(
+        &mut self,
+        steps: Steps,
+        sink: &mut S,
+        observer: &mut O,
+    ) -> Result<RunReport, SamplerError> {
+        let result = self.run_inner(steps, sink, observer);
+        match &result {
+            Ok(r) => observer.on_finish(Some(r)),
+            Err(_) => observer.on_finish(None),
+        }
+        result
+    }
+
+    fn run_inner<S: ChainSink, O: Observer + ?Sized>(
+        &mut self,
+        steps: Steps,
+        sink: &mut S,
+        observer: &mut O,
+    ) -> Result<RunReport, SamplerError> {
+        if self.poisoned {
+            return Err(SamplerError::Poisoned);
+        }
+        let first = self.step;
+        let (last, rule) = match steps {
+            Steps::Fixed(n) => (first + n, None),
+            Steps::UntilConverged(rule) => {
+                rule.validate()?;
+                (rule.max_steps.max(first), Some(rule))
+            }
+        };
+        observer.on_start(&RunStart {
+            first_step: first,
+            last_step: last,
+            until_converged: rule.is_some(),
+        });
+        let started = Instant::now();
+        let mut stopped_by = if rule.is_some() {
+            StopReason::StepCap
+        } else {
+            StopReason::FixedSteps
+        };
+        let mut tau_max: Option<f64> = None;
+        let mut checkpointed_at = None;
+        while self.step < last {
+            let step_no = self.step;
+            self.advance(step_no)?;
+            self.step += 1;
+            if self.history.wants(step_no) {
+                for (e, ens) in self.ensembles.iter().enumerate() {
+                    self.history.push(e, &ens.s.positions);
+                }
+                self.history.finish_row();
+            }
+            for (e, ens) in self.ensembles.iter().enumerate() {
+                let view = StepView {
+                    ensemble: e,
+                    step: step_no,
+                    ndim: self.ndim,
+                    positions: &ens.s.positions,
+                    log_density: &ens.s.log_density,
+                    derived: &ens.s.derived,
+                };
+                sink.record(&view).map_err(|err| SamplerError::Sink {
+                    step: step_no,
+                    source: Box::new(err),
+                })?;
+            }
+            let mut stop = false;
+            if let Some(rule) = rule {
+                if self.step % rule.check_every == 0 {
+                    let (met, tmax) = self.check_stop(&rule);
+                    tau_max = tmax.or(tau_max);
+                    if met {
+                        stop = true;
+                        stopped_by = StopReason::Converged;
+                    }
+                }
+            }
+            let due = self
+                .config
+                .checkpoint_every()
+                .is_some_and(|k| self.step % k == 0);
+            if due || stop || self.step == last {
+                self.checkpoint(sink)?;
+                checkpointed_at = Some(self.step);
+            }
+            observer.on_step(&self.progress(
+                first,
+                last,
+                started,
+                tau_max,
+                rule.map(|r| r.tau_factor),
+            ));
+            if stop {
+                break;
+            }
+        }
+        if checkpointed_at != Some(self.step) {
+            self.checkpoint(sink)?;
+        }
+        Ok(self.report(self.step - first, stopped_by))
+    }
+
+    fn checkpoint<S: ChainSink>(&self, sink: &mut S) -> Result<(), SamplerError> {
+        sink.checkpoint(&self.state())
+            .map_err(|err| SamplerError::Sink {
+                step: self.step,
+                source: Box::new(err),
+            })
+    }
+
+    /// One step of every ensemble (ensembles in parallel when allowed).
+    fn advance(&mut self, step_no: u64) -> Result<(), SamplerError> {
+        let density = self.density;
+        let moves = self.config.moves();
+        let parallel = self.config.parallel();
+        if parallel && self.ensembles.len() > 1 {
+            self.ensembles
+                .par_iter_mut()
+                .zip(self.pending.par_iter_mut())
+                .for_each(|(ens, p)| *p = ens.step(density, moves, parallel).err());
+        } else {
+            for (ens, p) in self.ensembles.iter_mut().zip(self.pending.iter_mut()) {
+                *p = ens.step(density, moves, parallel).err();
+            }
+        }
+        if let Some((e, f)) = self
+            .pending
+            .iter_mut()
+            .enumerate()
+            .find_map(|(e, p)| p.take().map(|f| (e, f)))
+        {
+            self.poisoned = true;
+            return Err(SamplerError::FatalDensity {
+                ensemble: e,
+                walker: f.walker,
+                step: step_no,
+                position: f.position,
+                message: f.message,
+            });
+        }
+        Ok(())
+    }
+
+    /// Applies the stopping rule; returns whether it holds and the current τ_max.
+    fn check_stop(&mut self, rule: &super::config::StopRule) -> (bool, Option<f64>) {
+        let tau = tau_from_history(&self.history, self.ndim);
+        let previous = self.last_tau.take();
+        self.last_tau = tau.clone();
+        let Some(tau) = tau else {
+            return (false, None);
+        };
+        let tmax = tau
+            .iter()
+            .flatten()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        let long_enough = self.step as f64 > rule.tau_factor * tmax;
+        let settled = previous.is_some_and(|prev| {
+            prev.iter()
+                .flatten()
+                .zip(tau.iter().flatten())
+                .all(|(p, t)| ((t - p) / t).abs() < rule.tau_rel_change)
+        });
+        if !(long_enough && settled) {
+            return (false, Some(tmax));
+        }
+        let burn_in = (2.0 * tmax).ceil() as u64;
+        let rhat_ok = match rhat_from_history(&self.history, self.ndim, burn_in) {
+            Some(r) => r.iter().all(|&v| v < rule.rhat_max),
+            None => self.ensembles.len() < 2,
+        };
+        (rhat_ok, Some(tmax))
+    }
+
+    fn progress(
+        &self,
+        first: u64,
+        last: u64,
+        started: Instant,
+        tau_max: Option<f64>,
+        tau_factor: Option<f64>,
+    ) -> Progress {
+        let (acc, n) = self.ensembles.iter().fold((0u64, 0usize), |(a, n), e| {
+            (a + e.s.accepted.iter().sum::<u64>(), n + e.s.accepted.len())
+        });
+        let acceptance = acc as f64 / (n as f64 * self.step.max(1) as f64);
+        let done = self.step - first;
+        let target = match (tau_factor, tau_max) {
+            (Some(f), Some(t)) => ((f * t).ceil() as u64).clamp(self.step, last),
+            (Some(_), None) => last,
+            _ => last,
+        };
+        let eta = (done > 0).then(|| {
+            let per_step = started.elapsed().as_secs_f64() / done as f64;
+            Duration::from_secs_f64(per_step * (target - self.step) as f64)
+        });
+        Progress {
+            step: self.step,
+            last_step: last,
+            acceptance,
+            tau_max,
+            eta,
+        }
+    }
+
+    /// The report of the current chains (τ and R̂ from the whole history).
+    fn report(&self, steps_run: u64, stopped_by: StopReason) -> RunReport {
+        let steps = self.step;
+        let ensembles: Vec<EnsembleReport> = self
+            .ensembles
+            .iter()
+            .map(|e| EnsembleReport {
+                acceptance: e
+                    .s
+                    .accepted
+                    .iter()
+                    .map(|&a| a as f64 / steps.max(1) as f64)
+                    .collect(),
+                rejections: e.s.rejections.clone(),
+                evaluations: e.s.evaluations,
+            })
+            .collect();
+        let mut problems = Vec::new();
+        let tau =
+            tau_from_history(&self.history, self.ndim).map(|t| tau_report(t, steps, TAU_FACTOR));
+        match &tau {
+            None => problems.push(format!(
+                "no autocorrelation time could be estimated from {steps} steps (too short, or a stuck parameter)"
+            )),
+            Some(t) if !t.reliable => problems.push(format!(
+                "chains of {steps} steps are shorter than {TAU_FACTOR} τ_max = {:.0} steps; run longer",
+                TAU_FACTOR * t.max
+            )),
+            Some(_) => {}
+        }
+        let rhat = tau
+            .as_ref()
+            .and_then(|t| rhat_from_history(&self.history, self.ndim, t.burn_in));
+        if let Some(r) = &rhat {
+            for (p, v) in r.iter().enumerate() {
+                if v.is_nan() || *v >= RHAT_CONVERGED {
+                    problems.push(format!(
+                        "R-hat between ensembles of parameter {p} is {v:.3} (≥ {RHAT_CONVERGED}): the ensembles disagree (multimodal or not mixed)"
+                    ));
+                }
+            }
+        } else if self.ensembles.len() > 1 {
+            problems.push("R-hat between ensembles could not be computed".into());
+        }
+        if steps >= STUCK_MIN_STEPS {
+            for (e, rep) in ensembles.iter().enumerate() {
+                let stuck = rep
+                    .acceptance
+                    .iter()
+                    .filter(|&&a| a < STUCK_ACCEPTANCE)
+                    .count();
+                if stuck > 0 {
+                    problems.push(format!(
+                        "{stuck} walker(s) of ensemble {e} accepted less than {:.0}% of proposals (stuck)",
+                        100.0 * STUCK_ACCEPTANCE
+                    ));
+                }
+            }
+        }
+        RunReport {
+            steps_run,
+            total_steps: steps,
+            stopped_by,
+            ensembles,
+            tau,
+            rhat,
+            converged: problems.is_empty(),
+            problems,
+        }
+    }
+}
+
+/// Relative tolerance between a stored and a re-evaluated log-density on resume.
+pub const RESUME_RTOL: f64 = 1e-9;
+
+fn check_dims(ndim: usize, config: &SamplerConfig) -> Result<(), SamplerError> {
+    if ndim == 0 {
+        return Err(SamplerError::InvalidConfig {
+            name: "dim",
+            value: "0".into(),
+            requirement: "the density must have at least one parameter".into(),
+        });
+    }
+    if config.walkers() < 2 * ndim {
+        return Err(SamplerError::InvalidConfig {
+            name: "walkers",
+            value: config.walkers().to_string(),
+            requirement: format!("must be at least 2·ndim = {} for this density", 2 * ndim),
+        });
+    }
+    Ok(())
+}
