@@ -137,6 +137,12 @@ pub enum StorageError {
         /// Why it is refused.
         reason: &'static str,
     },
+    /// A row-group size that cannot be used.
+    #[error("row groups of {rows} rows are impossible: choose at least 1 row per group")]
+    InvalidRowGroupSize {
+        /// The size asked for.
+        rows: usize,
+    },
     /// A step view whose slices do not match the declared columns.
     #[error(
         "step {step} of ensemble {ensemble}: {what} has {got} values, expected {expected} \

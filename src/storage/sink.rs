@@ -52,6 +52,8 @@ struct CheckpointFile {
     format: String,
     param_names: Vec<String>,
     derived_names: Vec<String>,
+    /// Rows per row group, kept so that a resumed run groups rows as the original did.
+    row_group_rows: usize,
     /// Complete parts `part-000000 .. part-(parts-1)` that belong to the run.
     parts: u64,
     /// Rows in those parts.
@@ -163,7 +165,8 @@ impl ParquetSink {
     ///
     /// # Errors
     /// [`StorageError::InvalidName`] for empty, duplicate or reserved names
-    /// (`ensemble`, `walker`, `step`, `log_density`) or a zero row-group size;
+    /// (`ensemble`, `walker`, `step`, `log_density`);
+    /// [`StorageError::InvalidRowGroupSize`] for a zero row-group size;
     /// [`StorageError::CompletedRunExists`] or [`StorageError::UnfinishedRunExists`] when `dir`
     /// holds chains or a checkpoint and [`SinkOptions::overwrite`] is off;
     /// [`StorageError::Io`] when the directory cannot be prepared.
@@ -175,10 +178,7 @@ impl ParquetSink {
     ) -> Result<Self, StorageError> {
         validate_names(param_names, derived_names)?;
         if options.row_group_rows == 0 {
-            return Err(StorageError::InvalidName {
-                name: "row_group_rows = 0".to_owned(),
-                reason: "a row group must hold at least one row",
-            });
+            return Err(StorageError::InvalidRowGroupSize { rows: 0 });
         }
         fs::create_dir_all(dir).map_err(|e| StorageError::io("create directory", dir, e))?;
         let chains_dir = dir.join(CHAINS_DIR);
@@ -205,19 +205,11 @@ impl ParquetSink {
         ))
     }
 
-    /// Reopens the run in `dir` at its last checkpoint with default options; see
-    /// [`ParquetSink::resume_with`].
-    ///
-    /// # Errors
-    /// As [`ParquetSink::resume_with`].
-    pub fn resume<S: DeserializeOwned>(dir: &Path) -> Result<(Self, S), StorageError> {
-        Self::resume_with(dir, SinkOptions::default())
-    }
-
     /// Reopens the run in `dir` at its last checkpoint: removes `.partial` and temporary files
     /// and every part written after the checkpoint, checks the kept parts against the
     /// checkpoint, and returns the sink positioned to continue with the saved sampler state.
-    /// The next step to record is [`ParquetSink::steps`]. `options.overwrite` is ignored.
+    /// The next step to record is [`ParquetSink::steps`]; rows are grouped as in the original
+    /// run, so a resumed run writes the same files as an uninterrupted one.
     ///
     /// # Errors
     /// [`StorageError::NoCheckpoint`] when `dir` has no `checkpoint.json`;
@@ -225,10 +217,7 @@ impl ParquetSink {
     /// [`StorageError::BadCheckpoint`] when the checkpoint or its state cannot be parsed as `S`;
     /// [`StorageError::SchemaMismatch`] or [`StorageError::Inconsistent`] when the kept parts
     /// do not match the checkpoint; [`StorageError::Io`] on file-system errors.
-    pub fn resume_with<S: DeserializeOwned>(
-        dir: &Path,
-        options: SinkOptions,
-    ) -> Result<(Self, S), StorageError> {
+    pub fn resume<S: DeserializeOwned>(dir: &Path) -> Result<(Self, S), StorageError> {
         let checkpoint_path = dir.join(CHECKPOINT_FILE);
         let checkpoint = match read_checkpoint(&checkpoint_path)? {
             Some(c) => c,
@@ -296,7 +285,7 @@ impl ParquetSink {
             dir,
             checkpoint.param_names,
             checkpoint.derived_names,
-            options.row_group_rows.max(1),
+            checkpoint.row_group_rows.max(1),
         );
         sink.durable_parts = checkpoint.parts;
         sink.durable_rows = checkpoint.rows;
@@ -476,6 +465,7 @@ impl ParquetSink {
             format: CHECKPOINT_FORMAT.to_owned(),
             param_names: self.param_names.clone(),
             derived_names: self.derived_names.clone(),
+            row_group_rows: self.row_group_rows,
             parts: self.durable_parts,
             rows: self.durable_rows,
             steps: self.steps,
