@@ -271,14 +271,17 @@ pub(super) fn read_part_footer(path: &Path) -> Result<(ArrowSchema, u64), Storag
     Ok((schema, metadata.num_rows as u64))
 }
 
-/// Reads a whole part: its schema and each column, row groups concatenated.
-fn read_part(path: &Path) -> Result<(ArrowSchema, Vec<Vec<Box<dyn Array>>>), StorageError> {
+/// One column of a part: one array per row group.
+type ColumnArrays = Vec<Box<dyn Array>>;
+
+/// Reads a whole part: its schema and each column as row-group arrays.
+fn read_part(path: &Path) -> Result<(ArrowSchema, Vec<ColumnArrays>), StorageError> {
     let bytes = fs::read(path).map_err(|e| StorageError::io("read", path, e))?;
     let data = MemSlice::from_vec(bytes);
     let metadata = read_metadata(&mut MemReader::new(data.clone()))
         .map_err(|e| StorageError::parquet(path, e))?;
     let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(path, e))?;
-    let mut columns: Vec<Vec<Box<dyn Array>>> = vec![Vec::new(); schema.len()];
+    let mut columns: Vec<ColumnArrays> = vec![Vec::new(); schema.len()];
     for group in &metadata.row_groups {
         for (field, arrays) in schema.iter_values().zip(&mut columns) {
             let chunks = group.columns_under_root_iter(&field.name).ok_or_else(|| {
@@ -307,10 +310,7 @@ fn read_part(path: &Path) -> Result<(ArrowSchema, Vec<Vec<Box<dyn Array>>>), Sto
 }
 
 /// The values of a column read as row-group arrays of `T` without nulls.
-fn as_values<T: NativeType>(
-    path: &Path,
-    arrays: Vec<Box<dyn Array>>,
-) -> Result<Vec<T>, StorageError> {
+fn as_values<T: NativeType>(path: &Path, arrays: ColumnArrays) -> Result<Vec<T>, StorageError> {
     let mut values = Vec::with_capacity(arrays.iter().map(|a| a.len()).sum());
     for array in &arrays {
         let typed = array
