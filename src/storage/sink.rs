@@ -1,0 +1,706 @@
+//! The streaming Parquet writer behind [`ChainSink`], and resuming it after a kill.
+
+use std::fs::{self, File};
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use polars_arrow::array::{Array, PrimitiveArray};
+use polars_arrow::datatypes::ArrowSchema;
+use polars_arrow::record_batch::RecordBatchT;
+use polars_parquet::write::{
+    CompressionOptions, Encoding, FileWriter, RowGroupIterator, StatisticsOptions, Version,
+    WriteOptions,
+};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use super::io::{sync_dir, write_atomically};
+use super::read::{chains_schema, check_schema, read_part_footer};
+use super::{
+    is_leftover_name, parse_part_name, part_name, partial_name, ChainSink, StepView, StorageError,
+    CHAINS_DIR, CHECKPOINT_FILE, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
+};
+
+/// Tag of the checkpoint format, checked on resume.
+const CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
+
+/// How a [`ParquetSink`] writes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SinkOptions {
+    /// Rows buffered in memory before they are written as one Parquet row group; bounds the
+    /// memory of the sink. At least 1. The default (65 536 rows, 4 MiB for 8 value columns)
+    /// keeps row groups large enough for fast reading.
+    pub row_group_rows: usize,
+    /// Whether [`ParquetSink::create`] may delete the chains and checkpoint of an earlier run
+    /// in the same directory (other files there are left alone).
+    pub overwrite: bool,
+}
+
+impl Default for SinkOptions {
+    fn default() -> Self {
+        Self {
+            row_group_rows: 65_536,
+            overwrite: false,
+        }
+    }
+}
+
+/// Content of `checkpoint.json`.
+#[derive(Debug, Serialize, Deserialize)]
+struct CheckpointFile {
+    format: String,
+    param_names: Vec<String>,
+    derived_names: Vec<String>,
+    /// Rows per row group, kept so that a resumed run groups rows as the original did.
+    row_group_rows: usize,
+    /// Complete parts `part-000000 .. part-(parts-1)` that belong to the run.
+    parts: u64,
+    /// Rows in those parts.
+    rows: u64,
+    /// One past the largest step recorded in those parts: where a resumed run continues.
+    steps: u64,
+    finished: bool,
+    /// The sampler state given to the last checkpoint (null when none was given).
+    state: serde_json::Value,
+}
+
+/// Rows waiting to be written, column by column; never more than one row group.
+#[derive(Debug)]
+struct RowBuffer {
+    ensemble: Vec<u32>,
+    walker: Vec<u32>,
+    step: Vec<u64>,
+    /// Parameters, then log-density, then derived values.
+    values: Vec<Vec<f64>>,
+}
+
+impl RowBuffer {
+    fn with_capacity(rows: usize, value_columns: usize) -> Self {
+        Self {
+            ensemble: Vec::with_capacity(rows),
+            walker: Vec::with_capacity(rows),
+            step: Vec::with_capacity(rows),
+            values: (0..value_columns)
+                .map(|_| Vec::with_capacity(rows))
+                .collect(),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.step.len()
+    }
+
+    fn capacity(&self) -> usize {
+        let index = self
+            .ensemble
+            .capacity()
+            .max(self.walker.capacity())
+            .max(self.step.capacity());
+        self.values
+            .iter()
+            .map(Vec::capacity)
+            .fold(index, usize::max)
+    }
+
+    /// Moves the rows out as Arrow arrays, leaving an empty buffer of the same capacity.
+    fn take_arrays(&mut self, rows: usize) -> Vec<Box<dyn Array>> {
+        let fresh = Self::with_capacity(rows, self.values.len());
+        let full = std::mem::replace(self, fresh);
+        let mut arrays: Vec<Box<dyn Array>> = Vec::with_capacity(3 + full.values.len());
+        arrays.push(PrimitiveArray::from_vec(full.ensemble).boxed());
+        arrays.push(PrimitiveArray::from_vec(full.walker).boxed());
+        arrays.push(PrimitiveArray::from_vec(full.step).boxed());
+        for column in full.values {
+            arrays.push(PrimitiveArray::from_vec(column).boxed());
+        }
+        arrays
+    }
+}
+
+/// The part being written: a `.partial` file in the run directory.
+struct OpenPart {
+    index: u64,
+    path: PathBuf,
+    writer: FileWriter<BufWriter<File>>,
+    rows: u64,
+}
+
+/// Streams chains to Parquet parts in a run directory and checkpoints them with the sampler
+/// state (see the [module documentation](super) for the layout).
+pub struct ParquetSink {
+    dir: PathBuf,
+    param_names: Vec<String>,
+    derived_names: Vec<String>,
+    schema: Arc<ArrowSchema>,
+    row_group_rows: usize,
+    buffer: RowBuffer,
+    part: Option<OpenPart>,
+    durable_parts: u64,
+    durable_rows: u64,
+    rows: u64,
+    steps: u64,
+    last_state: serde_json::Value,
+}
+
+impl std::fmt::Debug for ParquetSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ParquetSink")
+            .field("dir", &self.dir)
+            .field("param_names", &self.param_names)
+            .field("derived_names", &self.derived_names)
+            .field("row_group_rows", &self.row_group_rows)
+            .field("buffered_rows", &self.buffer.len())
+            .field("open_part", &self.part.as_ref().map(|p| p.index))
+            .field("durable_parts", &self.durable_parts)
+            .field("rows", &self.rows)
+            .field("steps", &self.steps)
+            .finish()
+    }
+}
+
+impl ParquetSink {
+    /// Starts a new run in `dir` (created if needed) with one f64 column per parameter and per
+    /// derived value, named as given.
+    ///
+    /// # Errors
+    /// [`StorageError::InvalidName`] for empty, duplicate or reserved names
+    /// (`ensemble`, `walker`, `step`, `log_density`);
+    /// [`StorageError::InvalidRowGroupSize`] for a zero row-group size;
+    /// [`StorageError::CompletedRunExists`] or [`StorageError::UnfinishedRunExists`] when `dir`
+    /// holds chains or a checkpoint and [`SinkOptions::overwrite`] is off;
+    /// [`StorageError::Io`] when the directory cannot be prepared.
+    pub fn create(
+        dir: &Path,
+        param_names: &[String],
+        derived_names: &[String],
+        options: SinkOptions,
+    ) -> Result<Self, StorageError> {
+        validate_names(param_names, derived_names)?;
+        if options.row_group_rows == 0 {
+            return Err(StorageError::InvalidRowGroupSize { rows: 0 });
+        }
+        fs::create_dir_all(dir).map_err(|e| StorageError::io("create directory", dir, e))?;
+        let chains_dir = dir.join(CHAINS_DIR);
+        let existing = existing_run(dir)?;
+        if let Some(finished) = existing {
+            if !options.overwrite {
+                let dir = dir.to_path_buf();
+                return Err(if finished {
+                    StorageError::CompletedRunExists { dir }
+                } else {
+                    StorageError::UnfinishedRunExists { dir }
+                });
+            }
+            remove_run(dir)?;
+        }
+        fs::create_dir_all(&chains_dir)
+            .map_err(|e| StorageError::io("create directory", &chains_dir, e))?;
+        sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
+        Ok(Self::new(
+            dir,
+            param_names.to_vec(),
+            derived_names.to_vec(),
+            options.row_group_rows,
+        ))
+    }
+
+    /// Reopens the run in `dir` at its last checkpoint: removes `.partial` and temporary files
+    /// and every part written after the checkpoint, checks the kept parts against the
+    /// checkpoint, and returns the sink positioned to continue with the saved sampler state.
+    /// The next step to record is [`ParquetSink::steps`]; rows are grouped as in the original
+    /// run, so a resumed run writes the same files as an uninterrupted one.
+    ///
+    /// # Errors
+    /// [`StorageError::NoCheckpoint`] when `dir` has no `checkpoint.json`;
+    /// [`StorageError::AlreadyFinished`] when the run finished;
+    /// [`StorageError::BadCheckpoint`] when the checkpoint or its state cannot be parsed as `S`;
+    /// [`StorageError::SchemaMismatch`] or [`StorageError::Inconsistent`] when the kept parts
+    /// do not match the checkpoint; [`StorageError::Io`] on file-system errors.
+    pub fn resume<S: DeserializeOwned>(dir: &Path) -> Result<(Self, S), StorageError> {
+        let checkpoint_path = dir.join(CHECKPOINT_FILE);
+        let checkpoint = match read_checkpoint(&checkpoint_path)? {
+            Some(c) => c,
+            None => {
+                return Err(StorageError::NoCheckpoint {
+                    dir: dir.to_path_buf(),
+                })
+            }
+        };
+        if checkpoint.finished {
+            return Err(StorageError::AlreadyFinished {
+                dir: dir.to_path_buf(),
+            });
+        }
+        validate_names(&checkpoint.param_names, &checkpoint.derived_names)?;
+        let state: S = serde_json::from_value(checkpoint.state.clone()).map_err(|source| {
+            StorageError::BadCheckpoint {
+                path: checkpoint_path.clone(),
+                source,
+            }
+        })?;
+
+        remove_leftovers(dir)?;
+        let chains_dir = dir.join(CHAINS_DIR);
+        let mut present = Vec::new();
+        for (index, path) in list_parts(&chains_dir)? {
+            if index >= checkpoint.parts {
+                // Written after the checkpoint by the killed run: the resumed run rewrites it.
+                fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
+            } else {
+                present.push(index);
+            }
+        }
+        sync_dir(&chains_dir).map_err(|e| StorageError::io("sync directory", &chains_dir, e))?;
+        sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
+
+        let inconsistent = |problem: String| StorageError::Inconsistent {
+            dir: dir.to_path_buf(),
+            problem,
+        };
+        if let Some(missing) = (0..checkpoint.parts).find(|i| present.binary_search(i).is_err()) {
+            return Err(inconsistent(format!(
+                "{} lists {} parts but {} is missing",
+                CHECKPOINT_FILE,
+                checkpoint.parts,
+                part_name(missing)
+            )));
+        }
+        let expected = chains_schema(&checkpoint.param_names, &checkpoint.derived_names);
+        let mut rows = 0u64;
+        for index in 0..checkpoint.parts {
+            let path = chains_dir.join(part_name(index));
+            let (schema, part_rows) = read_part_footer(&path)?;
+            check_schema(&path, &schema, &expected)?;
+            rows += part_rows;
+        }
+        if rows != checkpoint.rows {
+            return Err(inconsistent(format!(
+                "{} records {} rows but its {} parts hold {}",
+                CHECKPOINT_FILE, checkpoint.rows, checkpoint.parts, rows
+            )));
+        }
+
+        let mut sink = Self::new(
+            dir,
+            checkpoint.param_names,
+            checkpoint.derived_names,
+            checkpoint.row_group_rows.max(1),
+        );
+        sink.durable_parts = checkpoint.parts;
+        sink.durable_rows = checkpoint.rows;
+        sink.rows = checkpoint.rows;
+        sink.steps = checkpoint.steps;
+        sink.last_state = checkpoint.state;
+        Ok((sink, state))
+    }
+
+    fn new(
+        dir: &Path,
+        param_names: Vec<String>,
+        derived_names: Vec<String>,
+        row_group_rows: usize,
+    ) -> Self {
+        let schema = Arc::new(chains_schema(&param_names, &derived_names));
+        let value_columns = param_names.len() + 1 + derived_names.len();
+        Self {
+            dir: dir.to_path_buf(),
+            buffer: RowBuffer::with_capacity(row_group_rows, value_columns),
+            param_names,
+            derived_names,
+            schema,
+            row_group_rows,
+            part: None,
+            durable_parts: 0,
+            durable_rows: 0,
+            rows: 0,
+            steps: 0,
+            last_state: serde_json::Value::Null,
+        }
+    }
+
+    /// Checks that this run stores exactly these parameter and derived columns, e.g. that a
+    /// resumed run belongs to the model being sampled.
+    ///
+    /// # Errors
+    /// [`StorageError::SchemaMismatch`] naming the checkpoint and both column lists.
+    pub fn check_columns(
+        &self,
+        param_names: &[String],
+        derived_names: &[String],
+    ) -> Result<(), StorageError> {
+        if self.param_names == param_names && self.derived_names == derived_names {
+            return Ok(());
+        }
+        let list = |p: &[String], d: &[String]| {
+            let mut v = p.to_vec();
+            v.push(LOG_DENSITY_COLUMN.to_owned());
+            v.extend_from_slice(d);
+            v
+        };
+        Err(StorageError::SchemaMismatch {
+            path: self.dir.join(CHECKPOINT_FILE),
+            expected: list(param_names, derived_names),
+            found: list(&self.param_names, &self.derived_names),
+        })
+    }
+
+    /// The run directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Names of the parameter columns.
+    pub fn param_names(&self) -> &[String] {
+        &self.param_names
+    }
+
+    /// Names of the derived columns.
+    pub fn derived_names(&self) -> &[String] {
+        &self.derived_names
+    }
+
+    /// One past the largest step recorded (after a resume: the step to record next).
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Rows recorded, durable or not.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// Rows made durable by the last checkpoint.
+    pub fn durable_rows(&self) -> u64 {
+        self.durable_rows
+    }
+
+    /// Complete parts in `chains/`.
+    pub fn durable_parts(&self) -> u64 {
+        self.durable_parts
+    }
+
+    /// Rows buffered in memory, not yet written to the part file.
+    pub fn buffered_rows(&self) -> usize {
+        self.buffer.len()
+    }
+
+    /// Largest capacity, in rows, of the in-memory buffers: the sink's memory is bounded by
+    /// this times the number of columns, and it never exceeds [`SinkOptions::row_group_rows`].
+    pub fn buffer_capacity_rows(&self) -> usize {
+        self.buffer.capacity()
+    }
+
+    /// Closes the last part and marks the run finished in `checkpoint.json`, keeping the state
+    /// of the last checkpoint.
+    ///
+    /// # Errors
+    /// When the last part or the checkpoint cannot be written.
+    pub fn finish(mut self) -> Result<(), StorageError> {
+        self.close_part()?;
+        self.write_checkpoint(true)
+    }
+
+    /// Writes the buffered rows as one row group of the open part, opening it if needed.
+    fn flush_row_group(&mut self) -> Result<(), StorageError> {
+        let rows = self.buffer.len();
+        if rows == 0 {
+            return Ok(());
+        }
+        let part = match &mut self.part {
+            Some(part) => part,
+            slot => slot.insert(open_part(&self.dir, self.durable_parts, &self.schema)?),
+        };
+        let arrays = self.buffer.take_arrays(self.row_group_rows);
+        let path = part.path.clone();
+        let batch = RecordBatchT::try_new(rows, Arc::clone(&self.schema), arrays)
+            .map_err(|e| StorageError::parquet(&path, e))?;
+        let encodings = vec![vec![Encoding::Plain]; self.schema.len()];
+        let groups = RowGroupIterator::try_new(
+            std::iter::once(Ok(batch)),
+            &self.schema,
+            part.writer.options(),
+            encodings,
+        )
+        .map_err(|e| StorageError::parquet(&path, e))?;
+        for group in groups {
+            let group = group.map_err(|e| StorageError::parquet(&path, e))?;
+            part.writer
+                .write(group)
+                .map_err(|e| StorageError::parquet(&path, e))?;
+        }
+        part.rows += rows as u64;
+        Ok(())
+    }
+
+    /// Makes the open part complete and durable under its final name in `chains/`.
+    fn close_part(&mut self) -> Result<(), StorageError> {
+        self.flush_row_group()?;
+        let Some(mut part) = self.part.take() else {
+            return Ok(());
+        };
+        let path = part.path;
+        part.writer
+            .end(None)
+            .map_err(|e| StorageError::parquet(&path, e))?;
+        let file = part
+            .writer
+            .into_inner()
+            .into_inner()
+            .map_err(|e| StorageError::io("write", &path, e.into_error()))?;
+        file.sync_all()
+            .map_err(|e| StorageError::io("sync", &path, e))?;
+        drop(file);
+        let chains_dir = self.dir.join(CHAINS_DIR);
+        let target = chains_dir.join(part_name(part.index));
+        fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))?;
+        sync_dir(&chains_dir).map_err(|e| StorageError::io("sync directory", &chains_dir, e))?;
+        self.durable_parts += 1;
+        self.durable_rows += part.rows;
+        Ok(())
+    }
+
+    fn write_checkpoint(&self, finished: bool) -> Result<(), StorageError> {
+        let checkpoint = CheckpointFile {
+            format: CHECKPOINT_FORMAT.to_owned(),
+            param_names: self.param_names.clone(),
+            derived_names: self.derived_names.clone(),
+            row_group_rows: self.row_group_rows,
+            parts: self.durable_parts,
+            rows: self.durable_rows,
+            steps: self.steps,
+            finished,
+            state: self.last_state.clone(),
+        };
+        let path = self.dir.join(CHECKPOINT_FILE);
+        let mut bytes = serde_json::to_vec_pretty(&checkpoint).map_err(StorageError::State)?;
+        bytes.push(b'\n');
+        write_atomically(&path, &bytes).map_err(|e| StorageError::io("write", &path, e))
+    }
+}
+
+impl ChainSink for ParquetSink {
+    type Error = StorageError;
+
+    fn record(&mut self, view: &StepView<'_>) -> Result<(), StorageError> {
+        let walkers = view.walkers();
+        let nparam = self.param_names.len();
+        let nderived = self.derived_names.len();
+        let shape = |what, got, per_walker| StorageError::ShapeMismatch {
+            ensemble: view.ensemble,
+            step: view.step,
+            what,
+            got,
+            expected: walkers * per_walker,
+            walkers,
+            per_walker,
+        };
+        if view.ndim != nparam || view.positions.len() != walkers * nparam {
+            return Err(shape("positions", view.positions.len(), nparam));
+        }
+        if view.derived.len() != walkers * nderived {
+            return Err(shape("derived", view.derived.len(), nderived));
+        }
+        let ensemble = u32::try_from(view.ensemble).map_err(|_| StorageError::IndexOverflow {
+            what: ENSEMBLE_COLUMN,
+            value: view.ensemble,
+        })?;
+        if walkers > 0 && u32::try_from(walkers - 1).is_err() {
+            return Err(StorageError::IndexOverflow {
+                what: WALKER_COLUMN,
+                value: walkers - 1,
+            });
+        }
+        for w in 0..walkers {
+            let buffer = &mut self.buffer;
+            buffer.ensemble.push(ensemble);
+            // Checked above: every walker index fits.
+            buffer.walker.push(w as u32);
+            buffer.step.push(view.step);
+            let (params, rest) = buffer.values.split_at_mut(nparam);
+            for (column, &x) in params
+                .iter_mut()
+                .zip(&view.positions[w * nparam..(w + 1) * nparam])
+            {
+                column.push(x);
+            }
+            rest[0].push(view.log_density[w]);
+            for (column, &x) in rest[1..]
+                .iter_mut()
+                .zip(&view.derived[w * nderived..(w + 1) * nderived])
+            {
+                column.push(x);
+            }
+            if buffer.len() >= self.row_group_rows {
+                self.flush_row_group()?;
+            }
+        }
+        self.rows += walkers as u64;
+        if walkers > 0 {
+            self.steps = self.steps.max(view.step.saturating_add(1));
+        }
+        Ok(())
+    }
+
+    fn checkpoint<S: Serialize>(&mut self, state: &S) -> Result<(), StorageError> {
+        let state = serde_json::to_value(state).map_err(StorageError::State)?;
+        self.close_part()?;
+        self.last_state = state;
+        self.write_checkpoint(false)
+    }
+}
+
+/// Creates the `.partial` file of part `index` and writes its header.
+fn open_part(dir: &Path, index: u64, schema: &ArrowSchema) -> Result<OpenPart, StorageError> {
+    let path = dir.join(partial_name(index));
+    let file = File::create(&path).map_err(|e| StorageError::io("create", &path, e))?;
+    let options = WriteOptions {
+        statistics: StatisticsOptions::default(),
+        version: Version::V2,
+        compression: CompressionOptions::Snappy,
+        data_page_size: None,
+    };
+    let writer = FileWriter::try_new(BufWriter::new(file), schema.clone(), options)
+        .map_err(|e| StorageError::parquet(&path, e))?;
+    Ok(OpenPart {
+        index,
+        path,
+        writer,
+        rows: 0,
+    })
+}
+
+/// Refuses names that cannot be distinct, non-empty column names of the chain table.
+fn validate_names(param_names: &[String], derived_names: &[String]) -> Result<(), StorageError> {
+    let reserved = [
+        ENSEMBLE_COLUMN,
+        WALKER_COLUMN,
+        STEP_COLUMN,
+        LOG_DENSITY_COLUMN,
+    ];
+    let mut seen = std::collections::HashSet::new();
+    for name in param_names.iter().chain(derived_names) {
+        let refuse = |reason| {
+            Err(StorageError::InvalidName {
+                name: name.clone(),
+                reason,
+            })
+        };
+        if name.is_empty() {
+            return refuse("column names must not be empty");
+        }
+        if reserved.contains(&name.as_str()) {
+            return refuse("reserved for an index or the log-density column; rename it");
+        }
+        if !seen.insert(name.as_str()) {
+            return refuse("appears twice among the parameter and derived names");
+        }
+    }
+    Ok(())
+}
+
+/// Reads `checkpoint.json`; `None` when there is none.
+fn read_checkpoint(path: &Path) -> Result<Option<CheckpointFile>, StorageError> {
+    let bytes = match fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(StorageError::io("read", path, e)),
+    };
+    let checkpoint: CheckpointFile =
+        serde_json::from_slice(&bytes).map_err(|source| StorageError::BadCheckpoint {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    if checkpoint.format != CHECKPOINT_FORMAT {
+        return Err(StorageError::BadCheckpoint {
+            path: path.to_path_buf(),
+            source: serde::de::Error::custom(format!(
+                "format {:?}, expected {CHECKPOINT_FORMAT:?}",
+                checkpoint.format
+            )),
+        });
+    }
+    Ok(Some(checkpoint))
+}
+
+/// Whether `dir` holds a run of ours: `Some(finished)`, or `None` when it holds none.
+fn existing_run(dir: &Path) -> Result<Option<bool>, StorageError> {
+    match read_checkpoint(&dir.join(CHECKPOINT_FILE)) {
+        Ok(Some(c)) => return Ok(Some(c.finished)),
+        Ok(None) => {}
+        // An unreadable checkpoint still marks a run; only --overwrite may remove it.
+        Err(StorageError::BadCheckpoint { .. }) => return Ok(Some(false)),
+        Err(e) => return Err(e),
+    }
+    let has_parts = !list_parts(&dir.join(CHAINS_DIR))?.is_empty();
+    let has_leftovers = !list_leftovers(dir)?.is_empty();
+    Ok((has_parts || has_leftovers).then_some(false))
+}
+
+/// Removes the parts, leftovers and checkpoint of an earlier run (nothing else).
+fn remove_run(dir: &Path) -> Result<(), StorageError> {
+    let chains_dir = dir.join(CHAINS_DIR);
+    for (_, path) in list_parts(&chains_dir)? {
+        fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
+    }
+    remove_leftovers(dir)?;
+    let checkpoint = dir.join(CHECKPOINT_FILE);
+    match fs::remove_file(&checkpoint) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(StorageError::io("remove", &checkpoint, e)),
+    }
+    if chains_dir.is_dir() {
+        sync_dir(&chains_dir).map_err(|e| StorageError::io("sync directory", &chains_dir, e))?;
+    }
+    sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))
+}
+
+/// Removes `.partial` parts and temporary files of interrupted writes in `dir` and `chains/`.
+fn remove_leftovers(dir: &Path) -> Result<(), StorageError> {
+    let mut leftovers = list_leftovers(dir)?;
+    leftovers.extend(list_leftovers(&dir.join(CHAINS_DIR))?);
+    for path in leftovers {
+        fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
+    }
+    Ok(())
+}
+
+fn list_leftovers(dir: &Path) -> Result<Vec<PathBuf>, StorageError> {
+    Ok(list_files(dir)?
+        .into_iter()
+        .filter(|(name, _)| is_leftover_name(name))
+        .map(|(_, path)| path)
+        .collect())
+}
+
+/// Complete parts in a chains directory, sorted by number (empty when it does not exist).
+pub(super) fn list_parts(chains_dir: &Path) -> Result<Vec<(u64, PathBuf)>, StorageError> {
+    let mut parts: Vec<(u64, PathBuf)> = list_files(chains_dir)?
+        .into_iter()
+        .filter_map(|(name, path)| parse_part_name(&name).map(|i| (i, path)))
+        .collect();
+    parts.sort_unstable_by_key(|&(i, _)| i);
+    Ok(parts)
+}
+
+/// Regular files of a directory with their UTF-8 names (empty when it does not exist).
+fn list_files(dir: &Path) -> Result<Vec<(String, PathBuf)>, StorageError> {
+    let entries = match fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(StorageError::io("list", dir, e)),
+    };
+    let mut files = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|e| StorageError::io("list", dir, e))?;
+        let is_file = entry
+            .file_type()
+            .map_err(|e| StorageError::io("inspect", &entry.path(), e))?
+            .is_file();
+        if let (true, Some(name)) = (is_file, entry.file_name().to_str()) {
+            files.push((name.to_owned(), entry.path()));
+        }
+    }
+    Ok(files)
+}

@@ -1,0 +1,488 @@
+//! Chain storage: streaming, checkpoints, resuming after a kill, reading back, errors.
+#![cfg(feature = "parquet")]
+
+use std::fs;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use slipbayes::storage::{
+    read_chains, write_atomically, ChainSink, Chains, ParquetSink, SinkOptions, StepView,
+    StorageError,
+};
+
+const ENSEMBLES: usize = 3;
+const WALKERS: usize = 5;
+const TOTAL_STEPS: u64 = 100;
+const CHECKPOINT_EVERY: u64 = 20;
+
+/// What a fake sampler would save: where it stands.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+struct FakeState {
+    next_step: u64,
+    tag: String,
+}
+
+fn params() -> Vec<String> {
+    vec!["alpha".into(), "beta_per_s".into()]
+}
+
+fn derived() -> Vec<String> {
+    vec!["t0_s".into()]
+}
+
+/// SplitMix64: a deterministic value for every (ensemble, walker, step, column).
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A finite double of any magnitude, including subnormals, from a seed.
+fn value(e: usize, w: usize, step: u64, column: usize) -> f64 {
+    let bits = mix(step ^ ((e as u64) << 40) ^ ((w as u64) << 48) ^ ((column as u64) << 56));
+    let x = f64::from_bits(bits);
+    if x.is_finite() {
+        x
+    } else {
+        f64::from_bits(bits >> 12)
+    }
+}
+
+/// One ensemble's step as the sampler would hand it.
+struct FakeStep {
+    positions: Vec<f64>,
+    log_density: Vec<f64>,
+    derived: Vec<f64>,
+}
+
+fn fake_step(e: usize, step: u64) -> FakeStep {
+    let (np, nd) = (params().len(), derived().len());
+    let mut s = FakeStep {
+        positions: Vec::new(),
+        log_density: Vec::new(),
+        derived: Vec::new(),
+    };
+    for w in 0..WALKERS {
+        s.positions.extend((0..np).map(|c| value(e, w, step, c)));
+        s.log_density.push(value(e, w, step, np));
+        s.derived
+            .extend((0..nd).map(|c| value(e, w, step, np + 1 + c)));
+    }
+    s
+}
+
+/// Records steps `from..to` of every ensemble, checkpointing every `CHECKPOINT_EVERY` steps.
+fn produce(sink: &mut ParquetSink, from: u64, to: u64) {
+    for step in from..to {
+        for e in 0..ENSEMBLES {
+            let s = fake_step(e, step);
+            let view = StepView {
+                ensemble: e,
+                step,
+                ndim: params().len(),
+                positions: &s.positions,
+                log_density: &s.log_density,
+                derived: &s.derived,
+            };
+            sink.record(&view).expect("record");
+        }
+        if (step + 1) % CHECKPOINT_EVERY == 0 {
+            let state = FakeState {
+                next_step: step + 1,
+                tag: format!("after {}", step + 1),
+            };
+            sink.checkpoint(&state).expect("checkpoint");
+        }
+    }
+}
+
+fn options(row_group_rows: usize) -> SinkOptions {
+    SinkOptions {
+        row_group_rows,
+        overwrite: false,
+    }
+}
+
+/// The reference: 100 steps written without interruption.
+fn uninterrupted(dir: &Path) -> Chains {
+    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    produce(&mut sink, 0, TOTAL_STEPS);
+    sink.finish().expect("finish");
+    read_chains(dir).expect("read")
+}
+
+fn assert_bit_identical(a: &Chains, b: &Chains) {
+    assert_eq!(a.param_names, b.param_names);
+    assert_eq!(a.derived_names, b.derived_names);
+    assert_eq!(a.ensemble, b.ensemble);
+    assert_eq!(a.walker, b.walker);
+    assert_eq!(a.step, b.step);
+    assert_eq!(a.columns.len(), b.columns.len());
+    for (ca, cb) in a.columns.iter().zip(&b.columns) {
+        let ba: Vec<u64> = ca.iter().map(|x| x.to_bits()).collect();
+        let bb: Vec<u64> = cb.iter().map(|x| x.to_bits()).collect();
+        assert_eq!(ba, bb);
+    }
+}
+
+fn names_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = fs::read_dir(dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+fn part_bytes(dir: &Path) -> Vec<Vec<u8>> {
+    names_in(&dir.join("chains"))
+        .iter()
+        .map(|n| fs::read(dir.join("chains").join(n)).expect("read part"))
+        .collect()
+}
+
+#[test]
+fn uninterrupted_run_reads_back_every_value_in_order() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let chains = uninterrupted(tmp.path());
+    assert_eq!(chains.len(), TOTAL_STEPS as usize * ENSEMBLES * WALKERS);
+    assert_eq!(
+        chains.column_names(),
+        vec!["alpha", "beta_per_s", "log_density", "t0_s"]
+    );
+    assert_eq!(
+        names_in(&tmp.path().join("chains")),
+        (0..5)
+            .map(|i| format!("part-{i:06}.parquet"))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(names_in(tmp.path()), vec!["chains", "checkpoint.json"]);
+    // Row order: step, then ensemble, then walker; values as produced.
+    let mut row = 0;
+    for step in 0..TOTAL_STEPS {
+        for e in 0..ENSEMBLES {
+            for w in 0..WALKERS {
+                assert_eq!(chains.step[row], step);
+                assert_eq!(chains.ensemble[row] as usize, e);
+                assert_eq!(chains.walker[row] as usize, w);
+                for (c, column) in chains.columns.iter().enumerate() {
+                    assert_eq!(column[row].to_bits(), value(e, w, step, c).to_bits());
+                }
+                row += 1;
+            }
+        }
+    }
+    // The per-chain view the diagnostics use.
+    let beta = chains.series("beta_per_s").expect("series");
+    assert_eq!((beta.len(), beta[0].len()), (ENSEMBLES, WALKERS));
+    for (e, ensemble) in beta.iter().enumerate() {
+        for (w, chain) in ensemble.iter().enumerate() {
+            let expected: Vec<u64> = (0..TOTAL_STEPS)
+                .map(|s| value(e, w, s, 1).to_bits())
+                .collect();
+            let got: Vec<u64> = chain.iter().map(|x| x.to_bits()).collect();
+            assert_eq!(got, expected);
+        }
+    }
+    let lp = chains.column("log_density").expect("log_density");
+    assert_eq!(lp.as_ptr(), chains.log_density().as_ptr());
+    assert!(matches!(
+        chains.column("gamma"),
+        Err(StorageError::ColumnMissing { column, .. }) if column == "gamma"
+    ));
+}
+
+#[test]
+fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
+    let reference_dir = tempfile::tempdir().expect("tmp");
+    let reference = uninterrupted(reference_dir.path());
+
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    produce(&mut sink, 0, 55);
+    assert!(
+        sink.buffered_rows() > 0,
+        "the kill must happen with rows in memory"
+    );
+    drop(sink); // killed: no finish, no checkpoint after step 40
+
+    // The part in progress is visibly partial and outside chains/.
+    assert_eq!(
+        names_in(dir),
+        vec!["chains", "checkpoint.json", "part-000002.parquet.partial"]
+    );
+    assert_eq!(
+        read_chains(dir).expect("read").len(),
+        40 * ENSEMBLES * WALKERS
+    );
+
+    let (mut sink, state) = ParquetSink::resume::<FakeState>(dir).expect("resume");
+    assert_eq!(
+        state,
+        FakeState {
+            next_step: 40,
+            tag: "after 40".into()
+        }
+    );
+    assert_eq!(sink.steps(), 40);
+    assert_eq!(sink.durable_parts(), 2);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    sink.check_columns(&params(), &derived())
+        .expect("same model");
+    produce(&mut sink, state.next_step, TOTAL_STEPS);
+    sink.finish().expect("finish");
+
+    assert_bit_identical(&read_chains(dir).expect("read"), &reference);
+    // Same part boundaries and deterministic encoding: the files themselves are identical.
+    let (resumed, reference) = (part_bytes(dir), part_bytes(reference_dir.path()));
+    assert_eq!(resumed.len(), reference.len());
+    for (i, (a, b)) in resumed.iter().zip(&reference).enumerate() {
+        let first_difference = a.iter().zip(b).position(|(x, y)| x != y);
+        assert!(
+            a.len() == b.len() && first_difference.is_none(),
+            "part {i}: {} vs {} bytes, first difference at {first_difference:?}",
+            a.len(),
+            b.len()
+        );
+    }
+}
+
+#[test]
+fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
+    let reference_dir = tempfile::tempdir().expect("tmp");
+    let reference = uninterrupted(reference_dir.path());
+
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    produce(&mut sink, 0, 40);
+    let checkpoint_at_40 = fs::read(dir.join("checkpoint.json")).expect("checkpoint");
+    produce(&mut sink, 40, 70);
+    drop(sink);
+    // The crash hit checkpoint 60 after part 2 was renamed into chains/ but before
+    // checkpoint.json was replaced: the old checkpoint is still there.
+    fs::write(dir.join("checkpoint.json"), &checkpoint_at_40).expect("restore");
+    // ... and while a new checkpoint was half written, and part 3 half written.
+    fs::write(dir.join(".checkpoint.json.tmp"), b"{\"format\": \"slipb").expect("tmp");
+    let partial = dir.join("part-000003.parquet.partial");
+    let full = fs::read(dir.join("chains/part-000001.parquet")).expect("part");
+    fs::write(&partial, &full[..full.len() / 2]).expect("half part");
+    assert_eq!(
+        names_in(&dir.join("chains")),
+        vec![
+            "part-000000.parquet",
+            "part-000001.parquet",
+            "part-000002.parquet"
+        ]
+    );
+
+    let (mut sink, state) = ParquetSink::resume::<FakeState>(dir).expect("resume");
+    assert_eq!(state.next_step, 40);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    assert_eq!(
+        names_in(&dir.join("chains")),
+        vec!["part-000000.parquet", "part-000001.parquet"]
+    );
+    produce(&mut sink, state.next_step, TOTAL_STEPS);
+    sink.finish().expect("finish");
+    assert_bit_identical(&read_chains(dir).expect("read"), &reference);
+}
+
+#[test]
+fn memory_held_is_one_row_group_whatever_the_run_length() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let row_group_rows = 40; // not a multiple of the 15 rows of a step
+    let mut sink = ParquetSink::create(tmp.path(), &params(), &derived(), options(row_group_rows))
+        .expect("create");
+    let mut max_capacity = 0;
+    for step in 0..400 {
+        for e in 0..ENSEMBLES {
+            let s = fake_step(e, step);
+            sink.record(&StepView {
+                ensemble: e,
+                step,
+                ndim: 2,
+                positions: &s.positions,
+                log_density: &s.log_density,
+                derived: &s.derived,
+            })
+            .expect("record");
+            assert!(sink.buffered_rows() < row_group_rows);
+            max_capacity = max_capacity.max(sink.buffer_capacity_rows());
+        }
+    }
+    // 6000 rows recorded with no checkpoint; the buffers never grew past one row group.
+    assert_eq!(sink.rows(), 400 * (ENSEMBLES * WALKERS) as u64);
+    assert!(max_capacity <= row_group_rows, "capacity {max_capacity}");
+    sink.finish().expect("finish");
+    let chains = read_chains(tmp.path()).expect("read");
+    assert_eq!(chains.len(), 6000);
+}
+
+#[test]
+fn existing_runs_are_protected_and_overwrite_replaces_them() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let _ = uninterrupted(dir);
+    fs::write(dir.join("summary.json"), b"{}").expect("other output");
+
+    let err = ParquetSink::create(dir, &params(), &derived(), options(7)).unwrap_err();
+    assert!(matches!(err, StorageError::CompletedRunExists { .. }));
+    let message = err.to_string();
+    assert!(message.contains("--overwrite") && message.contains(&dir.display().to_string()));
+
+    let err = ParquetSink::resume::<FakeState>(dir).unwrap_err();
+    assert!(matches!(err, StorageError::AlreadyFinished { .. }), "{err}");
+
+    let opts = SinkOptions {
+        row_group_rows: 7,
+        overwrite: true,
+    };
+    let opts = SinkOptions {
+        row_group_rows: 1,
+        ..opts
+    };
+    let mut sink = ParquetSink::create(dir, &["x".to_string()], &[], opts).expect("overwrite");
+    sink.record(&StepView {
+        ensemble: 0,
+        step: 0,
+        ndim: 1,
+        positions: &[1.5, -2.5],
+        log_density: &[-1.0, -2.0],
+        derived: &[],
+    })
+    .expect("record");
+    drop(sink);
+    assert_eq!(
+        names_in(dir),
+        vec!["chains", "part-000000.parquet.partial", "summary.json"]
+    );
+    // Killed before any checkpoint: an unfinished run with nothing to resume.
+    let err = ParquetSink::create(dir, &params(), &derived(), options(7)).unwrap_err();
+    assert!(
+        matches!(err, StorageError::UnfinishedRunExists { .. }),
+        "{err}"
+    );
+    let err = ParquetSink::resume::<FakeState>(dir).unwrap_err();
+    assert!(matches!(err, StorageError::NoCheckpoint { .. }), "{err}");
+    assert!(err.to_string().contains("nothing to resume"));
+    assert!(matches!(
+        read_chains(dir),
+        Err(StorageError::NoChains { .. })
+    ));
+}
+
+#[test]
+fn bad_names_shapes_and_foreign_parts_are_refused() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    for (p, d) in [
+        (vec!["a".to_string(), "a".to_string()], vec![]),
+        (vec!["a".to_string()], vec!["a".to_string()]),
+        (vec!["step".to_string()], vec![]),
+        (vec![String::new()], vec![]),
+        (vec!["a".to_string()], vec!["log_density".to_string()]),
+    ] {
+        let err = ParquetSink::create(dir, &p, &d, options(7)).unwrap_err();
+        assert!(
+            matches!(err, StorageError::InvalidName { .. }),
+            "{p:?} {d:?}"
+        );
+    }
+
+    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    let s = fake_step(0, 0);
+    let wrong_positions = StepView {
+        ensemble: 0,
+        step: 0,
+        ndim: 2,
+        positions: &s.positions[1..],
+        log_density: &s.log_density,
+        derived: &s.derived,
+    };
+    let err = sink.record(&wrong_positions).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            StorageError::ShapeMismatch {
+                what: "positions",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let no_derived = StepView {
+        derived: &[],
+        positions: &s.positions,
+        ..wrong_positions
+    };
+    let err = sink.record(&no_derived).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            StorageError::ShapeMismatch {
+                what: "derived",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let err = sink
+        .check_columns(&["alpha".to_string()], &derived())
+        .unwrap_err();
+    assert!(matches!(err, StorageError::SchemaMismatch { .. }), "{err}");
+    produce(&mut sink, 0, 20);
+    drop(sink);
+
+    // A part of another model slipped in: resuming and reading both refuse it.
+    let other_dir = tempfile::tempdir().expect("tmp");
+    let mut other = ParquetSink::create(other_dir.path(), &["gamma".to_string()], &[], options(7))
+        .expect("create");
+    other
+        .record(&StepView {
+            ensemble: 0,
+            step: 0,
+            ndim: 1,
+            positions: &[1.0],
+            log_density: &[0.0],
+            derived: &[],
+        })
+        .expect("record");
+    other.checkpoint(&0u8).expect("checkpoint");
+    let foreign = other_dir.path().join("chains/part-000000.parquet");
+    fs::copy(&foreign, dir.join("chains/part-000001.parquet")).expect("copy");
+    assert!(matches!(
+        read_chains(dir),
+        Err(StorageError::SchemaMismatch { .. })
+    ));
+    fs::copy(&foreign, dir.join("chains/part-000000.parquet")).expect("copy");
+    let err = ParquetSink::resume::<FakeState>(dir).unwrap_err();
+    assert!(matches!(err, StorageError::SchemaMismatch { .. }), "{err}");
+
+    // A state of another sampler does not parse.
+    let err = ParquetSink::resume::<Vec<String>>(other_dir.path()).unwrap_err();
+    assert!(matches!(err, StorageError::BadCheckpoint { .. }), "{err}");
+}
+
+#[test]
+fn missing_part_is_reported() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let _ = uninterrupted(dir);
+    fs::remove_file(dir.join("chains/part-000001.parquet")).expect("remove");
+    let err = read_chains(dir).unwrap_err();
+    assert!(matches!(err, StorageError::Inconsistent { .. }), "{err}");
+    assert!(err.to_string().contains("part-000001.parquet"));
+}
+
+#[test]
+fn write_atomically_is_public_and_replaces_files() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let path = tmp.path().join("report.md");
+    write_atomically(&path, b"# one").expect("write");
+    write_atomically(&path, b"# two").expect("write");
+    assert_eq!(fs::read(&path).expect("read"), b"# two");
+    assert_eq!(names_in(tmp.path()), vec!["report.md"]);
+}
