@@ -7,9 +7,13 @@
 //!
 //! This module knows nothing of the friction law.
 
+pub mod atomic;
+
+pub use atomic::write_atomically;
+
 use std::fmt::Write as _;
 use std::fs;
-use std::io::{self, Write as _};
+use std::io;
 use std::path::{Path, PathBuf};
 
 /// Column names of the simple CSV format.
@@ -223,41 +227,6 @@ impl Series {
     }
 }
 
-/// Writes `bytes` to `path` so that `path` either keeps its old content or holds all of the
-/// new: the bytes go to a temporary file in the same directory, are flushed to disk, and the
-/// file is renamed over `path`.
-///
-/// # Errors
-/// Any I/O error; the temporary file is removed on failure.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path has no file name"))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp = dir.join(tmp_name);
-    let result = (|| {
-        let mut file = fs::File::create(&tmp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        fs::rename(&tmp, path)?;
-        // Make the rename itself durable where the platform allows syncing a directory.
-        if let Ok(d) = fs::File::open(dir) {
-            let _ = d.sync_all();
-        }
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -298,16 +267,5 @@ mod tests {
     fn wrong_header_is_rejected() {
         let err = Series::parse_csv("t,F\n0,1\n", Path::new("x.csv")).unwrap_err();
         assert!(err.to_string().contains("expected `time_s,force_N`"));
-    }
-
-    #[test]
-    fn atomic_write_replaces_whole_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("out.txt");
-        write_atomically(&p, b"first").unwrap();
-        write_atomically(&p, b"second").unwrap();
-        assert_eq!(fs::read(&p).unwrap(), b"second");
-        let leftovers: Vec<_> = fs::read_dir(dir.path()).unwrap().collect();
-        assert_eq!(leftovers.len(), 1, "no temporary file may remain");
     }
 }

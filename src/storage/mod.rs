@@ -34,14 +34,14 @@
 //! Memory held by a sink is one row group of buffered rows plus per-row-group footer metadata,
 //! whatever the length of the run.
 
-mod io;
 mod read;
 mod sink;
 
+use crate::data::atomic as io;
 use std::path::{Path, PathBuf};
 
+pub use crate::data::write_atomically;
 pub use crate::sampler::sink::{ChainSink, StepView};
-pub use io::write_atomically;
 pub use read::{read_chains, Chains};
 pub use sink::{ParquetSink, SinkOptions};
 

@@ -15,12 +15,12 @@ use polars_parquet::write::{
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use super::io::{sync_dir, write_atomically};
 use super::read::{chains_schema, check_schema, read_part_footer};
 use super::{
     is_leftover_name, parse_part_name, part_name, partial_name, ChainSink, StepView, StorageError,
     CHAINS_DIR, CHECKPOINT_FILE, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
 };
+use crate::data::atomic::{sync_dir, write_atomically};
 
 /// Tag of the checkpoint format, checked on resume.
 const CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";

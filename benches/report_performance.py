@@ -1,0 +1,35 @@
+#!/usr/bin/env python3
+"""Turn criterion's estimates for `cargo bench --bench law` into a markdown table.
+
+Usage: python3 benches/report_performance.py [target/criterion]
+Prints nanoseconds per point (median of criterion's estimate) and the ratio to the exp floor
+measured in the same run.
+"""
+import json
+import os
+import sys
+
+root = sys.argv[1] if len(sys.argv) > 1 else os.path.join("target", "criterion")
+POINTS = 5000
+rows = [
+    ("exp_floor", "one f64::exp per point (floor)", None),
+    ("scaled_ei", "S(x) = e^-x Ei(x) per call", 10.0),
+    ("law_force", "F(tau) per point", None),
+    ("observed_model", "observed-time model per point (5,000-point slow first slide)", 40.0),
+]
+
+
+def median_ns(name):
+    path = os.path.join(root, "per_point", name, "new", "estimates.json")
+    with open(path) as f:
+        est = json.load(f)
+    return est["median"]["point_estimate"] / POINTS
+
+
+floor = median_ns("exp_floor")
+print("| benchmark | ns per point | ratio to exp floor | target |")
+print("|---|---:|---:|---:|")
+for name, label, target in rows:
+    ns = median_ns(name)
+    t = f"<= {target:g}x" if target else ""
+    print(f"| {label} | {ns:.2f} | {ns / floor:.2f} | {t} |")
