@@ -85,8 +85,8 @@ impl ObservedSlide {
         }
         let mut previous_time = f64::NEG_INFINITY;
         for (index, &time) in times.iter().enumerate() {
-            // Written so that NaN fails too.
-            if !(time > previous_time) {
+            // NaN fails this comparison too.
+            if time.partial_cmp(&previous_time) != Some(std::cmp::Ordering::Greater) {
                 return Err(LawError::UnsortedTimes { index, time });
             }
             previous_time = time;
