@@ -18,6 +18,7 @@ pub mod cli;
 pub mod data;
 pub mod diagnostics;
 pub mod law;
+pub mod model;
 pub mod prec;
 pub mod sampler;
 pub mod simulate;
