@@ -149,6 +149,8 @@ fn assert_within(what: &str, estimate: f64, truth: f64, mcse: f64, k: f64) {
         "{what}: MCSE {mcse} is not a usable error"
     );
     let z = (estimate - truth) / mcse;
+    // Shown with --nocapture: how far off each estimate is, in MCSE.
+    println!("{what}: {estimate:.5} vs {truth:.5} ({z:+.2} MCSE)");
     assert!(
         z.abs() < k,
         "{what}: estimate {estimate} vs truth {truth}, {z:.2} MCSE off"

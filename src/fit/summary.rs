@@ -533,7 +533,7 @@ fn quantity_problems(label: &str, s: &Stats, ensembles: usize, problems: &mut Ve
         None => {}
     }
     for (what, ess) in [("bulk", s.ess_bulk), ("tail", s.ess_tail)] {
-        if !(ess > ESS_MIN) {
+        if ess.is_nan() || ess <= ESS_MIN {
             problems.push(format!("{label}: ESS {what} {ess:.0} < {ESS_MIN:.0}"));
         }
     }
