@@ -1,6 +1,8 @@
 //! The command-line front end. `main` parses arguments, dispatches to one command, and prints
 //! an error once with its chain of causes. All real work lives in the library.
 
+#[cfg(feature = "parquet")]
+mod fit;
 pub mod progress;
 mod simulate;
 
@@ -18,6 +20,13 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Run the main job: fit the bundled data (models/demo.toml) into reports/demo/.
+    #[cfg(feature = "parquet")]
+    Demo(fit::DemoArgs),
+    /// Fit a model file, or one contact's first and repeat slides, and write a run directory.
+    #[cfg(feature = "parquet")]
+    Fit(fit::FitArgs),
+    /// Simulate a slide from known parameters (CSV + JSON of the true values).
     Simulate(simulate::SimulateArgs),
 }
 
@@ -38,6 +47,10 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
+        #[cfg(feature = "parquet")]
+        Command::Demo(args) => fit::demo(&args),
+        #[cfg(feature = "parquet")]
+        Command::Fit(args) => fit::run(&args),
         Command::Simulate(args) => simulate::run(&args),
     }
 }

@@ -72,13 +72,13 @@ pub const DEFAULT_INTERVAL_PROB: f64 = 0.95;
 /// `(ensemble << 32) | walker`, far from this one.
 pub const INIT_STREAM: u64 = u64::MAX;
 
-/// Whether a quantity is a sampled parameter or a derived value ("blob").
+/// Whether a quantity is reported as a model parameter or as a derived value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum QuantityKind {
-    /// A column of [`LogDensity::param_names`].
+    /// A parameter (the `parameters` list of `summary.json`).
     Parameter,
-    /// A column of [`LogDensity::derived_names`].
+    /// A derived quantity (the `derived` list).
     Derived,
 }
 
@@ -104,7 +104,7 @@ pub struct Quantity {
     pub group: String,
     /// Unit, for humans (e.g. `"N"`, `"1/m"`); may be empty.
     pub unit: String,
-    /// Where the column lives.
+    /// The list it is reported in (its column may be a coordinate or a derived value).
     pub kind: QuantityKind,
 }
 

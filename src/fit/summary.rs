@@ -227,20 +227,14 @@ impl Plan {
         }
         let mut seen = HashSet::new();
         for q in quantities {
-            let (own, other, own_kind, other_kind) = match q.kind {
-                QuantityKind::Parameter => (param_names, derived_names, "parameter", "derived"),
-                QuantityKind::Derived => (derived_names, param_names, "derived", "parameter"),
-            };
-            if !own.contains(&q.column) {
-                let hint = if other.contains(&q.column) {
-                    format!("it is a {other_kind} column: set its kind to {other_kind}")
-                } else {
-                    format!("the {own_kind} columns are {own:?}")
-                };
+            // The kind decides the list a quantity is reported in; its column may be a
+            // sampled coordinate or a derived value (e.g. a parameter in SI units computed
+            // from its log-scale coordinate).
+            if !param_names.contains(&q.column) && !derived_names.contains(&q.column) {
                 return Err(spec(
                     "quantity",
                     format!(
-                        "{} reads {own_kind} column {:?}, which the density does not have; {hint}",
+                        "{} reads column {:?}, which the density does not have; its columns are {param_names:?} and {derived_names:?}",
                         q.label(),
                         q.column
                     ),

@@ -72,18 +72,31 @@ impl RunData {
             let line = i + 2;
             let (t, f) = (series.time_s[i], series.force_n[i]);
             if !t.is_finite() {
-                return Err(unusable(line, format!("time_s = {t} is not finite; remove the row or fix the value")));
+                return Err(unusable(
+                    line,
+                    format!("time_s = {t} is not finite; remove the row or fix the value"),
+                ));
             }
             if !f.is_finite() {
-                return Err(unusable(line, format!("force_N = {f} is not finite; remove the row or fix the value")));
+                return Err(unusable(
+                    line,
+                    format!("force_N = {f} is not finite; remove the row or fix the value"),
+                ));
             }
             if let Some(normal) = &series.normal_force_n {
                 if !normal[i].is_finite() {
-                    return Err(unusable(line, format!("normal_force_N = {} is not finite", normal[i])));
+                    return Err(unusable(
+                        line,
+                        format!("normal_force_N = {} is not finite", normal[i]),
+                    ));
                 }
             }
             if i > 0 && t <= series.time_s[i - 1] {
-                let what = if t < series.time_s[i - 1] { "before" } else { "equal to" };
+                let what = if t < series.time_s[i - 1] {
+                    "before"
+                } else {
+                    "equal to"
+                };
                 return Err(unusable(
                     line,
                     format!(
@@ -96,19 +109,29 @@ impl RunData {
         }
         let end_time = series.time_s.last().copied();
         let keep: Vec<usize> = match window {
-            Some([a, b]) => (0..n).filter(|&i| series.time_s[i] >= a && series.time_s[i] <= b).collect(),
+            Some([a, b]) => (0..n)
+                .filter(|&i| series.time_s[i] >= a && series.time_s[i] <= b)
+                .collect(),
             None => (0..n).collect(),
         };
         if keep.len() < MIN_POINTS {
-            let within = window.map_or(String::new(), |[a, b]| format!(" within the window [{a}, {b}] s"));
+            let within = window.map_or(String::new(), |[a, b]| {
+                format!(" within the window [{a}, {b}] s")
+            });
             return Err(unusable(
                 1,
-                format!("{} points{within}; a run needs at least {MIN_POINTS} to be fitted", keep.len()),
+                format!(
+                    "{} points{within}; a run needs at least {MIN_POINTS} to be fitted",
+                    keep.len()
+                ),
             ));
         }
         let mut model_times: Vec<f64> = keep.iter().map(|&i| series.time_s[i]).collect();
         let force = keep.iter().map(|&i| series.force_n[i]).collect();
-        let normal_force = series.normal_force_n.as_ref().map(|v| keep.iter().map(|&i| v[i]).collect());
+        let normal_force = series
+            .normal_force_n
+            .as_ref()
+            .map(|v| keep.iter().map(|&i| v[i]).collect());
         let n_obs = model_times.len();
         if scene == Scene::First {
             if let Some(end) = end_time {
@@ -166,7 +189,13 @@ impl RunData {
             .windows(w)
             .map(|s| s.iter().sum::<f64>())
             .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (i, v)| if v > best.1 { (i, v) } else { best });
+            .fold((0, f64::NEG_INFINITY), |best, (i, v)| {
+                if v > best.1 {
+                    (i, v)
+                } else {
+                    best
+                }
+            });
         self.times()[i + w / 2]
     }
 
@@ -181,8 +210,14 @@ impl RunData {
     pub fn initial_slope(&self) -> f64 {
         let half = 0.5 * self.late_level();
         let t = self.times();
-        let idx: Vec<usize> = (0..self.n_obs).take_while(|&i| self.force[i] < half).collect();
-        let idx = if idx.len() < 3 { (0..self.n_obs.min(10)).collect() } else { idx };
+        let idx: Vec<usize> = (0..self.n_obs)
+            .take_while(|&i| self.force[i] < half)
+            .collect();
+        let idx = if idx.len() < 3 {
+            (0..self.n_obs.min(10)).collect()
+        } else {
+            idx
+        };
         let n = idx.len() as f64;
         let mt = idx.iter().map(|&i| t[i]).sum::<f64>() / n;
         let mf = idx.iter().map(|&i| self.force[i]).sum::<f64>() / n;

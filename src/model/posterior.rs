@@ -74,7 +74,11 @@ struct Coord {
 enum T0Source {
     Direct(usize),
     /// ln t0 = x[mu] + exp(x[ln_s]) x[z].
-    Pooled { mu: usize, ln_s: usize, z: usize },
+    Pooled {
+        mu: usize,
+        ln_s: usize,
+        z: usize,
+    },
 }
 
 /// A run with its data and the coordinates of its parameters.
@@ -186,7 +190,11 @@ impl Posterior {
         let mut populations: Vec<Population> = Vec::new();
         let mut runs = Vec::with_capacity(n_runs);
         for (i, run) in spec.file.runs.iter().enumerate() {
-            let coord_of = |p: Param, coords: &mut Vec<Coord>, columns: &mut Vec<Column>, index: &mut std::collections::BTreeMap<(Param, u8, usize), usize>| -> usize {
+            let coord_of = |p: Param,
+                            coords: &mut Vec<Coord>,
+                            columns: &mut Vec<Column>,
+                            index: &mut std::collections::BTreeMap<(Param, u8, usize), usize>|
+             -> usize {
                 let level = spec.level(p);
                 let (level, g) = group_of(spec, level, i);
                 *index.entry((p, level_key(level), g)).or_insert_with(|| {
@@ -212,8 +220,10 @@ impl Posterior {
             };
             let scene = run.scene;
             let uses = |p: Param| p.used_by(scene);
-            let alpha = uses(Param::Alpha).then(|| coord_of(Param::Alpha, &mut coords, &mut columns, &mut index));
-            let a = uses(Param::A).then(|| coord_of(Param::A, &mut coords, &mut columns, &mut index));
+            let alpha = uses(Param::Alpha)
+                .then(|| coord_of(Param::Alpha, &mut coords, &mut columns, &mut index));
+            let a =
+                uses(Param::A).then(|| coord_of(Param::A, &mut coords, &mut columns, &mut index));
             let f_d = coord_of(Param::FD, &mut coords, &mut columns, &mut index);
             let t0 = if !uses(Param::T0) {
                 None
@@ -256,30 +266,38 @@ impl Posterior {
                 };
                 // One z per t0 group (run or contact).
                 let (level, g) = group_of(spec, spec.level(Param::T0), i);
-                let z = *index.entry((Param::T0, level_key(level), g)).or_insert_with(|| {
-                    let group = group_name(spec, level, g);
-                    coords.push(Coord {
-                        name: format!("z_t0[{group}]"),
-                        prior: CoordPrior::StdNormal,
+                let z = *index
+                    .entry((Param::T0, level_key(level), g))
+                    .or_insert_with(|| {
+                        let group = group_name(spec, level, g);
+                        coords.push(Coord {
+                            name: format!("z_t0[{group}]"),
+                            prior: CoordPrior::StdNormal,
+                        });
+                        columns.push(Column {
+                            column: format!("t0[{group}]"),
+                            name: "t0".into(),
+                            group,
+                            unit: "s".into(),
+                            kind: Kind::Parameter,
+                        });
+                        coords.len() - 1
                     });
-                    columns.push(Column {
-                        column: format!("t0[{group}]"),
-                        name: "t0".into(),
-                        group,
-                        unit: "s".into(),
-                        kind: Kind::Parameter,
-                    });
-                    coords.len() - 1
-                });
                 Some(T0Source::Pooled {
                     mu: pop.mu,
                     ln_s: pop.ln_s,
                     z,
                 })
             } else {
-                Some(T0Source::Direct(coord_of(Param::T0, &mut coords, &mut columns, &mut index)))
+                Some(T0Source::Direct(coord_of(
+                    Param::T0,
+                    &mut coords,
+                    &mut columns,
+                    &mut index,
+                )))
             };
-            let k = uses(Param::K).then(|| coord_of(Param::K, &mut coords, &mut columns, &mut index));
+            let k =
+                uses(Param::K).then(|| coord_of(Param::K, &mut coords, &mut columns, &mut index));
             let sigma = coord_of(Param::Sigma, &mut coords, &mut columns, &mut index);
             let contact = spec.run_contact[i];
             let normal_force = spec.file.contacts[contact]
@@ -354,7 +372,12 @@ impl Posterior {
             if r.scene == Scene::Repeat {
                 continue;
             }
-            for (name, unit) in [("F_peak", "N"), ("tau_peak", "s"), ("s_peak", "m"), ("t_peak", "s")] {
+            for (name, unit) in [
+                ("F_peak", "N"),
+                ("tau_peak", "s"),
+                ("s_peak", "m"),
+                ("t_peak", "s"),
+            ] {
                 columns.push(Column {
                     column: format!("{name}[{}]", r.name),
                     name: name.into(),
@@ -386,7 +409,9 @@ impl Posterior {
             }
         }
         // Evaluation order: runs that are followed first.
-        let mut order: Vec<usize> = (0..n_runs).filter(|&i| runs[i].scene != Scene::Repeat).collect();
+        let mut order: Vec<usize> = (0..n_runs)
+            .filter(|&i| runs[i].scene != Scene::Repeat)
+            .collect();
         order.extend((0..n_runs).filter(|&i| runs[i].scene == Scene::Repeat));
         let mut z_t0 = vec![None; coords.len()];
         for r in &runs {
@@ -418,6 +443,20 @@ impl Posterior {
         &self.columns
     }
 
+    /// Each sampled coordinate with a sentence describing its prior.
+    pub fn prior_descriptions(&self) -> Vec<(String, String)> {
+        self.coords
+            .iter()
+            .map(|c| {
+                let d = match &c.prior {
+                    CoordPrior::Log(p) => format!("ln of a parameter with prior {}", p.describe()),
+                    CoordPrior::StdNormal => "standard normal (non-centred pooled t0)".to_string(),
+                };
+                (c.name.clone(), d)
+            })
+            .collect()
+    }
+
     /// Material names.
     pub fn materials(&self) -> &[String] {
         &self.materials
@@ -443,7 +482,11 @@ impl Posterior {
             set(&mut natural, r.sigma, d.noise_estimate());
             let late = d.late_level();
             let peak = d.max_force();
-            let f_d = if r.scene == Scene::Repeat { late } else { late.min(peak) };
+            let f_d = if r.scene == Scene::Repeat {
+                late
+            } else {
+                late.min(peak)
+            };
             set(&mut natural, r.f_d, f_d);
             if let Some(k) = r.k {
                 let slope = d.initial_slope();
@@ -573,7 +616,9 @@ impl Posterior {
             match c.prior {
                 CoordPrior::Log(_) => out.push(x[i].exp()),
                 // The column of a z is the t0 it makes.
-                CoordPrior::StdNormal => out.push(self.z_t0[i].map_or(f64::NAN, |s| Self::t0_of(x, s))),
+                CoordPrior::StdNormal => {
+                    out.push(self.z_t0[i].map_or(f64::NAN, |s| Self::t0_of(x, s)))
+                }
             }
         }
         // a per contact (ratio parameterisation).
@@ -618,7 +663,9 @@ impl Posterior {
         }
         for p in &self.populations {
             let m = p.material;
-            let (Some((a, is_ratio)), Some(v)) = (self.material_aging[m], self.material_velocity[m]) else {
+            let (Some((a, is_ratio)), Some(v)) =
+                (self.material_aging[m], self.material_velocity[m])
+            else {
                 continue;
             };
             let alpha = self
@@ -628,7 +675,11 @@ impl Posterior {
                 .and_then(|r| r.alpha)
                 .map_or(f64::NAN, |i| x[i].exp());
             let f_d = self.mean_fd(x, m);
-            let a_val = if is_ratio { x[a].exp() * f_d } else { x[a].exp() };
+            let a_val = if is_ratio {
+                x[a].exp() * f_d
+            } else {
+                x[a].exp()
+            };
             // A new contact's t0 from the material's population, with a standard-normal draw
             // made a deterministic function of the draw itself so that the sampler stays
             // reproducible; hashing the bits makes it independent of the parameter values.

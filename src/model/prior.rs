@@ -81,7 +81,12 @@ impl Prior {
                     return bad("low/high", "must be finite with 0 < low < high");
                 }
             }
-            Self::Normal { mean, sd, low, high } => {
+            Self::Normal {
+                mean,
+                sd,
+                low,
+                high,
+            } => {
                 if !finite(mean) {
                     return bad("mean", "must be finite");
                 }
@@ -94,7 +99,12 @@ impl Prior {
                     }
                 }
             }
-            Self::LogNormal { median, sd_log, low, high } => {
+            Self::LogNormal {
+                median,
+                sd_log,
+                low,
+                high,
+            } => {
                 if !(finite(median) && median > 0.0) {
                     return bad("median", "must be finite and > 0");
                 }
@@ -201,21 +211,44 @@ mod tests {
     #[test]
     fn log_scale_densities_with_jacobian_are_normalised() {
         let ln_range = (1e9_f64 / 1e3).ln();
-        let lu = Prior::LogUniform { low: 1e3, high: 1e9 };
+        let lu = Prior::LogUniform {
+            low: 1e3,
+            high: 1e9,
+        };
         // ln_density omits the normalising constant ln(ln(high/low)).
         assert!((mass_on_log_scale(&lu, 1e3, 1e9) / ln_range - 1.0).abs() < 1e-9);
-        let ln = Prior::LogNormal { median: 2.0, sd_log: 0.5, low: None, high: None };
-        assert!((mass_on_log_scale(&ln, 2.0 * (-6.0_f64).exp(), 2.0 * 6.0_f64.exp()) - 1.0).abs() < 1e-6);
-        let hn = Prior::HalfNormal { sd: 3.0, high: None };
+        let ln = Prior::LogNormal {
+            median: 2.0,
+            sd_log: 0.5,
+            low: None,
+            high: None,
+        };
+        assert!(
+            (mass_on_log_scale(&ln, 2.0 * (-6.0_f64).exp(), 2.0 * 6.0_f64.exp()) - 1.0).abs()
+                < 1e-6
+        );
+        let hn = Prior::HalfNormal {
+            sd: 3.0,
+            high: None,
+        };
         let mass = mass_on_log_scale(&hn, 1e-12, 60.0) * (2.0 / std::f64::consts::PI).sqrt();
         assert!((mass - 1.0).abs() < 1e-6, "{mass}");
     }
 
     #[test]
     fn bounds_reject() {
-        let p = Prior::Uniform { low: 0.0, high: 1.0 };
+        let p = Prior::Uniform {
+            low: 0.0,
+            high: 1.0,
+        };
         assert!(p.ln_density(1.5).is_infinite());
         assert!(p.ln_density(f64::NAN).is_infinite());
-        assert!(Prior::LogUniform { low: 0.0, high: 1.0 }.validate("k").unwrap_err().contains("k"));
+        assert!(Prior::LogUniform {
+            low: 0.0,
+            high: 1.0
+        }
+        .validate("k")
+        .unwrap_err()
+        .contains("k"));
     }
 }

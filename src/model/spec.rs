@@ -67,7 +67,14 @@ pub enum Param {
 
 impl Param {
     /// All parameters, in reporting order.
-    pub const ALL: [Param; 6] = [Self::Alpha, Self::A, Self::FD, Self::T0, Self::K, Self::Sigma];
+    pub const ALL: [Param; 6] = [
+        Self::Alpha,
+        Self::A,
+        Self::FD,
+        Self::T0,
+        Self::K,
+        Self::Sigma,
+    ];
 
     /// The name used in files and summaries.
     pub fn name(self) -> &'static str {
@@ -292,7 +299,10 @@ pub fn default_prior(name: &str) -> Option<Prior> {
             low: Some(1e-9),
             high: Some(1e4),
         }),
-        "t0_pop_log_sd" => Some(Prior::HalfNormal { sd: 1.0, high: Some(5.0) }),
+        "t0_pop_log_sd" => Some(Prior::HalfNormal {
+            sd: 1.0,
+            high: Some(5.0),
+        }),
         _ => None,
     }
 }
@@ -360,7 +370,11 @@ impl ModelSpec {
     ///
     /// # Errors
     /// [`SpecError::Invalid`] naming the key.
-    pub fn validate(file: ModelFile, base_dir: PathBuf, source: PathBuf) -> Result<Self, SpecError> {
+    pub fn validate(
+        file: ModelFile,
+        base_dir: PathBuf,
+        source: PathBuf,
+    ) -> Result<Self, SpecError> {
         let invalid = |key: String, message: String| SpecError::Invalid {
             path: source.clone(),
             key,
@@ -372,32 +386,52 @@ impl ModelSpec {
                 "a model needs at least one [[material]], one [[contact]] and one [[run]]".into(),
             ));
         }
-        unique_names(file.materials.iter().map(|m| m.name.as_str()), "material").map_err(|(k, m)| invalid(k, m))?;
-        unique_names(file.contacts.iter().map(|c| c.name.as_str()), "contact").map_err(|(k, m)| invalid(k, m))?;
-        unique_names(file.runs.iter().map(|r| r.name.as_str()), "run").map_err(|(k, m)| invalid(k, m))?;
+        unique_names(file.materials.iter().map(|m| m.name.as_str()), "material")
+            .map_err(|(k, m)| invalid(k, m))?;
+        unique_names(file.contacts.iter().map(|c| c.name.as_str()), "contact")
+            .map_err(|(k, m)| invalid(k, m))?;
+        unique_names(file.runs.iter().map(|r| r.name.as_str()), "run")
+            .map_err(|(k, m)| invalid(k, m))?;
         let mut contact_material = Vec::new();
         for (i, c) in file.contacts.iter().enumerate() {
-            let m = file.materials.iter().position(|m| m.name == c.material).ok_or_else(|| {
-                invalid(
-                    format!("contact[{i}].material"),
-                    format!("no [[material]] named `{}`; declare it or fix the name", c.material),
-                )
-            })?;
+            let m = file
+                .materials
+                .iter()
+                .position(|m| m.name == c.material)
+                .ok_or_else(|| {
+                    invalid(
+                        format!("contact[{i}].material"),
+                        format!(
+                            "no [[material]] named `{}`; declare it or fix the name",
+                            c.material
+                        ),
+                    )
+                })?;
             if let Some(f) = c.normal_force_n {
                 if !(f.is_finite() && f > 0.0) {
-                    return Err(invalid(format!("contact[{i}].normal_force_N"), format!("{f} must be a force > 0 in newtons")));
+                    return Err(invalid(
+                        format!("contact[{i}].normal_force_N"),
+                        format!("{f} must be a force > 0 in newtons"),
+                    ));
                 }
             }
             contact_material.push(m);
         }
         let mut run_contact = Vec::new();
         for (i, r) in file.runs.iter().enumerate() {
-            let c = file.contacts.iter().position(|c| c.name == r.contact).ok_or_else(|| {
-                invalid(
-                    format!("run[{i}].contact"),
-                    format!("no [[contact]] named `{}`; declare it or fix the name", r.contact),
-                )
-            })?;
+            let c = file
+                .contacts
+                .iter()
+                .position(|c| c.name == r.contact)
+                .ok_or_else(|| {
+                    invalid(
+                        format!("run[{i}].contact"),
+                        format!(
+                            "no [[contact]] named `{}`; declare it or fix the name",
+                            r.contact
+                        ),
+                    )
+                })?;
             let v = r.velocity_m_per_s;
             if !(v.is_finite() && v > 0.0) {
                 return Err(invalid(
@@ -407,7 +441,10 @@ impl ModelSpec {
             }
             if let Some([a, b]) = r.window_s {
                 if !(a.is_finite() && b.is_finite() && a < b) {
-                    return Err(invalid(format!("run[{i}].window_s"), format!("[{a}, {b}] must be [start, end] with start < end (s)")));
+                    return Err(invalid(
+                        format!("run[{i}].window_s"),
+                        format!("[{a}, {b}] must be [start, end] with start < end (s)"),
+                    ));
                 }
             }
             run_contact.push(c);
@@ -416,9 +453,16 @@ impl ModelSpec {
         for (i, r) in file.runs.iter().enumerate() {
             let follows = match (r.scene, &r.follows) {
                 (Scene::Repeat, Some(name)) => {
-                    let j = file.runs.iter().position(|o| &o.name == name).ok_or_else(|| {
-                        invalid(format!("run[{i}].follows"), format!("no [[run]] named `{name}`"))
-                    })?;
+                    let j = file
+                        .runs
+                        .iter()
+                        .position(|o| &o.name == name)
+                        .ok_or_else(|| {
+                            invalid(
+                                format!("run[{i}].follows"),
+                                format!("no [[run]] named `{name}`"),
+                            )
+                        })?;
                     if file.runs[j].scene != Scene::First || run_contact[j] != run_contact[i] {
                         return Err(invalid(
                             format!("run[{i}].follows"),
@@ -427,10 +471,14 @@ impl ModelSpec {
                     }
                     Some(j)
                 }
-                (Scene::Repeat, None) => (0..file.runs.len())
-                    .find(|&j| file.runs[j].scene == Scene::First && run_contact[j] == run_contact[i]),
+                (Scene::Repeat, None) => (0..file.runs.len()).find(|&j| {
+                    file.runs[j].scene == Scene::First && run_contact[j] == run_contact[i]
+                }),
                 (_, Some(_)) => {
-                    return Err(invalid(format!("run[{i}].follows"), "only a repeat slide follows another run".into()))
+                    return Err(invalid(
+                        format!("run[{i}].follows"),
+                        "only a repeat slide follows another run".into(),
+                    ))
                 }
                 (_, None) => None,
             };
@@ -440,10 +488,15 @@ impl ModelSpec {
             if !PRIOR_NAMES.contains(&name.as_str()) {
                 return Err(invalid(
                     format!("priors.{name}"),
-                    format!("unknown parameter; priors can be given for {}", PRIOR_NAMES.join(", ")),
+                    format!(
+                        "unknown parameter; priors can be given for {}",
+                        PRIOR_NAMES.join(", ")
+                    ),
                 ));
             }
-            prior.validate(name).map_err(|m| invalid(format!("priors.{name}"), m))?;
+            prior
+                .validate(name)
+                .map_err(|m| invalid(format!("priors.{name}"), m))?;
             if !prior.positive_support() {
                 return Err(invalid(
                     format!("priors.{name}"),
@@ -453,15 +506,26 @@ impl ModelSpec {
                 ));
             }
         }
-        if file.pooling.t0 && file.levels.get(&Param::T0).copied().unwrap_or(Level::Run) == Level::Material {
-            return Err(invalid("pooling.t0".into(), "t0 pooled within a material needs t0 at the contact or run level".into()));
+        if file.pooling.t0
+            && file.levels.get(&Param::T0).copied().unwrap_or(Level::Run) == Level::Material
+        {
+            return Err(invalid(
+                "pooling.t0".into(),
+                "t0 pooled within a material needs t0 at the contact or run level".into(),
+            ));
         }
         let s = &file.sampler;
         if s.ensembles == 0 {
-            return Err(invalid("sampler.ensembles".into(), "need at least 1 ensemble (4 recommended, for R-hat)".into()));
+            return Err(invalid(
+                "sampler.ensembles".into(),
+                "need at least 1 ensemble (4 recommended, for R-hat)".into(),
+            ));
         }
         if s.steps == Some(0) || s.max_steps == 0 || s.checkpoint_every == 0 {
-            return Err(invalid("sampler".into(), "steps, max_steps and checkpoint_every must be > 0".into()));
+            return Err(invalid(
+                "sampler".into(),
+                "steps, max_steps and checkpoint_every must be > 0".into(),
+            ));
         }
         Ok(Self {
             file,
@@ -475,7 +539,11 @@ impl ModelSpec {
 
     /// Level of a parameter.
     pub fn level(&self, p: Param) -> Level {
-        self.file.levels.get(&p).copied().unwrap_or(p.default_level())
+        self.file
+            .levels
+            .get(&p)
+            .copied()
+            .unwrap_or(p.default_level())
     }
 
     /// Prior of a named quantity: the model file's, else the default.
@@ -485,7 +553,10 @@ impl ModelSpec {
             .get(name)
             .cloned()
             .or_else(|| default_prior(name))
-            .unwrap_or(Prior::LogUniform { low: 1e-300, high: 1e300 })
+            .unwrap_or(Prior::LogUniform {
+                low: 1e-300,
+                high: 1e300,
+            })
     }
 
     /// Absolute path of a run's data file.
@@ -494,14 +565,23 @@ impl ModelSpec {
     }
 }
 
-fn unique_names<'a>(names: impl Iterator<Item = &'a str>, what: &str) -> Result<(), (String, String)> {
+fn unique_names<'a>(
+    names: impl Iterator<Item = &'a str>,
+    what: &str,
+) -> Result<(), (String, String)> {
     let mut seen = HashSet::new();
     for (i, n) in names.enumerate() {
         if n.trim().is_empty() || n.contains(['[', ']', ',']) {
-            return Err((format!("{what}[{i}].name"), format!("`{n}` must be non-empty and free of `[`, `]` and `,`")));
+            return Err((
+                format!("{what}[{i}].name"),
+                format!("`{n}` must be non-empty and free of `[`, `]` and `,`"),
+            ));
         }
         if !seen.insert(n) {
-            return Err((format!("{what}[{i}].name"), format!("`{n}` is used twice; {what} names must be unique")));
+            return Err((
+                format!("{what}[{i}].name"),
+                format!("`{n}` is used twice; {what} names must be unique"),
+            ));
         }
     }
     Ok(())

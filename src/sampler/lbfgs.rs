@@ -54,7 +54,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Minimises `f` from `start`. `f` may return +∞ or NaN for points it refuses; the line
 /// search backs off from them. Returns the best point and its value.
-pub fn lbfgs<F: FnMut(&[f64]) -> f64>(mut f: F, start: &[f64], options: &LbfgsOptions) -> (Vec<f64>, f64) {
+pub fn lbfgs<F: FnMut(&[f64]) -> f64>(
+    mut f: F,
+    start: &[f64],
+    options: &LbfgsOptions,
+) -> (Vec<f64>, f64) {
     let n = start.len();
     let mut f = |x: &[f64]| {
         let v = f(x);
@@ -174,7 +178,10 @@ mod tests {
     fn finds_the_rosenbrock_minimum() {
         let rosen = |x: &[f64]| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2);
         let (x, f) = lbfgs(rosen, &[-1.2, 1.0], &LbfgsOptions::default());
-        assert!((x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5, "{x:?} {f}");
+        assert!(
+            (x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5,
+            "{x:?} {f}"
+        );
     }
 
     #[test]

@@ -1,0 +1,325 @@
+//! `slipbayes fit` and `slipbayes demo`: a model file (or the one-contact quick path) in, a run
+//! directory with chains, summaries and the exact model out.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use serde::Serialize;
+
+use crate::data::write_atomically;
+use crate::fit::{run_fit, ComparisonSpec, FitOutcome, FitSettings, Quantity, QuantityKind};
+use crate::law::Scene;
+use crate::model::spec::{
+    ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
+};
+use crate::model::{Kind, ModelSpec, Posterior};
+use crate::sampler::{LogDensity, Steps, StopRule};
+
+use super::progress::ProgressBarObserver;
+
+/// Fit a model to friction data and write a run directory.
+///
+/// Either a model file (`slipbayes fit models/demo.toml --out runs/demo`) or the one-contact
+/// quick path that needs no model file:
+///   slipbayes fit --first FIRST.csv [--repeat REPEAT.csv] --velocity 1e-9 --out DIR
+/// The run directory gets `summary.json`, `summary.csv`, `chains/` (Parquet), `model.toml`
+/// (the exact model fitted), `settings.json`, and `predictive.csv` (posterior predictive
+/// bands). A killed fit continues with `--resume` and ends with the same chains.
+#[derive(Debug, Args)]
+#[command(verbatim_doc_comment)]
+pub(super) struct FitArgs {
+    /// Model file (TOML); omit to use the quick path flags.
+    model: Option<PathBuf>,
+    /// Output (run) directory.
+    #[arg(long)]
+    out: PathBuf,
+    /// Quick path: CSV of a first slide (`time_s,force_N[,normal_force_N]`).
+    #[arg(long, conflicts_with = "model")]
+    first: Option<PathBuf>,
+    /// Quick path: CSV of the repeat slide that followed it.
+    #[arg(long, requires = "first")]
+    repeat: Option<PathBuf>,
+    /// Quick path: sliding velocity (m/s).
+    #[arg(long)]
+    velocity: Option<f64>,
+    /// Quick path: the first slide is fast and declared stiff (no elastic correction).
+    #[arg(long, requires = "first")]
+    stiff: bool,
+    /// Quick path: normal force (N), for μ_s.
+    #[arg(long = "normal-force")]
+    normal_force: Option<f64>,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+/// Settings shared by `fit` and `demo`.
+#[derive(Debug, Args)]
+pub(super) struct RunArgs {
+    /// Seed (overrides the model file's).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Walkers per ensemble (default: the model file's, else max(32, 2·dim + 4)).
+    #[arg(long)]
+    walkers: Option<usize>,
+    /// Fixed number of steps (default: the model file's, else run until converged).
+    #[arg(long)]
+    steps: Option<u64>,
+    /// Step cap when running until converged.
+    #[arg(long = "max-steps")]
+    max_steps: Option<u64>,
+    /// Continue a killed fit in the output directory.
+    #[arg(long)]
+    resume: bool,
+    /// Replace an earlier fit in the output directory.
+    #[arg(long)]
+    overwrite: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`.
+#[derive(Debug, Args)]
+pub(super) struct DemoArgs {
+    /// The demo model file.
+    #[arg(long, default_value = "models/demo.toml")]
+    model: PathBuf,
+    /// Output directory.
+    #[arg(long, default_value = "reports/demo")]
+    out: PathBuf,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+/// What `settings.json` records: enough to re-run the fit exactly.
+#[derive(Debug, Serialize)]
+struct RunRecord<'a> {
+    slipbayes_version: &'static str,
+    command: Vec<String>,
+    model_file: String,
+    settings: &'a FitSettings,
+    dimension: usize,
+    sampled_coordinates: Vec<String>,
+    priors: Vec<(String, String)>,
+}
+
+pub(super) fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
+    let spec = match (&args.model, &args.first) {
+        (Some(path), None) => ModelSpec::load(path)?,
+        (None, Some(first)) => quick_model(args, first)?,
+        (None, None) => {
+            bail!("give a model file, or --first FIRST.csv for the one-contact quick path")
+        }
+        (Some(_), Some(_)) => bail!("give either a model file or --first, not both"),
+    };
+    fit_and_report(&spec, &args.out, &args.run)
+}
+
+pub(super) fn demo(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    let spec = ModelSpec::load(&args.model)?;
+    fit_and_report(&spec, &args.out, &args.run)
+}
+
+/// The one-contact model of the quick path: groups `first`, `repeat` (runs) and `contact`.
+fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
+    let Some(velocity) = args.velocity else {
+        bail!("--velocity is required with --first (m/s, e.g. 1e-9 for 1 nm/s)");
+    };
+    let absolute = |p: &Path| -> anyhow::Result<PathBuf> {
+        std::path::absolute(p).with_context(|| format!("resolving {}", p.display()))
+    };
+    let mut runs = vec![RunSpec {
+        name: "first".into(),
+        contact: "contact".into(),
+        data: absolute(first)?,
+        velocity_m_per_s: velocity,
+        scene: if args.stiff {
+            Scene::StiffFast
+        } else {
+            Scene::First
+        },
+        window_s: None,
+        follows: None,
+    }];
+    if let Some(repeat) = &args.repeat {
+        if args.stiff {
+            bail!("--repeat needs a first slide with the elastic correction; drop --stiff");
+        }
+        runs.push(RunSpec {
+            name: "repeat".into(),
+            contact: "contact".into(),
+            data: absolute(repeat)?,
+            velocity_m_per_s: velocity,
+            scene: Scene::Repeat,
+            window_s: None,
+            follows: Some("first".into()),
+        });
+    }
+    let levels = [(Param::Alpha, Level::Contact), (Param::A, Level::Contact)]
+        .into_iter()
+        .collect();
+    let file = ModelFile {
+        materials: vec![MaterialSpec {
+            name: "material".into(),
+        }],
+        contacts: vec![ContactSpec {
+            name: "contact".into(),
+            material: "material".into(),
+            normal_force_n: args.normal_force,
+        }],
+        runs,
+        levels,
+        aging: Default::default(),
+        pooling: PoolingSpec::default(),
+        priors: Default::default(),
+        sampler: SamplerSpec::default(),
+    };
+    Ok(ModelSpec::validate(
+        file,
+        PathBuf::from("."),
+        PathBuf::from("<command line>"),
+    )?)
+}
+
+fn settings_for(spec: &ModelSpec, dim: usize, run: &RunArgs) -> FitSettings {
+    let s = &spec.file.sampler;
+    let walkers = run
+        .walkers
+        .or(s.walkers)
+        .unwrap_or_else(|| (2 * dim + 4).max(32).next_multiple_of(2));
+    let max_steps = run.max_steps.unwrap_or(s.max_steps);
+    let steps = match run.steps.or(s.steps) {
+        Some(n) => Steps::Fixed(n),
+        None => Steps::UntilConverged(StopRule::new(max_steps)),
+    };
+    FitSettings {
+        walkers,
+        ensembles: s.ensembles,
+        seed: run.seed.unwrap_or(s.seed),
+        steps,
+        checkpoint_every: Some(s.checkpoint_every),
+        quiet: run.quiet,
+        overwrite: run.overwrite,
+        ..FitSettings::default()
+    }
+}
+
+fn fit_and_report(spec: &ModelSpec, out: &Path, run: &RunArgs) -> anyhow::Result<ExitCode> {
+    let posterior = Posterior::new(spec)?;
+    let quantities: Vec<Quantity> = posterior
+        .columns()
+        .iter()
+        .map(|c| Quantity {
+            column: c.column.clone(),
+            name: c.name.clone(),
+            group: c.group.clone(),
+            unit: c.unit.clone(),
+            kind: match c.kind {
+                Kind::Parameter => QuantityKind::Parameter,
+                Kind::Derived => QuantityKind::Derived,
+            },
+        })
+        .collect();
+    let materials = posterior.materials().to_vec();
+    let comparisons = ComparisonSpec {
+        names: if materials.len() >= 2 {
+            ["alpha", "a", "a_over_F_d", "F_peak_new"]
+                .map(String::from)
+                .to_vec()
+        } else {
+            Vec::new()
+        },
+        groups: materials,
+    };
+    let settings = settings_for(spec, posterior.dim(), run);
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut observer = ProgressBarObserver::new(run.quiet);
+    let outcome = run_fit(
+        &posterior,
+        &quantities,
+        &comparisons,
+        posterior.start(),
+        &settings,
+        out,
+        run.resume,
+        &mut observer,
+    )?;
+    write_record(spec, &posterior, &settings, out)?;
+    print_summary(&outcome);
+    Ok(if outcome.summary.sampler.converged {
+        ExitCode::SUCCESS
+    } else {
+        // Results are written, but not trustworthy yet: say so in the exit code too.
+        ExitCode::from(2)
+    })
+}
+
+fn write_record(
+    spec: &ModelSpec,
+    posterior: &Posterior,
+    settings: &FitSettings,
+    out: &Path,
+) -> anyhow::Result<()> {
+    let model_toml = toml::to_string_pretty(&spec.file).context("serialising the model")?;
+    let header = format!(
+        "# The exact model fitted (from {}); data paths are relative to {}.\n",
+        spec.source.display(),
+        spec.base_dir.display()
+    );
+    write_atomically(
+        &out.join("model.toml"),
+        format!("{header}{model_toml}").as_bytes(),
+    )
+    .with_context(|| format!("writing {}", out.join("model.toml").display()))?;
+    let record = RunRecord {
+        slipbayes_version: env!("CARGO_PKG_VERSION"),
+        command: std::env::args().collect(),
+        model_file: spec.source.display().to_string(),
+        settings,
+        dimension: posterior.dim(),
+        sampled_coordinates: posterior.param_names(),
+        priors: posterior.prior_descriptions(),
+    };
+    let json = serde_json::to_string_pretty(&record)?;
+    write_atomically(&out.join("settings.json"), json.as_bytes())
+        .with_context(|| format!("writing {}", out.join("settings.json").display()))?;
+    Ok(())
+}
+
+fn print_summary(outcome: &FitOutcome) {
+    let s = &outcome.summary;
+    println!(
+        "{:<32} {:>12} {:>12} {:>12} {:>7} {:>8} {:>8}",
+        "quantity", "median", "ci_low", "ci_high", "r_hat", "ess_bulk", "ess_tail"
+    );
+    for q in s.parameters.iter().chain(&s.derived) {
+        let st = &q.stats;
+        println!(
+            "{:<32} {:>12.4e} {:>12.4e} {:>12.4e} {:>7.4} {:>8.0} {:>8.0}",
+            format!("{}[{}] ({})", q.name, q.group, q.unit),
+            st.median,
+            st.ci_low,
+            st.ci_high,
+            st.r_hat.unwrap_or(f64::NAN),
+            st.ess_bulk,
+            st.ess_tail
+        );
+    }
+    for c in &s.comparisons {
+        println!(
+            "P({}[{}] > {}[{}]) = {:.3}",
+            c.name, c.group_a, c.name, c.group_b, c.p_a_greater
+        );
+    }
+    let m = &s.sampler;
+    println!(
+        "sampler: {} ensembles × {} walkers × {} steps (burn-in {}, thin {}), acceptance {:.3}, τ_max {:.1}, {} evaluations, {:.1} s; converged: {}",
+        m.ensembles, m.walkers, m.steps, m.burn_in, m.thin, m.acceptance, m.tau_max.unwrap_or(f64::NAN), m.log_density_evals, m.wall_s, m.converged
+    );
+    for p in &m.problems {
+        println!("  problem: {p}");
+    }
+    println!("written to {}", outcome.paths.dir.display());
+}
