@@ -222,16 +222,22 @@ fn fit_and_report(spec: &ModelSpec, out: &Path, run: &RunArgs) -> anyhow::Result
             },
         })
         .collect();
+    // Compare materials on what the model reports per material.
     let materials = posterior.materials().to_vec();
+    let per_material = |name: &str| {
+        quantities
+            .iter()
+            .filter(|q| q.name == name && materials.contains(&q.group))
+            .count()
+            >= 2
+    };
     let comparisons = ComparisonSpec {
-        names: if materials.len() >= 2 {
-            ["alpha", "a", "a_over_F_d", "F_peak_new"]
-                .map(String::from)
-                .to_vec()
-        } else {
-            Vec::new()
-        },
-        groups: materials,
+        names: ["alpha", "a", "a_over_F_d", "F_peak_new"]
+            .into_iter()
+            .filter(|n| per_material(n))
+            .map(String::from)
+            .collect(),
+        groups: materials.clone(),
     };
     let settings = settings_for(spec, posterior.dim(), run);
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;

@@ -16,10 +16,39 @@ use super::data::RunData;
 use super::prior::Prior;
 use super::spec::{Aging, Level, ModelSpec, Param};
 use crate::law::{Elastic, Law, LawError, ObservedSlide, RepeatSlide, Scene};
-use crate::sampler::{LogDensity, LogDensityError};
+use crate::sampler::{nelder_mead, LogDensity, LogDensityError, NelderMeadOptions};
 
 /// Log of √(2π).
 const LN_SQRT_2PI: f64 = 0.918_938_533_204_672_8;
+
+/// Most runs a model may have (the likelihood keeps per-run scratch on the stack).
+pub const MAX_RUNS: usize = 256;
+
+/// ln ∫ N(residuals | 0, σ²) p(σ) dσ for a log-uniform p(σ) on [low, high], given the sum of
+/// squared residuals and their number:
+/// −n ln√(2π) + ln Γ(n/2) − ln 2 − (n/2) ln(SSR/2) − ln ln(high/low) + ln[P(n/2, SSR/(2low²))
+/// − P(n/2, SSR/(2high²))], P the regularised lower incomplete gamma function (the truncation
+/// to the prior's bounds). `None` when the posterior of σ lies outside the bounds.
+fn marginal_sigma_log_likelihood(ssr: f64, n: usize, low: f64, high: f64) -> Option<f64> {
+    use statrs::function::gamma::{gamma_lr, ln_gamma};
+    if n == 0 {
+        return Some(0.0);
+    }
+    let half_n = 0.5 * n as f64;
+    let half_ssr = 0.5 * ssr;
+    let mass =
+        gamma_lr(half_n, half_ssr / (low * low)) - gamma_lr(half_n, half_ssr / (high * high));
+    if !(mass > 0.0) || !(ssr > 0.0) {
+        return None;
+    }
+    Some(
+        -(n as f64) * LN_SQRT_2PI + ln_gamma(half_n)
+            - std::f64::consts::LN_2
+            - half_n * half_ssr.ln()
+            - (high / low).ln().ln()
+            + mass.ln(),
+    )
+}
 
 /// Rejection labels counted by the sampler.
 pub const REJECT_STICK_SLIP: &str = "stick_slip";
@@ -51,6 +80,9 @@ pub struct Column {
     pub unit: String,
     /// Parameter or derived.
     pub kind: Kind,
+    /// How its value is computed.
+    #[serde(skip)]
+    source: Source,
 }
 
 /// How a sampled coordinate enters the prior.
@@ -70,7 +102,7 @@ struct Coord {
 }
 
 /// Where a run's t0 comes from.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum T0Source {
     Direct(usize),
     /// ln t0 = x[mu] + exp(x[ln_s]) x[z].
@@ -79,6 +111,43 @@ enum T0Source {
         ln_s: usize,
         z: usize,
     },
+}
+
+/// Where a run's noise level comes from.
+#[derive(Debug, Clone, Copy)]
+enum SigmaSource {
+    /// A sampled coordinate ln σ.
+    Coord(usize),
+    /// Integrated out analytically (log-uniform prior): the index of its group.
+    Marginal(usize),
+}
+
+/// Runs sharing one σ that is integrated out: σ ~ log-uniform on [low, high].
+#[derive(Debug, Clone)]
+struct SigmaGroup {
+    low: f64,
+    high: f64,
+    /// Salt of the conditional draw reported for σ.
+    salt: u64,
+}
+
+/// How the value of a reported column is computed from a draw.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Source {
+    /// exp of a log-scale coordinate.
+    Coord(usize),
+    /// A pooled t0.
+    T0(T0Source),
+    /// σ of a marginalised group, drawn from its conditional posterior.
+    Sigma(usize),
+    /// a = (a/F_d) · F_d of a contact.
+    AContact { ratio: usize, f_d: usize },
+    /// a/F_d of a material times its contacts' mean F_d.
+    AMaterial(usize),
+    /// Field of a run's peak: 0 F_peak, 1 τ_peak, 2 s_peak, 3 t_peak, 4 μ_s.
+    Peak { run: usize, field: u8 },
+    /// Peak of a new contact of a pooled material.
+    PeakNew(usize),
 }
 
 /// A run with its data and the coordinates of its parameters.
@@ -96,7 +165,7 @@ struct RunModel {
     f_d: usize,
     t0: Option<T0Source>,
     k: Option<usize>,
-    sigma: usize,
+    sigma: SigmaSource,
     follows: Option<usize>,
     normal_force: Option<f64>,
 }
@@ -117,8 +186,8 @@ pub struct Posterior {
     /// Run indices in evaluation order: slides that others follow come first.
     order: Vec<usize>,
     columns: Vec<Column>,
+    sigma_groups: Vec<SigmaGroup>,
     materials: Vec<String>,
-    contacts: Vec<String>,
     contact_material: Vec<usize>,
     populations: Vec<Population>,
     /// Per material: (coordinate of a/F_d or a, is ratio); for the material-level a column.
@@ -127,9 +196,17 @@ pub struct Posterior {
     contact_fd: Vec<Option<usize>>,
     /// Per material: velocity of its first slow slide, for the new-contact prediction.
     material_velocity: Vec<Option<f64>>,
-    /// For each pooled z coordinate, the t0 it makes.
-    z_t0: Vec<Option<T0Source>>,
     start: Vec<f64>,
+}
+
+/// Estimates from one slide fitted alone (a start for the joint fit).
+#[derive(Debug, Clone, Copy)]
+struct RunAlone {
+    alpha: f64,
+    ratio: f64,
+    t0: f64,
+    f_d: f64,
+    k: Option<f64>,
 }
 
 /// Errors building a posterior.
@@ -172,6 +249,12 @@ impl Posterior {
     /// [`PosteriorError`] naming the file, line or key at fault.
     pub fn new(spec: &ModelSpec) -> Result<Self, PosteriorError> {
         let n_runs = spec.file.runs.len();
+        if n_runs > MAX_RUNS {
+            return Err(PosteriorError::Model {
+                source_file: spec.source.clone(),
+                message: format!("{n_runs} runs; a model may have at most {MAX_RUNS}: split it"),
+            });
+        }
         let mut data = Vec::with_capacity(n_runs);
         for (i, run) in spec.file.runs.iter().enumerate() {
             data.push(RunData::load(&spec.data_path(i), run.window_s, run.scene)?);
@@ -188,6 +271,8 @@ impl Posterior {
         };
         let pooled_t0 = spec.file.pooling.t0;
         let mut populations: Vec<Population> = Vec::new();
+        let mut sigma_groups: Vec<SigmaGroup> = Vec::new();
+        let mut sigma_index: std::collections::BTreeMap<(u8, usize), usize> = Default::default();
         let mut runs = Vec::with_capacity(n_runs);
         for (i, run) in spec.file.runs.iter().enumerate() {
             let coord_of = |p: Param,
@@ -214,6 +299,7 @@ impl Posterior {
                         group,
                         unit: unit.into(),
                         kind: Kind::Parameter,
+                        source: Source::Coord(coords.len() - 1),
                     });
                     coords.len() - 1
                 })
@@ -243,6 +329,7 @@ impl Posterior {
                             group: m.clone(),
                             unit: "s".into(),
                             kind: Kind::Parameter,
+                            source: Source::Coord(coords.len() - 1),
                         });
                         coords.push(Coord {
                             name: format!("ln_t0_pop_log_sd[{m}]"),
@@ -254,6 +341,7 @@ impl Posterior {
                             group: m,
                             unit: "1".into(),
                             kind: Kind::Parameter,
+                            source: Source::Coord(coords.len() - 1),
                         });
                         let p = Population {
                             material,
@@ -280,6 +368,11 @@ impl Posterior {
                             group,
                             unit: "s".into(),
                             kind: Kind::Parameter,
+                            source: Source::T0(T0Source::Pooled {
+                                mu: pop.mu,
+                                ln_s: pop.ln_s,
+                                z: coords.len() - 1,
+                            }),
                         });
                         coords.len() - 1
                     });
@@ -298,7 +391,37 @@ impl Posterior {
             };
             let k =
                 uses(Param::K).then(|| coord_of(Param::K, &mut coords, &mut columns, &mut index));
-            let sigma = coord_of(Param::Sigma, &mut coords, &mut columns, &mut index);
+            let sigma = match spec.prior("sigma") {
+                // A log-uniform σ integrates out in closed form: one dimension less per σ.
+                Prior::LogUniform { low, high } => {
+                    let (level, g) = group_of(spec, spec.level(Param::Sigma), i);
+                    let next = sigma_groups.len();
+                    let k = *sigma_index.entry((level_key(level), g)).or_insert(next);
+                    if k == next {
+                        let group = group_name(spec, level, g);
+                        sigma_groups.push(SigmaGroup {
+                            low,
+                            high,
+                            salt: 0x5165_0000 + k as u64,
+                        });
+                        columns.push(Column {
+                            column: format!("sigma[{group}]"),
+                            name: "sigma".into(),
+                            group,
+                            unit: "N".into(),
+                            kind: Kind::Parameter,
+                            source: Source::Sigma(k),
+                        });
+                    }
+                    SigmaSource::Marginal(k)
+                }
+                _ => SigmaSource::Coord(coord_of(
+                    Param::Sigma,
+                    &mut coords,
+                    &mut columns,
+                    &mut index,
+                )),
+            };
             let contact = spec.run_contact[i];
             let normal_force = spec.file.contacts[contact]
                 .normal_force_n
@@ -339,6 +462,10 @@ impl Posterior {
                         group: c,
                         unit: "N".into(),
                         kind: Kind::Parameter,
+                        source: Source::AContact {
+                            ratio: r.a.unwrap_or(0),
+                            f_d: r.f_d,
+                        },
                     });
                 }
             }
@@ -365,25 +492,33 @@ impl Posterior {
                     group: name,
                     unit: "N".into(),
                     kind: Kind::Derived,
+                    source: Source::AMaterial(m),
                 });
             }
         }
-        for r in &runs {
+        for (run, r) in runs.iter().enumerate() {
             if r.scene == Scene::Repeat {
                 continue;
             }
-            for (name, unit) in [
+            for (field, (name, unit)) in [
                 ("F_peak", "N"),
                 ("tau_peak", "s"),
                 ("s_peak", "m"),
                 ("t_peak", "s"),
-            ] {
+            ]
+            .into_iter()
+            .enumerate()
+            {
                 columns.push(Column {
                     column: format!("{name}[{}]", r.name),
                     name: name.into(),
                     group: r.name.clone(),
                     unit: unit.into(),
                     kind: Kind::Derived,
+                    source: Source::Peak {
+                        run,
+                        field: field as u8,
+                    },
                 });
             }
             if r.normal_force.is_some() {
@@ -393,10 +528,11 @@ impl Posterior {
                     group: r.name.clone(),
                     unit: "1".into(),
                     kind: Kind::Derived,
+                    source: Source::Peak { run, field: 4 },
                 });
             }
         }
-        for p in &populations {
+        for (pop, p) in populations.iter().enumerate() {
             let m = &spec.file.materials[p.material].name;
             if material_aging[p.material].is_some() && material_velocity[p.material].is_some() {
                 columns.push(Column {
@@ -405,6 +541,7 @@ impl Posterior {
                     group: m.clone(),
                     unit: "N".into(),
                     kind: Kind::Derived,
+                    source: Source::PeakNew(pop),
                 });
             }
         }
@@ -413,20 +550,13 @@ impl Posterior {
             .filter(|&i| runs[i].scene != Scene::Repeat)
             .collect();
         order.extend((0..n_runs).filter(|&i| runs[i].scene == Scene::Repeat));
-        let mut z_t0 = vec![None; coords.len()];
-        for r in &runs {
-            if let Some(src @ T0Source::Pooled { z, .. }) = r.t0 {
-                z_t0[z] = Some(src);
-            }
-        }
         let mut posterior = Self {
-            z_t0,
+            sigma_groups,
             coords,
             runs,
             order,
             columns,
             materials: spec.file.materials.iter().map(|m| m.name.clone()).collect(),
-            contacts: spec.file.contacts.iter().map(|c| c.name.clone()).collect(),
             contact_material: spec.contact_material.clone(),
             populations,
             material_aging,
@@ -467,68 +597,168 @@ impl Posterior {
         &self.start
     }
 
-    /// Rough values: F_d from the late first-slide level, k from the repeat slide's loading
-    /// slope, α from the time of the maximum, a/F_d from the overshoot, t0 a small fraction
-    /// of 1/(αv), σ from successive differences.
+    /// A start near the mode, so that one optimisation finds the right basin: k and F_d from
+    /// each repeat slide (its loading slope and plateau), then every first or fast slide
+    /// fitted on its own (α, a/F_d, t0, F_d and, without a repeat slide, k; σ profiled out)
+    /// from a few values of α spanning the record, and the results combined by level
+    /// (geometric means for shared parameters).
     fn heuristic_start(&self) -> Vec<f64> {
         let mut natural = vec![f64::NAN; self.coords.len()];
-        let set = |natural: &mut Vec<f64>, i: usize, v: f64| {
-            if natural[i].is_nan() && v.is_finite() && v > 0.0 {
-                natural[i] = v;
-            }
-        };
-        for r in &self.runs {
+        // Shared parameters collect one estimate per run and take the geometric mean.
+        let mut votes: Vec<Vec<f64>> = vec![Vec::new(); self.coords.len()];
+        let mut k_known = vec![None; self.contact_material.len()];
+        for r in self.runs.iter().filter(|r| r.scene == Scene::Repeat) {
             let d = &r.data;
-            set(&mut natural, r.sigma, d.noise_estimate());
-            let late = d.late_level();
-            let peak = d.max_force();
-            let f_d = if r.scene == Scene::Repeat {
-                late
-            } else {
-                late.min(peak)
-            };
-            set(&mut natural, r.f_d, f_d);
+            let kv = d.initial_slope();
             if let Some(k) = r.k {
-                let slope = d.initial_slope();
-                let factor = if r.scene == Scene::Repeat { 1.0 } else { 1.5 };
-                set(&mut natural, k, factor * slope / r.velocity);
+                votes[k].push(kv / r.velocity);
+                k_known[r.contact] = Some(kv / r.velocity);
             }
-            if r.scene != Scene::Repeat {
-                let t_max = d.time_of_max().max(d.duration() * 1e-3);
-                let alpha = 0.5 / (r.velocity * t_max);
-                if let Some(i) = r.alpha {
-                    set(&mut natural, i, alpha);
+            votes[r.f_d].push(d.late_level());
+        }
+        let mut t0_votes: Vec<(usize, f64)> = Vec::new();
+        for r in self.runs.iter().filter(|r| r.scene != Scene::Repeat) {
+            let fitted = self.fit_run_alone(r, k_known[r.contact]);
+            if let Some(i) = r.alpha {
+                votes[i].push(fitted.alpha);
+            }
+            if let Some(i) = r.a {
+                votes[i].push(if r.ratio {
+                    fitted.ratio
+                } else {
+                    fitted.ratio * fitted.f_d
+                });
+            }
+            votes[r.f_d].push(fitted.f_d);
+            if let (Some(k), Some(v)) = (r.k, fitted.k) {
+                if k_known[r.contact].is_none() {
+                    votes[k].push(v);
                 }
-                if let Some(i) = r.a {
-                    let overshoot = ((peak - late) / late).clamp(0.05, 5.0);
-                    let v = if r.ratio { overshoot } else { overshoot * late };
-                    set(&mut natural, i, v);
-                }
-                let t0 = 0.01 / (alpha * r.velocity);
-                match r.t0 {
-                    Some(T0Source::Direct(i)) => set(&mut natural, i, t0),
-                    Some(T0Source::Pooled { mu, .. }) => set(&mut natural, mu, t0),
-                    None => {}
-                }
+            }
+            match r.t0 {
+                Some(T0Source::Direct(i)) => votes[i].push(fitted.t0),
+                Some(T0Source::Pooled { z, .. }) => t0_votes.push((z, fitted.t0)),
+                None => {}
             }
         }
+        for (i, v) in votes.iter().enumerate() {
+            if !v.is_empty() {
+                natural[i] = (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp();
+            }
+        }
+        // Pooled t0: the population median from its runs, a moderate spread, and each run's
+        // standardised offset.
         for p in &self.populations {
-            set(&mut natural, p.ln_s, 0.5);
+            let logs: Vec<(usize, f64)> = t0_votes
+                .iter()
+                .filter(|(z, _)| self.z_population(*z) == Some(p.mu))
+                .map(|&(z, t0)| (z, t0.ln()))
+                .collect();
+            if logs.is_empty() {
+                continue;
+            }
+            let mu = logs.iter().map(|(_, l)| l).sum::<f64>() / logs.len() as f64;
+            natural[p.mu] = mu.exp();
+            natural[p.ln_s] = 0.5;
+            for (z, l) in logs {
+                natural[z] = (l - mu) / 0.5;
+            }
         }
         self.coords
             .iter()
             .zip(&natural)
             .map(|(c, &v)| match c.prior {
-                CoordPrior::StdNormal => 0.0,
+                CoordPrior::StdNormal => {
+                    if v.is_finite() {
+                        v
+                    } else {
+                        0.0
+                    }
+                }
                 CoordPrior::Log(ref prior) => {
                     let (lo, hi) = prior.bounds();
-                    let v = if v.is_nan() { 1.0 } else { v };
+                    let v = if v.is_finite() && v > 0.0 { v } else { 1.0 };
                     // Keep the start strictly inside the prior.
-                    let v = v.clamp(lo.max(f64::MIN_POSITIVE) * 1.01, hi * 0.99);
-                    v.ln()
+                    v.clamp(lo.max(f64::MIN_POSITIVE) * 1.01, hi * 0.99).ln()
                 }
             })
             .collect()
+    }
+
+    /// The population (its μ coordinate) a pooled z belongs to.
+    fn z_population(&self, z: usize) -> Option<usize> {
+        self.runs.iter().find_map(|r| match r.t0 {
+            Some(T0Source::Pooled { mu, z: zz, .. }) if zz == z => Some(mu),
+            _ => None,
+        })
+    }
+
+    /// Least squares of one first or fast slide alone, σ profiled out (minimises ln SSR),
+    /// with k fixed when a repeat slide gave it.
+    fn fit_run_alone(&self, r: &RunModel, k_known: Option<f64>) -> RunAlone {
+        let d = &r.data;
+        let late = d.late_level();
+        let peak = d.max_force();
+        let f_d0 = late.min(peak);
+        let t_end = d.model_times[d.n_obs - 1].max(f64::MIN_POSITIVE);
+        let k0 = k_known.unwrap_or(1.5 * d.initial_slope() / r.velocity);
+        let free_k = r.scene == Scene::First && k_known.is_none();
+        let ssr = |p: &[f64]| -> f64 {
+            let (alpha, ratio, t0, f_d) = (p[0].exp(), p[1].exp(), p[2].exp(), p[3].exp());
+            let k = if free_k { p[4].exp() } else { k0 };
+            let Ok(law) = Law::from_rate(alpha * r.velocity, ratio * f_d, f_d, t0) else {
+                return f64::INFINITY;
+            };
+            let elastic = match r.scene {
+                Scene::First => match Elastic::spring(k, r.velocity) {
+                    Ok(e) => e,
+                    Err(_) => return f64::INFINITY,
+                },
+                _ => Elastic::Stiff,
+            };
+            let mut sum = 0.0;
+            let obs = &d.force;
+            let ok = ObservedSlide::new(law, elastic).for_each_force(&d.model_times, |j, _, f| {
+                if j < d.n_obs {
+                    sum += (obs[j] - f).powi(2);
+                }
+            });
+            if ok.is_err() {
+                f64::INFINITY
+            } else {
+                sum.ln()
+            }
+        };
+        let options = NelderMeadOptions {
+            initial_step: 0.5,
+            max_evals: 800,
+            restarts: 1,
+            ..NelderMeadOptions::default()
+        };
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        // α such that the record spans x = αvt of 1, 5 and 25 at its end.
+        for x_end in [1.0, 5.0, 25.0] {
+            let alpha = x_end / (r.velocity * t_end);
+            let overshoot = ((peak - late) / late).clamp(0.05, 5.0);
+            let t0 = 1e-3 / (alpha * r.velocity);
+            let mut p = vec![alpha.ln(), overshoot.ln(), t0.ln(), f_d0.ln()];
+            if free_k {
+                p.push(k0.ln());
+            }
+            let (x, f, _) = nelder_mead(&ssr, &p, &options);
+            if best.as_ref().is_none_or(|(_, fb)| f < *fb) {
+                best = Some((x, f));
+            }
+        }
+        let (x, _) = best.unwrap_or_default();
+        let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
+        RunAlone {
+            alpha: get(0),
+            ratio: get(1),
+            t0: get(2),
+            f_d: get(3),
+            k: if free_k { Some(get(4)) } else { None },
+        }
     }
 
     fn value(x: &[f64], i: usize) -> f64 {
@@ -609,91 +839,100 @@ impl Posterior {
     }
 
     /// Writes the value of every reported column at `x`, in column order, into `derived`
-    /// (of length `columns().len()`).
-    pub fn derived_values(&self, x: &[f64], derived: &mut [f64]) {
-        let mut out = Out { buf: derived, k: 0 };
-        for (i, c) in self.coords.iter().enumerate() {
-            match c.prior {
-                CoordPrior::Log(_) => out.push(x[i].exp()),
-                // The column of a z is the t0 it makes.
-                CoordPrior::StdNormal => {
-                    out.push(self.z_t0[i].map_or(f64::NAN, |s| Self::t0_of(x, s)))
+    /// (of length `columns().len()`). `sigma_fit[g]` = (sum of squared residuals, points) of
+    /// marginalised σ group g at `x`, for the conditional draw of σ.
+    fn derived_values(&self, x: &[f64], sigma_fit: &[(f64, usize)], derived: &mut [f64]) {
+        // Peaks are computed once per run and read by several columns.
+        let mut peak_cache: Option<(usize, Option<crate::law::Peak>, Option<f64>)> = None;
+        for (out, column) in derived.iter_mut().zip(&self.columns) {
+            *out = match column.source {
+                Source::Coord(i) => x[i].exp(),
+                Source::T0(src) => Self::t0_of(x, src),
+                Source::Sigma(g) => {
+                    let (ssr, n) = sigma_fit[g];
+                    self.sigma_draw(x, g, ssr, n)
                 }
-            }
-        }
-        // a per contact (ratio parameterisation).
-        if self.runs.first().is_some_and(|r| r.ratio) {
-            let mut seen = vec![false; self.contacts.len()];
-            for r in &self.runs {
-                if let Some(a) = r.a {
-                    if !seen[r.contact] {
-                        seen[r.contact] = true;
-                        out.push(x[a].exp() * x[r.f_d].exp());
-                    }
+                Source::AContact { ratio, f_d } => x[ratio].exp() * x[f_d].exp(),
+                Source::AMaterial(m) => self.material_aging[m]
+                    .map_or(f64::NAN, |(a, _)| x[a].exp() * self.mean_fd(x, m)),
+                Source::Peak { run, field } => {
+                    let (_, peak, kv) = match peak_cache {
+                        Some(c) if c.0 == run => c,
+                        _ => {
+                            let r = &self.runs[run];
+                            let peak = self.law_of(x, r).ok().and_then(|law| law.peak().interior());
+                            let kv = match Self::elastic_of(x, r) {
+                                Ok(Elastic::Spring { kv }) => Some(kv),
+                                _ => None,
+                            };
+                            let c = (run, peak, kv);
+                            peak_cache = Some(c);
+                            c
+                        }
+                    };
+                    let r = &self.runs[run];
+                    peak.map_or(f64::NAN, |p| match field {
+                        0 => p.force_n,
+                        1 => p.tau_s,
+                        2 => p.slip_m(r.velocity),
+                        3 => p.observed_time_s(kv),
+                        _ => r.normal_force.map_or(f64::NAN, |fn_| p.force_n / fn_),
+                    })
                 }
-            }
-        }
-        // a per material: a/F_d times the mean F_d of the material's contacts.
-        for (m, aging) in self.material_aging.iter().enumerate() {
-            if let Some((a, true)) = aging {
-                out.push(x[*a].exp() * self.mean_fd(x, m));
-            }
-        }
-        for r in &self.runs {
-            if r.scene == Scene::Repeat {
-                continue;
-            }
-            let peak = self.law_of(x, r).ok().and_then(|law| law.peak().interior());
-            let kv = match Self::elastic_of(x, r) {
-                Ok(Elastic::Spring { kv }) => Some(kv),
-                _ => None,
+                Source::PeakNew(pop) => self.new_contact_peak(x, &self.populations[pop]),
             };
-            match peak {
-                Some(p) => {
-                    out.push(p.force_n);
-                    out.push(p.tau_s);
-                    out.push(p.slip_m(r.velocity));
-                    out.push(p.observed_time_s(kv));
-                }
-                None => (0..4).for_each(|_| out.push(f64::NAN)),
-            }
-            if let Some(fn_) = r.normal_force {
-                out.push(peak.map_or(f64::NAN, |p| p.force_n / fn_));
-            }
         }
-        for p in &self.populations {
-            let m = p.material;
-            let (Some((a, is_ratio)), Some(v)) =
-                (self.material_aging[m], self.material_velocity[m])
-            else {
-                continue;
-            };
-            let alpha = self
-                .runs
-                .iter()
-                .find(|r| self.contact_material[r.contact] == m && r.alpha.is_some())
-                .and_then(|r| r.alpha)
-                .map_or(f64::NAN, |i| x[i].exp());
-            let f_d = self.mean_fd(x, m);
-            let a_val = if is_ratio {
-                x[a].exp() * f_d
-            } else {
-                x[a].exp()
-            };
-            // A new contact's t0 from the material's population, with a standard-normal draw
-            // made a deterministic function of the draw itself so that the sampler stays
-            // reproducible; hashing the bits makes it independent of the parameter values.
-            let z = hashed_normal(x, m as u64);
-            let t0 = (x[p.mu] + x[p.ln_s].exp() * z).exp();
-            let f = Law::from_rate(alpha * v, a_val, f_d, t0)
-                .ok()
-                .and_then(|law| law.peak().interior())
-                .map_or(f64::NAN, |p| p.force_n);
-            out.push(f);
-        }
-        debug_assert_eq!(out.k, out.buf.len());
     }
 
+    /// The peak of a new contact of a pooled material: its t0 drawn from the material's t0
+    /// population, F_d the mean of the material's contacts, at the material's slow velocity.
+    fn new_contact_peak(&self, x: &[f64], p: &Population) -> f64 {
+        let m = p.material;
+        let (Some((a, is_ratio)), Some(v)) = (self.material_aging[m], self.material_velocity[m])
+        else {
+            return f64::NAN;
+        };
+        let alpha = self
+            .runs
+            .iter()
+            .find(|r| self.contact_material[r.contact] == m && r.alpha.is_some())
+            .and_then(|r| r.alpha)
+            .map_or(f64::NAN, |i| x[i].exp());
+        let f_d = self.mean_fd(x, m);
+        let a_val = if is_ratio {
+            x[a].exp() * f_d
+        } else {
+            x[a].exp()
+        };
+        // The standard-normal draw is a deterministic function of the draw itself so that the
+        // sampler stays reproducible; hashing the bits makes it independent of the values.
+        let z = hashed_normal(x, m as u64);
+        let t0 = (x[p.mu] + x[p.ln_s].exp() * z).exp();
+        Law::from_rate(alpha * v, a_val, f_d, t0)
+            .ok()
+            .and_then(|law| law.peak().interior())
+            .map_or(f64::NAN, |p| p.force_n)
+    }
+
+    /// σ of marginalised group `g` drawn from its conditional posterior given the other
+    /// parameters: σ² = SSR / χ²_n, truncated to the prior's bounds. Together with the
+    /// sampled parameters this is an exact draw from the joint posterior.
+    fn sigma_draw(&self, x: &[f64], g: usize, ssr: f64, n: usize) -> f64 {
+        use rand::SeedableRng;
+        use rand_distr::{ChiSquared, Distribution};
+        let group = &self.sigma_groups[g];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(hash_bits(x, group.salt));
+        let Ok(chi2) = ChiSquared::new(n as f64) else {
+            return f64::NAN;
+        };
+        for _ in 0..1000 {
+            let sigma = (ssr / chi2.sample(&mut rng)).sqrt();
+            if sigma >= group.low && sigma <= group.high {
+                return sigma;
+            }
+        }
+        f64::NAN
+    }
     fn mean_fd(&self, x: &[f64], material: usize) -> f64 {
         let (mut sum, mut n) = (0.0, 0.0);
         for (c, &m) in self.contact_material.iter().enumerate() {
@@ -725,22 +964,18 @@ impl Posterior {
     }
 }
 
-/// A cursor writing derived values in order.
-struct Out<'a> {
-    buf: &'a mut [f64],
-    k: usize,
-}
-
-impl Out<'_> {
-    fn push(&mut self, v: f64) {
-        self.buf[self.k] = v;
-        self.k += 1;
-    }
-}
-
 /// A standard-normal number that is a deterministic function of the bits of `x` and `salt`
-/// (SplitMix64 hashing, then the Box–Muller transform).
+/// (hashing, then the Box–Muller transform).
 fn hashed_normal(x: &[f64], salt: u64) -> f64 {
+    let h = hash_bits(x, salt);
+    let u1 = ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    let h2 = hash_bits(&[f64::from_bits(h)], salt ^ 1);
+    let u2 = ((h2 >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// SplitMix64 hash of the bits of `x` and `salt`.
+fn hash_bits(x: &[f64], salt: u64) -> u64 {
     fn mix(h: &mut u64, v: u64) {
         *h = h.wrapping_add(v).wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = *h;
@@ -752,10 +987,7 @@ fn hashed_normal(x: &[f64], salt: u64) -> f64 {
     for v in x {
         mix(&mut h, v.to_bits());
     }
-    let u1 = ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-    mix(&mut h, 1);
-    let u2 = ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    h
 }
 
 impl LogDensity for Posterior {
@@ -777,22 +1009,16 @@ impl LogDensity for Posterior {
             LawError::StickSlip { .. } => LogDensityError::rejected(REJECT_STICK_SLIP),
             _ => LogDensityError::rejected(REJECT_LAW),
         };
-        let mut f_end = [None; 64];
-        let mut f_end_vec;
-        let f_end: &mut [Option<f64>] = if self.runs.len() <= f_end.len() {
-            &mut f_end[..self.runs.len()]
-        } else {
-            f_end_vec = vec![None; self.runs.len()];
-            &mut f_end_vec
-        };
+        // Small fixed scratch on the stack: no allocation on the sampler's hot path.
+        let mut f_end = [None; MAX_RUNS];
+        let mut sigma_fit = [(0.0, 0usize); MAX_RUNS];
         for &i in &self.order {
             let r = &self.runs[i];
-            let sigma = Self::value(x, r.sigma);
             let obs = &r.data.force;
             let n = r.data.n_obs;
             let mut ssr = 0.0;
             let mut last = 0.0;
-            self.visit_run(x, r, f_end, |j, f| {
+            self.visit_run(x, r, &f_end, |j, f| {
                 if j < n {
                     let e = obs[j] - f;
                     ssr += e * e;
@@ -803,11 +1029,75 @@ impl LogDensity for Posterior {
             if r.scene == Scene::First {
                 f_end[i] = Some(last);
             }
-            lp += -(n as f64) * (sigma.ln() + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma);
+            match r.sigma {
+                SigmaSource::Coord(s) => {
+                    let sigma = x[s].exp();
+                    lp += -(n as f64) * (sigma.ln() + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma);
+                }
+                SigmaSource::Marginal(g) => {
+                    sigma_fit[g].0 += ssr;
+                    sigma_fit[g].1 += n;
+                }
+            }
+        }
+        for (group, &(ssr, n)) in self.sigma_groups.iter().zip(&sigma_fit) {
+            lp += marginal_sigma_log_likelihood(ssr, n, group.low, group.high)
+                .ok_or(LogDensityError::rejected(REJECT_PRIOR))?;
         }
         if !derived.is_empty() {
-            self.derived_values(x, derived);
+            self.derived_values(x, &sigma_fit[..self.sigma_groups.len()], derived);
         }
         Ok(lp)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closed form against brute-force integration over ln σ.
+    #[test]
+    fn marginal_sigma_matches_quadrature() {
+        for &(ssr, n, low, high) in &[
+            (3.0e-5_f64, 3000usize, 1e-8_f64, 1.0_f64),
+            (2.0, 10, 0.1, 10.0),
+            // Posterior of σ pressed against the upper bound: the truncation term matters.
+            (50.0, 8, 0.01, 1.5),
+        ] {
+            let ln_range = (high / low).ln();
+            let m = 400_000;
+            let (a, b) = (low.ln(), high.ln());
+            let h = (b - a) / m as f64;
+            let log_terms: Vec<f64> = (0..m)
+                .map(|i| {
+                    let u = a + (i as f64 + 0.5) * h;
+                    let sigma = u.exp();
+                    -(n as f64) * (sigma.ln() + LN_SQRT_2PI)
+                        - 0.5 * ssr / (sigma * sigma)
+                        - ln_range.ln()
+                })
+                .collect();
+            let max = log_terms.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let quad = max + (log_terms.iter().map(|t| (t - max).exp()).sum::<f64>() * h).ln();
+            let closed = marginal_sigma_log_likelihood(ssr, n, low, high).unwrap();
+            assert!(
+                (quad - closed).abs() < 1e-6,
+                "ssr {ssr} n {n}: quadrature {quad} closed {closed}"
+            );
+        }
+        assert!(marginal_sigma_log_likelihood(1e6, 100, 1e-8, 1.0).is_none());
+    }
+
+    #[test]
+    fn hashed_normal_is_standard_normal() {
+        let draws: Vec<f64> = (0..20_000).map(|i| hashed_normal(&[i as f64], 7)).collect();
+        let mean = draws.iter().sum::<f64>() / draws.len() as f64;
+        let var = draws.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / draws.len() as f64;
+        // 4 standard errors.
+        assert!(mean.abs() < 4.0 / (draws.len() as f64).sqrt(), "{mean}");
+        assert!(
+            (var - 1.0).abs() < 4.0 * (2.0 / draws.len() as f64).sqrt(),
+            "{var}"
+        );
     }
 }

@@ -312,7 +312,7 @@ pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
     let (near, _) = lbfgs(|x| -log_f(x), start, &LbfgsOptions::default());
     let polish = NelderMeadOptions {
         initial_step: 1e-3,
-        max_evals: 200 * n,
+        max_evals: 30 * n,
         restarts: 1,
         ..NelderMeadOptions::default()
     };
@@ -336,7 +336,11 @@ pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
             let x = loop {
                 attempts += 1;
                 z.iter_mut().for_each(|v| *v = rng.sample(StandardNormal));
-                let d = &root * &z;
+                // A mode pressed against the edge of the support (a posterior the data do not
+                // identify) refuses many Laplace draws: narrow the spread as refusals mount,
+                // halving it every tenth of the attempts.
+                let shrink = 0.5_f64.powi((attempts * 10 / MAX_DRAW_ATTEMPTS) as i32);
+                let d = (&root * &z) * shrink;
                 let x: Vec<f64> = mode.iter().zip(d.iter()).map(|(m, d)| m + d).collect();
                 if log_f(&x).is_finite() {
                     break x;

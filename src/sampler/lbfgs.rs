@@ -9,7 +9,8 @@ pub struct LbfgsOptions {
     pub memory: usize,
     /// Stop when the largest gradient component is below `g_tol · (1 + |f|)`.
     pub g_tol: f64,
-    /// Stop when f improves by less than `f_tol · (1 + |f|)` three iterations in a row.
+    /// Stop when f improves by less than `f_tol · (1 + |f|)` three iterations in a row
+    /// (1e−10: for a log-density, changes far below what any posterior summary can see).
     pub f_tol: f64,
     /// Largest number of iterations.
     pub max_iterations: usize,
@@ -20,7 +21,7 @@ impl Default for LbfgsOptions {
         Self {
             memory: 10,
             g_tol: 1e-9,
-            f_tol: 1e-13,
+            f_tol: 1e-10,
             max_iterations: 1000,
         }
     }
@@ -46,6 +47,34 @@ fn gradient<F: FnMut(&[f64]) -> f64>(f: &mut F, x: &[f64], fx: f64, out: &mut [f
         };
     }
     Some(())
+}
+
+/// 1/|∂²f/∂x_i²| by central second differences (the magnitude: far from the optimum the
+/// curvature may have either sign, but its size still sets the scale), or `None` when one is
+/// zero or not finite.
+fn diagonal_inverse_curvature<F: FnMut(&[f64]) -> f64>(
+    f: &mut F,
+    x: &[f64],
+    fx: f64,
+) -> Option<Vec<f64>> {
+    let mut p = x.to_vec();
+    let mut out = Vec::with_capacity(x.len());
+    for i in 0..x.len() {
+        // ε^(1/4) balances truncation (h²) against rounding (ε/h²) of a second difference.
+        let h = f64::EPSILON.powf(0.25) * x[i].abs().max(1.0);
+        p[i] = x[i] + h;
+        let fp = f(&p);
+        p[i] = x[i] - h;
+        let fm = f(&p);
+        p[i] = x[i];
+        let c = (fp - 2.0 * fx + fm) / (h * h);
+        let c = c.abs();
+        if !(c.is_finite() && c > 0.0) {
+            return None;
+        }
+        out.push(1.0 / c);
+    }
+    Some(out)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -74,6 +103,9 @@ pub fn lbfgs<F: FnMut(&[f64]) -> f64>(
     if !fx.is_finite() || gradient(&mut f, &x, fx, &mut g).is_none() {
         return (x, fx);
     }
+    // Diagonal preconditioner: the coordinates of a posterior can differ in curvature by many
+    // orders of magnitude, which a scalar initial inverse Hessian cannot absorb.
+    let mut precondition = diagonal_inverse_curvature(&mut f, &x, fx);
     let mut s_hist: Vec<Vec<f64>> = Vec::new();
     let mut y_hist: Vec<Vec<f64>> = Vec::new();
     let mut d = vec![0.0; n];
@@ -96,14 +128,23 @@ pub fn lbfgs<F: FnMut(&[f64]) -> f64>(
                 *di -= alpha[k] * yi;
             }
         }
-        let gamma = if m > 0 {
-            dot(&s_hist[m - 1], &y_hist[m - 1]) / dot(&y_hist[m - 1], &y_hist[m - 1])
-        } else {
-            // First step: move a small distance along the gradient.
-            1e-3 / g_max.max(f64::MIN_POSITIVE)
-        };
-        for di in d.iter_mut() {
-            *di *= gamma;
+        match &precondition {
+            Some(p) => {
+                for (di, pi) in d.iter_mut().zip(p) {
+                    *di *= pi;
+                }
+            }
+            None => {
+                let gamma = if m > 0 {
+                    dot(&s_hist[m - 1], &y_hist[m - 1]) / dot(&y_hist[m - 1], &y_hist[m - 1])
+                } else {
+                    // First step: move a small distance along the gradient.
+                    1e-3 / g_max.max(f64::MIN_POSITIVE)
+                };
+                for di in d.iter_mut() {
+                    *di *= gamma;
+                }
+            }
         }
         for k in 0..m {
             let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
@@ -139,10 +180,24 @@ pub fn lbfgs<F: FnMut(&[f64]) -> f64>(
             step *= 0.5;
         }
         if !(f_new.is_finite() && f_new <= fx) {
-            break;
+            if s_hist.is_empty() && precondition.is_none() {
+                break;
+            }
+            // A bad model of the curvature: start again from steepest descent.
+            s_hist.clear();
+            y_hist.clear();
+            precondition = None;
+            continue;
         }
         if gradient(&mut f, &x_new, f_new, &mut g_new).is_none() {
             break;
+        }
+        if step < 1e-6 {
+            // The quasi-Newton model has gone stale (a kink or a change of curvature): rebuild
+            // it at the new point.
+            s_hist.clear();
+            y_hist.clear();
+            precondition = diagonal_inverse_curvature(&mut f, &x_new, f_new);
         }
         let s: Vec<f64> = x_new.iter().zip(&x).map(|(a, b)| a - b).collect();
         let y: Vec<f64> = g_new.iter().zip(&g).map(|(a, b)| a - b).collect();

@@ -75,6 +75,7 @@ pub use history::History;
 pub use init::{
     initial_around_optimum, laplace_covariance, nelder_mead, NelderMeadOptions, Optimum, Start,
 };
+pub use lbfgs::{lbfgs, LbfgsOptions};
 pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::Move;
 pub use observer::{Observer, Progress, RunStart, Silent};

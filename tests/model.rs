@@ -1,0 +1,158 @@
+//! Model files and data fail before sampling with errors that name the key, file or line; the
+//! posterior of simulated data covers the truth.
+
+use std::path::{Path, PathBuf};
+
+use slipbayes::law::{LawParams, Scene};
+use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::LogDensity;
+use slipbayes::simulate::{simulate, SimulationSpec};
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn one_run_model(data: &str, velocity: &str, scene: &str) -> String {
+    format!(
+        r#"
+[[material]]
+name = "PTFE"
+[[contact]]
+name = "c1"
+material = "PTFE"
+[[run]]
+name = "r1"
+contact = "c1"
+data = "{data}"
+velocity_m_per_s = {velocity}
+scene = "{scene}"
+"#
+    )
+}
+
+fn load_err(dir: &Path, model: &str) -> String {
+    let path = write(dir, "model.toml", model);
+    match ModelSpec::load(&path) {
+        Err(e) => e.to_string(),
+        Ok(spec) => match Posterior::new(&spec) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("model should have been refused:\n{model}"),
+        },
+    }
+}
+
+#[test]
+fn bad_models_and_data_fail_before_sampling_naming_the_culprit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "ok.csv",
+        &(0..20)
+            .map(|i| format!("{i},{}\n", i as f64 * 1e-4))
+            .fold("time_s,force_N\n".to_string(), |a, b| a + &b),
+    );
+    // Missing data file.
+    let e = load_err(d, &one_run_model("missing.csv", "1e-9", "first"));
+    assert!(e.contains("missing.csv"), "{e}");
+    // Unknown scene: the TOML error names the key.
+    let e = load_err(d, &one_run_model("ok.csv", "1e-9", "sideways"));
+    assert!(e.contains("scene") || e.contains("sideways"), "{e}");
+    // Negative velocity names the key.
+    let e = load_err(d, &one_run_model("ok.csv", "-1e-9", "first"));
+    assert!(e.contains("run[0].velocity_m_per_s"), "{e}");
+    // Unsorted times name file and line.
+    write(
+        d,
+        "unsorted.csv",
+        "time_s,force_N\n0,0\n2,1e-3\n1,2e-3\n3,3e-3\n4,4e-3\n5,5e-3\n6,6e-3\n7,7e-3\n",
+    );
+    let e = load_err(d, &one_run_model("unsorted.csv", "1e-9", "first"));
+    assert!(e.contains("unsorted.csv:4"), "{e}");
+    // NaN names file and line.
+    write(
+        d,
+        "nan.csv",
+        "time_s,force_N\n0,0\n1,NaN\n2,1e-3\n3,3e-3\n4,4e-3\n5,5e-3\n6,6e-3\n7,7e-3\n",
+    );
+    let e = load_err(d, &one_run_model("nan.csv", "1e-9", "first"));
+    assert!(e.contains("nan.csv:3"), "{e}");
+    // Too few points.
+    write(d, "short.csv", "time_s,force_N\n0,0\n1,1e-3\n2,2e-3\n");
+    let e = load_err(d, &one_run_model("short.csv", "1e-9", "first"));
+    assert!(e.contains("at least"), "{e}");
+    // Unknown contact, unknown key, bad prior.
+    let e = load_err(
+        d,
+        &one_run_model("ok.csv", "1e-9", "first")
+            .replace("contact = \"c1\"\ndata", "contact = \"c9\"\ndata"),
+    );
+    assert!(e.contains("run[0].contact"), "{e}");
+    let e = load_err(
+        d,
+        &(one_run_model("ok.csv", "1e-9", "first")
+            + "\n[priors]\nalpha = { dist = \"log-uniform\", low = -1.0, high = 1e9 }\n"),
+    );
+    assert!(e.contains("priors.alpha"), "{e}");
+    let e = load_err(
+        d,
+        &(one_run_model("ok.csv", "1e-9", "first") + "\n[levels]\nalpha = \"galaxy\"\n"),
+    );
+    assert!(e.contains("galaxy") || e.contains("levels"), "{e}");
+}
+
+fn simulated(
+    dir: &Path,
+    name: &str,
+    scene: Scene,
+    duration: f64,
+    interval: f64,
+    seed: u64,
+) -> PathBuf {
+    let spec = SimulationSpec {
+        scene,
+        params: LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(),
+        stiffness_n_per_m: Some(1.2e4),
+        velocity_m_per_s: 1e-9,
+        duration_s: duration,
+        interval_s: interval,
+        noise_sd_n: 1e-4,
+        seed,
+        f_end_n: None,
+        after_first_s: (scene == Scene::Repeat).then_some(20_000.0),
+        normal_force_n: None,
+        normal_noise_sd_n: 0.0,
+    };
+    let path = dir.join(name);
+    simulate(&spec).unwrap().series.write_csv(&path).unwrap();
+    path
+}
+
+/// Only parameters a scene uses are sampled; σ (log-uniform) is integrated out.
+#[test]
+fn layout_samples_only_what_scenes_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    simulated(d, "first.csv", Scene::First, 20_000.0, 50.0, 1);
+    simulated(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 2);
+    let spec = ModelSpec::load(&write(
+        d,
+        "m.toml",
+        &one_run_model("repeat.csv", "1e-9", "repeat"),
+    ))
+    .unwrap();
+    let post = Posterior::new(&spec).unwrap();
+    // A repeat slide alone needs only F_d and k.
+    assert_eq!(post.param_names(), vec!["ln_F_d[c1]", "ln_k[c1]"]);
+    let spec = ModelSpec::load(&write(
+        d,
+        "m.toml",
+        &one_run_model("first.csv", "1e-9", "stiff-fast"),
+    ))
+    .unwrap();
+    let post = Posterior::new(&spec).unwrap();
+    assert!(!post.param_names().iter().any(|n| n.starts_with("ln_k")));
+    assert!(post.derived_names().contains(&"sigma[r1]".to_string()));
+}
