@@ -32,7 +32,7 @@ use slipbayes::sampler::{
 
 const WALKERS: usize = 32;
 const NDIM: usize = 10;
-const STEPS: u64 = 4000;
+const STEPS: u64 = 20_000;
 const SEED: u64 = 2024;
 
 /// A 10-D standard normal: about as cheap as a density can be.
@@ -164,7 +164,7 @@ fn bench_run<D: LogDensity>(
 
 fn overhead(c: &mut Criterion) {
     let mut g = c.benchmark_group("sampler");
-    g.sample_size(20);
+    g.sample_size(10);
     g.warm_up_time(Duration::from_secs(1));
     g.measurement_time(Duration::from_secs(4));
 

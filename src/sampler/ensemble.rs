@@ -192,7 +192,7 @@ impl Ensemble {
             // The common case inlined: no dispatch, and the correction z^(ndim−1) by
             // multiplication instead of a logarithm.
             Move::Stretch { a } => {
-                let power = i32::try_from(ndim - 1).unwrap_or(i32::MAX);
+                let power = ndim as u64 - 1;
                 for ((((&w, out), f), lf), au) in active
                     .iter()
                     .zip(out_rows)
@@ -209,7 +209,7 @@ impl Ensemble {
                     for ((o, &xi), &xji) in out.iter_mut().zip(x).zip(xj) {
                         *o = xji + z * (xi - xji);
                     }
-                    *f = z.powi(power);
+                    *f = powi(z, power);
                     if !f.is_normal() {
                         *lf = (ndim as f64 - 1.0) * z.ln();
                     }
@@ -289,10 +289,19 @@ impl Ensemble {
                         accept_u[k].ln() < log_factor[k] + delta
                     };
                     if accept {
-                        s.positions[w * ndim..(w + 1) * ndim]
-                            .copy_from_slice(&proposals[k * ndim..(k + 1) * ndim]);
-                        s.derived[w * nderived..(w + 1) * nderived]
-                            .copy_from_slice(&derived[k * stride..k * stride + nderived]);
+                        // Element loops: `copy_from_slice` of a few values is a libc call.
+                        for (p, &y) in s.positions[w * ndim..(w + 1) * ndim]
+                            .iter_mut()
+                            .zip(&proposals[k * ndim..(k + 1) * ndim])
+                        {
+                            *p = y;
+                        }
+                        for (d, &y) in s.derived[w * nderived..(w + 1) * nderived]
+                            .iter_mut()
+                            .zip(&derived[k * stride..k * stride + nderived])
+                        {
+                            *d = y;
+                        }
                         s.log_density[w] = lp;
                         s.accepted[w] += 1;
                     }
@@ -308,4 +317,18 @@ impl Ensemble {
         }
         Ok(())
     }
+}
+
+/// `x^n` by binary powering, inlined (`f64::powi` with a run-time exponent is a library call).
+#[inline]
+fn powi(mut x: f64, mut n: u64) -> f64 {
+    let mut r = 1.0;
+    while n > 0 {
+        if n & 1 == 1 {
+            r *= x;
+        }
+        x *= x;
+        n >>= 1;
+    }
+    r
 }

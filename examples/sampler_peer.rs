@@ -1,0 +1,290 @@
+//! The Rust side of the comparison with emcee (`benches/peer/compare_emcee.py`) and an
+//! interleaved overhead measurement.
+//!
+//! ```text
+//! cargo run --release --no-default-features --example sampler_peer -- run \
+//!     --precision P.txt --init INIT.txt --walkers 32 --steps 20000 --ensembles 1 \
+//!     --seed 1 --out chain.f64
+//! cargo run --release --no-default-features --example sampler_peer -- overhead --reps 9
+//! ```
+//!
+//! `run` samples the Gaussian with the given precision matrix (text, one row per line)
+//! from the first `ensembles × walkers` rows of INIT.txt with the stretch move (a = 2),
+//! keeping every draw in memory like emcee's backend, writes the chains as raw
+//! little-endian f64 (`ensembles × steps × walkers × ndim`) and prints one JSON line with the
+//! wall time of the sampling call and the evaluation count.
+//!
+//! `overhead` times, alternately and `reps` times, the stretch-step floor, the density alone
+//! and a serial run (with its end-of-run work timed separately), all on the 32-walker 10-D
+//! standard normal of `benches/sampler.rs`, and prints per-repetition ratios and their median
+//! — robust to a machine whose load changes between criterion benchmarks.
+
+use std::hint::black_box;
+use std::io::Write;
+use std::time::Instant;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use slipbayes::sampler::{
+    EnsembleSampler, LogDensity, LogDensityError, MemorySink, Move, NullSink, SamplerConfig,
+    Silent, Steps,
+};
+
+/// Unnormalised Gaussian log-density `−½ xᵀ P x`.
+struct Gaussian {
+    precision: Vec<f64>,
+    n: usize,
+}
+
+impl LogDensity for Gaussian {
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+        let mut q = 0.0;
+        for (i, row) in self.precision.chunks_exact(self.n).enumerate() {
+            let r: f64 = row.iter().zip(x).map(|(p, v)| p * v).sum();
+            q += x[i] * r;
+        }
+        Ok(-0.5 * q)
+    }
+}
+
+fn read_matrix(path: &str) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            l.split_whitespace()
+                .map(|v| v.parse().unwrap_or_else(|e| panic!("{path}: {v}: {e}")))
+                .collect()
+        })
+        .collect()
+}
+
+fn arg(args: &[String], name: &str) -> Option<String> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1).cloned())
+}
+
+fn num(args: &[String], name: &str, default: u64) -> u64 {
+    arg(args, name).map_or(default, |v| {
+        v.parse()
+            .unwrap_or_else(|e| panic!("{name} {v}: {e}"))
+    })
+}
+
+fn run(args: &[String]) {
+    let precision = read_matrix(&arg(args, "--precision").expect("--precision FILE"));
+    let init = read_matrix(&arg(args, "--init").expect("--init FILE"));
+    let walkers = num(args, "--walkers", 32) as usize;
+    let steps = num(args, "--steps", 20_000);
+    let ensembles = num(args, "--ensembles", 1) as usize;
+    let seed = num(args, "--seed", 1);
+    let out = arg(args, "--out");
+    let n = precision.len();
+    let g = Gaussian {
+        precision: precision.concat(),
+        n,
+    };
+    assert!(init.len() >= walkers * ensembles, "INIT has too few rows");
+    let start: Vec<Vec<Vec<f64>>> = init
+        .chunks(walkers)
+        .take(ensembles)
+        .map(<[Vec<f64>]>::to_vec)
+        .collect();
+    let config = SamplerConfig::new(walkers, ensembles, seed)
+        .expect("valid config")
+        .with_moves(vec![(Move::Stretch { a: 2.0 }, 1.0)])
+        .expect("valid move");
+    let mut sampler = EnsembleSampler::new(&g, config, start).expect("valid start");
+    let mut sink = MemorySink::new();
+    let t = Instant::now();
+    let report = sampler
+        .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+        .expect("run succeeds");
+    let wall = t.elapsed().as_secs_f64();
+    if let Some(path) = out {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).expect("create --out"));
+        for c in &sink.chains {
+            for v in &c.positions {
+                f.write_all(&v.to_le_bytes()).expect("write chain");
+            }
+        }
+        f.flush().expect("write chain");
+    }
+    println!(
+        "{{\"wall_s\": {wall}, \"steps\": {steps}, \"walkers\": {walkers}, \"ensembles\": {ensembles}, \
+         \"ndim\": {n}, \"evaluations\": {}, \"acceptance\": {}, \"threads\": {}}}",
+        report.evaluations() - (walkers * ensembles) as u64,
+        report.mean_acceptance(),
+        rayon::current_num_threads()
+    );
+}
+
+const WALKERS: usize = 32;
+const NDIM: usize = 10;
+const STEPS: u64 = 20_000;
+
+/// The 10-D standard normal of the criterion bench.
+struct Cheap;
+
+impl LogDensity for Cheap {
+    fn dim(&self) -> usize {
+        NDIM
+    }
+    fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+        Ok(-0.5 * x.iter().map(|v| v * v).sum::<f64>())
+    }
+}
+
+fn start(seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..WALKERS)
+        .map(|_| (0..NDIM).map(|_| rng.random::<f64>() - 0.5).collect())
+        .collect()
+}
+
+/// Same floor as `benches/sampler.rs`.
+struct Floor {
+    positions: Vec<f64>,
+    perm: Vec<usize>,
+    proposals: Vec<f64>,
+    ensemble_rng: ChaCha8Rng,
+    walker_rngs: Vec<ChaCha8Rng>,
+    accept_u: Vec<f64>,
+}
+
+impl Floor {
+    fn new() -> Self {
+        let stream = |s: u64| {
+            let mut r = ChaCha8Rng::seed_from_u64(7);
+            r.set_stream(s);
+            r
+        };
+        Self {
+            positions: start(7).concat(),
+            perm: (0..WALKERS).collect(),
+            proposals: vec![0.0; WALKERS / 2 * NDIM],
+            ensemble_rng: stream(0),
+            walker_rngs: (1..=WALKERS as u64).map(stream).collect(),
+            accept_u: vec![0.0; WALKERS / 2],
+        }
+    }
+
+    fn step(&mut self) {
+        let half = WALKERS / 2;
+        for (i, p) in self.perm.iter_mut().enumerate() {
+            *p = i;
+        }
+        for i in 0..half {
+            let j = self.ensemble_rng.random_range(i..WALKERS);
+            self.perm.swap(i, j);
+        }
+        let a = 2.0_f64;
+        for (active, comp) in [(0, half), (half, 0)] {
+            for k in 0..half {
+                let w = self.perm[active + k];
+                let rng = &mut self.walker_rngs[w];
+                let j = self.perm[comp + rng.random_range(0..half)];
+                let u: f64 = rng.random();
+                let z = ((a - 1.0) * u + 1.0).powi(2) / a;
+                let x = &self.positions[w * NDIM..(w + 1) * NDIM];
+                let xj = &self.positions[j * NDIM..(j + 1) * NDIM];
+                for ((o, &xi), &xji) in self.proposals[k * NDIM..(k + 1) * NDIM]
+                    .iter_mut()
+                    .zip(x)
+                    .zip(xj)
+                {
+                    *o = xji + z * (xi - xji);
+                }
+                self.accept_u[k] = rng.random();
+            }
+            black_box(&mut self.proposals);
+            black_box(&mut self.accept_u);
+        }
+    }
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn overhead(args: &[String]) {
+    let reps = num(args, "--reps", 9) as usize;
+    let parallel = arg(args, "--parallel").is_some_and(|v| v == "true");
+    let per = (STEPS * WALKERS as u64) as f64;
+    let mut floor = Floor::new();
+    let mut points = Vec::new();
+    for _ in 0..STEPS * 2 {
+        floor.step();
+        points.extend_from_slice(&floor.proposals);
+    }
+    let (mut f_ns, mut d_ns, mut r_ns, mut e_ns, mut ratio) =
+        (vec![], vec![], vec![], vec![], vec![]);
+    for rep in 0..reps {
+        let t = Instant::now();
+        for _ in 0..STEPS {
+            floor.step();
+        }
+        let f = t.elapsed().as_secs_f64() * 1e9 / per;
+
+        let t = Instant::now();
+        let mut acc = 0.0;
+        for x in black_box(&points).chunks(NDIM) {
+            acc += Cheap.log_density(x, &mut []).unwrap_or(0.0);
+        }
+        black_box(acc);
+        let d = t.elapsed().as_secs_f64() * 1e9 / (points.len() / NDIM) as f64;
+
+        let config = SamplerConfig::new(WALKERS, 1, 2024 + rep as u64)
+            .expect("valid config")
+            .with_parallel(parallel);
+        let mut s = EnsembleSampler::new(&Cheap, config.clone(), vec![start(rep as u64)])
+            .expect("valid start");
+        let t = Instant::now();
+        s.run(Steps::Fixed(STEPS), &mut NullSink, &mut Silent)
+            .expect("run succeeds");
+        let r = t.elapsed().as_secs_f64() * 1e9 / per;
+
+        let mut again =
+            EnsembleSampler::from_state(&Cheap, config, s.state()).expect("same density");
+        let t = Instant::now();
+        again
+            .run(Steps::Fixed(0), &mut NullSink, &mut Silent)
+            .expect("run succeeds");
+        let e = t.elapsed().as_secs_f64() * 1e9 / per;
+
+        let q = (r - e - d) / f;
+        eprintln!(
+            "rep {rep}: floor {f:.2} ns, density {d:.2} ns, run {r:.2} ns, end {e:.2} ns per walker-step; (run − end − density)/floor = {q:.2}"
+        );
+        f_ns.push(f);
+        d_ns.push(d);
+        r_ns.push(r);
+        e_ns.push(e);
+        ratio.push(q);
+    }
+    println!(
+        "{{\"floor_ns\": {:.3}, \"density_ns\": {:.3}, \"run_ns\": {:.3}, \"run_end_ns\": {:.3}, \"ratio\": {:.3}, \"reps\": {reps}, \"parallel\": {parallel}}}",
+        median(&mut f_ns),
+        median(&mut d_ns),
+        median(&mut r_ns),
+        median(&mut e_ns),
+        median(&mut ratio)
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("run") => run(&args),
+        Some("overhead") => overhead(&args),
+        _ => {
+            eprintln!("usage: sampler_peer run --precision P --init I [--walkers 32] [--steps 20000] [--ensembles 1] [--seed 1] [--out FILE]\n       sampler_peer overhead [--reps 9] [--parallel true]");
+            std::process::exit(2);
+        }
+    }
+}
