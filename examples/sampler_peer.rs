@@ -17,7 +17,8 @@
 //! `overhead` times, alternately and `reps` times, the stretch-step floor, the density alone
 //! and a serial run (with its end-of-run work timed separately), all on the 32-walker 10-D
 //! standard normal of `benches/sampler.rs`, and prints per-repetition ratios and their median
-//! — robust to a machine whose load changes between criterion benchmarks.
+//! — robust to a machine whose load changes between criterion benchmarks. It uses the
+//! thread's CPU time (`--wall true` for wall time; parallel runs need wall time).
 
 use std::hint::black_box;
 use std::io::Write;
@@ -207,6 +208,42 @@ impl Floor {
     }
 }
 
+/// CPU time of the calling thread, in ns: unlike wall time it does not count the time the
+/// thread waits while other processes run on a shared machine.
+fn thread_cpu_ns() -> f64 {
+    #[repr(C)]
+    struct Timespec {
+        sec: i64,
+        nsec: i64,
+    }
+    extern "C" {
+        fn clock_gettime(clock: i32, ts: *mut Timespec) -> i32;
+    }
+    const CLOCK_THREAD_CPUTIME_ID: i32 = 3;
+    let mut ts = Timespec { sec: 0, nsec: 0 };
+    // SAFETY: clock_gettime writes one timespec (two C longs on 64-bit Linux) into `ts`.
+    let rc = unsafe { clock_gettime(CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime failed");
+    ts.sec as f64 * 1e9 + ts.nsec as f64
+}
+
+/// A clock: thread CPU time, or wall time with `--wall true`.
+struct Clock(bool);
+
+impl Clock {
+    fn now(&self) -> f64 {
+        if self.0 {
+            thread_cpu_ns()
+        } else {
+            WALL.with(|t| t.elapsed().as_secs_f64() * 1e9)
+        }
+    }
+}
+
+thread_local! {
+    static WALL: Instant = Instant::now();
+}
+
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -215,6 +252,12 @@ fn median(v: &mut [f64]) -> f64 {
 fn overhead(args: &[String]) {
     let reps = num(args, "--reps", 9) as usize;
     let parallel = arg(args, "--parallel").is_some_and(|v| v == "true");
+    let wall = arg(args, "--wall").is_some_and(|v| v == "true");
+    assert!(
+        !(parallel && !wall),
+        "--parallel true needs --wall true (CPU time counts one thread)"
+    );
+    let clock = Clock(!wall);
     let per = (STEPS * WALKERS as u64) as f64;
     let mut floor = Floor::new();
     let mut points = Vec::new();
@@ -224,43 +267,56 @@ fn overhead(args: &[String]) {
     }
     let (mut f_ns, mut d_ns, mut r_ns, mut e_ns, mut ratio) =
         (vec![], vec![], vec![], vec![], vec![]);
+    let (mut m_ns, mut ratio_m) = (vec![], vec![]);
     for rep in 0..reps {
-        let t = Instant::now();
+        let t = clock.now();
         for _ in 0..STEPS {
             floor.step();
         }
-        let f = t.elapsed().as_secs_f64() * 1e9 / per;
+        let f = (clock.now() - t) / per;
 
-        let t = Instant::now();
+        let t = clock.now();
         let mut acc = 0.0;
         for x in black_box(&points).chunks(NDIM) {
             acc += Cheap.log_density(x, &mut []).unwrap_or(0.0);
         }
         black_box(acc);
-        let d = t.elapsed().as_secs_f64() * 1e9 / (points.len() / NDIM) as f64;
+        let d = (clock.now() - t) / (points.len() / NDIM) as f64;
 
         let config = SamplerConfig::new(WALKERS, 1, 2024 + rep as u64)
             .expect("valid config")
             .with_parallel(parallel);
         let mut s = EnsembleSampler::new(&Cheap, config.clone(), vec![start(rep as u64)])
             .expect("valid start");
-        let t = Instant::now();
+        let t = clock.now();
         s.run(Steps::Fixed(STEPS), &mut NullSink, &mut Silent)
             .expect("run succeeds");
-        let r = t.elapsed().as_secs_f64() * 1e9 / per;
+        let r = (clock.now() - t) / per;
+
+        // A run twice as long: the difference is the marginal cost of a step, free of
+        // one-time costs (history memory first touched, end-of-run τ and R̂).
+        let mut long = EnsembleSampler::new(&Cheap, config.clone(), vec![start(rep as u64)])
+            .expect("valid start");
+        let t = clock.now();
+        long.run(Steps::Fixed(2 * STEPS), &mut NullSink, &mut Silent)
+            .expect("run succeeds");
+        let m = (clock.now() - t) / per - r;
 
         let mut again =
             EnsembleSampler::from_state(&Cheap, config, s.state()).expect("same density");
-        let t = Instant::now();
+        let t = clock.now();
         again
             .run(Steps::Fixed(0), &mut NullSink, &mut Silent)
             .expect("run succeeds");
-        let e = t.elapsed().as_secs_f64() * 1e9 / per;
+        let e = (clock.now() - t) / per;
 
         let q = (r - e - d) / f;
+        let qm = (m - d) / f;
         eprintln!(
-            "rep {rep}: floor {f:.2} ns, density {d:.2} ns, run {r:.2} ns, end {e:.2} ns per walker-step; (run − end − density)/floor = {q:.2}"
+            "rep {rep}: floor {f:.2} ns, density {d:.2} ns, run {r:.2} ns, end {e:.2} ns, marginal {m:.2} ns per walker-step; (run − end − density)/floor = {q:.2}, (marginal − density)/floor = {qm:.2}"
         );
+        m_ns.push(m);
+        ratio_m.push(qm);
         f_ns.push(f);
         d_ns.push(d);
         r_ns.push(r);
@@ -268,12 +324,15 @@ fn overhead(args: &[String]) {
         ratio.push(q);
     }
     println!(
-        "{{\"floor_ns\": {:.3}, \"density_ns\": {:.3}, \"run_ns\": {:.3}, \"run_end_ns\": {:.3}, \"ratio\": {:.3}, \"reps\": {reps}, \"parallel\": {parallel}}}",
+        "{{\"floor_ns\": {:.3}, \"density_ns\": {:.3}, \"run_ns\": {:.3}, \"run_end_ns\": {:.3}, \"ratio\": {:.3}, \"marginal_ns\": {:.3}, \"marginal_ratio\": {:.3}, \"reps\": {reps}, \"parallel\": {parallel}, \"clock\": \"{}\"}}",
         median(&mut f_ns),
         median(&mut d_ns),
         median(&mut r_ns),
         median(&mut e_ns),
-        median(&mut ratio)
+        median(&mut ratio),
+        median(&mut m_ns),
+        median(&mut ratio_m),
+        if wall { "wall" } else { "thread_cpu" }
     );
 }
 
@@ -283,7 +342,7 @@ fn main() {
         Some("run") => run(&args),
         Some("overhead") => overhead(&args),
         _ => {
-            eprintln!("usage: sampler_peer run --precision P --init I [--walkers 32] [--steps 20000] [--ensembles 1] [--seed 1] [--out FILE]\n       sampler_peer overhead [--reps 9] [--parallel true]");
+            eprintln!("usage: sampler_peer run --precision P --init I [--walkers 32] [--steps 20000] [--ensembles 1] [--seed 1] [--out FILE]\n       sampler_peer overhead [--reps 9] [--wall true] [--parallel true]");
             std::process::exit(2);
         }
     }

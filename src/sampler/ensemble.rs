@@ -283,8 +283,16 @@ impl Ensemble {
                     let delta = lp - s.log_density[w];
                     let f = factor[k];
                     let accept = if f.is_normal() {
+                        // ln q ≤ q − 1 and ln q ≥ 1 − 1/q decide most cases without the
+                        // logarithm.
                         let q = accept_u[k] / f;
-                        (delta >= 0.0 && q < 1.0) || q.ln() < delta
+                        if q - 1.0 < delta {
+                            true
+                        } else if 1.0 - 1.0 / q >= delta {
+                            false
+                        } else {
+                            q.ln() < delta
+                        }
                     } else {
                         accept_u[k].ln() < log_factor[k] + delta
                     };
