@@ -15,10 +15,13 @@
 //! - `density`: one call of the negligible-cost density (a 10-D standard normal).
 //! - `run_serial` / `run_parallel`: a fresh sampler running `STEPS` steps into a
 //!   [`NullSink`] (history for τ, final checkpoint and report included).
+//! - `run_serial_long`: `2 STEPS` steps; `2 long − run_serial` is the marginal cost of a
+//!   step of a long run, free of one-time costs.
 //! - `run_end`: the end-of-run work alone (final checkpoint, τ and R̂ report), as
 //!   `run(Fixed(0))` on the state after `STEPS` steps, per walker-step of that run.
 //! - `*_4ens`: the same with four ensembles (elements count all ensembles' walkers).
-//! - `medium_*`: a density costing about a microsecond, where parallel evaluation pays off.
+//! - group `sampler_medium`: a density costing about a microsecond (four ensembles, 4000
+//!   steps), where parallel evaluation pays off.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -34,6 +37,8 @@ const WALKERS: usize = 32;
 const NDIM: usize = 10;
 const STEPS: u64 = 20_000;
 const SEED: u64 = 2024;
+/// Steps of the medium-density runs (about 0.5 s each serially).
+const MEDIUM_STEPS: u64 = 4000;
 
 /// A 10-D standard normal: about as cheap as a density can be.
 struct Cheap;
@@ -148,13 +153,14 @@ fn bench_run<D: LogDensity>(
     d: &D,
     ensembles: usize,
     parallel: bool,
+    steps: u64,
 ) {
-    c.throughput(Throughput::Elements(STEPS * (WALKERS * ensembles) as u64));
+    c.throughput(Throughput::Elements(steps * (WALKERS * ensembles) as u64));
     c.bench_function(name, |b| {
         b.iter_batched(
             || sampler(d, ensembles, parallel),
             |mut s| {
-                s.run(Steps::Fixed(STEPS), &mut NullSink, &mut Silent)
+                s.run(Steps::Fixed(steps), &mut NullSink, &mut Silent)
                     .expect("run succeeds")
             },
             BatchSize::PerIteration,
@@ -196,10 +202,12 @@ fn overhead(c: &mut Criterion) {
         })
     });
 
-    bench_run(&mut g, "run_serial", &Cheap, 1, false);
-    bench_run(&mut g, "run_parallel", &Cheap, 1, true);
-    bench_run(&mut g, "run_serial_4ens", &Cheap, 4, false);
-    bench_run(&mut g, "run_parallel_4ens", &Cheap, 4, true);
+    bench_run(&mut g, "run_serial", &Cheap, 1, false, STEPS);
+    bench_run(&mut g, "run_parallel", &Cheap, 1, true, STEPS);
+    // Twice as long: the difference is the marginal cost of a step (no one-time costs).
+    bench_run(&mut g, "run_serial_long", &Cheap, 1, false, 2 * STEPS);
+    bench_run(&mut g, "run_serial_4ens", &Cheap, 4, false, STEPS);
+    bench_run(&mut g, "run_parallel_4ens", &Cheap, 4, true, STEPS);
 
     // End-of-run work (final checkpoint and report) on the state after STEPS steps.
     let mut s = sampler(&Cheap, 1, false);
@@ -240,8 +248,8 @@ fn overhead(c: &mut Criterion) {
             acc
         })
     });
-    bench_run(&mut g, "run_serial_4ens", &Medium, 4, false);
-    bench_run(&mut g, "run_parallel_4ens", &Medium, 4, true);
+    bench_run(&mut g, "run_serial_4ens", &Medium, 4, false, MEDIUM_STEPS);
+    bench_run(&mut g, "run_parallel_4ens", &Medium, 4, true, MEDIUM_STEPS);
     g.finish();
 }
 
