@@ -11,13 +11,18 @@
 //!   of friction.
 //! - [`diagnostics`]: autocorrelation time, R-hat, ESS, MCSE and credible intervals.
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
+//! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable),
+//!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
 //! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
 #![deny(clippy::float_cmp)]
 
 pub mod cli;
 pub mod data;
 pub mod diagnostics;
+#[cfg(feature = "parquet")]
+pub mod fit;
 pub mod law;
+pub mod model;
 pub mod prec;
 pub mod sampler;
 pub mod simulate;

@@ -43,6 +43,7 @@ pub(crate) fn temporary_path(path: &Path) -> io::Result<PathBuf> {
 }
 
 /// Whether a file name is one of the temporaries of [`write_atomically`].
+#[cfg_attr(not(feature = "parquet"), allow(dead_code))]
 pub(crate) fn is_temporary_name(name: &str) -> bool {
     name.len() > ".tmp".len() + 1 && name.starts_with('.') && name.ends_with(".tmp")
 }

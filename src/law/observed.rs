@@ -65,14 +65,9 @@ impl ObservedSlide {
     /// Recorded force at each instrument time of `times` (strictly increasing), written into
     /// `forces`; the interface times are written into `taus` when given.
     ///
-    /// Each point is solved by a safeguarded Newton iteration on the bracket
-    /// [τ of the previous point, t], warm-started by extrapolating along the previous point's
-    /// slope dτ/dt = 1/(1 + F'/(kv)); it always converges.
-    ///
     /// # Errors
-    /// [`LawError::UnsortedTimes`] when times do not increase, [`LawError::LengthMismatch`] for
-    /// outputs of the wrong length, and [`LawError::StickSlip`] when dF/dτ ≤ −kv anywhere on
-    /// the path up to the last point.
+    /// As [`ObservedSlide::for_each_force`], and [`LawError::LengthMismatch`] for outputs of
+    /// the wrong length.
     pub fn forces(
         &self,
         times: &[f64],
@@ -83,6 +78,32 @@ impl ObservedSlide {
         if let Some(taus) = taus.as_deref() {
             check_len(times.len(), taus.len())?;
         }
+        self.for_each_force(times, |i, tau, force| {
+            forces[i] = force;
+            if let Some(taus) = taus.as_deref_mut() {
+                taus[i] = tau;
+            }
+        })
+    }
+
+    /// Calls `visit(i, τ_i, F_i)` with the interface time and recorded force at each instrument
+    /// time of `times` (strictly increasing), in order, without allocating: the hot path of a
+    /// likelihood.
+    ///
+    /// Each point is solved by a safeguarded Newton iteration on the bracket
+    /// [τ of the previous point, t], warm-started by extrapolating along the previous point's
+    /// slope dτ/dt = 1/(1 + F'/(kv)) and its change since the point before; it always
+    /// converges.
+    ///
+    /// # Errors
+    /// [`LawError::UnsortedTimes`] when times do not increase (checked before any visit), and
+    /// [`LawError::StickSlip`] when dF/dτ ≤ −kv anywhere on the path up to the last point
+    /// (checked after the visits, whose values are then meaningless).
+    pub fn for_each_force(
+        &self,
+        times: &[f64],
+        mut visit: impl FnMut(usize, f64, f64),
+    ) -> Result<(), LawError> {
         let mut previous_time = f64::NEG_INFINITY;
         for (index, &time) in times.iter().enumerate() {
             // NaN fails this comparison too.
@@ -94,10 +115,7 @@ impl ObservedSlide {
         let kv = match self.elastic {
             Elastic::Stiff => {
                 for (i, &t) in times.iter().enumerate() {
-                    forces[i] = self.law.force(t);
-                    if let Some(taus) = taus.as_deref_mut() {
-                        taus[i] = t;
-                    }
+                    visit(i, t, self.law.force(t));
                 }
                 return Ok(());
             }
@@ -108,16 +126,24 @@ impl ObservedSlide {
         let t0 = law.t0();
         let (force_t0, rate_t0) = law.force_and_rate(t0);
         let loading_ends = t0 + force_t0 / kv;
-        // The previous solved point: (t, τ, dF/dτ), the warm start of the next.
-        let mut previous = (loading_ends, t0, rate_t0);
+        // The last two solved points as (t, τ, dτ/dt): the warm start of the next, by
+        // quadratic extrapolation along τ(t) once two are known.
+        let slope = |rate: f64| 1.0 / (1.0 + rate / kv);
+        let mut previous = (loading_ends, t0, slope(rate_t0));
+        let mut before: Option<(f64, f64, f64)> = None;
         for (i, &t) in times.iter().enumerate() {
             let (tau, force) = if t <= t0 {
                 (t, 0.0)
             } else if t <= loading_ends {
                 (t0, kv * (t - t0))
             } else {
-                let (t_prev, tau_prev, rate_prev) = previous;
-                let guess = tau_prev + (t - t_prev) / (1.0 + rate_prev / kv);
+                let (t_prev, tau_prev, slope_prev) = previous;
+                let dt = t - t_prev;
+                let curvature = match before {
+                    Some((t_b, _, slope_b)) => (slope_prev - slope_b) / (t_prev - t_b),
+                    None => 0.0,
+                };
+                let guess = tau_prev + dt * (slope_prev + 0.5 * curvature * dt);
                 let mut last = (f64::NAN, 0.0, 0.0);
                 let root = increasing_root(
                     |tau| {
@@ -134,13 +160,11 @@ impl ObservedSlide {
                 // The root is one tiny Newton step from the last evaluation: carry F along
                 // its tangent rather than paying for one more evaluation.
                 let force = f_eval + r_eval * (root.root - tau_eval);
-                previous = (t, root.root, r_eval);
+                before = Some(previous);
+                previous = (t, root.root, slope(r_eval));
                 (root.root, force)
             };
-            forces[i] = force;
-            if let Some(taus) = taus.as_deref_mut() {
-                taus[i] = tau;
-            }
+            visit(i, tau, force);
         }
         if let Some(&t_last) = times.last() {
             if t_last > loading_ends {

@@ -1,7 +1,8 @@
 //! Starting the ensembles close to the posterior, so that burn-in is short.
 //!
-//! The mode is found with Nelder–Mead (no gradients needed, robust to the rejections a
-//! density may return near the edge of its support), the local curvature with a central
+//! The mode is found with L-BFGS on finite-difference gradients, polished with Nelder–Mead
+//! (no gradients needed, robust to the rejections a density may return near the edge of its
+//! support), the local curvature with a central
 //! finite-difference Hessian, and walkers are drawn from the Laplace approximation
 //! `N(mode, H⁻¹)`. When `H` is not positive definite, the directions without positive
 //! curvature get a small fixed spread instead.
@@ -12,6 +13,7 @@ use rand_distr::StandardNormal;
 
 use super::density::{classify, Eval, LogDensity};
 use super::error::SamplerError;
+use super::lbfgs::{lbfgs, LbfgsOptions};
 use super::run::{walker_condition_number, WALKER_CONDITION_LIMIT};
 
 /// Options of [`nelder_mead`].
@@ -305,7 +307,16 @@ pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
             ),
         });
     }
-    let (mode, neg, _) = nelder_mead(|x| -log_f(x), start, &NelderMeadOptions::default());
+    // L-BFGS gets close cheaply in many dimensions; Nelder–Mead then polishes without
+    // trusting finite-difference gradients at the end.
+    let (near, _) = lbfgs(|x| -log_f(x), start, &LbfgsOptions::default());
+    let polish = NelderMeadOptions {
+        initial_step: 1e-3,
+        max_evals: 200 * n,
+        restarts: 1,
+        ..NelderMeadOptions::default()
+    };
+    let (mode, neg, _) = nelder_mead(|x| -log_f(x), &near, &polish);
     if !neg.is_finite() {
         return Err(SamplerError::Optimisation {
             detail: format!("Nelder–Mead ended at {mode:?} with log-density {}", -neg),

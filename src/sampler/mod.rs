@@ -56,6 +56,7 @@ mod density;
 mod ensemble;
 mod error;
 mod history;
+mod lbfgs;
 mod init;
 mod memory;
 mod moves;

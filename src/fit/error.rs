@@ -1,0 +1,116 @@
+//! Errors of a fit: each says which stage failed, on which directory or quantity, and keeps
+//! the underlying error as its source (printed as "caused by" by the binary).
+
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+use crate::diagnostics::DiagnosticsError;
+use crate::sampler::SamplerError;
+use crate::storage::StorageError;
+
+/// What can go wrong in [`run_fit`](super::run_fit).
+#[derive(Debug, Error)]
+pub enum FitError {
+    /// A setting of [`FitSettings`](super::FitSettings) is out of range or contradicts
+    /// another.
+    #[error("invalid fit setting `{name}` = {value}: {requirement}")]
+    InvalidSetting {
+        /// The setting.
+        name: &'static str,
+        /// Its value, as given.
+        value: String,
+        /// What it must satisfy.
+        requirement: String,
+    },
+    /// A reported quantity or comparison does not fit the density's columns.
+    #[error("invalid {what}: {problem}")]
+    InvalidSpec {
+        /// "quantity" or "comparison".
+        what: &'static str,
+        /// What is wrong and how to fix it.
+        problem: String,
+    },
+    /// The sampler settings were refused.
+    #[error("invalid sampler settings")]
+    Config(#[source] SamplerError),
+    /// No starting walkers could be found around the optimum.
+    #[error("cannot find starting walkers from the start point {start:?}")]
+    Start {
+        /// The start point given.
+        start: Vec<f64>,
+        /// Why.
+        #[source]
+        source: SamplerError,
+    },
+    /// Sampling (or setting up the sampler) failed.
+    #[error("{context}")]
+    Sampler {
+        /// What was being done, naming the run directory.
+        context: String,
+        /// The sampler's error.
+        #[source]
+        source: SamplerError,
+    },
+    /// Storing, resuming or reading the chains failed.
+    #[error("{context}")]
+    Storage {
+        /// What was being done, naming the run directory.
+        context: String,
+        /// The storage error.
+        #[source]
+        source: StorageError,
+    },
+    /// A resumed run does not match the requested settings.
+    #[error("cannot resume the run in {}: {problem}", dir.display())]
+    ResumeMismatch {
+        /// The run directory.
+        dir: PathBuf,
+        /// What does not match and what to do.
+        problem: String,
+    },
+    /// The chains read back do not have the layout the sampler writes.
+    #[error("the chains in {} are inconsistent: {problem}; start a new run with --overwrite", dir.display())]
+    Inconsistent {
+        /// The run directory.
+        dir: PathBuf,
+        /// What contradicts what.
+        problem: String,
+    },
+    /// Too few steps remain after burn-in for any summary.
+    #[error(
+        "only {kept} steps remain after a burn-in of {burn_in} of {total} steps, at least {needed} \
+         are needed for a summary; run more steps"
+    )]
+    TooFewDraws {
+        /// Steps kept.
+        kept: usize,
+        /// Steps discarded.
+        burn_in: u64,
+        /// Steps in the chains.
+        total: u64,
+        /// Steps needed.
+        needed: usize,
+    },
+    /// A posterior summary could not be computed.
+    #[error("cannot summarise {quantity}")]
+    Diagnostics {
+        /// The quantity ("name[group]") or comparison.
+        quantity: String,
+        /// The diagnostics error.
+        #[source]
+        source: DiagnosticsError,
+    },
+    /// An output file could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The summary could not be serialised.
+    #[error("cannot serialise the summary")]
+    Serialize(#[source] serde_json::Error),
+}

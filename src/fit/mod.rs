@@ -1,0 +1,412 @@
+//! The orchestration behind `slipbayes fit`: start the walkers, sample into a run directory
+//! (with checkpoints, resumable after a kill), then summarise the chains and write
+//! `summary.json` and `summary.csv`.
+//!
+//! This part is generic over any [`LogDensity`]: it knows the names of the chain columns and
+//! how the caller wants each one reported ([`Quantity`]: a name, a group such as a material or
+//! a scene, a unit), never what they mean. It does not print; progress goes to the caller's
+//! [`Observer`], and the caller prints a table from the returned [`FitOutcome`].
+//!
+//! # What it does
+//! 1. Validates the settings, quantities and comparisons against the density's columns, before
+//!    anything expensive.
+//! 2. Fresh run: creates a [`ParquetSink`] in the run directory (refusing one that holds a run
+//!    unless `overwrite`), draws the initial walkers with [`initial_around_optimum`] from the
+//!    given start (stream [`INIT_STREAM`] of the seed), and samples.
+//!    Resumed run: reopens the sink at its last checkpoint and continues the sampler from the
+//!    saved state, so the chains end identical to an uninterrupted run with the same seed.
+//!    [`Steps::Fixed`] counts the *total* steps of the run, resumed or not.
+//! 3. Reads the chains back, discards the burn-in and thins as the [`RunReport`] suggests
+//!    (burn-in ⌈2 τ_max⌉ clamped to half the run, thin ⌊τ_min/2⌋), summarises every quantity
+//!    and every comparison ([`crate::diagnostics::summarize`]), and judges convergence: R̂
+//!    between ensembles below [`RHAT_MAX`], bulk and tail ESS above [`ESS_MIN`], τ reliable
+//!    (chains longer than 50 τ), no stuck walkers. Every failure is listed in words.
+//! 4. Writes `summary.json` and `summary.csv` atomically ([`write_atomically`]).
+//!
+//! # Layout of a run directory
+//! ```text
+//! DIR/chains/part-*.parquet   the draws (see crate::storage)
+//! DIR/checkpoint.json         the sampler state of the last checkpoint
+//! DIR/summary.json            parameters, derived quantities, comparisons, sampler
+//! DIR/summary.csv             one row per parameter and derived quantity (ArviZ columns)
+//! ```
+mod error;
+mod output;
+mod summary;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::sampler::{
+    initial_around_optimum, EnsembleSampler, LogDensity, Observer, RunReport, SamplerConfig,
+    SamplerState, Silent, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_SEED,
+};
+use crate::storage::{
+    read_chains, write_atomically, ParquetSink, SinkOptions, StorageError, CHAINS_DIR,
+    CHECKPOINT_FILE,
+};
+
+pub use error::FitError;
+pub use output::{summary_csv, CSV_COLUMNS};
+pub use summary::{
+    Comparison, FitSummary, QuantitySummary, SamplerSummary, Stats, ESS_MIN, RHAT_MAX,
+};
+
+/// File name of the JSON summary inside the run directory.
+pub const SUMMARY_JSON: &str = "summary.json";
+/// File name of the CSV summary inside the run directory.
+pub const SUMMARY_CSV: &str = "summary.csv";
+/// Default checkpoint interval, in steps.
+pub const DEFAULT_CHECKPOINT_EVERY: u64 = 200;
+/// Default walkers per ensemble (must still be at least twice the dimension).
+pub const DEFAULT_WALKERS: usize = 32;
+/// Default step cap of the stopping rule.
+pub const DEFAULT_MAX_STEPS: u64 = 20_000;
+/// Default probability of the equal-tailed interval and of the HDI.
+pub const DEFAULT_INTERVAL_PROB: f64 = 0.95;
+/// ChaCha8 stream of the seed used to draw the initial walkers; the sampler's streams are
+/// `(ensemble << 32) | walker`, far from this one.
+pub const INIT_STREAM: u64 = u64::MAX;
+
+/// Whether a quantity is a sampled parameter or a derived value ("blob").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QuantityKind {
+    /// A column of [`LogDensity::param_names`].
+    Parameter,
+    /// A column of [`LogDensity::derived_names`].
+    Derived,
+}
+
+impl QuantityKind {
+    /// `"parameter"` or `"derived"`, as in `summary.csv`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Parameter => "parameter",
+            Self::Derived => "derived",
+        }
+    }
+}
+
+/// One reported quantity: which chain column holds its draws (a parameter or derived column
+/// name), and how it is reported.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Quantity {
+    /// The chain column.
+    pub column: String,
+    /// Reported name (e.g. `"F_peak"`); several groups may share it.
+    pub name: String,
+    /// Group (material, scene, ...); may be empty.
+    pub group: String,
+    /// Unit, for humans (e.g. `"N"`, `"1/m"`); may be empty.
+    pub unit: String,
+    /// Where the column lives.
+    pub kind: QuantityKind,
+}
+
+impl Quantity {
+    /// `name[group]`, or `name` when the group is empty: how problems refer to it.
+    pub fn label(&self) -> String {
+        label(&self.name, &self.group)
+    }
+}
+
+fn label(name: &str, group: &str) -> String {
+    if group.is_empty() {
+        name.to_owned()
+    } else {
+        format!("{name}[{group}]")
+    }
+}
+
+/// Material comparison: for each `name` in `names`, and each ordered pair (A, B) of `groups`
+/// (A before B in the list), the posterior of A − B and A / B, with intervals and P(A > B).
+/// Draws are paired by (ensemble, walker, step). Pairs where A or B lacks the quantity are
+/// skipped; every name must exist in at least two of the groups.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ComparisonSpec {
+    /// Quantity names to compare.
+    pub names: Vec<String>,
+    /// Groups, in the order that decides A and B.
+    pub groups: Vec<String>,
+}
+
+/// How to run and summarise a fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FitSettings {
+    /// Walkers per ensemble (even, ≥ 4, ≥ 2·dim).
+    pub walkers: usize,
+    /// Independent ensembles (≥ 2 for R̂).
+    pub ensembles: usize,
+    /// Seed of every random stream; must be the original one when resuming.
+    pub seed: u64,
+    /// Run length. [`Steps::Fixed`] is the total number of steps (a resumed run runs the
+    /// rest); [`Steps::UntilConverged`] caps the total at `max_steps`.
+    pub steps: Steps,
+    /// Steps between checkpoints; `None` checkpoints only at the end (a kill loses the run).
+    pub checkpoint_every: Option<u64>,
+    /// Probability of the equal-tailed credible interval, in (0, 1).
+    pub ci_prob: f64,
+    /// Probability of the highest-density interval, in (0, 1).
+    pub hdi_prob: f64,
+    /// Do not forward progress to the observer.
+    pub quiet: bool,
+    /// Replace the chains and checkpoint of an earlier run in the directory (fresh runs).
+    pub overwrite: bool,
+}
+
+impl Default for FitSettings {
+    /// 32 walkers × 4 ensembles, the default seed, until converged (cap 20 000 steps),
+    /// checkpoints every 200 steps, 95 % intervals.
+    fn default() -> Self {
+        Self {
+            walkers: DEFAULT_WALKERS,
+            ensembles: DEFAULT_ENSEMBLES,
+            seed: DEFAULT_SEED,
+            steps: Steps::UntilConverged(StopRule::new(DEFAULT_MAX_STEPS)),
+            checkpoint_every: Some(DEFAULT_CHECKPOINT_EVERY),
+            ci_prob: DEFAULT_INTERVAL_PROB,
+            hdi_prob: DEFAULT_INTERVAL_PROB,
+            quiet: false,
+            overwrite: false,
+        }
+    }
+}
+
+fn invalid(name: &'static str, value: impl std::fmt::Display, req: &str) -> FitError {
+    FitError::InvalidSetting {
+        name,
+        value: value.to_string(),
+        requirement: req.to_owned(),
+    }
+}
+
+impl FitSettings {
+    fn validate(&self, resume: bool) -> Result<(), FitError> {
+        for (name, p) in [("ci_prob", self.ci_prob), ("hdi_prob", self.hdi_prob)] {
+            if !(p > 0.0 && p < 1.0) {
+                return Err(invalid(name, p, "must lie strictly between 0 and 1"));
+            }
+        }
+        if resume && self.overwrite {
+            return Err(invalid(
+                "overwrite",
+                true,
+                "cannot be combined with resume: resume continues the run, overwrite replaces it",
+            ));
+        }
+        if !resume && matches!(self.steps, Steps::Fixed(0)) {
+            return Err(invalid("steps", 0, "a new run needs at least one step"));
+        }
+        Ok(())
+    }
+
+    fn sampler_config(&self) -> Result<SamplerConfig, FitError> {
+        SamplerConfig::new(self.walkers, self.ensembles, self.seed)
+            .and_then(|c| c.with_checkpoint_every(self.checkpoint_every))
+            .map_err(FitError::Config)
+    }
+}
+
+/// Where the outputs of a fit are.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FitPaths {
+    /// The run directory.
+    pub dir: PathBuf,
+    /// The Parquet parts.
+    pub chains: PathBuf,
+    /// The checkpoint (marked finished).
+    pub checkpoint: PathBuf,
+    /// `summary.json`.
+    pub summary_json: PathBuf,
+    /// `summary.csv`.
+    pub summary_csv: PathBuf,
+}
+
+impl FitPaths {
+    fn new(dir: &Path) -> Self {
+        Self {
+            dir: dir.to_path_buf(),
+            chains: dir.join(CHAINS_DIR),
+            checkpoint: dir.join(CHECKPOINT_FILE),
+            summary_json: dir.join(SUMMARY_JSON),
+            summary_csv: dir.join(SUMMARY_CSV),
+        }
+    }
+}
+
+/// The result of a fit.
+#[derive(Debug, Clone)]
+pub struct FitOutcome {
+    /// The sampler's report of the whole run (τ, R̂ of the parameters, acceptance, ...).
+    pub report: RunReport,
+    /// What `summary.json` holds.
+    pub summary: FitSummary,
+    /// Where the outputs are.
+    pub paths: FitPaths,
+}
+
+/// Runs (or resumes) a fit of `density` into `out_dir` and writes its summaries; see the
+/// [module documentation](self). `start` is where the optimiser starts (ignored when
+/// resuming). `observer` receives the sampler's progress unless `settings.quiet`.
+///
+/// # Errors
+/// [`FitError::InvalidSetting`], [`FitError::InvalidSpec`], [`FitError::Config`] before any
+/// work; [`FitError::Storage`] when the directory holds another run (fresh) or no resumable
+/// one (resume) or the chains cannot be written or read; [`FitError::ResumeMismatch`] when the
+/// checkpoint belongs to other settings; [`FitError::Start`] when no starting walkers are
+/// found; [`FitError::Sampler`] when sampling fails (the last checkpoint stays resumable);
+/// [`FitError::TooFewDraws`], [`FitError::Diagnostics`] when the chains are too short to
+/// summarise; [`FitError::Write`] when a summary file cannot be written.
+#[allow(clippy::too_many_arguments)]
+pub fn run_fit<D: LogDensity + ?Sized>(
+    density: &D,
+    quantities: &[Quantity],
+    comparisons: &ComparisonSpec,
+    start: &[f64],
+    settings: &FitSettings,
+    out_dir: &Path,
+    resume: bool,
+    observer: &mut impl Observer,
+) -> Result<FitOutcome, FitError> {
+    let started = Instant::now();
+    settings.validate(resume)?;
+    let param_names = density.param_names();
+    let derived_names = density.derived_names();
+    let plan = summary::Plan::new(&param_names, &derived_names, quantities, comparisons)?;
+    let config = settings.sampler_config()?;
+    let dir = out_dir.display();
+    let storage = |context: String| move |source| FitError::Storage { context, source };
+
+    let (mut sampler, mut sink, steps) = if resume {
+        let (sink, state): (ParquetSink, SamplerState) =
+            ParquetSink::resume(out_dir).map_err(storage(format!("resuming from {dir}")))?;
+        sink.check_columns(&param_names, &derived_names)
+            .map_err(storage(format!("resuming from {dir}")))?;
+        let mismatch = |problem: String| FitError::ResumeMismatch {
+            dir: out_dir.to_path_buf(),
+            problem,
+        };
+        if state.seed != settings.seed {
+            return Err(mismatch(format!(
+                "the run was started with seed {} but seed {} was given; resume with the original seed",
+                state.seed, settings.seed
+            )));
+        }
+        if state.step != sink.steps() {
+            return Err(FitError::Inconsistent {
+                dir: out_dir.to_path_buf(),
+                problem: format!(
+                    "the checkpoint's sampler state is at step {} but its chains end at step {}",
+                    state.step,
+                    sink.steps()
+                ),
+            });
+        }
+        let steps = match settings.steps {
+            Steps::Fixed(total) if total < state.step => {
+                return Err(mismatch(format!(
+                    "the chains already hold {} steps, more than the {total} steps asked for",
+                    state.step
+                )))
+            }
+            Steps::Fixed(total) => Steps::Fixed(total - state.step),
+            rule @ Steps::UntilConverged(_) => rule,
+        };
+        let sampler = EnsembleSampler::from_state(density, config, state).map_err(|source| {
+            FitError::Sampler {
+                context: format!("resuming the sampler from {dir}"),
+                source,
+            }
+        })?;
+        (sampler, sink, steps)
+    } else {
+        // The directory is claimed first: refusing an occupied one costs nothing, the
+        // optimisation may cost a lot.
+        let options = SinkOptions {
+            overwrite: settings.overwrite,
+            ..SinkOptions::default()
+        };
+        let sink = ParquetSink::create(out_dir, &param_names, &derived_names, options)
+            .map_err(storage(format!("starting a run in {dir}")))?;
+        let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+        rng.set_stream(INIT_STREAM);
+        let initial = initial_around_optimum(
+            density,
+            start,
+            settings.walkers,
+            settings.ensembles,
+            &mut rng,
+        )
+        .map_err(|source| FitError::Start {
+            start: start.to_vec(),
+            source,
+        })?;
+        let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {
+            FitError::Sampler {
+                context: format!("starting the sampler for {dir}"),
+                source,
+            }
+        })?;
+        (sampler, sink, settings.steps)
+    };
+
+    let paths = FitPaths::new(out_dir);
+    // Summaries of an earlier run in this directory must not survive next to new chains.
+    for path in [&paths.summary_json, &paths.summary_csv] {
+        remove_if_present(path)?;
+    }
+
+    let mut silent = Silent;
+    let observer: &mut dyn Observer = if settings.quiet {
+        &mut silent
+    } else {
+        observer
+    };
+    let report = sampler
+        .run(steps, &mut sink, observer)
+        .map_err(|source| FitError::Sampler {
+            context: format!("sampling into {dir}"),
+            source,
+        })?;
+    sink.finish()
+        .map_err(storage(format!("finishing the chains in {dir}")))?;
+
+    let chains = read_chains(out_dir).map_err(storage(format!("reading the chains of {dir}")))?;
+    let summary = plan.summarise(&chains, &report, settings, out_dir, started)?;
+
+    let json = serde_json::to_vec_pretty(&summary).map_err(FitError::Serialize)?;
+    write(&paths.summary_json, &json)?;
+    write(&paths.summary_csv, summary_csv(&summary).as_bytes())?;
+    Ok(FitOutcome {
+        report,
+        summary,
+        paths,
+    })
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), FitError> {
+    write_atomically(path, bytes).map_err(|source| FitError::Write {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn remove_if_present(path: &Path) -> Result<(), FitError> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(source) => Err(FitError::Storage {
+            context: format!("removing the stale summary {}", path.display()),
+            source: StorageError::Io {
+                action: "remove",
+                path: path.to_path_buf(),
+                source,
+            },
+        }),
+    }
+}

@@ -1,0 +1,19 @@
+//! Models of friction data: which runs share which parameters, with which priors, and the
+//! joint posterior they define.
+//!
+//! - [`spec`]: model files (`models/*.toml`), validated at load with errors naming the key.
+//! - [`prior`]: prior distributions and their log-scale Jacobians.
+//! - [`data`]: a run's data loaded, checked and windowed for the likelihood.
+//! - [`posterior`]: the posterior as a [`crate::sampler::LogDensity`], with every reported
+//!   quantity (parameters in SI, peaks, μ_s, predictions) as derived values.
+//!
+//! This module joins the friction law to data and priors; it knows nothing of how the
+//! posterior is sampled or stored.
+
+pub mod data;
+pub mod posterior;
+pub mod prior;
+pub mod spec;
+
+pub use posterior::{Column, Kind, Posterior, PosteriorError};
+pub use spec::{ModelFile, ModelSpec, SpecError};

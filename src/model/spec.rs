@@ -1,0 +1,508 @@
+//! Model files (`models/*.toml`): what is fitted, to which data, with which priors and
+//! sampler settings. Deserialised with serde and validated once here, so that everything
+//! downstream can trust it; every error names the key at fault and says what to write.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::prior::Prior;
+use crate::law::Scene;
+
+/// Errors loading a model file.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The model file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The TOML does not parse or does not fit the schema (the message names line and key).
+    #[error("{path}: {message}")]
+    Syntax {
+        /// The model file.
+        path: PathBuf,
+        /// The parser's message, with line, column and key.
+        message: String,
+    },
+    /// A value is invalid.
+    #[error("{path}: {key}: {message}")]
+    Invalid {
+        /// The model file (or `<command line>` for the quick path).
+        path: PathBuf,
+        /// The key at fault, e.g. `run[2].velocity_m_per_s` or `priors.alpha`.
+        key: String,
+        /// What is wrong and what to do.
+        message: String,
+    },
+}
+
+/// The parameters of the law and its scenes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Param {
+    /// Shear-rejuvenation constant α (1/m).
+    #[serde(rename = "alpha")]
+    Alpha,
+    /// Aging amplitude a (N), or a/F_d when `aging = "ratio"`.
+    #[serde(rename = "a")]
+    A,
+    /// Steady-state friction F_d (N).
+    #[serde(rename = "F_d")]
+    FD,
+    /// Short-time cut-off t0 (s).
+    #[serde(rename = "t0")]
+    T0,
+    /// Machine stiffness k (N/m).
+    #[serde(rename = "k")]
+    K,
+    /// Noise standard deviation σ (N).
+    #[serde(rename = "sigma")]
+    Sigma,
+}
+
+impl Param {
+    /// All parameters, in reporting order.
+    pub const ALL: [Param; 6] = [Self::Alpha, Self::A, Self::FD, Self::T0, Self::K, Self::Sigma];
+
+    /// The name used in files and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Alpha => "alpha",
+            Self::A => "a",
+            Self::FD => "F_d",
+            Self::T0 => "t0",
+            Self::K => "k",
+            Self::Sigma => "sigma",
+        }
+    }
+
+    /// SI unit.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Self::Alpha => "1/m",
+            Self::A | Self::FD | Self::Sigma => "N",
+            Self::T0 => "s",
+            Self::K => "N/m",
+        }
+    }
+
+    /// Level of MODEL.md §5 when the model file says nothing.
+    pub fn default_level(self) -> Level {
+        match self {
+            Self::Alpha | Self::A => Level::Material,
+            Self::FD | Self::K => Level::Contact,
+            Self::T0 | Self::Sigma => Level::Run,
+        }
+    }
+
+    /// Whether a run of `scene` uses the parameter ("model only what a scene needs").
+    pub fn used_by(self, scene: Scene) -> bool {
+        match self {
+            Self::Alpha | Self::A | Self::T0 => scene != Scene::Repeat,
+            Self::K => scene != Scene::StiffFast,
+            Self::FD | Self::Sigma => true,
+        }
+    }
+}
+
+/// Where a parameter is shared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Level {
+    /// One value per material.
+    Material,
+    /// One value per contact (shared by its runs).
+    Contact,
+    /// One value per run.
+    Run,
+}
+
+/// How the aging amplitude is parameterised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Aging {
+    /// Sample r = a/F_d at the level of `a`; a = r·F_d per contact (the default: the paper
+    /// reports a/F_d, and it is what stays constant between placements of one sphere).
+    #[default]
+    Ratio,
+    /// Sample a itself.
+    Absolute,
+}
+
+/// A material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Name, e.g. `PTFE`.
+    pub name: String,
+}
+
+/// A contact: one placement of a sphere of some material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// Name, e.g. `ptfe-c1`.
+    pub name: String,
+    /// Material name.
+    pub material: String,
+    /// Normal force F_N (N), when known; otherwise the data's `normal_force_N` column is used.
+    #[serde(default, rename = "normal_force_N")]
+    pub normal_force_n: Option<f64>,
+}
+
+/// A run: one recorded slide.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunSpec {
+    /// Name, e.g. `ptfe-c1-first`.
+    pub name: String,
+    /// Contact name.
+    pub contact: String,
+    /// Data file, relative to the model file.
+    pub data: PathBuf,
+    /// Sliding velocity (m/s).
+    pub velocity_m_per_s: f64,
+    /// `first`, `repeat` or `stiff-fast`.
+    pub scene: Scene,
+    /// Optional time window [start, end] in seconds of instrument time.
+    #[serde(default)]
+    pub window_s: Option<[f64; 2]>,
+    /// For a repeat slide: the run it follows (default: the contact's first slide).
+    #[serde(default)]
+    pub follows: Option<String>,
+}
+
+/// Partial pooling of a parameter within its material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PoolingSpec {
+    /// Pool ln t0 within each material: ln t0 ~ Normal(μ_material, s_material), non-centred.
+    #[serde(default)]
+    pub t0: bool,
+}
+
+/// Sampler settings of a fit.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SamplerSpec {
+    /// Walkers per ensemble (default: max(32, 4·dim) rounded up to even).
+    #[serde(default)]
+    pub walkers: Option<usize>,
+    /// Independent ensembles (default 4).
+    #[serde(default = "default_ensembles")]
+    pub ensembles: usize,
+    /// Fixed number of steps; when absent, run until converged up to `max_steps`.
+    #[serde(default)]
+    pub steps: Option<u64>,
+    /// Step cap of the stopping rule.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: u64,
+    /// Seed.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Steps between checkpoints.
+    #[serde(default = "default_checkpoint")]
+    pub checkpoint_every: u64,
+}
+
+fn default_ensembles() -> usize {
+    4
+}
+fn default_max_steps() -> u64 {
+    20_000
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_checkpoint() -> u64 {
+    200
+}
+
+impl Default for SamplerSpec {
+    fn default() -> Self {
+        Self {
+            walkers: None,
+            ensembles: default_ensembles(),
+            steps: None,
+            max_steps: default_max_steps(),
+            seed: default_seed(),
+            checkpoint_every: default_checkpoint(),
+        }
+    }
+}
+
+/// A model file as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Materials.
+    #[serde(rename = "material")]
+    pub materials: Vec<MaterialSpec>,
+    /// Contacts.
+    #[serde(rename = "contact")]
+    pub contacts: Vec<ContactSpec>,
+    /// Runs.
+    #[serde(rename = "run")]
+    pub runs: Vec<RunSpec>,
+    /// Level of each parameter (defaults of MODEL.md §5).
+    #[serde(default)]
+    pub levels: BTreeMap<Param, Level>,
+    /// Parameterisation of the aging amplitude.
+    #[serde(default)]
+    pub aging: Aging,
+    /// Partial pooling.
+    #[serde(default)]
+    pub pooling: PoolingSpec,
+    /// Priors per parameter (defaults: [`default_prior`]).
+    #[serde(default)]
+    pub priors: BTreeMap<String, Prior>,
+    /// Sampler settings.
+    #[serde(default)]
+    pub sampler: SamplerSpec,
+}
+
+/// The documented, weakly informative default prior of a parameter (natural scale, SI):
+/// log-uniform over many decades around anything physical, so the data decide.
+pub fn default_prior(name: &str) -> Option<Prior> {
+    let lu = |low, high| Some(Prior::LogUniform { low, high });
+    match name {
+        // 1/m: rejuvenation over 1 nm to 1 mm of sliding.
+        "alpha" => lu(1e3, 1e9),
+        // N: aging amplitude from 1 µN to 10 N.
+        "a" => lu(1e-6, 10.0),
+        // a/F_d from 1e-3 to 100.
+        "a_over_F_d" => lu(1e-3, 1e2),
+        // N: dynamic friction from 1 µN to 10 N.
+        "F_d" => lu(1e-6, 10.0),
+        // s: from 1 ns to about 3 h.
+        "t0" => lu(1e-9, 1e4),
+        // N/m.
+        "k" => lu(1e1, 1e8),
+        // N: noise from 10 nN to 1 N.
+        "sigma" => lu(1e-8, 1.0),
+        // Pooled t0: median of the material's t0 population (s) and sd of ln t0.
+        "t0_pop_median" => Some(Prior::LogNormal {
+            median: 1.0,
+            sd_log: 5.0,
+            low: Some(1e-9),
+            high: Some(1e4),
+        }),
+        "t0_pop_log_sd" => Some(Prior::HalfNormal { sd: 1.0, high: Some(5.0) }),
+        _ => None,
+    }
+}
+
+/// Names a model file may give priors for.
+pub const PRIOR_NAMES: [&str; 9] = [
+    "alpha",
+    "a",
+    "a_over_F_d",
+    "F_d",
+    "t0",
+    "k",
+    "sigma",
+    "t0_pop_median",
+    "t0_pop_log_sd",
+];
+
+/// A validated model: names resolved to indices, data paths made absolute.
+#[derive(Debug, Clone)]
+pub struct ModelSpec {
+    /// The file as written (for the record of a fit).
+    pub file: ModelFile,
+    /// Directory the data paths are relative to.
+    pub base_dir: PathBuf,
+    /// Where the spec came from (for messages).
+    pub source: PathBuf,
+    /// Material index of each contact.
+    pub contact_material: Vec<usize>,
+    /// Contact index of each run.
+    pub run_contact: Vec<usize>,
+    /// For each repeat run, the run index it follows (None: F_end = F_d).
+    pub run_follows: Vec<Option<usize>>,
+}
+
+impl ModelSpec {
+    /// Reads and validates a model file.
+    ///
+    /// # Errors
+    /// [`SpecError`] naming the file, the key and what to fix.
+    pub fn load(path: &Path) -> Result<Self, SpecError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SpecError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and validates model text; data paths are relative to `path`'s directory.
+    ///
+    /// # Errors
+    /// As [`ModelSpec::load`].
+    pub fn parse(text: &str, path: &Path) -> Result<Self, SpecError> {
+        let file: ModelFile = toml::from_str(text).map_err(|e| SpecError::Syntax {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })?;
+        let base_dir = path
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| PathBuf::from("."));
+        Self::validate(file, base_dir, path.to_owned())
+    }
+
+    /// Validates a model given as a value (the quick path builds one from flags).
+    ///
+    /// # Errors
+    /// [`SpecError::Invalid`] naming the key.
+    pub fn validate(file: ModelFile, base_dir: PathBuf, source: PathBuf) -> Result<Self, SpecError> {
+        let invalid = |key: String, message: String| SpecError::Invalid {
+            path: source.clone(),
+            key,
+            message,
+        };
+        if file.materials.is_empty() || file.contacts.is_empty() || file.runs.is_empty() {
+            return Err(invalid(
+                "material/contact/run".into(),
+                "a model needs at least one [[material]], one [[contact]] and one [[run]]".into(),
+            ));
+        }
+        unique_names(file.materials.iter().map(|m| m.name.as_str()), "material").map_err(|(k, m)| invalid(k, m))?;
+        unique_names(file.contacts.iter().map(|c| c.name.as_str()), "contact").map_err(|(k, m)| invalid(k, m))?;
+        unique_names(file.runs.iter().map(|r| r.name.as_str()), "run").map_err(|(k, m)| invalid(k, m))?;
+        let mut contact_material = Vec::new();
+        for (i, c) in file.contacts.iter().enumerate() {
+            let m = file.materials.iter().position(|m| m.name == c.material).ok_or_else(|| {
+                invalid(
+                    format!("contact[{i}].material"),
+                    format!("no [[material]] named `{}`; declare it or fix the name", c.material),
+                )
+            })?;
+            if let Some(f) = c.normal_force_n {
+                if !(f.is_finite() && f > 0.0) {
+                    return Err(invalid(format!("contact[{i}].normal_force_N"), format!("{f} must be a force > 0 in newtons")));
+                }
+            }
+            contact_material.push(m);
+        }
+        let mut run_contact = Vec::new();
+        for (i, r) in file.runs.iter().enumerate() {
+            let c = file.contacts.iter().position(|c| c.name == r.contact).ok_or_else(|| {
+                invalid(
+                    format!("run[{i}].contact"),
+                    format!("no [[contact]] named `{}`; declare it or fix the name", r.contact),
+                )
+            })?;
+            let v = r.velocity_m_per_s;
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(
+                    format!("run[{i}].velocity_m_per_s"),
+                    format!("{v} must be a sliding velocity > 0 in m/s (e.g. 1e-9 for 1 nm/s)"),
+                ));
+            }
+            if let Some([a, b]) = r.window_s {
+                if !(a.is_finite() && b.is_finite() && a < b) {
+                    return Err(invalid(format!("run[{i}].window_s"), format!("[{a}, {b}] must be [start, end] with start < end (s)")));
+                }
+            }
+            run_contact.push(c);
+        }
+        let mut run_follows = Vec::new();
+        for (i, r) in file.runs.iter().enumerate() {
+            let follows = match (r.scene, &r.follows) {
+                (Scene::Repeat, Some(name)) => {
+                    let j = file.runs.iter().position(|o| &o.name == name).ok_or_else(|| {
+                        invalid(format!("run[{i}].follows"), format!("no [[run]] named `{name}`"))
+                    })?;
+                    if file.runs[j].scene != Scene::First || run_contact[j] != run_contact[i] {
+                        return Err(invalid(
+                            format!("run[{i}].follows"),
+                            format!("`{name}` must be a first slide of the same contact"),
+                        ));
+                    }
+                    Some(j)
+                }
+                (Scene::Repeat, None) => (0..file.runs.len())
+                    .find(|&j| file.runs[j].scene == Scene::First && run_contact[j] == run_contact[i]),
+                (_, Some(_)) => {
+                    return Err(invalid(format!("run[{i}].follows"), "only a repeat slide follows another run".into()))
+                }
+                (_, None) => None,
+            };
+            run_follows.push(follows);
+        }
+        for (name, prior) in &file.priors {
+            if !PRIOR_NAMES.contains(&name.as_str()) {
+                return Err(invalid(
+                    format!("priors.{name}"),
+                    format!("unknown parameter; priors can be given for {}", PRIOR_NAMES.join(", ")),
+                ));
+            }
+            prior.validate(name).map_err(|m| invalid(format!("priors.{name}"), m))?;
+            if !prior.positive_support() {
+                return Err(invalid(
+                    format!("priors.{name}"),
+                    "parameters are positive and sampled on the log scale: give a prior on θ > 0 \
+                     (e.g. `low = 0` for uniform or normal)"
+                        .into(),
+                ));
+            }
+        }
+        if file.pooling.t0 && file.levels.get(&Param::T0).copied().unwrap_or(Level::Run) == Level::Material {
+            return Err(invalid("pooling.t0".into(), "t0 pooled within a material needs t0 at the contact or run level".into()));
+        }
+        let s = &file.sampler;
+        if s.ensembles == 0 {
+            return Err(invalid("sampler.ensembles".into(), "need at least 1 ensemble (4 recommended, for R-hat)".into()));
+        }
+        if s.steps == Some(0) || s.max_steps == 0 || s.checkpoint_every == 0 {
+            return Err(invalid("sampler".into(), "steps, max_steps and checkpoint_every must be > 0".into()));
+        }
+        Ok(Self {
+            file,
+            base_dir,
+            source,
+            contact_material,
+            run_contact,
+            run_follows,
+        })
+    }
+
+    /// Level of a parameter.
+    pub fn level(&self, p: Param) -> Level {
+        self.file.levels.get(&p).copied().unwrap_or(p.default_level())
+    }
+
+    /// Prior of a named quantity: the model file's, else the default.
+    pub fn prior(&self, name: &str) -> Prior {
+        self.file
+            .priors
+            .get(name)
+            .cloned()
+            .or_else(|| default_prior(name))
+            .unwrap_or(Prior::LogUniform { low: 1e-300, high: 1e300 })
+    }
+
+    /// Absolute path of a run's data file.
+    pub fn data_path(&self, run: usize) -> PathBuf {
+        self.base_dir.join(&self.file.runs[run].data)
+    }
+}
+
+fn unique_names<'a>(names: impl Iterator<Item = &'a str>, what: &str) -> Result<(), (String, String)> {
+    let mut seen = HashSet::new();
+    for (i, n) in names.enumerate() {
+        if n.trim().is_empty() || n.contains(['[', ']', ',']) {
+            return Err((format!("{what}[{i}].name"), format!("`{n}` must be non-empty and free of `[`, `]` and `,`")));
+        }
+        if !seen.insert(n) {
+            return Err((format!("{what}[{i}].name"), format!("`{n}` is used twice; {what} names must be unique")));
+        }
+    }
+    Ok(())
+}

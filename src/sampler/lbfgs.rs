@@ -1,0 +1,193 @@
+//! Limited-memory BFGS with central finite-difference gradients: finds the mode of a smooth
+//! log-density in tens of dimensions in a few thousand evaluations, where Nelder–Mead needs
+//! tens of thousands.
+
+/// Options of [`lbfgs`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LbfgsOptions {
+    /// Pairs (s, y) kept for the inverse-Hessian approximation.
+    pub memory: usize,
+    /// Stop when the largest gradient component is below `g_tol · (1 + |f|)`.
+    pub g_tol: f64,
+    /// Stop when f improves by less than `f_tol · (1 + |f|)` three iterations in a row.
+    pub f_tol: f64,
+    /// Largest number of iterations.
+    pub max_iterations: usize,
+}
+
+impl Default for LbfgsOptions {
+    fn default() -> Self {
+        Self {
+            memory: 10,
+            g_tol: 1e-9,
+            f_tol: 1e-13,
+            max_iterations: 1000,
+        }
+    }
+}
+
+/// Central finite-difference gradient of `f` at `x` (one-sided where a side is refused).
+/// Returns `None` when neither side gives a finite value along some axis.
+fn gradient<F: FnMut(&[f64]) -> f64>(f: &mut F, x: &[f64], fx: f64, out: &mut [f64]) -> Option<()> {
+    let mut p = x.to_vec();
+    for i in 0..x.len() {
+        // ε^(1/3) balances truncation (h²) against rounding (ε/h) of a central difference.
+        let h = f64::EPSILON.cbrt() * x[i].abs().max(1.0);
+        p[i] = x[i] + h;
+        let fp = f(&p);
+        p[i] = x[i] - h;
+        let fm = f(&p);
+        p[i] = x[i];
+        out[i] = match (fp.is_finite(), fm.is_finite()) {
+            (true, true) => (fp - fm) / (2.0 * h),
+            (true, false) => (fp - fx) / h,
+            (false, true) => (fx - fm) / h,
+            (false, false) => return None,
+        };
+    }
+    Some(())
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Minimises `f` from `start`. `f` may return +∞ or NaN for points it refuses; the line
+/// search backs off from them. Returns the best point and its value.
+pub fn lbfgs<F: FnMut(&[f64]) -> f64>(mut f: F, start: &[f64], options: &LbfgsOptions) -> (Vec<f64>, f64) {
+    let n = start.len();
+    let mut f = |x: &[f64]| {
+        let v = f(x);
+        if v.is_nan() {
+            f64::INFINITY
+        } else {
+            v
+        }
+    };
+    let mut x = start.to_vec();
+    let mut fx = f(&x);
+    let mut g = vec![0.0; n];
+    if !fx.is_finite() || gradient(&mut f, &x, fx, &mut g).is_none() {
+        return (x, fx);
+    }
+    let mut s_hist: Vec<Vec<f64>> = Vec::new();
+    let mut y_hist: Vec<Vec<f64>> = Vec::new();
+    let mut d = vec![0.0; n];
+    let mut x_new = vec![0.0; n];
+    let mut g_new = vec![0.0; n];
+    let mut stalls = 0;
+    for _ in 0..options.max_iterations {
+        let g_max = g.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        if g_max <= options.g_tol * (1.0 + fx.abs()) {
+            break;
+        }
+        // Two-loop recursion: d = −H g.
+        d.copy_from_slice(&g);
+        let m = s_hist.len();
+        let mut alpha = vec![0.0; m];
+        for k in (0..m).rev() {
+            let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
+            alpha[k] = rho * dot(&s_hist[k], &d);
+            for (di, yi) in d.iter_mut().zip(&y_hist[k]) {
+                *di -= alpha[k] * yi;
+            }
+        }
+        let gamma = if m > 0 {
+            dot(&s_hist[m - 1], &y_hist[m - 1]) / dot(&y_hist[m - 1], &y_hist[m - 1])
+        } else {
+            // First step: move a small distance along the gradient.
+            1e-3 / g_max.max(f64::MIN_POSITIVE)
+        };
+        for di in d.iter_mut() {
+            *di *= gamma;
+        }
+        for k in 0..m {
+            let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
+            let beta = rho * dot(&y_hist[k], &d);
+            for (di, si) in d.iter_mut().zip(&s_hist[k]) {
+                *di += (alpha[k] - beta) * si;
+            }
+        }
+        for di in d.iter_mut() {
+            *di = -*di;
+        }
+        let mut slope = dot(&g, &d);
+        if slope >= 0.0 {
+            // Not a descent direction (bad curvature pairs): restart along the gradient.
+            s_hist.clear();
+            y_hist.clear();
+            for (di, gi) in d.iter_mut().zip(&g) {
+                *di = -gi * 1e-3 / g_max;
+            }
+            slope = dot(&g, &d);
+        }
+        // Backtracking Armijo line search.
+        let mut step = 1.0;
+        let mut f_new = f64::INFINITY;
+        for _ in 0..60 {
+            for i in 0..n {
+                x_new[i] = x[i] + step * d[i];
+            }
+            f_new = f(&x_new);
+            if f_new.is_finite() && f_new <= fx + 1e-4 * step * slope {
+                break;
+            }
+            step *= 0.5;
+        }
+        if !(f_new.is_finite() && f_new <= fx) {
+            break;
+        }
+        if gradient(&mut f, &x_new, f_new, &mut g_new).is_none() {
+            break;
+        }
+        let s: Vec<f64> = x_new.iter().zip(&x).map(|(a, b)| a - b).collect();
+        let y: Vec<f64> = g_new.iter().zip(&g).map(|(a, b)| a - b).collect();
+        if dot(&s, &y) > 1e-12 * dot(&y, &y).sqrt() * dot(&s, &s).sqrt() {
+            if s_hist.len() == options.memory {
+                s_hist.remove(0);
+                y_hist.remove(0);
+            }
+            s_hist.push(s);
+            y_hist.push(y);
+        }
+        let improvement = fx - f_new;
+        x.copy_from_slice(&x_new);
+        g.copy_from_slice(&g_new);
+        fx = f_new;
+        if improvement <= options.f_tol * (1.0 + fx.abs()) {
+            stalls += 1;
+            if stalls >= 3 {
+                break;
+            }
+        } else {
+            stalls = 0;
+        }
+    }
+    (x, fx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_the_rosenbrock_minimum() {
+        let rosen = |x: &[f64]| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2);
+        let (x, f) = lbfgs(rosen, &[-1.2, 1.0], &LbfgsOptions::default());
+        assert!((x[0] - 1.0).abs() < 1e-5 && (x[1] - 1.0).abs() < 1e-5, "{x:?} {f}");
+    }
+
+    #[test]
+    fn ill_conditioned_quadratic_in_20_dimensions() {
+        let f = |x: &[f64]| -> f64 {
+            x.iter()
+                .enumerate()
+                .map(|(i, v)| 10f64.powf(i as f64 / 4.0) * (v - 1.0).powi(2))
+                .sum()
+        };
+        let (x, fx) = lbfgs(f, &[0.0; 20], &LbfgsOptions::default());
+        // From f(0) ≈ 1.4e5 down to the floor of the stopping rule (improvements of 1e−13).
+        assert!(fx < 1e-8, "{fx}");
+        assert!(x.iter().all(|v| (v - 1.0).abs() < 1e-4), "{x:?}");
+    }
+}
