@@ -343,11 +343,69 @@ fn overhead(args: &[String]) {
     );
 }
 
+/// The 6-D one-contact friction posterior (`benches/peer/one_contact.toml`): our sampler
+/// alone (emcee would need the law in Python), serial and parallel evaluation.
+fn posterior(args: &[String]) {
+    use slipbayes::model::{ModelSpec, Posterior};
+    let model = arg(args, "--model").unwrap_or_else(|| "benches/peer/one_contact.toml".into());
+    let walkers = num(args, "--walkers", 32) as usize;
+    let steps = num(args, "--steps", 2000);
+    let ensembles = num(args, "--ensembles", 1) as usize;
+    let parallel = arg(args, "--parallel").is_none_or(|v| v == "true");
+    let out = arg(args, "--out");
+    let spec = ModelSpec::load(std::path::Path::new(&model)).expect("model file loads");
+    let post = Posterior::new(&spec).expect("posterior builds");
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let start = slipbayes::sampler::initial_around_optimum(
+        &post,
+        post.start(),
+        walkers,
+        ensembles,
+        &mut rng,
+    )
+    .expect("start around the optimum");
+    let config = SamplerConfig::new(walkers, ensembles, 1)
+        .expect("valid config")
+        .with_moves(vec![(Move::Stretch { a: 2.0 }, 1.0)])
+        .expect("valid move")
+        .with_parallel(parallel);
+    let mut sampler = EnsembleSampler::new(&post, config, start.walkers).expect("valid start");
+    let mut sink = MemorySink::new();
+    let t = Instant::now();
+    let report = sampler
+        .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+        .expect("run succeeds");
+    let wall = t.elapsed().as_secs_f64();
+    if let Some(path) = out {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).expect("create --out"));
+        for c in &sink.chains {
+            for v in &c.positions {
+                f.write_all(&v.to_le_bytes()).expect("write chain");
+            }
+        }
+        f.flush().expect("write chain");
+    }
+    let rejected: u64 = report
+        .ensembles
+        .iter()
+        .flat_map(|e| e.rejections.values())
+        .sum();
+    println!(
+        "{{\"wall_s\": {wall}, \"steps\": {steps}, \"walkers\": {walkers}, \"ensembles\": {ensembles}, \
+         \"ndim\": {}, \"evaluations\": {}, \"rejected\": {rejected}, \"acceptance\": {}, \"threads\": {}, \"parallel\": {parallel}}}",
+        post.dim(),
+        report.evaluations() - (walkers * ensembles) as u64,
+        report.mean_acceptance(),
+        rayon::current_num_threads()
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("run") => run(&args),
         Some("overhead") => overhead(&args),
+        Some("posterior") => posterior(&args),
         _ => {
             eprintln!("usage: sampler_peer run --precision P --init I [--walkers 32] [--steps 20000] [--ensembles 1] [--seed 1] [--out FILE]\n       sampler_peer overhead [--reps 9] [--wall true] [--parallel true]");
             std::process::exit(2);

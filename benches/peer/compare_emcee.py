@@ -19,6 +19,10 @@ Both chains go through ONE estimator: emcee.autocorr.integrated_time (per ensemb
 ours). ESS = steps * walkers / tau_max per ensemble, summed over ensembles. Timings are the
 median of --reps runs of the sampling call alone (process start and chain I/O excluded);
 tau comes from the first repetition (all repetitions use the same seed).
+
+With --posterior-steps N (default 3000; 0 skips it) our sampler also runs the 6-D
+one-contact friction posterior (benches/peer/one_contact.toml) once with parallel and once
+with serial evaluation; emcee is not run there (the posterior exists only in Rust).
 """
 import argparse
 import json
@@ -130,6 +134,8 @@ def main():
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--skip-vectorized", action="store_true")
+    ap.add_argument("--posterior-steps", type=int, default=3000,
+                    help="steps on the 6-D one-contact friction posterior (0: skip)")
     args = ap.parse_args()
     ensure_venv()
     import emcee
@@ -193,9 +199,36 @@ def main():
               f"{steps / r['wall']:.4g} | {r['evals'] / r['wall']:.4g} | "
               f"{r['acceptance']:.3f} | {r['tau_max']:.1f} | {r['ess']:.0f} | {ess_s:.4g} | "
               f"{ess_s / (base['ess'] / base['wall']):.3g} |")
+    post_rows = []
+    if args.posterior_steps > 0:
+        ps = args.posterior_steps
+        for parallel in ("true", "false"):
+            chain_path = os.path.join(OUT, f"posterior_{parallel}.f64")
+            cmd = ["cargo", "run", "--quiet", "--release", "--no-default-features",
+                   "--example", "sampler_peer", "--", "posterior", "--walkers", str(walkers),
+                   "--steps", str(ps), "--parallel", parallel, "--out", chain_path]
+            res = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True)
+            info = json.loads(res.stdout.strip().splitlines()[-1])
+            chain = np.fromfile(chain_path, dtype="<f8").reshape(ps, walkers, info["ndim"])
+            taus, ess = tau_and_ess([chain], walkers)
+            info.update(tau=taus[0].tolist(), tau_max=float(max(taus[0])), ess=ess)
+            post_rows.append(info)
+        print()
+        print(f"6-D one-contact friction posterior (benches/peer/one_contact.toml), ours only, "
+              f"{walkers} walkers, {ps} steps, stretch a = 2, one run each:")
+        print()
+        print("| evaluation | threads | wall time (s) | steps/s | log-density evals/s | "
+              "acceptance | τ_max (steps) | steps / τ_max | ESS = N/τ_max | ESS/s |")
+        print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for r in post_rows:
+            print(f"| {'parallel' if r['parallel'] else 'serial'} | {r['threads']} | "
+                  f"{r['wall_s']:.2f} | {ps / r['wall_s']:.4g} | "
+                  f"{r['evaluations'] / r['wall_s']:.4g} | {r['acceptance']:.3f} | "
+                  f"{r['tau_max']:.1f} | {ps / r['tau_max']:.0f} | {r['ess']:.0f} | "
+                  f"{r['ess'] / r['wall_s']:.4g} |")
     with open(os.path.join(OUT, "results.json"), "w") as f:
         json.dump(dict(load=load, target=target, walkers=walkers, steps=steps, reps=reps,
-                       rows=rows), f, indent=1)
+                       rows=rows, posterior=post_rows), f, indent=1)
 
 
 if __name__ == "__main__":
