@@ -10,7 +10,7 @@
 //!
 //! `run` samples the Gaussian with the given precision matrix (text, one row per line)
 //! from the first `ensembles × walkers` rows of INIT.txt with the stretch move (a = 2),
-//! keeping every draw in memory like emcee's backend, writes the chains as raw
+//! keeping every draw in preallocated memory like emcee's backend (no checkpoints), writes the chains as raw
 //! little-endian f64 (`ensembles × steps × walkers × ndim`) and prints one JSON line with the
 //! wall time of the sampling call and the evaluation count.
 //!
@@ -27,9 +27,48 @@ use std::time::Instant;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use slipbayes::sampler::{
-    EnsembleSampler, LogDensity, LogDensityError, MemorySink, Move, NullSink, SamplerConfig,
-    Silent, Steps,
+    ChainSink, EnsembleSampler, LogDensity, LogDensityError, Move, NullSink, SamplerConfig, Silent,
+    StepView, Steps,
 };
+
+/// Keeps the chain like emcee's in-memory backend: positions and log-densities in buffers
+/// preallocated for the whole run; checkpoints are ignored (emcee's backend has none).
+struct ChainBuffer {
+    positions: Vec<Vec<f64>>,
+    log_density: Vec<Vec<f64>>,
+}
+
+impl ChainBuffer {
+    fn new(ensembles: usize, steps: u64, walkers: usize, ndim: usize) -> Self {
+        let n = steps as usize * walkers;
+        Self {
+            positions: (0..ensembles)
+                .map(|_| Vec::with_capacity(n * ndim))
+                .collect(),
+            log_density: (0..ensembles).map(|_| Vec::with_capacity(n)).collect(),
+        }
+    }
+
+    fn write(&self, path: &str) {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(path).expect("create --out"));
+        for v in self.positions.iter().flatten() {
+            f.write_all(&v.to_le_bytes()).expect("write chain");
+        }
+        f.flush().expect("write chain");
+    }
+}
+
+impl ChainSink for ChainBuffer {
+    type Error = std::convert::Infallible;
+    fn record(&mut self, step: &StepView<'_>) -> Result<(), Self::Error> {
+        self.positions[step.ensemble].extend_from_slice(step.positions);
+        self.log_density[step.ensemble].extend_from_slice(step.log_density);
+        Ok(())
+    }
+    fn checkpoint<S: serde::Serialize>(&mut self, _state: &S) -> Result<(), Self::Error> {
+        Ok(())
+    }
+}
 
 /// Unnormalised Gaussian log-density `−½ xᵀ P x`.
 struct Gaussian {
@@ -99,7 +138,7 @@ fn run(args: &[String]) {
         .with_moves(vec![(Move::Stretch { a: 2.0 }, 1.0)])
         .expect("valid move");
     let mut sampler = EnsembleSampler::new(&g, config, start).expect("valid start");
-    let mut sink = MemorySink::new();
+    let mut sink = ChainBuffer::new(ensembles, steps, walkers, n);
     let t = Instant::now();
     let report = sampler
         .run(Steps::Fixed(steps), &mut sink, &mut Silent)
@@ -114,13 +153,7 @@ fn run(args: &[String]) {
         .expect("run succeeds");
     let report_s = t.elapsed().as_secs_f64();
     if let Some(path) = out {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).expect("create --out"));
-        for c in &sink.chains {
-            for v in &c.positions {
-                f.write_all(&v.to_le_bytes()).expect("write chain");
-            }
-        }
-        f.flush().expect("write chain");
+        sink.write(&path);
     }
     println!(
         "{{\"wall_s\": {wall}, \"report_s\": {report_s}, \"steps\": {steps}, \"walkers\": {walkers}, \"ensembles\": {ensembles}, \
@@ -370,20 +403,14 @@ fn posterior(args: &[String]) {
         .expect("valid move")
         .with_parallel(parallel);
     let mut sampler = EnsembleSampler::new(&post, config, start.walkers).expect("valid start");
-    let mut sink = MemorySink::new();
+    let mut sink = ChainBuffer::new(ensembles, steps, walkers, post.dim());
     let t = Instant::now();
     let report = sampler
         .run(Steps::Fixed(steps), &mut sink, &mut Silent)
         .expect("run succeeds");
     let wall = t.elapsed().as_secs_f64();
     if let Some(path) = out {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).expect("create --out"));
-        for c in &sink.chains {
-            for v in &c.positions {
-                f.write_all(&v.to_le_bytes()).expect("write chain");
-            }
-        }
-        f.flush().expect("write chain");
+        sink.write(&path);
     }
     let rejected: u64 = report
         .ensembles
