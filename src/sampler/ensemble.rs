@@ -1,14 +1,15 @@
 //! One ensemble: its walkers, random streams, counters and preallocated work buffers, and the
-//! red-blue update of one step.
+//! two serial halves of the red-blue update of one step (drawing the proposals, accepting
+//! them). The evaluation in between belongs to the caller, which evaluates the proposals of
+//! all ensembles in one loop (see [`Work`]).
 
 use std::collections::BTreeMap;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::density::{classify, Eval, LogDensity};
+use super::density::Eval;
 use super::moves::Move;
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
@@ -58,18 +59,44 @@ pub(crate) struct Fatal {
     pub message: String,
 }
 
+/// Proposals of the active halves of all ensembles, evaluated together between
+/// [`Ensemble::draw`] and [`Ensemble::accept`]: ensemble `e` owns the `e`-th block of `half`
+/// points.
+#[derive(Debug)]
+pub(crate) struct Work {
+    /// Proposed positions, `ensembles × half × ndim`.
+    pub proposals: Vec<f64>,
+    /// Derived values of the proposals, `ensembles × half × max(nderived, 1)` (stride ≥ 1 so
+    /// that chunking works without derived values).
+    pub derived: Vec<f64>,
+    /// Outcome of each evaluation.
+    pub evals: Vec<Eval>,
+}
+
+impl Work {
+    pub fn new(ensembles: usize, half: usize, ndim: usize, nderived: usize) -> Self {
+        Self {
+            proposals: vec![0.0; ensembles * half * ndim],
+            derived: vec![0.0; ensembles * half * nderived.max(1)],
+            evals: vec![Eval::Finite(0.0); ensembles * half],
+        }
+    }
+}
+
 /// One ensemble with its work buffers.
 #[derive(Debug)]
 pub(crate) struct Ensemble {
     pub s: EnsembleState,
     ndim: usize,
     nderived: usize,
+    /// Walker order of the current step: the first half, then the second.
     perm: Vec<usize>,
-    proposals: Vec<f64>,
-    prop_derived: Vec<f64>,
-    prop_eval: Vec<Eval>,
+    /// Proposal density ratio of each proposal of the active half (`z^(ndim−1)` for the
+    /// stretch move); when it is not a normal number, `log_factor` holds its logarithm.
+    factor: Vec<f64>,
     log_factor: Vec<f64>,
-    log_u: Vec<f64>,
+    /// Acceptance uniform of each proposal.
+    accept_u: Vec<f64>,
     scratch_idx: Vec<usize>,
     scratch_z: Vec<f64>,
 }
@@ -93,38 +120,30 @@ impl Ensemble {
             ndim,
             nderived,
             perm: (0..walkers).collect(),
-            proposals: vec![0.0; half * ndim],
-            // Stride ≥ 1 so that parallel chunking works without derived values.
-            prop_derived: vec![0.0; half * nderived.max(1)],
-            prop_eval: vec![Eval::Finite(0.0); half],
+            factor: vec![1.0; half],
             log_factor: vec![0.0; half],
-            log_u: vec![0.0; half],
+            accept_u: vec![0.0; half],
             scratch_idx: vec![0; half],
             scratch_z: vec![0.0; half],
         }
     }
 
-    pub fn walkers(&self) -> usize {
-        self.s.log_density.len()
-    }
-
-    /// One red-blue step: random split, then each half updated from the other.
-    pub fn step<D: LogDensity + ?Sized>(
-        &mut self,
-        density: &D,
-        moves: &[(Move, f64)],
-        parallel: bool,
-    ) -> Result<(), Fatal> {
-        let walkers = self.walkers();
-        // Random split (Fisher–Yates from the identity, so it depends only on the stream).
+    /// Starts a step: the random split into halves and the move of this step, both from the
+    /// ensemble's stream.
+    pub fn start_step(&mut self, moves: &[(Move, f64)]) -> Move {
+        let walkers = self.perm.len();
+        let half = walkers / 2;
+        // Partial Fisher–Yates from the identity: the first half becomes a uniformly random
+        // subset (the order within a half does not matter, each walker has its own stream),
+        // with `half` draws instead of `walkers − 1`, depending only on the stream.
         for (i, p) in self.perm.iter_mut().enumerate() {
             *p = i;
         }
-        for i in (1..walkers).rev() {
-            let j = self.s.ensemble_rng.random_range(0..=i);
+        for i in 0..half {
+            let j = self.s.ensemble_rng.random_range(i..walkers);
             self.perm.swap(i, j);
         }
-        let mv = if moves.len() == 1 {
+        if moves.len() == 1 {
             moves[0].0
         } else {
             let total: f64 = moves.iter().map(|m| m.1).sum();
@@ -138,76 +157,113 @@ impl Ensemble {
                 u -= w;
             }
             chosen
-        };
-        let half = walkers / 2;
-        self.update_half(density, &mv, 0, half, parallel)?;
-        self.update_half(density, &mv, half, 0, parallel)
+        }
     }
 
-    /// Updates the walkers `perm[active..active+half]` from `perm[comp..comp+half]`.
-    fn update_half<D: LogDensity + ?Sized>(
-        &mut self,
-        density: &D,
-        mv: &Move,
-        active: usize,
-        comp: usize,
-        parallel: bool,
-    ) -> Result<(), Fatal> {
+    /// The walkers updated in half `h` (0 or 1) and the complementary half.
+    fn halves(perm: &[usize], h: usize) -> (&[usize], &[usize]) {
+        let (first, second) = perm.split_at(perm.len() / 2);
+        if h == 0 {
+            (first, second)
+        } else {
+            (second, first)
+        }
+    }
+
+    /// Draws the proposals of half `h` into `proposals` (`half × ndim`), each walker from its
+    /// own stream: partner or move randomness first, then the acceptance uniform.
+    pub fn draw(&mut self, mv: &Move, h: usize, proposals: &mut [f64]) {
+        let ndim = self.ndim;
         let Self {
             s,
-            ndim,
-            nderived,
             perm,
-            proposals,
-            prop_derived,
-            prop_eval,
+            factor,
             log_factor,
-            log_u,
+            accept_u,
             scratch_idx,
             scratch_z,
+            ..
         } = self;
-        let (ndim, nderived) = (*ndim, *nderived);
-        let half = log_u.len();
-        let active = &perm[active..active + half];
-        let complement = &perm[comp..comp + half];
-
-        // Randomness drawn serially, each walker from its own stream.
-        for (k, &w) in active.iter().enumerate() {
-            let rng = &mut s.walker_rngs[w];
-            log_factor[k] = mv.propose(
-                &s.positions[w * ndim..(w + 1) * ndim],
-                &s.positions,
-                complement,
-                rng,
-                &mut proposals[k * ndim..(k + 1) * ndim],
-                scratch_idx,
-                scratch_z,
-            );
-            log_u[k] = rng.random::<f64>().ln();
+        let (active, complement) = Self::halves(perm, h);
+        let nc = complement.len();
+        let positions = &s.positions;
+        let out_rows = proposals.chunks_exact_mut(ndim);
+        match *mv {
+            // The common case inlined: no dispatch, and the correction z^(ndim−1) by
+            // multiplication instead of a logarithm.
+            Move::Stretch { a } => {
+                let power = ndim as u64 - 1;
+                for ((((&w, out), f), lf), au) in active
+                    .iter()
+                    .zip(out_rows)
+                    .zip(factor.iter_mut())
+                    .zip(log_factor.iter_mut())
+                    .zip(accept_u.iter_mut())
+                {
+                    let rng = &mut s.walker_rngs[w];
+                    let j = complement[rng.random_range(0..nc)];
+                    let u: f64 = rng.random();
+                    let z = ((a - 1.0) * u + 1.0).powi(2) / a;
+                    let x = &positions[w * ndim..(w + 1) * ndim];
+                    let xj = &positions[j * ndim..(j + 1) * ndim];
+                    for ((o, &xi), &xji) in out.iter_mut().zip(x).zip(xj) {
+                        *o = xji + z * (xi - xji);
+                    }
+                    *f = powi(z, power);
+                    if !f.is_normal() {
+                        *lf = (ndim as f64 - 1.0) * z.ln();
+                    }
+                    *au = rng.random();
+                }
+            }
+            _ => {
+                for ((((&w, out), f), lf), au) in active
+                    .iter()
+                    .zip(out_rows)
+                    .zip(factor.iter_mut())
+                    .zip(log_factor.iter_mut())
+                    .zip(accept_u.iter_mut())
+                {
+                    let rng = &mut s.walker_rngs[w];
+                    *lf = mv.propose(
+                        &positions[w * ndim..(w + 1) * ndim],
+                        positions,
+                        complement,
+                        rng,
+                        out,
+                        scratch_idx,
+                        scratch_z,
+                    );
+                    *f = lf.exp();
+                    *au = rng.random();
+                }
+            }
         }
+    }
 
-        // The expensive, pure part in parallel.
-        let stride = nderived.max(1);
-        let eval = |((x, d), e): ((&[f64], &mut [f64]), &mut Eval)| {
-            *e = classify(density, x, &mut d[..nderived]);
-        };
-        if parallel {
-            proposals
-                .par_chunks(ndim)
-                .zip(prop_derived.par_chunks_mut(stride))
-                .zip(prop_eval.par_iter_mut())
-                .for_each(eval);
-        } else {
-            proposals
-                .chunks(ndim)
-                .zip(prop_derived.chunks_mut(stride))
-                .zip(prop_eval.iter_mut())
-                .for_each(eval);
-        }
-        s.evaluations += half as u64;
+    /// Accepts or rejects the evaluated proposals of half `h` (`proposals`, `derived` with
+    /// stride max(nderived, 1), `evals`: this ensemble's blocks of [`Work`]).
+    pub fn accept(
+        &mut self,
+        h: usize,
+        proposals: &[f64],
+        derived: &[f64],
+        evals: &[Eval],
+    ) -> Result<(), Fatal> {
+        let (ndim, nderived) = (self.ndim, self.nderived);
+        let Self {
+            s,
+            perm,
+            factor,
+            log_factor,
+            accept_u,
+            ..
+        } = self;
+        let (active, _) = Self::halves(perm, h);
+        s.evaluations += active.len() as u64;
 
-        if let Some(k) = prop_eval.iter().position(|e| matches!(e, Eval::Fatal(_))) {
-            let message = match &prop_eval[k] {
+        if let Some(k) = evals.iter().position(|e| matches!(e, Eval::Fatal(_))) {
+            let message = match &evals[k] {
                 Eval::Fatal(m) => m.clone(),
                 _ => String::new(),
             };
@@ -218,14 +274,42 @@ impl Ensemble {
             });
         }
 
+        let stride = nderived.max(1);
         for (k, &w) in active.iter().enumerate() {
-            match prop_eval[k] {
+            match evals[k] {
                 Eval::Finite(lp) => {
-                    if log_u[k] < log_factor[k] + lp - s.log_density[w] {
-                        s.positions[w * ndim..(w + 1) * ndim]
-                            .copy_from_slice(&proposals[k * ndim..(k + 1) * ndim]);
-                        s.derived[w * nderived..(w + 1) * nderived]
-                            .copy_from_slice(&prop_derived[k * stride..k * stride + nderived]);
+                    // Metropolis–Hastings: accept when ln u < ln f + Δ, i.e. ln(u/f) < Δ; an
+                    // uphill move with u < f needs no logarithm at all.
+                    let delta = lp - s.log_density[w];
+                    let f = factor[k];
+                    let accept = if f.is_normal() {
+                        // ln q ≤ q − 1 and ln q ≥ 1 − 1/q decide most cases without the
+                        // logarithm.
+                        let q = accept_u[k] / f;
+                        if q - 1.0 < delta {
+                            true
+                        } else if 1.0 - 1.0 / q >= delta {
+                            false
+                        } else {
+                            q.ln() < delta
+                        }
+                    } else {
+                        accept_u[k].ln() < log_factor[k] + delta
+                    };
+                    if accept {
+                        // Element loops: `copy_from_slice` of a few values is a libc call.
+                        for (p, &y) in s.positions[w * ndim..(w + 1) * ndim]
+                            .iter_mut()
+                            .zip(&proposals[k * ndim..(k + 1) * ndim])
+                        {
+                            *p = y;
+                        }
+                        for (d, &y) in s.derived[w * nderived..(w + 1) * nderived]
+                            .iter_mut()
+                            .zip(&derived[k * stride..k * stride + nderived])
+                        {
+                            *d = y;
+                        }
                         s.log_density[w] = lp;
                         s.accepted[w] += 1;
                     }
@@ -241,4 +325,18 @@ impl Ensemble {
         }
         Ok(())
     }
+}
+
+/// `x^n` by binary powering, inlined (`f64::powi` with a run-time exponent is a library call).
+#[inline]
+fn powi(mut x: f64, mut n: u64) -> f64 {
+    let mut r = 1.0;
+    while n > 0 {
+        if n & 1 == 1 {
+            r *= x;
+        }
+        x *= x;
+        n >>= 1;
+    }
+    r
 }

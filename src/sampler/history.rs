@@ -21,6 +21,9 @@ pub struct History {
     pub series: Vec<Vec<Vec<f64>>>,
 }
 
+/// The column form is built only for checkpoints; these methods are the reference the
+/// row-major [`RowHistory`] is tested against.
+#[cfg(test)]
 impl History {
     pub(crate) fn new(ensembles: usize, walkers: usize, ndim: usize, max_rows: usize) -> Self {
         Self {
@@ -60,9 +63,167 @@ impl History {
             self.thin *= 2;
         }
     }
+}
+
+/// The history as the sampler keeps it while running: per ensemble one row-major buffer
+/// (`rows × walkers × ndim`, preallocated for `max_rows` rows), so that keeping a row is one
+/// contiguous copy instead of `walkers × ndim` pushes into separate columns. Converted to
+/// the column layout of [`History`] only when a state is taken.
+#[derive(Debug, Clone)]
+pub(crate) struct RowHistory {
+    pub thin: u64,
+    pub rows: usize,
+    pub max_rows: usize,
+    /// Values per row: `walkers × ndim`.
+    pub width: usize,
+    /// Per ensemble, `rows × width` values.
+    pub data: Vec<Vec<f64>>,
+}
+
+impl RowHistory {
+    pub(crate) fn new(ensembles: usize, width: usize, max_rows: usize) -> Self {
+        Self {
+            thin: 1,
+            rows: 0,
+            max_rows,
+            width,
+            data: (0..ensembles)
+                .map(|_| Vec::with_capacity(max_rows * width))
+                .collect(),
+        }
+    }
+
+    /// The running form of a stored history (whose columns all have `rows` values).
+    pub(crate) fn from_history(h: &History, width: usize) -> Self {
+        let mut out = Self::new(h.series.len(), width, h.max_rows.max(h.rows + 1));
+        out.thin = h.thin;
+        out.rows = h.rows;
+        for (buf, cols) in out.data.iter_mut().zip(&h.series) {
+            buf.resize(h.rows * width, 0.0);
+            for (c, col) in cols.iter().enumerate() {
+                for (r, &v) in col.iter().enumerate() {
+                    buf[r * width + c] = v;
+                }
+            }
+        }
+        out
+    }
+
+    /// The stored (column) form.
+    pub(crate) fn to_history(&self) -> History {
+        History {
+            thin: self.thin,
+            rows: self.rows,
+            max_rows: self.max_rows,
+            series: self
+                .data
+                .iter()
+                .map(|buf| (0..self.width).map(|c| self.column(buf, c)).collect())
+                .collect(),
+        }
+    }
+
+    /// Column `c` (walker `c / ndim`, parameter `c % ndim`) of one ensemble's buffer.
+    pub(crate) fn column(&self, buf: &[f64], c: usize) -> Vec<f64> {
+        buf.iter().skip(c).step_by(self.width).copied().collect()
+    }
+
+    /// Whether the row of `step` (0-based) is kept.
+    pub(crate) fn wants(&self, step: u64) -> bool {
+        step % self.thin == 0
+    }
+
+    /// Appends the positions (`walkers × ndim`) of ensemble `e`; call for every ensemble of a
+    /// wanted step, then [`finish_row`](Self::finish_row).
+    pub(crate) fn push(&mut self, e: usize, positions: &[f64]) {
+        self.data[e].extend_from_slice(positions);
+    }
+
+    /// Counts the row; at `max_rows` drops every other row (keeping rows 0, 2, 4, …) and
+    /// doubles `thin`, exactly as [`History`] does.
+    pub(crate) fn finish_row(&mut self) {
+        self.rows += 1;
+        if self.rows >= self.max_rows {
+            let kept = self.rows.div_ceil(2);
+            let w = self.width;
+            for buf in &mut self.data {
+                for r in 1..kept {
+                    buf.copy_within(2 * r * w..(2 * r + 1) * w, r * w);
+                }
+                buf.truncate(kept * w);
+            }
+            self.rows = kept;
+            self.thin *= 2;
+        }
+    }
 
     /// Step number of kept row `r`.
     pub(crate) fn step_of(&self, r: usize) -> u64 {
         r as u64 * self.thin
+    }
+}
+
+/// Serialises exactly like [`RowHistory::to_history`] (checkpoints without a copy).
+impl Serialize for RowHistory {
+    fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        struct Columns<'h>(&'h [f64], usize);
+        impl Serialize for Columns<'_> {
+            fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+                let Self(buf, width) = *self;
+                ser.collect_seq((0..width).map(|c| Column(buf, c, width)))
+            }
+        }
+        struct Column<'h>(&'h [f64], usize, usize);
+        impl Serialize for Column<'_> {
+            fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+                let Self(buf, c, width) = *self;
+                ser.collect_seq(buf.iter().skip(c).step_by(width))
+            }
+        }
+        let series: Vec<Columns<'_>> = self.data.iter().map(|b| Columns(b, self.width)).collect();
+        let mut st = ser.serialize_struct("History", 4)?;
+        st.serialize_field("thin", &self.thin)?;
+        st.serialize_field("rows", &self.rows)?;
+        st.serialize_field("max_rows", &self.max_rows)?;
+        st.serialize_field("series", &series)?;
+        st.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The row-major history thins exactly like the column one and converts both ways.
+    #[test]
+    fn row_history_matches_column_history() {
+        let (ens, width, max_rows) = (2, 6, 64);
+        let mut col = History::new(ens, width, 1, max_rows);
+        let mut row = RowHistory::new(ens, width, max_rows);
+        let mut x = vec![0.0; width];
+        for step in 0..1000u64 {
+            for (i, v) in x.iter_mut().enumerate() {
+                *v = (step * 31 + i as u64 * 7) as f64 * 0.5;
+            }
+            assert_eq!(col.wants(step), row.wants(step));
+            if col.wants(step) {
+                for e in 0..ens {
+                    col.push(e, &x);
+                    row.push(e, &x);
+                }
+                col.finish_row();
+                row.finish_row();
+            }
+        }
+        assert!(col.thin > 8);
+        assert_eq!(row.to_history(), col);
+        assert_eq!(
+            serde_json::to_string(&row).unwrap(),
+            serde_json::to_string(&col).unwrap()
+        );
+        let back = RowHistory::from_history(&col, width);
+        assert_eq!(back.data, row.data);
+        assert_eq!((back.thin, back.rows), (row.thin, row.rows));
     }
 }

@@ -4,7 +4,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::history::History;
+use rayon::prelude::*;
+
+use super::history::RowHistory;
 use crate::diagnostics::{integrated_time, rhat, DEFAULT_WINDOW_FACTOR};
 
 /// Acceptance fraction below which a walker is reported as stuck.
@@ -92,29 +94,42 @@ impl RunReport {
     }
 }
 
+/// Maps `f` over `0..n`, on the rayon pool when `parallel`; the results (and their order)
+/// are the same either way.
+fn map_indices<T: Send>(n: usize, parallel: bool, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    if parallel {
+        (0..n).into_par_iter().map(f).collect()
+    } else {
+        (0..n).map(f).collect()
+    }
+}
+
 /// τ (in steps) per ensemble and parameter from the history; `None` when the history is too
-/// short or a series is constant.
-pub(crate) fn tau_from_history(history: &History, ndim: usize) -> Option<Vec<Vec<f64>>> {
+/// short or a series is constant. The (ensemble, parameter) pairs are independent, so they
+/// are computed in parallel when `parallel`.
+pub(crate) fn tau_from_history(
+    history: &RowHistory,
+    ndim: usize,
+    parallel: bool,
+) -> Option<Vec<Vec<f64>>> {
     let thin = history.thin as f64;
-    history
-        .series
-        .iter()
-        .map(|cols| {
-            let walkers = cols.len() / ndim;
-            (0..ndim)
-                .map(|p| {
-                    let series: Vec<&[f64]> = (0..walkers)
-                        .map(|w| cols[w * ndim + p].as_slice())
-                        .collect();
-                    integrated_time(&series, DEFAULT_WINDOW_FACTOR)
-                        .ok()
-                        .filter(|t| t.tau.is_finite())
-                        // Thinning by m ≪ τ scales the integrated time by 1/m.
-                        .map(|t| t.tau * thin)
-                })
-                .collect::<Option<Vec<f64>>>()
-        })
-        .collect()
+    let walkers = history.width / ndim;
+    let ensembles = history.data.len();
+    let flat = map_indices(ensembles * ndim, parallel, |i| {
+        let (e, p) = (i / ndim, i % ndim);
+        let buf = &history.data[e];
+        let series: Vec<Vec<f64>> = (0..walkers)
+            .map(|w| history.column(buf, w * ndim + p))
+            .collect();
+        let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
+        integrated_time(&refs, DEFAULT_WINDOW_FACTOR)
+            .ok()
+            .filter(|t| t.tau.is_finite())
+            // Thinning by m ≪ τ scales the integrated time by 1/m.
+            .map(|t| t.tau * thin)
+    });
+    let flat: Option<Vec<f64>> = flat.into_iter().collect();
+    Some(flat?.chunks(ndim).map(<[f64]>::to_vec).collect())
 }
 
 /// τ report from per-ensemble τ and the chain length.
@@ -136,30 +151,39 @@ pub(crate) fn tau_report(per_ensemble: Vec<Vec<f64>>, steps: u64, tau_factor: f6
 /// from the history rows after `burn_in` steps. The chain of an ensemble is its draws in
 /// step order, walkers interleaved within a step, so R̂ compares ensembles (and early with
 /// late halves), never walkers of one ensemble (which are not independent). `None` with
-/// fewer than two ensembles or too few rows.
-pub(crate) fn rhat_from_history(history: &History, ndim: usize, burn_in: u64) -> Option<Vec<f64>> {
-    if history.series.len() < 2 {
+/// fewer than two ensembles or too few rows. Parameters in parallel when `parallel`.
+pub(crate) fn rhat_from_history(
+    history: &RowHistory,
+    ndim: usize,
+    burn_in: u64,
+    parallel: bool,
+) -> Option<Vec<f64>> {
+    if history.data.len() < 2 {
         return None;
     }
     let first = (0..history.rows).find(|&r| history.step_of(r) >= burn_in)?;
     if history.rows - first < 4 {
         return None;
     }
-    let walkers = history.series[0].len() / ndim;
-    (0..ndim)
-        .map(|p| {
-            let chains: Vec<Vec<f64>> = history
-                .series
-                .iter()
-                .map(|cols| {
-                    (first..history.rows)
-                        .flat_map(|r| (0..walkers).map(move |w| (w, r)))
-                        .map(|(w, r)| cols[w * ndim + p][r])
-                        .collect()
-                })
-                .collect();
-            let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
-            rhat(&refs).ok()
-        })
-        .collect()
+    let width = history.width;
+    let rows = first * width..history.rows * width;
+    map_indices(ndim, parallel, |p| {
+        // Row-major rows, walkers interleaved within a row: parameter p of every walker.
+        let chains: Vec<Vec<f64>> = history
+            .data
+            .iter()
+            .map(|buf| {
+                buf[rows.clone()]
+                    .iter()
+                    .skip(p)
+                    .step_by(ndim)
+                    .copied()
+                    .collect()
+            })
+            .collect();
+        let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
+        rhat(&refs).ok()
+    })
+    .into_iter()
+    .collect()
 }

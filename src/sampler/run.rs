@@ -8,9 +8,10 @@ use serde::{Deserialize, Serialize};
 
 use super::config::{SamplerConfig, Steps};
 use super::density::{classify, Eval, LogDensity};
-use super::ensemble::{Ensemble, EnsembleState, Fatal};
+use super::ensemble::{Ensemble, EnsembleState, Fatal, Work};
 use super::error::SamplerError;
-use super::history::History;
+use super::history::{History, RowHistory};
+use super::moves::Move;
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
     rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
@@ -56,9 +57,18 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     ndim: usize,
     nderived: usize,
     ensembles: Vec<Ensemble>,
+    /// Move of the current step per ensemble.
+    step_moves: Vec<Move>,
+    /// Proposals of all ensembles' active halves, evaluated in one loop.
+    work: Work,
     pending: Vec<Option<Fatal>>,
     step: u64,
-    history: History,
+    history: RowHistory,
+    /// Estimated cost of one density evaluation (ns), to decide whether a half-step is worth
+    /// parallelising; `None` until measured.
+    eval_ns: Option<f64>,
+    /// Half-steps evaluated so far (for occasional re-timing).
+    half_steps: u64,
     last_tau: Option<Vec<Vec<f64>>>,
     poisoned: bool,
 }
@@ -155,12 +165,19 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     limit: WALKER_CONDITION_LIMIT,
                 });
             }
-            let mut derived = vec![0.0; walkers * nderived];
+            // Stride ≥ 1: without derived values an empty buffer would cut the zip short and
+            // leave every walker unevaluated.
+            let stride = nderived.max(1);
+            let mut strided = vec![0.0; walkers * stride];
             let mut log_density = vec![0.0; walkers];
             let evals: Vec<Eval> = positions
                 .par_chunks(ndim)
-                .zip(derived.par_chunks_mut(nderived.max(1)))
+                .zip(strided.par_chunks_mut(stride))
                 .map(|(x, d)| classify(density, x, &mut d[..nderived]))
+                .collect();
+            let derived: Vec<f64> = strided
+                .chunks(stride)
+                .flat_map(|d| d[..nderived].iter().copied())
                 .collect();
             for (w, ev) in evals.into_iter().enumerate() {
                 let reason = match ev {
@@ -190,7 +207,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 evaluations: walkers as u64,
             });
         }
-        let history = History::new(config.ensembles(), walkers, ndim, config.history_rows());
+        let history = RowHistory::new(config.ensembles(), walkers * ndim, config.history_rows());
         Ok(Self::assemble(density, config, states, 0, history, None))
     }
 
@@ -271,6 +288,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         } = state;
         let mut history = history;
         history.max_rows = config.history_rows().max(history.rows + 1);
+        let history = RowHistory::from_history(&history, walkers * ndim);
         Ok(Self::assemble(
             density, config, ensembles, step, history, last_tau,
         ))
@@ -281,7 +299,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         config: SamplerConfig,
         states: Vec<EnsembleState>,
         step: u64,
-        history: History,
+        history: RowHistory,
         last_tau: Option<Vec<Vec<f64>>>,
     ) -> Self {
         let ndim = density.dim();
@@ -290,8 +308,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             .into_iter()
             .map(|s| Ensemble::new(s, ndim, nderived))
             .collect();
+        let half = config.walkers() / 2;
         Self {
             pending: (0..ensembles.len()).map(|_| None).collect(),
+            step_moves: vec![config.moves()[0].0; ensembles.len()],
+            work: Work::new(ensembles.len(), half, ndim, nderived),
+            eval_ns: None,
+            half_steps: 0,
             density,
             config,
             ndim,
@@ -314,7 +337,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             walkers: self.config.walkers(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
-            history: self.history.clone(),
+            history: self.history.to_history(),
             last_tau: self.last_tau.clone(),
         }
     }
@@ -447,26 +470,64 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 
     fn checkpoint<S: ChainSink>(&self, sink: &mut S) -> Result<(), SamplerError> {
-        sink.checkpoint(&self.state())
-            .map_err(|err| SamplerError::Sink {
-                step: self.step,
-                source: Box::new(err),
-            })
+        // A borrowed view serialising exactly like `self.state()`, so that a checkpoint
+        // copies nothing unless the sink serialises it.
+        sink.checkpoint(&StateView {
+            seed: self.config.seed(),
+            ndim: self.ndim,
+            nderived: self.nderived,
+            walkers: self.config.walkers(),
+            step: self.step,
+            ensembles: &self.ensembles,
+            history: &self.history,
+            last_tau: &self.last_tau,
+        })
+        .map_err(|err| SamplerError::Sink {
+            step: self.step,
+            source: Box::new(err),
+        })
     }
 
-    /// One step of every ensemble (ensembles in parallel when allowed).
+    /// One step of every ensemble. All randomness is drawn serially, ensemble by ensemble;
+    /// per half-step the proposals of all ensembles are evaluated in one loop (see
+    /// [`evaluate`](Self::evaluate)).
     fn advance(&mut self, step_no: u64) -> Result<(), SamplerError> {
-        let density = self.density;
         let moves = self.config.moves();
-        let parallel = self.config.parallel();
-        if parallel && self.ensembles.len() > 1 {
-            self.ensembles
-                .par_iter_mut()
-                .zip(self.pending.par_iter_mut())
-                .for_each(|(ens, p)| *p = ens.step(density, moves, parallel).err());
-        } else {
-            for (ens, p) in self.ensembles.iter_mut().zip(self.pending.iter_mut()) {
-                *p = ens.step(density, moves, parallel).err();
+        let block = self.config.walkers() / 2;
+        let (ndim, stride) = (self.ndim, self.nderived.max(1));
+        for (ens, mv) in self.ensembles.iter_mut().zip(self.step_moves.iter_mut()) {
+            *mv = ens.start_step(moves);
+        }
+        for h in 0..2 {
+            for (((ens, mv), p), props) in self
+                .ensembles
+                .iter_mut()
+                .zip(&self.step_moves)
+                .zip(&self.pending)
+                .zip(self.work.proposals.chunks_exact_mut(block * ndim))
+            {
+                // An ensemble whose first half failed fatally does not go on (as before).
+                if p.is_none() {
+                    ens.draw(mv, h, props);
+                }
+            }
+            self.evaluate();
+            let Work {
+                proposals,
+                derived,
+                evals,
+            } = &self.work;
+            for ((((ens, p), props), der), ev) in self
+                .ensembles
+                .iter_mut()
+                .zip(self.pending.iter_mut())
+                .zip(proposals.chunks_exact(block * ndim))
+                .zip(derived.chunks_exact(block * stride))
+                .zip(evals.chunks_exact(block))
+            {
+                if p.is_none() {
+                    *p = ens.accept(h, props, der, ev).err();
+                }
             }
         }
         if let Some((e, f)) = self
@@ -487,9 +548,65 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         Ok(())
     }
 
+    /// Evaluates the proposals in [`Work`]: on the rayon pool when parallel evaluation is
+    /// allowed and the half-step's estimated serial cost exceeds [`PARALLEL_MIN_WORK_NS`]
+    /// (below it the synchronisation costs more than it saves), serially otherwise. The
+    /// results are the same either way, so the choice (which depends on timing) cannot
+    /// change the chains.
+    fn evaluate(&mut self) {
+        let density = self.density;
+        let (ndim, nderived) = (self.ndim, self.nderived);
+        let stride = nderived.max(1);
+        let Work {
+            proposals,
+            derived,
+            evals,
+        } = &mut self.work;
+        let n = evals.len();
+        let threads = rayon::current_num_threads();
+        let parallel = self.config.parallel()
+            && threads > 1
+            && self
+                .eval_ns
+                .is_some_and(|c| c * n as f64 >= PARALLEL_MIN_WORK_NS);
+        self.half_steps += 1;
+        let timed = parallel || self.eval_ns.is_none() || self.half_steps % RETIME_EVERY == 0;
+        let started = timed.then(Instant::now);
+        let eval = |((x, d), e): ((&[f64], &mut [f64]), &mut Eval)| {
+            *e = classify(density, x, &mut d[..nderived]);
+        };
+        if parallel {
+            proposals
+                .par_chunks(ndim)
+                .zip(derived.par_chunks_mut(stride))
+                .zip(evals.par_iter_mut())
+                .for_each(eval);
+        } else {
+            proposals
+                .chunks(ndim)
+                .zip(derived.chunks_mut(stride))
+                .zip(evals.iter_mut())
+                .for_each(eval);
+        }
+        if let Some(t) = started {
+            let ns = t.elapsed().as_secs_f64() * 1e9;
+            // In parallel the wall time times the threads over-estimates the cost (it
+            // includes the synchronisation), which errs on the side of staying parallel.
+            let per = if parallel {
+                ns * threads.min(n) as f64 / n as f64
+            } else {
+                ns / n as f64
+            };
+            self.eval_ns = Some(match self.eval_ns {
+                Some(c) => 0.5 * (c + per),
+                None => per,
+            });
+        }
+    }
+
     /// Applies the stopping rule; returns whether it holds and the current τ_max.
     fn check_stop(&mut self, rule: &super::config::StopRule) -> (bool, Option<f64>) {
-        let tau = tau_from_history(&self.history, self.ndim);
+        let tau = tau_from_history(&self.history, self.ndim, self.config.parallel());
         let previous = self.last_tau.take();
         self.last_tau = tau.clone();
         let Some(tau) = tau else {
@@ -511,10 +628,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             return (false, Some(tmax));
         }
         let burn_in = (2.0 * tmax).ceil() as u64;
-        let rhat_ok = match rhat_from_history(&self.history, self.ndim, burn_in) {
-            Some(r) => r.iter().all(|&v| v < rule.rhat_max),
-            None => self.ensembles.len() < 2,
-        };
+        let rhat_ok =
+            match rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel()) {
+                Some(r) => r.iter().all(|&v| v < rule.rhat_max),
+                None => self.ensembles.len() < 2,
+            };
         (rhat_ok, Some(tmax))
     }
 
@@ -567,8 +685,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             })
             .collect();
         let mut problems = Vec::new();
-        let tau =
-            tau_from_history(&self.history, self.ndim).map(|t| tau_report(t, steps, TAU_FACTOR));
+        let parallel = self.config.parallel();
+        let tau = tau_from_history(&self.history, self.ndim, parallel)
+            .map(|t| tau_report(t, steps, TAU_FACTOR));
         match &tau {
             None => problems.push(format!(
                 "no autocorrelation time could be estimated from {steps} steps (too short, or a stuck parameter)"
@@ -581,7 +700,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
         let rhat = tau
             .as_ref()
-            .and_then(|t| rhat_from_history(&self.history, self.ndim, t.burn_in));
+            .and_then(|t| rhat_from_history(&self.history, self.ndim, t.burn_in, parallel));
         if let Some(r) = &rhat {
             for (p, v) in r.iter().enumerate() {
                 if v.is_nan() || *v >= RHAT_CONVERGED {
@@ -621,6 +740,50 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 }
 
+/// Serial cost (ns) of a half-step's evaluations above which they are spread over the rayon
+/// pool. One parallel loop costs a few to tens of µs of synchronisation on a busy
+/// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only
+/// well above that.
+const PARALLEL_MIN_WORK_NS: f64 = 100_000.0;
+
+/// Half-steps between re-timings of serial evaluations (each timing costs two clock reads).
+const RETIME_EVERY: u64 = 64;
+
+/// Borrowed form of [`SamplerState`] for checkpoints; serialises to exactly the same fields.
+struct StateView<'s> {
+    seed: u64,
+    ndim: usize,
+    nderived: usize,
+    walkers: usize,
+    step: u64,
+    ensembles: &'s [Ensemble],
+    history: &'s RowHistory,
+    last_tau: &'s Option<Vec<Vec<f64>>>,
+}
+
+impl Serialize for StateView<'_> {
+    fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        struct Ensembles<'s>(&'s [Ensemble]);
+        impl Serialize for Ensembles<'_> {
+            fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+                ser.collect_seq(self.0.iter().map(|e| &e.s))
+            }
+        }
+        let mut st = ser.serialize_struct("SamplerState", 9)?;
+        st.serialize_field("version", &STATE_VERSION)?;
+        st.serialize_field("seed", &self.seed)?;
+        st.serialize_field("ndim", &self.ndim)?;
+        st.serialize_field("nderived", &self.nderived)?;
+        st.serialize_field("walkers", &self.walkers)?;
+        st.serialize_field("step", &self.step)?;
+        st.serialize_field("ensembles", &Ensembles(self.ensembles))?;
+        st.serialize_field("history", self.history)?;
+        st.serialize_field("last_tau", self.last_tau)?;
+        st.end()
+    }
+}
+
 /// Relative tolerance between a stored and a re-evaluated log-density on resume.
 pub const RESUME_RTOL: f64 = 1e-9;
 
@@ -640,4 +803,86 @@ fn check_dims(ndim: usize, config: &SamplerConfig) -> Result<(), SamplerError> {
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::{LogDensityError, MemorySink, Move, NullSink, Silent};
+
+    /// A 3-D standard normal without derived values.
+    struct Normal3;
+    impl LogDensity for Normal3 {
+        fn dim(&self) -> usize {
+            3
+        }
+        fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+            Ok(-0.5 * x.iter().map(|v| v * v).sum::<f64>())
+        }
+    }
+
+    fn sampler(ensembles: usize) -> EnsembleSampler<'static, Normal3> {
+        let config = SamplerConfig::new(8, ensembles, 5)
+            .unwrap()
+            .with_moves(vec![
+                (Move::stretch(), 1.0),
+                (Move::differential_evolution(), 1.0),
+                (Move::walk(), 1.0),
+            ])
+            .unwrap();
+        let init: Vec<Vec<Vec<f64>>> = (0..ensembles)
+            .map(|e| {
+                (0..8)
+                    .map(|w| {
+                        let w = w as f64;
+                        vec![
+                            0.1 * w,
+                            0.05 * ((3.0 * w + e as f64) % 8.0),
+                            0.02 * (5.0 * w % 8.0),
+                        ]
+                    })
+                    .collect()
+            })
+            .collect();
+        EnsembleSampler::new(&Normal3, config, init).unwrap()
+    }
+
+    /// The stored log-density of every walker is the density at its position, from the
+    /// start (a density without derived values once left them all at 0) and after each step.
+    #[test]
+    fn stored_log_density_matches_the_position() {
+        let mut s = sampler(2);
+        for step in 0..=40 {
+            if step > 0 {
+                s.run(Steps::Fixed(1), &mut NullSink, &mut Silent).unwrap();
+            }
+            for (e, ens) in s.ensembles.iter().enumerate() {
+                for (w, (x, &stored)) in ens
+                    .s
+                    .positions
+                    .chunks(3)
+                    .zip(&ens.s.log_density)
+                    .enumerate()
+                {
+                    let lp = Normal3.log_density(x, &mut []).unwrap();
+                    assert!(
+                        (lp - stored).abs() <= 1e-12,
+                        "step {step}, ensemble {e}, walker {w}: stored {stored}, density {lp}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// A checkpoint serialises the borrowed view exactly like the owned state.
+    #[test]
+    fn checkpoint_view_serialises_like_the_state() {
+        let mut s = sampler(2);
+        let mut sink = MemorySink::new();
+        s.run(Steps::Fixed(30), &mut sink, &mut Silent).unwrap();
+        assert_eq!(
+            sink.last_checkpoint.as_deref(),
+            Some(serde_json::to_string(&s.state()).unwrap().as_str())
+        );
+    }
 }
