@@ -637,9 +637,9 @@ fn bad_requests_fail_before_any_work() {
         }
     ));
     let mut q = toy_quantities();
-    q[3].kind = QuantityKind::Parameter;
+    q[3].column = "no_such_column".into();
     let err = try_fit(&q, &settings(100), false);
-    assert!(err.to_string().contains("set its kind to derived"), "{err}");
+    assert!(err.to_string().contains("no_such_column"), "{err}");
     let mut q = toy_quantities();
     q[4].unit = "m".into();
     let err = try_fit(&q, &settings(100), false);

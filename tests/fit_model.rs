@@ -2,66 +2,23 @@
 //! value, and a short first slide alone leaves k wide rather than confidently wrong.
 #![cfg(feature = "parquet")]
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary, Quantity, QuantityKind};
+use std::path::Path;
+
+use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary};
 use slipbayes::law::{Law, LawParams, Scene};
-use slipbayes::model::{Kind, ModelSpec, Posterior};
+use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
-use slipbayes::simulate::{simulate, SimulationSpec};
 
 const TRUTH: (f64, f64, f64, f64, f64) = (0.92e6, 0.62, 10e-3, 14.8, 1.2e4);
-
-/// A slide of the test contact; a repeat slide follows a first slide of `first_s` seconds.
-fn simulated(
-    dir: &Path,
-    name: &str,
-    scene: Scene,
-    duration: f64,
-    interval: f64,
-    seed: u64,
-    first_s: f64,
-) -> PathBuf {
-    let (alpha, ratio, f_d, t0, k) = TRUTH;
-    let spec = SimulationSpec {
-        scene,
-        params: LawParams::new(alpha, ratio * f_d, f_d, t0).unwrap(),
-        stiffness_n_per_m: Some(k),
-        velocity_m_per_s: 1e-9,
-        duration_s: duration,
-        interval_s: interval,
-        noise_sd_n: 1e-4,
-        seed,
-        f_end_n: None,
-        after_first_s: (scene == Scene::Repeat).then_some(first_s),
-        normal_force_n: None,
-        normal_noise_sd_n: 0.0,
-    };
-    let path = dir.join(name);
-    simulate(&spec).unwrap().series.write_csv(&path).unwrap();
-    path
-}
 
 fn fit(dir: &Path, name: &str, model: &str, steps: u64) -> FitSummary {
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, model).unwrap();
     let spec = ModelSpec::load(&path).unwrap();
     let post = Posterior::new(&spec).unwrap();
-    let quantities: Vec<Quantity> = post
-        .columns()
-        .iter()
-        .map(|c| Quantity {
-            column: c.column.clone(),
-            name: c.name.clone(),
-            group: c.group.clone(),
-            unit: c.unit.clone(),
-            kind: if c.kind == Kind::Parameter {
-                QuantityKind::Parameter
-            } else {
-                QuantityKind::Derived
-            },
-        })
-        .collect();
+    let quantities = post.quantities();
     let settings = FitSettings {
         walkers: 20,
         ensembles: 4,
@@ -116,8 +73,8 @@ fn get<'a>(s: &'a FitSummary, name: &str, group: &str) -> &'a slipbayes::fit::St
 fn one_contact_posterior_covers_the_truth() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    simulated(d, "first.csv", Scene::First, 20_000.0, 50.0, 11, 0.0);
-    simulated(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 12, 20_000.0);
+    common::simulate_ptfe(d, "first.csv", Scene::First, 20_000.0, 50.0, 11, 0.0);
+    common::simulate_ptfe(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 12, 20_000.0);
     let s = fit(
         d,
         "both",
@@ -156,8 +113,8 @@ fn short_first_slide_alone_leaves_k_wide() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // 800 s of the rise, well before the peak (t_peak ≈ 2300 s).
-    simulated(d, "first.csv", Scene::First, 800.0, 5.0, 21, 0.0);
-    simulated(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 22, 800.0);
+    common::simulate_ptfe(d, "first.csv", Scene::First, 800.0, 5.0, 21, 0.0);
+    common::simulate_ptfe(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 22, 800.0);
     let alone = fit(
         d,
         "alone",

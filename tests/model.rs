@@ -1,12 +1,13 @@
 //! Model files and data fail before sampling with errors that name the key, file or line; the
 //! posterior of simulated data covers the truth.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
-use slipbayes::law::{LawParams, Scene};
+use slipbayes::law::Scene;
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::LogDensity;
-use slipbayes::simulate::{simulate, SimulationSpec};
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
@@ -103,40 +104,13 @@ fn bad_models_and_data_fail_before_sampling_naming_the_culprit() {
     assert!(e.contains("galaxy") || e.contains("levels"), "{e}");
 }
 
-fn simulated(
-    dir: &Path,
-    name: &str,
-    scene: Scene,
-    duration: f64,
-    interval: f64,
-    seed: u64,
-) -> PathBuf {
-    let spec = SimulationSpec {
-        scene,
-        params: LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(),
-        stiffness_n_per_m: Some(1.2e4),
-        velocity_m_per_s: 1e-9,
-        duration_s: duration,
-        interval_s: interval,
-        noise_sd_n: 1e-4,
-        seed,
-        f_end_n: None,
-        after_first_s: (scene == Scene::Repeat).then_some(20_000.0),
-        normal_force_n: None,
-        normal_noise_sd_n: 0.0,
-    };
-    let path = dir.join(name);
-    simulate(&spec).unwrap().series.write_csv(&path).unwrap();
-    path
-}
-
 /// Only parameters a scene uses are sampled; σ (log-uniform) is integrated out.
 #[test]
 fn layout_samples_only_what_scenes_use() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    simulated(d, "first.csv", Scene::First, 20_000.0, 50.0, 1);
-    simulated(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 2);
+    common::simulate_ptfe(d, "first.csv", Scene::First, 20_000.0, 50.0, 1, 20_000.0);
+    common::simulate_ptfe(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 2, 20_000.0);
     let spec = ModelSpec::load(&write(
         d,
         "m.toml",

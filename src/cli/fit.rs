@@ -9,12 +9,12 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::data::write_atomically;
-use crate::fit::{run_fit, ComparisonSpec, FitOutcome, FitSettings, Quantity, QuantityKind};
+use crate::fit::{run_fit, ComparisonSpec, FitOutcome, FitSettings};
 use crate::law::Scene;
 use crate::model::spec::{
     ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
 };
-use crate::model::{Kind, ModelSpec, Posterior};
+use crate::model::{ModelSpec, Posterior};
 use crate::sampler::{LogDensity, Steps, StopRule};
 
 use super::progress::ProgressBarObserver;
@@ -208,20 +208,7 @@ fn settings_for(spec: &ModelSpec, dim: usize, run: &RunArgs) -> FitSettings {
 
 fn fit_and_report(spec: &ModelSpec, out: &Path, run: &RunArgs) -> anyhow::Result<ExitCode> {
     let posterior = Posterior::new(spec)?;
-    let quantities: Vec<Quantity> = posterior
-        .columns()
-        .iter()
-        .map(|c| Quantity {
-            column: c.column.clone(),
-            name: c.name.clone(),
-            group: c.group.clone(),
-            unit: c.unit.clone(),
-            kind: match c.kind {
-                Kind::Parameter => QuantityKind::Parameter,
-                Kind::Derived => QuantityKind::Derived,
-            },
-        })
-        .collect();
+    let quantities = posterior.quantities();
     // Compare materials on what the model reports per material.
     let materials = posterior.materials().to_vec();
     let per_material = |name: &str| {

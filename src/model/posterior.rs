@@ -38,7 +38,7 @@ fn marginal_sigma_log_likelihood(ssr: f64, n: usize, low: f64, high: f64) -> Opt
     let half_ssr = 0.5 * ssr;
     let mass =
         gamma_lr(half_n, half_ssr / (low * low)) - gamma_lr(half_n, half_ssr / (high * high));
-    if !(mass > 0.0) || !(ssr > 0.0) {
+    if mass.is_nan() || mass <= 0.0 || ssr.is_nan() || ssr <= 0.0 {
         return None;
     }
     Some(
@@ -571,6 +571,25 @@ impl Posterior {
     /// The reported columns, in the order of the derived values.
     pub fn columns(&self) -> &[Column] {
         &self.columns
+    }
+
+    /// The reported columns as the quantities a fit summarises.
+    #[cfg(feature = "parquet")]
+    pub fn quantities(&self) -> Vec<crate::fit::Quantity> {
+        use crate::fit::{Quantity, QuantityKind};
+        self.columns
+            .iter()
+            .map(|c| Quantity {
+                column: c.column.clone(),
+                name: c.name.clone(),
+                group: c.group.clone(),
+                unit: c.unit.clone(),
+                kind: match c.kind {
+                    Kind::Parameter => QuantityKind::Parameter,
+                    Kind::Derived => QuantityKind::Derived,
+                },
+            })
+            .collect()
     }
 
     /// Each sampled coordinate with a sentence describing its prior.

@@ -121,7 +121,7 @@ impl Prior {
                 if !(finite(sd) && sd > 0.0) {
                     return bad("sd", "must be finite and > 0");
                 }
-                if high.is_some_and(|h| !(h > 0.0)) {
+                if high.is_some_and(|h| h.is_nan() || h <= 0.0) {
                     return bad("high", "must be > 0");
                 }
             }

@@ -51,3 +51,36 @@ impl Table {
         &row[self.col(name)]
     }
 }
+
+/// Writes a simulated slide of the test contact (PTFE near the paper's Fig. 2 fit: α = 0.92e6
+/// 1/m, a/F_d = 0.62, F_d = 10 mN, t0 = 14.8 s, k = 1.2e4 N/m, v = 1 nm/s, σ = 0.1 mN) to
+/// `dir/name`; a repeat slide follows a first slide of `first_s` seconds.
+pub fn simulate_ptfe(
+    dir: &std::path::Path,
+    name: &str,
+    scene: slipbayes::law::Scene,
+    duration: f64,
+    interval: f64,
+    seed: u64,
+    first_s: f64,
+) -> PathBuf {
+    use slipbayes::law::{LawParams, Scene};
+    use slipbayes::simulate::{simulate, SimulationSpec};
+    let spec = SimulationSpec {
+        scene,
+        params: LawParams::new(0.92e6, 0.62 * 10e-3, 10e-3, 14.8).unwrap(),
+        stiffness_n_per_m: Some(1.2e4),
+        velocity_m_per_s: 1e-9,
+        duration_s: duration,
+        interval_s: interval,
+        noise_sd_n: 1e-4,
+        seed,
+        f_end_n: None,
+        after_first_s: (scene == Scene::Repeat).then_some(first_s),
+        normal_force_n: None,
+        normal_noise_sd_n: 0.0,
+    };
+    let path = dir.join(name);
+    simulate(&spec).unwrap().series.write_csv(&path).unwrap();
+    path
+}

@@ -1,3 +1,5 @@
+//! Cost of one evaluation of the demo posterior (`models/demo.toml`), with and without the
+//! derived quantities: `cargo run --release --example posterior_cost`.
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::LogDensity;
 fn main() {
