@@ -25,8 +25,9 @@ use super::progress::ProgressBarObserver;
 /// quick path that needs no model file:
 ///   slipbayes fit --first FIRST.csv [--repeat REPEAT.csv] --velocity 1e-9 --out DIR
 /// The run directory gets `summary.json`, `summary.csv`, `chains/` (Parquet), `model.toml`
-/// (the exact model fitted), `settings.json`, and `predictive.csv` (posterior predictive
-/// bands). A killed fit continues with `--resume` and ends with the same chains.
+/// (the exact model fitted) and `settings.json`. A killed fit continues with `--resume` and
+/// ends with the same chains. Exit code 0: converged (R̂ < 1.01, ESS > 400, τ trusted);
+/// 2: results written but not converged; 1: error.
 #[derive(Debug, Args)]
 #[command(verbatim_doc_comment)]
 pub(super) struct FitArgs {

@@ -20,13 +20,10 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Run the main job: fit the bundled data (models/demo.toml) into reports/demo/.
     #[cfg(feature = "parquet")]
     Demo(fit::DemoArgs),
-    /// Fit a model file, or one contact's first and repeat slides, and write a run directory.
     #[cfg(feature = "parquet")]
     Fit(fit::FitArgs),
-    /// Simulate a slide from known parameters (CSV + JSON of the true values).
     Simulate(simulate::SimulateArgs),
 }
 
