@@ -6,14 +6,24 @@ mod common;
 
 use std::path::Path;
 
-use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary};
+use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings, FitSummary};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::LogDensity;
 use slipbayes::sampler::{Silent, Steps};
 
 const TRUTH: (f64, f64, f64, f64, f64) = (0.92e6, 0.62, 10e-3, 14.8, 1.2e4);
 
 fn fit(dir: &Path, name: &str, model: &str, steps: u64) -> FitSummary {
+    fit_full(dir, name, model, steps).0
+}
+
+fn fit_full(
+    dir: &Path,
+    name: &str,
+    model: &str,
+    steps: u64,
+) -> (FitSummary, FitOutcome, Posterior) {
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, model).unwrap();
     let spec = ModelSpec::load(&path).unwrap();
@@ -29,11 +39,16 @@ fn fit(dir: &Path, name: &str, model: &str, steps: u64) -> FitSummary {
         ..FitSettings::default()
     };
     let out = dir.join(name);
+    let materials = post.materials().to_vec();
     let comparisons = ComparisonSpec {
-        names: vec![],
-        groups: vec![],
+        names: if materials.len() > 1 {
+            vec!["alpha".into(), "a_over_F_d".into()]
+        } else {
+            vec![]
+        },
+        groups: materials,
     };
-    run_fit(
+    let outcome = run_fit(
         &post,
         &quantities,
         &comparisons,
@@ -43,8 +58,8 @@ fn fit(dir: &Path, name: &str, model: &str, steps: u64) -> FitSummary {
         false,
         &mut Silent,
     )
-    .unwrap()
-    .summary
+    .unwrap();
+    (outcome.summary.clone(), outcome, post)
 }
 
 fn model(runs: &str) -> String {
@@ -75,11 +90,28 @@ fn one_contact_posterior_covers_the_truth() {
     let d = dir.path();
     common::simulate_ptfe(d, "first.csv", Scene::First, 20_000.0, 50.0, 11, 0.0);
     common::simulate_ptfe(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 12, 20_000.0);
-    let s = fit(
+    let (s, outcome, post) = fit_full(
         d,
         "both",
         &model(&(run("first", "first.csv", "first") + &run("repeat", "repeat.csv", "repeat"))),
         1500,
+    );
+    // The 95 % posterior predictive band holds about 95 % of the observations.
+    let draws = kept_draws(&outcome, &post.param_names(), 200).unwrap();
+    let bands = post.predictive_bands(&draws, 1, 3).unwrap();
+    let (mut inside, mut total) = (0, 0);
+    for b in &bands {
+        for j in 0..b.time_s.len() {
+            total += 1;
+            let (lo, hi) = (b.predictive_n[0][j], b.predictive_n[3][j]);
+            inside += usize::from(lo <= b.observed_n[j] && b.observed_n[j] <= hi);
+        }
+    }
+    let coverage = inside as f64 / total as f64;
+    // Binomial spread over ~600 points is ±0.9 %; the bands' own quantile error adds a little.
+    assert!(
+        (0.91..=0.985).contains(&coverage),
+        "95 % predictive coverage {coverage}"
     );
     let (alpha, ratio, f_d, t0, k) = TRUTH;
     let peak = Law::new(&LawParams::new(alpha, ratio * f_d, f_d, t0).unwrap(), 1e-9)
@@ -157,4 +189,85 @@ fn short_first_slide_alone_leaves_k_wide() {
         kr.ci_low,
         kr.ci_high
     );
+}
+
+/// Two materials, one contact each, simulated with known truth: the joint posterior covers
+/// every true value and tells the materials apart.
+#[test]
+fn two_material_joint_posterior_covers_the_truth() {
+    use slipbayes::law::{LawParams, Scene};
+    use slipbayes::simulate::{simulate, SimulationSpec};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // (material, alpha, a/F_d, F_d, t0, k)
+    let truth = [
+        ("A", 0.92e6, 0.62, 10e-3, 14.8, 1.2e4),
+        ("B", 1.5e6, 0.40, 8e-3, 30.0, 1.0e4),
+    ];
+    let mut text = String::new();
+    for (m, alpha, ratio, f_d, t0, k) in truth {
+        for (scene, dur, dt, seed) in [
+            (Scene::First, 20_000.0, 50.0, 31),
+            (Scene::Repeat, 2_000.0, 10.0, 32),
+        ] {
+            let spec = SimulationSpec {
+                scene,
+                params: LawParams::new(alpha, ratio * f_d, f_d, t0).unwrap(),
+                stiffness_n_per_m: Some(k),
+                velocity_m_per_s: 1e-9,
+                duration_s: dur,
+                interval_s: dt,
+                noise_sd_n: 1e-4,
+                seed: if m == "A" { seed } else { seed + 100 },
+                f_end_n: None,
+                after_first_s: (scene == Scene::Repeat).then_some(20_000.0),
+                normal_force_n: None,
+                normal_noise_sd_n: 0.0,
+            };
+            let file = format!("{m}-{scene}.csv");
+            simulate(&spec)
+                .unwrap()
+                .series
+                .write_csv(&d.join(&file))
+                .unwrap();
+            text += &format!(
+                "[[run]]\nname = \"{m}-{scene}\"\ncontact = \"c{m}\"\ndata = \"{file}\"\nvelocity_m_per_s = 1e-9\nscene = \"{scene}\"\n"
+            );
+        }
+        text = format!(
+            "[[material]]\nname = \"{m}\"\n[[contact]]\nname = \"c{m}\"\nmaterial = \"{m}\"\n"
+        ) + &text;
+    }
+    let s = fit(d, "joint", &text, 1500);
+    for (m, alpha, ratio, f_d, t0, k) in truth {
+        let c = format!("c{m}");
+        let first = format!("{m}-first");
+        for (name, group, value) in [
+            ("alpha", m, alpha),
+            ("a_over_F_d", m, ratio),
+            ("F_d", c.as_str(), f_d),
+            ("k", c.as_str(), k),
+            ("t0", first.as_str(), t0),
+        ] {
+            let st = get(&s, name, group);
+            assert!(
+                st.ci_low <= value && value <= st.ci_high,
+                "{name}[{group}]: {value:e} outside [{:e}, {:e}]",
+                st.ci_low,
+                st.ci_high
+            );
+        }
+    }
+    // α_A = 0.92e6 < α_B = 1.5e6, whichever material the file lists first.
+    let alpha = s
+        .comparisons
+        .iter()
+        .find(|c| c.name == "alpha")
+        .expect("alpha compared");
+    let p_a_over_b = if alpha.group_a == "A" {
+        alpha.p_a_greater
+    } else {
+        1.0 - alpha.p_a_greater
+    };
+    assert!(p_a_over_b < 0.01, "P(alpha_A > alpha_B) = {p_a_over_b}");
 }

@@ -250,6 +250,39 @@ pub struct FitOutcome {
     pub paths: FitPaths,
 }
 
+/// Up to `max_draws` kept draws (after burn-in and thinning) of the columns `names`, spread
+/// evenly over the chains of a finished fit: one `Vec` per draw, in the order of `names`.
+///
+/// # Errors
+/// [`FitError::Storage`] when the chains cannot be read or lack a column.
+pub fn kept_draws(
+    outcome: &FitOutcome,
+    names: &[String],
+    max_draws: usize,
+) -> Result<Vec<Vec<f64>>, FitError> {
+    let storage = |source| FitError::Storage {
+        context: format!("reading kept draws from {}", outcome.paths.dir.display()),
+        source,
+    };
+    let chains = read_chains(&outcome.paths.dir).map_err(storage)?;
+    let columns: Vec<&[f64]> = names
+        .iter()
+        .map(|n| chains.column(n))
+        .collect::<Result<_, _>>()
+        .map_err(storage)?;
+    let m = &outcome.summary.sampler;
+    let thin = m.thin.max(1);
+    let kept: Vec<usize> = (0..chains.len())
+        .filter(|&i| chains.step[i] >= m.burn_in && (chains.step[i] - m.burn_in) % thin == 0)
+        .collect();
+    let every = kept.len().div_ceil(max_draws.max(1)).max(1);
+    Ok(kept
+        .iter()
+        .step_by(every)
+        .map(|&i| columns.iter().map(|c| c[i]).collect())
+        .collect())
+}
+
 /// Runs (or resumes) a fit of `density` into `out_dir` and writes its summaries; see the
 /// [module documentation](self). `start` is where the optimiser starts (ignored when
 /// resuming). `observer` receives the sampler's progress unless `settings.quiet`.

@@ -199,6 +199,21 @@ pub struct Posterior {
     start: Vec<f64>,
 }
 
+/// Posterior and posterior predictive bands of one run at (a subset of) its data times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Band {
+    /// Run name.
+    pub run: String,
+    /// Instrument times (s).
+    pub time_s: Vec<f64>,
+    /// Observed force (N).
+    pub observed_n: Vec<f64>,
+    /// Model force (no noise): 2.5 %, 50 % and 97.5 % quantiles over the draws (N).
+    pub model_n: [Vec<f64>; 3],
+    /// Predictive force (model plus noise): 2.5 %, 25 %, 75 % and 97.5 % quantiles (N).
+    pub predictive_n: [Vec<f64>; 4],
+}
+
 /// Estimates from one slide fitted alone (a start for the joint fit).
 #[derive(Debug, Clone, Copy)]
 struct RunAlone {
@@ -606,6 +621,11 @@ impl Posterior {
             .collect()
     }
 
+    /// Observations in the longest run.
+    pub fn max_points(&self) -> usize {
+        self.runs.iter().map(|r| r.data.n_obs).max().unwrap_or(0)
+    }
+
     /// Material names.
     pub fn materials(&self) -> &[String] {
         &self.materials
@@ -830,6 +850,84 @@ impl Posterior {
         self.visit_run(x, r, &f_end, |_, f| out.push(f))?;
         out.truncate(r.data.n_obs);
         Ok(out)
+    }
+
+    /// Posterior (model) and posterior predictive (model plus noise) bands of every run at
+    /// every `stride`-th data time, from `draws` (sampler coordinates). The noise of each draw
+    /// comes from a ChaCha8 stream seeded with `seed`, so the bands are reproducible.
+    ///
+    /// # Errors
+    /// A law error at one of the draws (which a posterior draw cannot produce).
+    pub fn predictive_bands(
+        &self,
+        draws: &[Vec<f64>],
+        stride: usize,
+        seed: u64,
+    ) -> Result<Vec<Band>, LawError> {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let stride = stride.max(1);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut derived = vec![0.0; self.columns.len()];
+        // forces[run][draw][point], noisy[run][draw][point]
+        let mut model: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(draws.len()); self.runs.len()];
+        let mut noisy: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(draws.len()); self.runs.len()];
+        for x in draws {
+            // Fills the derived values, σ of marginalised groups among them.
+            if self.log_density(x, &mut derived).is_err() {
+                continue;
+            }
+            for (i, r) in self.runs.iter().enumerate() {
+                let sigma = match r.sigma {
+                    SigmaSource::Coord(c) => x[c].exp(),
+                    SigmaSource::Marginal(g) => self
+                        .columns
+                        .iter()
+                        .position(|c| c.source == Source::Sigma(g))
+                        .map_or(f64::NAN, |k| derived[k]),
+                };
+                let f: Vec<f64> = self.run_forces(x, i)?.into_iter().step_by(stride).collect();
+                let z: Vec<f64> = f
+                    .iter()
+                    .map(|v| {
+                        let e: f64 = StandardNormal.sample(&mut rng);
+                        v + sigma * e
+                    })
+                    .collect();
+                model[i].push(f);
+                noisy[i].push(z);
+            }
+        }
+        let quantiles = |sets: &[Vec<f64>], j: usize, p: f64| {
+            let mut column: Vec<f64> = sets.iter().map(|s| s[j]).collect();
+            column.sort_by(f64::total_cmp);
+            crate::diagnostics::quantile(&column, p).unwrap_or(f64::NAN)
+        };
+        Ok(self
+            .runs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let idx: Vec<usize> = (0..r.data.n_obs).step_by(stride).collect();
+                let q = |sets: &[Vec<f64>], p: f64| {
+                    (0..idx.len())
+                        .map(|j| quantiles(sets, j, p))
+                        .collect::<Vec<f64>>()
+                };
+                Band {
+                    run: r.name.clone(),
+                    time_s: idx.iter().map(|&j| r.data.model_times[j]).collect(),
+                    observed_n: idx.iter().map(|&j| r.data.force[j]).collect(),
+                    model_n: [q(&model[i], 0.025), q(&model[i], 0.5), q(&model[i], 0.975)],
+                    predictive_n: [
+                        q(&noisy[i], 0.025),
+                        q(&noisy[i], 0.25),
+                        q(&noisy[i], 0.75),
+                        q(&noisy[i], 0.975),
+                    ],
+                }
+            })
+            .collect())
     }
 
     /// Visits (index, force) of a run's model at its model times.
