@@ -271,3 +271,100 @@ fn two_material_joint_posterior_covers_the_truth() {
     };
     assert!(p_a_over_b < 0.01, "P(alpha_A > alpha_B) = {p_a_over_b}");
 }
+
+/// More data, closer medians: the same contact sampled 20 times more densely.
+#[test]
+fn medians_approach_the_truth_as_data_grow() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (alpha, ratio, f_d, t0, k) = TRUTH;
+    let mut errors = Vec::new();
+    let mut widths = Vec::new();
+    for (name, dt_first, dt_repeat) in [("coarse", 400.0, 100.0), ("fine", 20.0, 5.0)] {
+        let first = format!("{name}-first.csv");
+        let repeat = format!("{name}-repeat.csv");
+        common::simulate_ptfe(d, &first, Scene::First, 20_000.0, dt_first, 41, 0.0);
+        common::simulate_ptfe(d, &repeat, Scene::Repeat, 2_000.0, dt_repeat, 42, 20_000.0);
+        let s = fit(
+            d,
+            name,
+            &model(&(run("first", &first, "first") + &run("repeat", &repeat, "repeat"))),
+            1500,
+        );
+        let mut err = 0.0;
+        let mut w = Vec::new();
+        for (p, g, truth) in [
+            ("alpha", "c", alpha),
+            ("a_over_F_d", "c", ratio),
+            ("F_d", "c", f_d),
+            ("t0", "first", t0),
+            ("k", "c", k),
+        ] {
+            let st = get(&s, p, g);
+            err += (st.median / truth).ln().abs();
+            w.push((st.ci_high / st.ci_low).ln());
+        }
+        errors.push(err);
+        widths.push(w);
+    }
+    eprintln!(
+        "sum |ln(median/truth)|: coarse {:.4}, fine {:.4}",
+        errors[0], errors[1]
+    );
+    assert!(
+        errors[1] < errors[0],
+        "medians did not approach the truth: {errors:?}"
+    );
+    for (coarse, fine) in widths[0].iter().zip(&widths[1]) {
+        assert!(fine < coarse, "an interval did not shrink: {widths:?}");
+    }
+}
+
+/// Pooling t0 within a material adds the population and the new-contact peak prediction.
+#[test]
+fn pooled_t0_predicts_a_new_contact() {
+    use slipbayes::sampler::LogDensity;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::simulate_ptfe(d, "f1.csv", Scene::First, 20_000.0, 100.0, 51, 0.0);
+    common::simulate_ptfe(d, "f2.csv", Scene::First, 20_000.0, 100.0, 52, 0.0);
+    let text = "[[material]]\nname = \"m\"\n[[contact]]\nname = \"c1\"\nmaterial = \"m\"\n\
+                [[contact]]\nname = \"c2\"\nmaterial = \"m\"\n"
+        .to_string()
+        + &run("r1", "f1.csv", "first").replace("contact = \"c\"", "contact = \"c1\"")
+        + &run("r2", "f2.csv", "first").replace("contact = \"c\"", "contact = \"c2\"")
+        + "[pooling]\nt0 = true\n";
+    let path = d.join("pooled.toml");
+    std::fs::write(&path, &text).unwrap();
+    let post = Posterior::new(&ModelSpec::load(&path).unwrap()).unwrap();
+    let names = post.param_names();
+    for n in [
+        "ln_t0_pop_median[m]",
+        "ln_t0_pop_log_sd[m]",
+        "z_t0[r1]",
+        "z_t0[r2]",
+    ] {
+        assert!(names.contains(&n.to_string()), "{n} missing from {names:?}");
+    }
+    let derived = post.derived_names();
+    let k = derived
+        .iter()
+        .position(|n| n == "F_peak_new[m]")
+        .expect("new-contact peak");
+    let mut values = vec![0.0; derived.len()];
+    post.log_density(post.start(), &mut values).unwrap();
+    assert!(
+        values[k].is_finite() && values[k] > 0.0,
+        "F_peak_new = {}",
+        values[k]
+    );
+    let s = fit(d, "pooled", &text, 800);
+    let t0 = get(&s, "t0", "r1");
+    assert!(
+        t0.ci_low <= TRUTH.3 && TRUTH.3 <= t0.ci_high,
+        "t0 [{:e}, {:e}]",
+        t0.ci_low,
+        t0.ci_high
+    );
+    assert!(get(&s, "F_peak_new", "m").median.is_finite());
+}
