@@ -12,15 +12,13 @@ use super::{ComparisonSpec, FitError, FitSettings, Quantity, QuantityKind};
 use crate::diagnostics::{
     hdi, mcse_mean, summarize, EnsembleDraws, Summary, MIN_DRAWS, TAU_RELIABLE_FACTOR,
 };
-use crate::sampler::{RunReport, StopReason, RHAT_CONVERGED, STUCK_ACCEPTANCE};
+use crate::sampler::{stuck_walker_problems, RunReport, StopReason, RHAT_CONVERGED};
 use crate::storage::Chains;
 
 /// Largest R̂ between ensembles of a converged quantity (ArviZ's threshold).
 pub const RHAT_MAX: f64 = RHAT_CONVERGED;
 /// Smallest bulk and tail ESS of a converged quantity (ArviZ's threshold).
 pub const ESS_MIN: f64 = 400.0;
-/// Steps before stuck walkers count as a problem (earlier a low acceptance is noise).
-const STUCK_MIN_STEPS: u64 = 100;
 /// Tolerance under which `hdi_prob` counts as equal to `ci_prob` (the HDI then comes with the
 /// summary instead of a second sort).
 const PROB_TOL: f64 = 1e-12;
@@ -413,21 +411,7 @@ impl Plan {
         for (q, s) in self.quantities.iter().zip(&stats) {
             quantity_problems(&q.label(), s, settings.ensembles, &mut problems);
         }
-        if total >= STUCK_MIN_STEPS {
-            for (e, ens) in report.ensembles.iter().enumerate() {
-                let stuck = ens
-                    .acceptance
-                    .iter()
-                    .filter(|&&a| a < STUCK_ACCEPTANCE)
-                    .count();
-                if stuck > 0 {
-                    problems.push(format!(
-                        "{stuck} walker(s) of ensemble {e} accepted less than {:.0}% of proposals (stuck)",
-                        100.0 * STUCK_ACCEPTANCE
-                    ));
-                }
-            }
-        }
+        problems.extend(stuck_walker_problems(&report.ensembles, total));
         let mut rejections = BTreeMap::new();
         for ens in &report.ensembles {
             for (reason, n) in &ens.rejections {

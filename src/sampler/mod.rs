@@ -80,7 +80,8 @@ pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::Move;
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub use report::{
-    EnsembleReport, RunReport, StopReason, TauReport, RHAT_CONVERGED, STUCK_ACCEPTANCE, TAU_FACTOR,
+    stuck_walker_problems, EnsembleReport, RunReport, StopReason, TauReport, RHAT_CONVERGED,
+    STUCK_ACCEPTANCE, TAU_FACTOR,
 };
 pub use run::{
     walker_condition_number, EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION,

@@ -187,3 +187,24 @@ pub(crate) fn rhat_from_history(
     .into_iter()
     .collect()
 }
+
+/// A sentence for each ensemble with walkers that accepted less than [`STUCK_ACCEPTANCE`] of
+/// their proposals, once the run has at least [`STUCK_MIN_STEPS`] steps.
+pub fn stuck_walker_problems(ensembles: &[EnsembleReport], steps: u64) -> Vec<String> {
+    if steps < STUCK_MIN_STEPS {
+        return Vec::new();
+    }
+    ensembles
+        .iter()
+        .enumerate()
+        .filter_map(|(e, rep)| {
+            let stuck = rep.acceptance.iter().filter(|&&a| a < STUCK_ACCEPTANCE).count();
+            (stuck > 0).then(|| {
+                format!(
+                    "{stuck} walker(s) of ensemble {e} accepted less than {:.0}% of proposals (stuck)",
+                    100.0 * STUCK_ACCEPTANCE
+                )
+            })
+        })
+        .collect()
+}

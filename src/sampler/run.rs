@@ -14,8 +14,8 @@ use super::history::{History, RowHistory};
 use super::moves::Move;
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
-    rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
-    RHAT_CONVERGED, STUCK_ACCEPTANCE, STUCK_MIN_STEPS, TAU_FACTOR,
+    rhat_from_history, stuck_walker_problems, tau_from_history, tau_report, EnsembleReport,
+    RunReport, StopReason, RHAT_CONVERGED, TAU_FACTOR,
 };
 use super::sink::{ChainSink, StepView};
 
@@ -712,21 +712,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         } else if self.ensembles.len() > 1 {
             problems.push("R-hat between ensembles could not be computed".into());
         }
-        if steps >= STUCK_MIN_STEPS {
-            for (e, rep) in ensembles.iter().enumerate() {
-                let stuck = rep
-                    .acceptance
-                    .iter()
-                    .filter(|&&a| a < STUCK_ACCEPTANCE)
-                    .count();
-                if stuck > 0 {
-                    problems.push(format!(
-                        "{stuck} walker(s) of ensemble {e} accepted less than {:.0}% of proposals (stuck)",
-                        100.0 * STUCK_ACCEPTANCE
-                    ));
-                }
-            }
-        }
+        problems.extend(stuck_walker_problems(&ensembles, steps));
         RunReport {
             steps_run,
             total_steps: steps,
