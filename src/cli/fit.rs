@@ -85,7 +85,8 @@ pub(super) struct RunArgs {
     strict: bool,
 }
 
-/// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`.
+/// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
+/// replacing an earlier demo there (unless --resume).
 #[derive(Debug, Args)]
 pub(super) struct DemoArgs {
     /// The demo model file.
@@ -119,12 +120,13 @@ pub(super) fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
         }
         (Some(_), Some(_)) => bail!("give either a model file or --first, not both"),
     };
-    fit_and_report(&spec, &args.out, &args.run)
+    fit_and_report(&spec, &args.out, &args.run, false)
 }
 
 pub(super) fn demo(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     let spec = ModelSpec::load(&args.model)?;
-    fit_and_report(&spec, &args.out, &args.run)
+    // The main job is re-run as it is: it replaces its earlier results unless resuming.
+    fit_and_report(&spec, &args.out, &args.run, !args.run.resume)
 }
 
 /// The one-contact model of the quick path: groups `first`, `repeat` (runs) and `contact`.
@@ -211,7 +213,12 @@ fn settings_for(spec: &ModelSpec, dim: usize, run: &RunArgs) -> FitSettings {
     }
 }
 
-fn fit_and_report(spec: &ModelSpec, out: &Path, run: &RunArgs) -> anyhow::Result<ExitCode> {
+fn fit_and_report(
+    spec: &ModelSpec,
+    out: &Path,
+    run: &RunArgs,
+    replace_earlier: bool,
+) -> anyhow::Result<ExitCode> {
     let posterior = Posterior::new(spec)?;
     let quantities = posterior.quantities();
     // Compare materials on what the model reports per material.
@@ -231,7 +238,8 @@ fn fit_and_report(spec: &ModelSpec, out: &Path, run: &RunArgs) -> anyhow::Result
             .collect(),
         groups: materials.clone(),
     };
-    let settings = settings_for(spec, posterior.dim(), run);
+    let mut settings = settings_for(spec, posterior.dim(), run);
+    settings.overwrite |= replace_earlier;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut observer = ProgressBarObserver::new(run.quiet);
     let outcome = run_fit(
