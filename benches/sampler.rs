@@ -33,6 +33,10 @@ use slipbayes::sampler::{
     EnsembleSampler, LogDensity, LogDensityError, NullSink, SamplerConfig, Silent, Steps,
 };
 
+#[path = "support/floor.rs"]
+mod floor;
+use floor::Floor;
+
 const WALKERS: usize = 32;
 const NDIM: usize = 10;
 const STEPS: u64 = 20_000;
@@ -87,67 +91,6 @@ fn sampler<D: LogDensity>(d: &D, ensembles: usize, parallel: bool) -> EnsembleSa
     EnsembleSampler::new(d, config, start(ensembles)).expect("valid start")
 }
 
-/// The floor: the random numbers and proposal vectors of one stretch step.
-struct Floor {
-    positions: Vec<f64>,
-    perm: Vec<usize>,
-    proposals: Vec<f64>,
-    ensemble_rng: ChaCha8Rng,
-    walker_rngs: Vec<ChaCha8Rng>,
-    accept_u: Vec<f64>,
-}
-
-impl Floor {
-    fn new() -> Self {
-        let stream = |s: u64| {
-            let mut r = ChaCha8Rng::seed_from_u64(SEED);
-            r.set_stream(s);
-            r
-        };
-        Self {
-            positions: start(1).concat().concat(),
-            perm: (0..WALKERS).collect(),
-            proposals: vec![0.0; WALKERS / 2 * NDIM],
-            ensemble_rng: stream(0),
-            walker_rngs: (1..=WALKERS as u64).map(stream).collect(),
-            accept_u: vec![0.0; WALKERS / 2],
-        }
-    }
-
-    fn step(&mut self) {
-        let half = WALKERS / 2;
-        for (i, p) in self.perm.iter_mut().enumerate() {
-            *p = i;
-        }
-        for i in 0..half {
-            let j = self.ensemble_rng.random_range(i..WALKERS);
-            self.perm.swap(i, j);
-        }
-        let a = 2.0_f64;
-        for (active, comp) in [(0, half), (half, 0)] {
-            for k in 0..half {
-                let w = self.perm[active + k];
-                let rng = &mut self.walker_rngs[w];
-                let j = self.perm[comp + rng.random_range(0..half)];
-                let u: f64 = rng.random();
-                let z = ((a - 1.0) * u + 1.0).powi(2) / a;
-                let x = &self.positions[w * NDIM..(w + 1) * NDIM];
-                let xj = &self.positions[j * NDIM..(j + 1) * NDIM];
-                for ((o, &xi), &xji) in self.proposals[k * NDIM..(k + 1) * NDIM]
-                    .iter_mut()
-                    .zip(x)
-                    .zip(xj)
-                {
-                    *o = xji + z * (xi - xji);
-                }
-                self.accept_u[k] = rng.random();
-            }
-            black_box(&mut self.proposals);
-            black_box(&mut self.accept_u);
-        }
-    }
-}
-
 fn bench_run<D: LogDensity>(
     c: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
@@ -177,7 +120,7 @@ fn overhead(c: &mut Criterion) {
 
     g.throughput(Throughput::Elements(STEPS * WALKERS as u64));
     g.bench_function("floor", |b| {
-        let mut f = Floor::new();
+        let mut f = Floor::<WALKERS, NDIM>::new(start(1).concat().concat(), SEED);
         b.iter(|| {
             for _ in 0..STEPS {
                 f.step();
@@ -186,11 +129,11 @@ fn overhead(c: &mut Criterion) {
     });
 
     // Per-call cost of the density over points of the shape the sampler proposes.
-    let mut f = Floor::new();
+    let mut f = Floor::<WALKERS, NDIM>::new(start(1).concat().concat(), SEED);
     let mut points = Vec::with_capacity(STEPS as usize * WALKERS * NDIM);
     for _ in 0..STEPS * 2 {
         f.step();
-        points.extend_from_slice(&f.proposals);
+        points.extend_from_slice(f.proposals());
     }
     let mut derived = [0.0; 0];
     g.bench_function("density", |b| {

@@ -164,6 +164,10 @@ fn run(args: &[String]) {
     );
 }
 
+#[path = "../benches/support/floor.rs"]
+mod floor;
+use floor::Floor;
+
 const WALKERS: usize = 32;
 const NDIM: usize = 10;
 const STEPS: u64 = 20_000;
@@ -185,67 +189,6 @@ fn start(seed: u64) -> Vec<Vec<f64>> {
     (0..WALKERS)
         .map(|_| (0..NDIM).map(|_| rng.random::<f64>() - 0.5).collect())
         .collect()
-}
-
-/// Same floor as `benches/sampler.rs`.
-struct Floor {
-    positions: Vec<f64>,
-    perm: Vec<usize>,
-    proposals: Vec<f64>,
-    ensemble_rng: ChaCha8Rng,
-    walker_rngs: Vec<ChaCha8Rng>,
-    accept_u: Vec<f64>,
-}
-
-impl Floor {
-    fn new() -> Self {
-        let stream = |s: u64| {
-            let mut r = ChaCha8Rng::seed_from_u64(7);
-            r.set_stream(s);
-            r
-        };
-        Self {
-            positions: start(7).concat(),
-            perm: (0..WALKERS).collect(),
-            proposals: vec![0.0; WALKERS / 2 * NDIM],
-            ensemble_rng: stream(0),
-            walker_rngs: (1..=WALKERS as u64).map(stream).collect(),
-            accept_u: vec![0.0; WALKERS / 2],
-        }
-    }
-
-    fn step(&mut self) {
-        let half = WALKERS / 2;
-        for (i, p) in self.perm.iter_mut().enumerate() {
-            *p = i;
-        }
-        for i in 0..half {
-            let j = self.ensemble_rng.random_range(i..WALKERS);
-            self.perm.swap(i, j);
-        }
-        let a = 2.0_f64;
-        for (active, comp) in [(0, half), (half, 0)] {
-            for k in 0..half {
-                let w = self.perm[active + k];
-                let rng = &mut self.walker_rngs[w];
-                let j = self.perm[comp + rng.random_range(0..half)];
-                let u: f64 = rng.random();
-                let z = ((a - 1.0) * u + 1.0).powi(2) / a;
-                let x = &self.positions[w * NDIM..(w + 1) * NDIM];
-                let xj = &self.positions[j * NDIM..(j + 1) * NDIM];
-                for ((o, &xi), &xji) in self.proposals[k * NDIM..(k + 1) * NDIM]
-                    .iter_mut()
-                    .zip(x)
-                    .zip(xj)
-                {
-                    *o = xji + z * (xi - xji);
-                }
-                self.accept_u[k] = rng.random();
-            }
-            black_box(&mut self.proposals);
-            black_box(&mut self.accept_u);
-        }
-    }
 }
 
 /// CPU time of the calling thread, in ns: unlike wall time it does not count the time the
@@ -299,11 +242,11 @@ fn overhead(args: &[String]) {
     );
     let clock = Clock(!wall);
     let per = (STEPS * WALKERS as u64) as f64;
-    let mut floor = Floor::new();
+    let mut floor = Floor::<WALKERS, NDIM>::new(start(7).concat(), 7);
     let mut points = Vec::new();
     for _ in 0..STEPS * 2 {
         floor.step();
-        points.extend_from_slice(&floor.proposals);
+        points.extend_from_slice(floor.proposals());
     }
     let (mut f_ns, mut d_ns, mut r_ns, mut e_ns, mut ratio) =
         (vec![], vec![], vec![], vec![], vec![]);

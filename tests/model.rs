@@ -130,3 +130,23 @@ fn layout_samples_only_what_scenes_use() {
     assert!(!post.param_names().iter().any(|n| n.starts_with("ln_k")));
     assert!(post.derived_names().contains(&"sigma[r1]".to_string()));
 }
+
+/// A σ with a prior other than log-uniform is sampled, and starts at the noise of the data.
+#[test]
+fn explicit_sigma_starts_at_the_noise_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    common::simulate_ptfe(d, "first.csv", Scene::First, 20_000.0, 50.0, 1, 0.0);
+    let text = one_run_model("first.csv", "1e-9", "first")
+        + "\n[priors]\nsigma = { dist = \"half-normal\", sd = 1e-3 }\n";
+    let spec = ModelSpec::load(&write(d, "m.toml", &text)).unwrap();
+    let post = Posterior::new(&spec).unwrap();
+    let i = post
+        .param_names()
+        .iter()
+        .position(|n| n == "ln_sigma[r1]")
+        .expect("σ sampled");
+    // Simulated with σ = 1e−4 N.
+    let start = post.start()[i].exp();
+    assert!((start / 1e-4 - 1.0).abs() < 0.2, "start σ = {start:e}");
+}

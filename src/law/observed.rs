@@ -159,10 +159,10 @@ impl ObservedSlide {
                 let (tau_eval, f_eval, r_eval) = last;
                 // The root is one tiny Newton step from the last evaluation: carry F along
                 // its tangent rather than paying for one more evaluation.
-                let force = f_eval + r_eval * (root.root - tau_eval);
+                let force = f_eval + r_eval * (root - tau_eval);
                 before = Some(previous);
-                previous = (t, root.root, slope(r_eval));
-                (root.root, force)
+                previous = (t, root, slope(r_eval));
+                (root, force)
             };
             visit(i, tau, force);
         }

@@ -70,7 +70,7 @@ impl Law {
                 );
                 match root {
                     Some(root) => {
-                        let tau = root.root;
+                        let tau = root;
                         PeakOutcome::Interior(Peak {
                             tau_s: tau,
                             force_n: self.force(tau),
@@ -123,7 +123,7 @@ impl Law {
             peak.tau_s * 1.5,
         );
         match root {
-            Some(root) => (root.root, self.rate(root.root)),
+            Some(root) => (root, self.rate(root)),
             None => at_end,
         }
     }

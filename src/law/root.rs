@@ -9,18 +9,13 @@ pub(crate) const NEWTON_REL_STEP: f64 = 1e-10;
 /// means the function is not continuous on the bracket.
 const MAX_ITERATIONS: usize = 2200;
 
-/// The root found. When it came from a Newton step, it lies one tiny step beyond the last
-/// point where `f` was evaluated, so callers may carry values along the tangent.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Root {
-    /// The converged root.
-    pub root: f64,
-}
-
 /// Finds the root of `f` in `[lo, hi]`, where `f(lo) <= 0 <= f(hi)` (an increasing crossing).
 ///
 /// `f` returns the value and the derivative at a point. `guess` is used when it lies strictly
 /// inside the bracket.
+///
+/// When the root comes from a Newton step it lies one tiny step beyond the last point where
+/// `f` was evaluated, so callers may carry values along the tangent.
 ///
 /// Returns `None` when `f` returns NaN, or if the bracket does not shrink to a root, which
 /// cannot happen for a function continuous on the bracket.
@@ -29,7 +24,7 @@ pub(crate) fn increasing_root(
     mut lo: f64,
     mut hi: f64,
     guess: f64,
-) -> Option<Root> {
+) -> Option<f64> {
     let mut x = if guess > lo && guess < hi {
         guess
     } else {
@@ -46,7 +41,7 @@ pub(crate) fn increasing_root(
         } else if value < 0.0 {
             lo = x;
         } else {
-            return Some(Root { root: x });
+            return Some(x);
         }
         let newton = x - value / slope;
         let step = x - newton;
@@ -55,7 +50,7 @@ pub(crate) fn increasing_root(
         let newton_ok = newton > lo && newton < hi && step.abs() * 2.0 <= previous_step.abs();
         if newton_ok {
             if step.abs() <= NEWTON_REL_STEP * x.abs() {
-                return Some(Root { root: newton });
+                return Some(newton);
             }
             previous_step = step;
             x = newton;
@@ -63,7 +58,7 @@ pub(crate) fn increasing_root(
             let mid = lo + 0.5 * (hi - lo);
             if mid <= lo || mid >= hi {
                 // Adjacent doubles: the bracket is as small as it gets.
-                return Some(Root { root: mid });
+                return Some(mid);
             }
             previous_step = hi - lo;
             x = mid;

@@ -181,30 +181,6 @@ impl RunData {
             .fold(f64::NEG_INFINITY, f64::max)
     }
 
-    /// Time of the (smoothed) maximum force.
-    pub fn time_of_max(&self) -> f64 {
-        let w = (self.force.len() / 100).max(1);
-        let (i, _) = self
-            .force
-            .windows(w)
-            .map(|s| s.iter().sum::<f64>())
-            .enumerate()
-            .fold((0, f64::NEG_INFINITY), |best, (i, v)| {
-                if v > best.1 {
-                    (i, v)
-                } else {
-                    best
-                }
-            });
-        self.times()[i + w / 2]
-    }
-
-    /// Record length (s).
-    pub fn duration(&self) -> f64 {
-        let t = self.times();
-        t[t.len() - 1] - t[0]
-    }
-
     /// Least-squares slope (N/s) of the force over the points below half the late level:
     /// the elastic loading line.
     pub fn initial_slope(&self) -> f64 {

@@ -217,6 +217,8 @@ pub struct Band {
 /// Estimates from one slide fitted alone (a start for the joint fit).
 #[derive(Debug, Clone, Copy)]
 struct RunAlone {
+    /// Root-mean-square residual (N).
+    sigma: f64,
     alpha: f64,
     ratio: f64,
     t0: f64,
@@ -655,9 +657,21 @@ impl Posterior {
             }
             votes[r.f_d].push(d.late_level());
         }
+        // A σ sampled explicitly (a prior other than log-uniform) starts at the residual
+        // noise of its run: from the run's own fit, or from successive differences on the
+        // piecewise-linear repeat slide.
+        let vote_sigma = |votes: &mut Vec<Vec<f64>>, r: &RunModel, sigma: f64| {
+            if let SigmaSource::Coord(i) = r.sigma {
+                votes[i].push(sigma);
+            }
+        };
+        for r in self.runs.iter().filter(|r| r.scene == Scene::Repeat) {
+            vote_sigma(&mut votes, r, r.data.noise_estimate());
+        }
         let mut t0_votes: Vec<(usize, f64)> = Vec::new();
         for r in self.runs.iter().filter(|r| r.scene != Scene::Repeat) {
             let fitted = self.fit_run_alone(r, k_known[r.contact]);
+            vote_sigma(&mut votes, r, fitted.sigma);
             if let Some(i) = r.alpha {
                 votes[i].push(fitted.alpha);
             }
@@ -789,9 +803,10 @@ impl Posterior {
                 best = Some((x, f));
             }
         }
-        let (x, _) = best.unwrap_or_default();
+        let (x, ln_ssr) = best.unwrap_or_default();
         let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
         RunAlone {
+            sigma: (ln_ssr.exp() / d.n_obs as f64).sqrt(),
             alpha: get(0),
             ratio: get(1),
             t0: get(2),
