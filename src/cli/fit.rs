@@ -17,7 +17,19 @@ use crate::model::spec::{
 use crate::model::{ModelSpec, Posterior};
 use crate::sampler::{LogDensity, Steps, StopRule};
 
+use super::import::ImportArgs;
 use super::progress::ProgressBarObserver;
+
+fn parse_window(text: &str) -> Result<[f64; 2], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    match parts.as_slice() {
+        [a, b] => match (a.trim().parse::<f64>(), b.trim().parse::<f64>()) {
+            (Ok(a), Ok(b)) => Ok([a, b]),
+            _ => Err(format!("`{text}`: give two numbers START,END in seconds")),
+        },
+        _ => Err(format!("`{text}`: give START,END in seconds, e.g. 0,20000")),
+    }
+}
 
 /// Fit a model to friction data and write a run directory.
 ///
@@ -37,7 +49,7 @@ pub(super) struct FitArgs {
     /// Output (run) directory.
     #[arg(long)]
     out: PathBuf,
-    /// Quick path: CSV of a first slide (`time_s,force_N[,normal_force_N]`).
+    /// Quick path: data of a first slide (CSV, Parquet or RheoCompass export).
     #[arg(long, conflicts_with = "model")]
     first: Option<PathBuf>,
     /// Quick path: CSV of the repeat slide that followed it.
@@ -52,6 +64,15 @@ pub(super) struct FitArgs {
     /// Quick path: normal force (N), for μ_s.
     #[arg(long = "normal-force")]
     normal_force: Option<f64>,
+    /// Quick path: fit the first slide only within START,END (s of instrument time).
+    #[arg(long = "window-s", value_parser = parse_window, requires = "first")]
+    window_s: Option<[f64; 2]>,
+    /// Quick path: average consecutive points into N bins (a fast exploratory fit).
+    #[arg(long, requires = "first")]
+    bins: Option<usize>,
+    /// Quick path: how to read the data files.
+    #[command(flatten)]
+    import: ImportArgs,
     #[command(flatten)]
     run: RunArgs,
 }
@@ -137,32 +158,45 @@ fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
     let absolute = |p: &Path| -> anyhow::Result<PathBuf> {
         std::path::absolute(p).with_context(|| format!("resolving {}", p.display()))
     };
-    let mut runs = vec![RunSpec {
-        name: "first".into(),
-        contact: "contact".into(),
-        data: absolute(first)?,
-        velocity_m_per_s: velocity,
-        scene: if args.stiff {
-            Scene::StiffFast
-        } else {
-            Scene::First
-        },
-        window_s: None,
-        follows: None,
-    }];
+    let import = args.import.options();
+    // The mapping, binning and drop rule apply to every file of the quick path; the window to
+    // the first slide.
+    let with_import = |mut run: RunSpec| {
+        run.format = import.format;
+        run.columns = import.columns.clone();
+        run.moment_arm_m = Some(import.moment_arm_m);
+        run.interval = Some(import.intervals.clone());
+        run.drop_invalid = import.drop_invalid;
+        run.bins = args.bins;
+        run
+    };
+    let scene = if args.stiff {
+        Scene::StiffFast
+    } else {
+        Scene::First
+    };
+    let mut first_run = with_import(RunSpec::new(
+        "first",
+        "contact",
+        absolute(first)?,
+        velocity,
+        scene,
+    ));
+    first_run.window_s = args.window_s;
+    let mut runs = vec![first_run];
     if let Some(repeat) = &args.repeat {
         if args.stiff {
             bail!("--repeat needs a first slide with the elastic correction; drop --stiff");
         }
-        runs.push(RunSpec {
-            name: "repeat".into(),
-            contact: "contact".into(),
-            data: absolute(repeat)?,
-            velocity_m_per_s: velocity,
-            scene: Scene::Repeat,
-            window_s: None,
-            follows: Some("first".into()),
-        });
+        let mut run = with_import(RunSpec::new(
+            "repeat",
+            "contact",
+            absolute(repeat)?,
+            velocity,
+            Scene::Repeat,
+        ));
+        run.follows = Some("first".into());
+        runs.push(run);
     }
     let levels = [(Param::Alpha, Level::Contact), (Param::A, Level::Contact)]
         .into_iter()
@@ -242,7 +276,7 @@ fn fit_and_report(
     settings.overwrite |= replace_earlier;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut observer = ProgressBarObserver::new(run.quiet);
-    let outcome = run_fit(
+    let mut outcome = run_fit(
         &posterior,
         &quantities,
         &comparisons,
@@ -252,6 +286,7 @@ fn fit_and_report(
         run.resume,
         &mut observer,
     )?;
+    outcome.record_data(posterior.data_provenance())?;
     write_record(spec, &posterior, &settings, out)?;
     write_predictive(&posterior, &outcome, settings.seed, out)?;
     print_summary(&outcome);

@@ -3,6 +3,7 @@
 
 #[cfg(feature = "parquet")]
 mod fit;
+mod import;
 pub mod progress;
 mod simulate;
 
@@ -25,6 +26,7 @@ enum Command {
     #[cfg(feature = "parquet")]
     Fit(fit::FitArgs),
     Simulate(simulate::SimulateArgs),
+    Import(import::ImportCommandArgs),
 }
 
 /// Entry point of the `slipbayes` binary.
@@ -49,5 +51,6 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         #[cfg(feature = "parquet")]
         Command::Fit(args) => fit::run(&args),
         Command::Simulate(args) => simulate::run(&args),
+        Command::Import(args) => import::run(&args),
     }
 }

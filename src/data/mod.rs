@@ -5,11 +5,22 @@
 //! notation so that a file reads back bit-exactly. Every output file goes through
 //! [`write_atomically`], so no half-written file is ever left looking complete.
 //!
+//! Users' instrument files come in through [`import`]: CSV and Parquet tables (through polars,
+//! feature `tabular`) and Anton Paar RheoCompass text exports ([`rheocompass`]), with a column
+//! mapping by name and unit ([`units`]), converted to SI and checked before any fit.
+//!
 //! This module knows nothing of the friction law.
 
 pub mod atomic;
+pub mod import;
+pub mod rheocompass;
+#[cfg(feature = "tabular")]
+mod tabular;
+pub mod units;
 
 pub use atomic::write_atomically;
+pub use import::{import, ColumnMap, ColumnRef, Format, ImportOptions, Imported, Provenance};
+pub use rheocompass::IntervalChoice;
 
 use std::fmt::Write as _;
 use std::fs;
@@ -44,6 +55,14 @@ pub enum DataError {
         line: usize,
         /// 1-based column (field number).
         column: usize,
+        /// What is wrong and what to do.
+        message: String,
+    },
+    /// The file as a whole cannot be used (empty, unknown format, missing feature).
+    #[error("{path}: {message}")]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
         /// What is wrong and what to do.
         message: String,
     },

@@ -250,6 +250,18 @@ pub struct FitOutcome {
     pub paths: FitPaths,
 }
 
+impl FitOutcome {
+    /// Adds where the data came from to the summary and rewrites `summary.json` (atomically).
+    ///
+    /// # Errors
+    /// [`FitError::Serialize`] or [`FitError::Write`].
+    pub fn record_data(&mut self, data: Vec<crate::data::Provenance>) -> Result<(), FitError> {
+        self.summary.data = data;
+        let json = serde_json::to_vec_pretty(&self.summary).map_err(FitError::Serialize)?;
+        write(&self.paths.summary_json, &json)
+    }
+}
+
 /// Up to `max_draws` kept draws (after burn-in and thinning) of the columns `names`, spread
 /// evenly over the chains of a finished fit: one `Vec` per draw, in the order of `names`.
 ///

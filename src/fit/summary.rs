@@ -196,6 +196,10 @@ pub struct FitSummary {
     pub comparisons: Vec<Comparison>,
     /// The run.
     pub sampler: SamplerSummary,
+    /// Where each run's data came from and what was done to them (empty when the density is
+    /// not a friction model; filled by [`crate::fit::FitOutcome::record_data`]).
+    #[serde(default)]
+    pub data: Vec<crate::data::Provenance>,
 }
 
 /// A validated plan: which columns to summarise and which pairs to compare.
@@ -460,6 +464,7 @@ impl Plan {
                 stopped_by: report.stopped_by,
                 steps_run: report.steps_run,
             },
+            data: Vec::new(),
         })
     }
 }

@@ -1,9 +1,12 @@
-//! A run's data prepared for the likelihood: loaded, validated, windowed.
+//! A run's data prepared for the likelihood: imported, validated, windowed, optionally binned.
 
 use std::path::{Path, PathBuf};
 
-use crate::data::{DataError, Series};
+use crate::data::import::Binning;
+use crate::data::{import, DataError, Imported, Provenance, Series};
 use crate::law::Scene;
+
+use super::spec::ModelSpec;
 
 /// Errors preparing a run's data; each names the file and says what to fix.
 #[derive(Debug, thiserror::Error)]
@@ -39,17 +42,98 @@ pub struct RunData {
     pub n_obs: usize,
     /// Normal force (N) per observation, when recorded.
     pub normal_force: Option<Vec<f64>>,
+    /// Points averaged into each observation when binned: the noise of observation j is
+    /// σ/√weights[j]. `None`: one point each.
+    pub weights: Option<Vec<f64>>,
+    /// Where the data came from and what was done to them.
+    pub provenance: Provenance,
+}
+
+/// Which part of a run's data enters the likelihood.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Selection {
+    /// Time window [start, end] (s of instrument time), inclusive.
+    pub window_s: Option<[f64; 2]>,
+    /// Average consecutive points into this many bins.
+    pub bins: Option<usize>,
 }
 
 impl RunData {
-    /// Loads `path`, checks it, and keeps the points inside `window` (instrument time, s).
+    /// Imports the data of run `run` of `spec` with its format, column mapping and interval
+    /// choice, and keeps its window and binning.
     ///
     /// # Errors
-    /// [`RunDataError`] naming the file and line: unreadable or malformed file, non-finite
-    /// values, times not strictly increasing, or fewer than [`MIN_POINTS`] points.
+    /// [`RunDataError`] naming the file and line: unreadable or malformed file, a missing
+    /// column or unknown unit, invalid points (unless dropped explicitly), times not strictly
+    /// increasing, or fewer than [`MIN_POINTS`] points left.
+    pub fn for_run(spec: &ModelSpec, run: usize) -> Result<Self, RunDataError> {
+        let r = &spec.file.runs[run];
+        let path = spec.data_path(run);
+        let imported = import(&path, &spec.import_options(run))?;
+        let selection = Selection {
+            window_s: r.window_s,
+            bins: r.bins,
+        };
+        Self::prepare(imported, &path, &r.name, &r.data, selection, r.scene)
+    }
+
+    /// Loads a file in any format with the default mapping, all of it (the simplest case).
+    ///
+    /// # Errors
+    /// As [`RunData::for_run`].
     pub fn load(path: &Path, window: Option<[f64; 2]>, scene: Scene) -> Result<Self, RunDataError> {
-        let series = Series::read_csv(path)?;
-        Self::from_series(series, path, window, scene)
+        let imported = import(path, &crate::data::ImportOptions::default())?;
+        let selection = Selection {
+            window_s: window,
+            bins: None,
+        };
+        Self::prepare(imported, path, "", path, selection, scene)
+    }
+
+    /// Windows and bins an imported file; `run` and `file` name it in the record.
+    ///
+    /// # Errors
+    /// As [`RunData::for_run`].
+    pub fn prepare(
+        imported: Imported,
+        path: &Path,
+        run: &str,
+        file: &Path,
+        selection: Selection,
+        scene: Scene,
+    ) -> Result<Self, RunDataError> {
+        let provenance = Provenance {
+            run: run.to_owned(),
+            file: file.display().to_string(),
+            format: imported.format.name().to_owned(),
+            points_read: imported.points_read,
+            points_used: 0,
+            dropped_invalid: imported.dropped_invalid,
+            window_s: selection.window_s,
+            binning: None,
+            conversions: imported.conversions,
+        };
+        let lines = imported.lines;
+        let mut data = Self::from_series(imported.series, path, selection.window_s, scene)
+            .map_err(|e| match e {
+                // Rows are known by their line in the original file, not by index.
+                RunDataError::Unusable {
+                    path,
+                    line,
+                    message,
+                } if line >= 2 => RunDataError::Unusable {
+                    path,
+                    line: lines.get(line - 2).copied().unwrap_or(line),
+                    message,
+                },
+                other => other,
+            })?;
+        data.provenance = provenance;
+        if let Some(bins) = selection.bins {
+            data.bin(bins, path)?;
+        }
+        data.provenance.points_used = data.n_obs;
+        Ok(data)
     }
 
     /// As [`RunData::load`] for a series already in memory; `path` names it in messages.
@@ -145,7 +229,75 @@ impl RunData {
             force,
             n_obs,
             normal_force,
+            weights: None,
+            provenance: Provenance {
+                run: String::new(),
+                file: path.display().to_string(),
+                format: "memory".into(),
+                points_read: n,
+                points_used: n_obs,
+                dropped_invalid: 0,
+                window_s: window,
+                binning: None,
+                conversions: Vec::new(),
+            },
         })
+    }
+
+    /// Replaces the observations by the means of `bins` runs of consecutive points (sizes
+    /// differing by at most one); the weight of a bin is its number of points, since the mean
+    /// of n points with noise σ has noise σ/√n.
+    fn bin(&mut self, bins: usize, path: &Path) -> Result<(), RunDataError> {
+        let n = self.n_obs;
+        if bins < MIN_POINTS || bins >= n {
+            return Err(RunDataError::Unusable {
+                path: path.to_owned(),
+                line: 1,
+                message: format!(
+                    "{bins} bins for {n} points: give between {MIN_POINTS} and {} bins, or no \
+                     binning",
+                    n - 1
+                ),
+            });
+        }
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let edges: Vec<usize> = (0..=bins).map(|b| b * n / bins).collect();
+        let times = &self.model_times[..n];
+        let mut model_times: Vec<f64> =
+            edges.windows(2).map(|e| mean(&times[e[0]..e[1]])).collect();
+        let force = edges
+            .windows(2)
+            .map(|e| mean(&self.force[e[0]..e[1]]))
+            .collect();
+        let normal_force = self
+            .normal_force
+            .as_ref()
+            .map(|v| edges.windows(2).map(|e| mean(&v[e[0]..e[1]])).collect());
+        let weights = edges.windows(2).map(|e| (e[1] - e[0]) as f64).collect();
+        // The model time where F_end is read (first slides) stays after the observations.
+        model_times.extend_from_slice(&self.model_times[n..]);
+        self.model_times = model_times;
+        self.force = force;
+        self.normal_force = normal_force;
+        self.weights = Some(weights);
+        self.n_obs = bins;
+        self.provenance.binning = Some(Binning {
+            bins,
+            points_per_bin: n as f64 / bins as f64,
+        });
+        Ok(())
+    }
+
+    /// Weight of observation j (points averaged into it).
+    pub fn weight(&self, j: usize) -> f64 {
+        self.weights.as_ref().map_or(1.0, |w| w[j])
+    }
+
+    /// ½ Σ ln wⱼ: the normalising constant the weights add to the log-likelihood.
+    pub fn half_log_weights(&self) -> f64 {
+        self.weights
+            .as_ref()
+            .map_or(0.0, |w| 0.5 * w.iter().map(|v| v.ln()).sum::<f64>())
     }
 
     fn times(&self) -> &[f64] {
@@ -159,10 +311,17 @@ impl RunData {
             .map(|v| v.iter().sum::<f64>() / v.len() as f64)
     }
 
-    /// Noise estimate: RMS of successive differences / √2 (insensitive to a smooth trend).
+    /// Noise estimate of one point: RMS of successive differences, each scaled by its
+    /// standard deviation in units of σ, √(1/wⱼ + 1/wⱼ₊₁) (√2 unbinned); insensitive to a
+    /// smooth trend.
     pub fn noise_estimate(&self) -> f64 {
-        let d: f64 = self.force.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum();
-        (d / (2.0 * (self.force.len() - 1) as f64)).sqrt()
+        let d: f64 = (1..self.force.len())
+            .map(|j| {
+                let scale = 1.0 / self.weight(j - 1) + 1.0 / self.weight(j);
+                (self.force[j] - self.force[j - 1]).powi(2) / scale
+            })
+            .sum();
+        (d / (self.force.len() - 1) as f64).sqrt()
     }
 
     /// Mean force over the last tenth of the record.

@@ -273,8 +273,8 @@ impl Posterior {
             });
         }
         let mut data = Vec::with_capacity(n_runs);
-        for (i, run) in spec.file.runs.iter().enumerate() {
-            data.push(RunData::load(&spec.data_path(i), run.window_s, run.scene)?);
+        for i in 0..n_runs {
+            data.push(RunData::for_run(spec, i)?);
         }
         let ratio = spec.file.aging == Aging::Ratio;
         let mut coords: Vec<Coord> = Vec::new();
@@ -623,6 +623,15 @@ impl Posterior {
             .collect()
     }
 
+    /// Where each run's data came from and what was done to them (the `data` of
+    /// `summary.json`).
+    pub fn data_provenance(&self) -> Vec<crate::data::Provenance> {
+        self.runs
+            .iter()
+            .map(|r| r.data.provenance.clone())
+            .collect()
+    }
+
     /// Observations in the longest run.
     pub fn max_points(&self) -> usize {
         self.runs.iter().map(|r| r.data.n_obs).max().unwrap_or(0)
@@ -773,7 +782,7 @@ impl Posterior {
             let obs = &d.force;
             let ok = ObservedSlide::new(law, elastic).for_each_force(&d.model_times, |j, _, f| {
                 if j < d.n_obs {
-                    sum += (obs[j] - f).powi(2);
+                    sum += d.weight(j) * (obs[j] - f).powi(2);
                 }
             });
             if ok.is_err() {
@@ -902,11 +911,13 @@ impl Posterior {
                         .map_or(f64::NAN, |k| derived[k]),
                 };
                 let f: Vec<f64> = self.run_forces(x, i)?.into_iter().step_by(stride).collect();
+                // A bin mean of w points scatters by σ/√w.
                 let z: Vec<f64> = f
                     .iter()
-                    .map(|v| {
+                    .enumerate()
+                    .map(|(k, v)| {
                         let e: f64 = StandardNormal.sample(&mut rng);
-                        v + sigma * e
+                        v + sigma / r.data.weight(k * stride).sqrt() * e
                     })
                     .collect();
                 model[i].push(f);
@@ -1148,16 +1159,19 @@ impl LogDensity for Posterior {
             let r = &self.runs[i];
             let obs = &r.data.force;
             let n = r.data.n_obs;
+            // Weighted by the points per bin when binned: a bin mean has variance σ²/w.
+            let weights = r.data.weights.as_deref();
             let mut ssr = 0.0;
             let mut last = 0.0;
             self.visit_run(x, r, &f_end, |j, f| {
                 if j < n {
                     let e = obs[j] - f;
-                    ssr += e * e;
+                    ssr += weights.map_or(1.0, |w| w[j]) * e * e;
                 }
                 last = f;
             })
             .map_err(law_error)?;
+            lp += r.data.half_log_weights();
             if r.scene == Scene::First {
                 f_end[i] = Some(last);
             }

@@ -8,6 +8,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::prior::Prior;
+use crate::data::units::{parse_unit, KNOWN_UNITS};
+use crate::data::{ColumnMap, Format, ImportOptions, IntervalChoice};
 use crate::law::Scene;
 
 /// Errors loading a model file.
@@ -182,6 +184,54 @@ pub struct RunSpec {
     /// For a repeat slide: the run it follows (default: the contact's first slide).
     #[serde(default)]
     pub follows: Option<String>,
+    /// Data format (`csv`, `parquet`, `rheocompass`); detected from the file when absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub format: Option<Format>,
+    /// Which columns hold time, force (or torque) and normal force, with their units; when
+    /// absent, the usual names (`time_s`, `force_N`, `normal_force_N`; `Time`, `Torque`, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub columns: Option<ColumnMap>,
+    /// Moment arm (m) converting torque to force (default 7 mm).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moment_arm_m: Option<f64>,
+    /// Intervals of a RheoCompass export: a number, a list, or `"all"` (the default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub interval: Option<IntervalChoice>,
+    /// Drop points whose cells are not finite numbers (counted in the report) instead of
+    /// stopping with an error.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub drop_invalid: bool,
+    /// Average consecutive points into this many bins (a fast exploratory fit); the noise
+    /// model takes each bin's size into account.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bins: Option<usize>,
+}
+
+impl RunSpec {
+    /// A run with its data in the default format and mapping, all points, no binning.
+    pub fn new(
+        name: &str,
+        contact: &str,
+        data: PathBuf,
+        velocity_m_per_s: f64,
+        scene: Scene,
+    ) -> Self {
+        Self {
+            name: name.to_owned(),
+            contact: contact.to_owned(),
+            data,
+            velocity_m_per_s,
+            scene,
+            window_s: None,
+            follows: None,
+            format: None,
+            columns: None,
+            moment_arm_m: None,
+            interval: None,
+            drop_invalid: false,
+            bins: None,
+        }
+    }
 }
 
 /// Partial pooling of a parameter within its material.
@@ -447,6 +497,7 @@ impl ModelSpec {
                     ));
                 }
             }
+            validate_import(r).map_err(|(k, m)| invalid(format!("run[{i}].{k}"), m))?;
             run_contact.push(c);
         }
         let mut run_follows = Vec::new();
@@ -559,10 +610,69 @@ impl ModelSpec {
             })
     }
 
+    /// How to read a run's data file.
+    pub fn import_options(&self, run: usize) -> ImportOptions {
+        let r = &self.file.runs[run];
+        let defaults = ImportOptions::default();
+        ImportOptions {
+            format: r.format,
+            columns: r.columns.clone(),
+            moment_arm_m: r.moment_arm_m.unwrap_or(defaults.moment_arm_m),
+            intervals: r.interval.clone().unwrap_or_default(),
+            drop_invalid: r.drop_invalid,
+        }
+    }
+
     /// Absolute path of a run's data file.
     pub fn data_path(&self, run: usize) -> PathBuf {
         self.base_dir.join(&self.file.runs[run].data)
     }
+}
+
+/// Checks a run's import settings; the error names the key below `run[i]`.
+fn validate_import(r: &RunSpec) -> Result<(), (String, String)> {
+    if let Some(arm) = r.moment_arm_m {
+        if !(arm.is_finite() && arm > 0.0) {
+            return Err((
+                "moment_arm_m".into(),
+                format!("{arm} must be a length > 0 in metres (e.g. 7e-3 for 7 mm)"),
+            ));
+        }
+    }
+    if let Some(bins) = r.bins {
+        if bins < super::data::MIN_POINTS {
+            return Err((
+                "bins".into(),
+                format!(
+                    "{bins} bins are too few; give at least {} or remove `bins`",
+                    super::data::MIN_POINTS
+                ),
+            ));
+        }
+    }
+    if let Some(map) = &r.columns {
+        let mut refs = vec![("time", &map.time), ("force", &map.force)];
+        if let Some(normal) = &map.normal_force {
+            refs.push(("normal_force", normal));
+        }
+        for (key, column) in refs {
+            if column.name.trim().is_empty() {
+                return Err((
+                    format!("columns.{key}.name"),
+                    "give the column's name as in the file's header".into(),
+                ));
+            }
+            if let Some(unit) = &column.unit {
+                if parse_unit(unit).is_none() {
+                    return Err((
+                        format!("columns.{key}.unit"),
+                        format!("unknown unit `{unit}`; slipbayes knows {KNOWN_UNITS}"),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn unique_names<'a>(
