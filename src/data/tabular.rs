@@ -60,22 +60,30 @@ pub fn read_csv(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
         .into_reader_with_file_handle(Cursor::new(text.trim_start_matches('\u{feff}').as_bytes()))
         .finish()
         .map_err(|e| unsupported(path, format!("not a readable CSV table: {e}")))?;
-    // Line of each row: the non-blank lines after the header, when they match the rows
-    // (a quoted field spanning lines would break the correspondence; then rows are counted).
-    let data_lines: Vec<usize> = text
+    // Line of each row. Polars reads a blank line inside the data as a row of empty cells
+    // (such rows are removed below); a quoted field spanning lines breaks the correspondence,
+    // and then rows are counted from the header instead.
+    let after_header: Vec<(usize, &str)> = text
         .lines()
         .enumerate()
         .skip(header_index + 1)
-        .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, _)| i + 1)
+        .map(|(i, l)| (i + 1, l))
         .collect();
-    let lines = if data_lines.len() == frame.height() {
-        data_lines
+    let non_blank: Vec<usize> = after_header
+        .iter()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|&(i, _)| i)
+        .collect();
+    let lines: Vec<usize> = if after_header.len() == frame.height() {
+        after_header.iter().map(|&(i, _)| i).collect()
+    } else if non_blank.len() == frame.height() {
+        non_blank
     } else {
         (0..frame.height()).map(|r| header_index + r + 2).collect()
     };
     let mut table = table_of(&frame, path, lines)?;
     table.header_line = header_index + 1;
+    drop_blank_rows(&mut table);
     table.found.insert(
         0,
         format!(
@@ -110,6 +118,24 @@ pub fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
         ),
     );
     Ok(table)
+}
+
+/// Removes rows whose every cell is empty: blank lines, not data points.
+fn drop_blank_rows(table: &mut Table) {
+    let blank = |row: usize| {
+        table
+            .cells
+            .iter()
+            .all(|c| matches!(&c[row], Cell::Text(t) if t.is_empty()))
+    };
+    let keep: Vec<usize> = (0..table.lines.len()).filter(|&r| !blank(r)).collect();
+    if keep.len() == table.lines.len() {
+        return;
+    }
+    table.lines = keep.iter().map(|&r| table.lines[r]).collect();
+    for column in &mut table.cells {
+        *column = keep.iter().map(|&r| column[r].clone()).collect();
+    }
 }
 
 fn table_of(frame: &DataFrame, path: &Path, lines: Vec<usize>) -> Result<Table, DataError> {

@@ -1234,6 +1234,44 @@ mod tests {
         assert!(marginal_sigma_log_likelihood(1e6, 100, 1e-8, 1.0).is_none());
     }
 
+    /// Binned observations: ∫ Πⱼ N(rⱼ | 0, σ²/wⱼ) p(σ) dσ by quadrature equals the closed form
+    /// at the weighted sum of squares plus ½ Σ ln wⱼ, as `log_density` adds them.
+    #[test]
+    fn weighted_marginal_sigma_matches_quadrature() {
+        let residuals = [0.3, -1.1, 0.4, 2.0, -0.7, 0.05, 1.3];
+        let weights = [10.0, 11.0, 10.0, 3.0, 1.0, 25.0, 7.0];
+        let (low, high) = (0.05_f64, 20.0_f64);
+        let n = residuals.len();
+        let wssr: f64 = residuals.iter().zip(&weights).map(|(r, w)| w * r * r).sum();
+        let half_log_w: f64 = 0.5 * weights.iter().map(|w: &f64| w.ln()).sum::<f64>();
+        let closed = marginal_sigma_log_likelihood(wssr, n, low, high).unwrap() + half_log_w;
+        let m = 400_000;
+        let (a, b) = (low.ln(), high.ln());
+        let h = (b - a) / m as f64;
+        let ln_range = (high / low).ln();
+        let terms: Vec<f64> = (0..m)
+            .map(|i| {
+                let sigma = (a + (i as f64 + 0.5) * h).exp();
+                // The density of each bin mean written out, not through the sum of squares.
+                residuals
+                    .iter()
+                    .zip(&weights)
+                    .map(|(r, w)| {
+                        let sd = sigma / w.sqrt();
+                        -sd.ln() - LN_SQRT_2PI - 0.5 * (r / sd).powi(2)
+                    })
+                    .sum::<f64>()
+                    - ln_range.ln()
+            })
+            .collect();
+        let max = terms.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        let quad = max + (terms.iter().map(|t| (t - max).exp()).sum::<f64>() * h).ln();
+        assert!(
+            (quad - closed).abs() < 1e-6,
+            "quadrature {quad}, closed {closed}"
+        );
+    }
+
     #[test]
     fn hashed_normal_is_standard_normal() {
         let draws: Vec<f64> = (0..20_000).map(|i| hashed_normal(&[i as f64], 7)).collect();
