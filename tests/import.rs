@@ -46,6 +46,8 @@ fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * b.abs().max(1e-300)
 }
 
+/// CSV tables are read through polars.
+#[cfg(feature = "tabular")]
 #[test]
 fn units_convert_to_si() {
     // Semicolons and decimal commas, time in minutes, torque in mN·m through a 5 mm arm.
@@ -196,6 +198,8 @@ fn import_command_converts_and_reports() {
 }
 
 /// Each problem a user's file can have, and where the message must point.
+/// CSV tables are read through polars.
+#[cfg(feature = "tabular")]
 #[test]
 fn validation_names_file_line_and_column() {
     let o = options();
@@ -264,6 +268,8 @@ fn validation_names_file_line_and_column() {
     assert!(message.contains("w.csv:1:1:") && message.contains("not a unit of time"));
 }
 
+/// CSV tables are read through polars.
+#[cfg(feature = "tabular")]
 #[test]
 fn dropping_invalid_points_is_explicit_and_counted() {
     let text = "time_s,force_N\n0,1\n1,oops\n2,\n3,1.5\n";
@@ -319,12 +325,10 @@ fn fewer_points_than_parameters_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("short.csv");
     std::fs::write(&data, "time_s,force_N\n0,1\n1,2\n2,3\n3,4\n").unwrap();
-    let text = format!(
-        "[[material]]\nname = \"m\"\n[[contact]]\nname = \"c\"\nmaterial = \"m\"\n\
+    let text = "[[material]]\nname = \"m\"\n[[contact]]\nname = \"c\"\nmaterial = \"m\"\n\
          [[run]]\nname = \"r\"\ncontact = \"c\"\ndata = \"short.csv\"\nvelocity_m_per_s = 1e-9\n\
-         scene = \"first\"\n"
-    );
-    let spec = ModelSpec::parse(&text, &dir.path().join("model.toml")).unwrap();
+         scene = \"first\"\n";
+    let spec = ModelSpec::parse(text, &dir.path().join("model.toml")).unwrap();
     let e = slipbayes::model::Posterior::new(&spec)
         .unwrap_err()
         .to_string();
