@@ -428,3 +428,20 @@ proptest! {
         }
     }
 }
+
+/// A number that overflows when converted to SI (1e308 min) is an invalid point, not an
+/// infinite time.
+#[test]
+fn overflow_in_conversion_is_invalid() {
+    let text = "Interval and data points:\t1\t2\nInterval data:\tTime\tForce\n\t[min]\t[N]\n\
+                \t1\t0,5\n\t1e308\t0,5\n";
+    let o = ImportOptions {
+        format: Some(Format::Rheocompass),
+        ..options()
+    };
+    let message = error(text, "o.txt", &o);
+    assert!(
+        message.contains("o.txt:5:1:") && message.contains("out of range"),
+        "{message}"
+    );
+}

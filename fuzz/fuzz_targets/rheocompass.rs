@@ -2,6 +2,8 @@
 //! never a panic, and a series that satisfies the importer's promises.
 #![no_main]
 
+mod common;
+
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
@@ -23,11 +25,6 @@ fuzz_target!(|data: &[u8]| {
         ..ImportOptions::default()
     };
     if let Ok(imported) = import_bytes(bytes, Path::new("fuzz.txt"), &options) {
-        let s = &imported.series;
-        assert!(!s.is_empty());
-        assert!(s.time_s.windows(2).all(|w| w[0] < w[1]));
-        assert!(s.time_s.iter().chain(&s.force_n).all(|v| v.is_finite()));
-        assert_eq!(imported.lines.len(), s.len());
-        assert_eq!(imported.points_read, s.len() + imported.dropped_invalid);
+        common::check(&imported);
     }
 });

@@ -513,10 +513,11 @@ fn map_table(
         for (slot, r) in mapped.iter().enumerate() {
             let cell = &table.cells[r.index][row];
             let bad = match cell {
-                Cell::Number(v) if v.is_finite() => {
+                Cell::Number(v) if v.is_finite() && (v * r.to_si).is_finite() => {
                     values[slot] = v * r.to_si;
                     continue;
                 }
+                Cell::Number(v) if v.is_finite() => format!("{v} (out of range in SI units)"),
                 Cell::Number(v) => format!("{v} (not finite)"),
                 Cell::Text(t) if t.is_empty() => "an empty cell".to_owned(),
                 Cell::Text(t) => format!("`{t}`"),

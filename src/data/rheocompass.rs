@@ -335,7 +335,12 @@ pub fn parse(bytes: &[u8], path: &Path, choice: &IntervalChoice) -> Result<Table
             })
             .collect::<Result<_, _>>()?,
     };
-    let first = chosen[0];
+    let Some(&first) = chosen.first() else {
+        return Err(DataError::Unsupported {
+            path: path.to_owned(),
+            message: "no interval chosen; give `all` or interval numbers".into(),
+        });
+    };
     if first.names.is_empty() {
         return Err(DataError::Unsupported {
             path: path.to_owned(),
