@@ -4,6 +4,8 @@
 #[cfg(feature = "parquet")]
 mod fit;
 pub mod progress;
+#[cfg(feature = "report")]
+mod report;
 mod simulate;
 
 use std::process::ExitCode;
@@ -24,6 +26,8 @@ enum Command {
     Demo(fit::DemoArgs),
     #[cfg(feature = "parquet")]
     Fit(fit::FitArgs),
+    #[cfg(feature = "report")]
+    Report(report::ReportArgs),
     Simulate(simulate::SimulateArgs),
 }
 
@@ -48,6 +52,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Demo(args) => fit::demo(&args),
         #[cfg(feature = "parquet")]
         Command::Fit(args) => fit::run(&args),
+        #[cfg(feature = "report")]
+        Command::Report(args) => report::run(&args),
         Command::Simulate(args) => simulate::run(&args),
     }
 }
