@@ -4,11 +4,10 @@ use std::collections::BTreeMap;
 
 use super::curves::{coordinate_draws, interface_curve, peak_vs_t0, InterfaceCurve, PeakVsT0};
 use super::document::Block;
-use super::inputs::{PredictiveRun, RunInputs};
+use super::inputs::{coverage_95, PredictiveRun, RunInputs};
 use super::plots::{
-    corner_figure, distance_figure, fit_figure, forest_figure, peak_density_figure,
-    peak_t0_figure, trace_figure, velocity_text, ForestPanel, ForestRow, PeakDraws, RunView,
-    TracePanel,
+    corner_figure, distance_figure, fit_figure, forest_figure, peak_density_figure, peak_t0_figure,
+    trace_figure, velocity_text, ForestPanel, ForestRow, PeakDraws, RunView, TracePanel,
 };
 use super::units::{significant, DisplayUnit};
 use super::ReportError;
@@ -228,10 +227,10 @@ pub fn build(
             .collect(),
         kept: kept_rows(&inputs.chains, &inputs.summary.sampler, ALL_DRAWS),
     };
-    let run_name = inputs
-        .dir
-        .file_name()
-        .map_or_else(|| inputs.dir.display().to_string(), |f| f.to_string_lossy().into_owned());
+    let run_name = inputs.dir.file_name().map_or_else(
+        || inputs.dir.display().to_string(),
+        |f| f.to_string_lossy().into_owned(),
+    );
     let title = format!("slipbayes report: {run_name}");
     let comparisons = material_comparisons(&ctx);
     let mut blocks = glance(&ctx, &comparisons);
@@ -331,10 +330,10 @@ fn material_comparisons(ctx: &Context) -> Vec<MaterialComparison> {
                 b: c.group_b.clone(),
                 p_a_greater: c.p_a_greater,
                 difference: format!("{}{}", stats_text(&c.difference, &u), u.suffix()),
-                ratio: c
-                    .ratio
-                    .as_ref()
-                    .map_or_else(|| "–".to_owned(), |r| stats_text(r, &DisplayUnit::of_si("1"))),
+                ratio: c.ratio.as_ref().map_or_else(
+                    || "–".to_owned(),
+                    |r| stats_text(r, &DisplayUnit::of_si("1")),
+                ),
                 source: "fit summary",
             }
         })
@@ -433,7 +432,7 @@ fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
             format!(
                 "{}: {:.1} % of {} data points inside the 95 % predictive band",
                 r.name,
-                100.0 * p.coverage_95(),
+                100.0 * coverage_95(p),
                 p.time_s.len()
             )
         })
@@ -525,7 +524,13 @@ fn data_section(ctx: &Context) -> Vec<Block> {
                 ),
                 d.binning.as_ref().map_or_else(
                     || "none".to_owned(),
-                    |b| format!("{} bins of {} points", b.bins, significant(b.points_per_bin, 3)),
+                    |b| {
+                        format!(
+                            "{} bins of {} points",
+                            b.bins,
+                            significant(b.points_per_bin, 3)
+                        )
+                    },
                 ),
                 if d.conversions.is_empty() {
                     "none".to_owned()
@@ -561,6 +566,15 @@ fn data_section(ctx: &Context) -> Vec<Block> {
 
 fn figure(file: String, caption: String, svg: String) -> Block {
     Block::Figure { file, caption, svg }
+}
+
+/// A figure block named `file`, drawn by `draw` (which gets the name for its errors).
+fn drawn_figure(
+    file: &str,
+    caption: String,
+    draw: impl FnOnce(&str) -> Result<String, ReportError>,
+) -> Result<Block, ReportError> {
+    Ok(figure(file.to_owned(), caption, draw(file)?))
 }
 
 fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
@@ -629,11 +643,10 @@ fn peak_section(
             "The peak of F(τ), where a/τ = αv (F − F_d), per posterior draw. Its credible interval carries the uncertainty of every parameter, t0 included.".into(),
         ),
     ];
-    let mut density: Vec<(String, Vec<PeakDraws>)> = Vec::new();
+    let mut density: Vec<PeakDraws> = Vec::new();
     let mut versus_t0: Vec<(String, Vec<(String, PeakVsT0)>)> = Vec::new();
     let mut rows = Vec::new();
     for material in &ctx.materials {
-        let mut d = Vec::new();
         let mut v = Vec::new();
         for (i, run) in ctx.slides().filter(|(_, r)| &r.material == material) {
             let Some(q) = ctx.find("F_peak", &run.name) else {
@@ -643,7 +656,11 @@ fn peak_section(
                 continue;
             };
             let s = &q.stats;
-            d.push((run.name.clone(), values, [s.ci_low, s.median, s.ci_high]));
+            density.push((
+                format!("{} ({material})", run.name),
+                values,
+                [s.ci_low, s.median, s.ci_high],
+            ));
             if let Some(t0) = ctx.find("t0", &run.name) {
                 let range = (t0.stats.ci_low / T0_SPAN, t0.stats.ci_high * T0_SPAN);
                 if let Some(curve) = peak_vs_t0(posterior, i, draws, range, T0_POINTS)? {
@@ -664,8 +681,12 @@ fn peak_section(
                 cell("mu_s"),
             ]);
         }
-        if !d.is_empty() {
-            density.push((material.clone(), d));
+        let members = material_members(ctx, "F_peak", material);
+        if members.len() > 1 {
+            if let Some(mean) = mean_draws(ctx, &members) {
+                let q = quantiles3(&mean);
+                density.push((format!("{material}: {MEAN_NOTE_F_PEAK}"), mean, q));
+            }
         }
         if !v.is_empty() {
             versus_t0.push((material.clone(), v));
@@ -691,24 +712,20 @@ fn peak_section(
         rows,
         flagged,
     ));
-    let file = "peak-density.svg".to_owned();
-    let svg = peak_density_figure(&file, &density)?;
-    blocks.push(figure(
-        file,
-        "Posterior density of the peak static friction per run, one panel per material; the bars below show each run's 95 % interval with its median.".into(),
-        svg,
-    ));
+    blocks.push(drawn_figure(
+        "peak-density.svg",
+        "Posterior density of the peak static friction per run and, where a material has several first slides, of their mean per draw: the shade is the 95 % interval, the dashed line the median.".to_owned(),
+        |file| peak_density_figure(file, &density),
+    )?);
     if !versus_t0.is_empty() {
-        let file = "peak-t0.svg".to_owned();
-        let svg = peak_t0_figure(&file, &versus_t0)?;
-        blocks.push(figure(
-            file,
+        blocks.push(drawn_figure(
+            "peak-t0.svg",
             format!(
                 "The peak against t0, as in the paper's Fig. 4: for each slide, t0 is varied over {T0_SPAN}× below and above its 95 % interval while αv, a and F_d come from {} posterior draws (line: median, shade: 95 %); the markers are the posterior draws of (t0, F_peak) themselves. F_peak grows as ln(1/t0): an uncertain t0 widens the peak's interval.",
                 draws.len()
             ),
-            svg,
-        ));
+            |file| peak_t0_figure(file, &versus_t0),
+        )?);
     }
     Ok(blocks)
 }
@@ -722,7 +739,16 @@ fn materials_section(
         comparisons
             .iter()
             .filter(|c| c.name == name)
-            .map(|c| format!("P({}[{}] > {}[{}]) = {:.3}", symbol(name), c.a, symbol(name), c.b, c.p_a_greater))
+            .map(|c| {
+                format!(
+                    "P({}[{}] > {}[{}]) = {:.3}",
+                    symbol(name),
+                    c.a,
+                    symbol(name),
+                    c.b,
+                    c.p_a_greater
+                )
+            })
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -777,15 +803,13 @@ fn materials_section(
         });
     }
     if !panels.is_empty() {
-        let file = "forest.svg".to_owned();
-        let svg = forest_figure(&file, &panels)?;
-        blocks.push(figure(
-            file,
+        blocks.push(drawn_figure(
+            "forest.svg",
             format!(
                 "Forest plot: median (dot) and 95 % interval (bar) of each quantity per material (filled) and per contact or run (open). F_d and F_peak are not material parameters; their material rows are the {MEAN_NOTE_F_D} and the {MEAN_NOTE_F_PEAK}, per draw."
             ),
-            svg,
-        ));
+            |file| forest_figure(file, &panels),
+        )?);
     }
     if !comparisons.is_empty() {
         let rows: Vec<Vec<String>> = comparisons
@@ -804,7 +828,15 @@ fn materials_section(
             .collect();
         let flagged = vec![false; rows.len()];
         blocks.push(table(
-            &["quantity", "A", "B", "P(A > B)", "A − B, median [95 %]", "A / B, median [95 %]", "from"],
+            &[
+                "quantity",
+                "A",
+                "B",
+                "P(A > B)",
+                "A − B, median [95 %]",
+                "A / B, median [95 %]",
+                "from",
+            ],
             rows,
             flagged,
         ));
@@ -863,12 +895,23 @@ fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             ]
         })
         .collect();
-    let flagged = ctx.quantities.iter().map(|q| !failures(q).is_empty()).collect();
+    let flagged = ctx
+        .quantities
+        .iter()
+        .map(|q| !failures(q).is_empty())
+        .collect();
     blocks.push(Block::Paragraph(format!(
         "Per quantity: R̂ between ensembles (rank-normalised), ESS bulk and tail, MCSE of the mean, and τ in kept draws. Rows failing R̂ < {RHAT_MAX} or ESS > {ESS_MIN:.0} are marked."
     )));
     blocks.push(table(
-        &["quantity", "R̂", "ESS bulk", "ESS tail", "MCSE mean", "τ (kept draws)"],
+        &[
+            "quantity",
+            "R̂",
+            "ESS bulk",
+            "ESS tail",
+            "MCSE mean",
+            "τ (kept draws)",
+        ],
         rows,
         flagged,
     ));
@@ -970,10 +1013,7 @@ fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
 }
 
 fn summary_section(ctx: &Context) -> Vec<Block> {
-    let hdi_prob = ctx
-        .quantities
-        .first()
-        .map_or(0.95, |q| q.stats.hdi_prob);
+    let hdi_prob = ctx.quantities.first().map_or(0.95, |q| q.stats.hdi_prob);
     let lo = format!("hdi_{}%", super::figures::tick(50.0 * (1.0 - hdi_prob)));
     let hi = format!("hdi_{}%", super::figures::tick(50.0 * (1.0 + hdi_prob)));
     let rows: Vec<Vec<String>> = ctx
@@ -998,10 +1038,23 @@ fn summary_section(ctx: &Context) -> Vec<Block> {
             ]
         })
         .collect();
-    let flagged = ctx.quantities.iter().map(|q| !failures(q).is_empty()).collect();
+    let flagged = ctx
+        .quantities
+        .iter()
+        .map(|q| !failures(q).is_empty())
+        .collect();
     let header = [
-        "quantity", "unit", "mean", "sd", &lo, &hi, "mcse_mean", "mcse_sd", "ess_bulk",
-        "ess_tail", "r_hat",
+        "quantity",
+        "unit",
+        "mean",
+        "sd",
+        &lo,
+        &hi,
+        "mcse_mean",
+        "mcse_sd",
+        "ess_bulk",
+        "ess_tail",
+        "r_hat",
     ];
     let mut units: BTreeMap<String, String> = BTreeMap::new();
     for q in &ctx.quantities {
@@ -1071,6 +1124,9 @@ mod tests {
 
     #[test]
     fn intervals_are_in_user_units() {
-        assert_eq!(interval(&quantity(Some(1.0), 1e3, 1e3)), "0.9200 [0.9100, 0.9300] µm⁻¹");
+        assert_eq!(
+            interval(&quantity(Some(1.0), 1e3, 1e3)),
+            "0.9200 [0.9100, 0.9300] µm⁻¹"
+        );
     }
 }

@@ -151,8 +151,7 @@ pub fn peak_vs_t0(
         let curve = t0_s
             .iter()
             .map(|&t0| {
-                Law::from_rate(law.alpha_v(), law.a(), law.f_d(), t0)
-                    .map_or(f64::NAN, |l| peak(&l))
+                Law::from_rate(law.alpha_v(), law.a(), law.f_d(), t0).map_or(f64::NAN, |l| peak(&l))
             })
             .collect::<Vec<f64>>();
         curves.push(curve);

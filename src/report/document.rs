@@ -109,7 +109,11 @@ pub fn render_markdown(title: &str, blocks: &[Block]) -> String {
                 let _ = writeln!(
                     md,
                     "| {} |",
-                    header.iter().map(|h| escape_cell(h)).collect::<Vec<_>>().join(" | ")
+                    header
+                        .iter()
+                        .map(|h| escape_cell(h))
+                        .collect::<Vec<_>>()
+                        .join(" | ")
                 );
                 let _ = writeln!(md, "|{}", "---|".repeat(header.len()));
                 for (row, &flag) in rows.iter().zip(flagged) {
@@ -194,7 +198,11 @@ pub fn render_html(title: &str, blocks: &[Block]) -> String {
                 let _ = writeln!(html, "<p>{}</p>", escape_html(text));
             }
             Block::Verdict { ok, title, lines } => {
-                let (class, mark) = if *ok { ("ok", "OK") } else { ("warn", "WARNING") };
+                let (class, mark) = if *ok {
+                    ("ok", "OK")
+                } else {
+                    ("warn", "WARNING")
+                };
                 let _ = write!(
                     html,
                     "<div class=\"verdict {class}\"><strong>{mark}: {}</strong><ul>",
@@ -240,7 +248,11 @@ pub fn render_html(title: &str, blocks: &[Block]) -> String {
                 );
             }
             Block::Details { summary, items } => {
-                let _ = write!(html, "<details><summary>{}</summary><ul>", escape_html(summary));
+                let _ = write!(
+                    html,
+                    "<details><summary>{}</summary><ul>",
+                    escape_html(summary)
+                );
                 for item in items {
                     let _ = write!(html, "<li>{}</li>", escape_html(item));
                 }

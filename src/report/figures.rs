@@ -115,8 +115,10 @@ pub fn linear_chart<'a, 'b>(
     y: (f64, f64),
     x_desc: &str,
     y_desc: &str,
-) -> Result<ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>, ReportError>
-{
+) -> Result<
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    ReportError,
+> {
     let (x, y) = (widen(x), widen(y));
     let mut chart = ChartBuilder::on(area)
         .caption(caption, (FONT, CAPTION_SIZE))
@@ -172,7 +174,8 @@ pub fn range_of<'v>(values: impl IntoIterator<Item = &'v f64>, pad: f64) -> (f64
 /// Axis tick text: short, without float noise.
 pub fn tick(v: f64) -> String {
     let a = v.abs();
-    if a == 0.0 {
+    // Ticks at zero come out as float noise such as -2.8e-17.
+    if a < 1e-12 {
         "0".to_owned()
     } else if !(1e-3..1e5).contains(&a) {
         format!("{v:.1e}")
@@ -244,22 +247,23 @@ where
         .iter()
         .copied()
         .filter(|(x, y)| x.is_finite() && y.is_finite());
-    let anno = match k % 4 {
-        0 => chart
-            .draw_series(pts.map(|p| Circle::new(p, 3, style)))
-            .drawn(name)?,
-        1 => chart
-            .draw_series(pts.map(|p| TriangleMarker::new(p, 4, style)))
-            .drawn(name)?,
-        2 => chart
-            .draw_series(pts.map(|p| Cross::new(p, 3, style)))
-            .drawn(name)?,
-        _ => chart
-            .draw_series(pts.map(|(x, y)| {
-                EmptyElement::at((x, y)) + Rectangle::new([(-3, -3), (3, 3)], style)
-            }))
-            .drawn(name)?,
-    };
+    let anno =
+        match k % 4 {
+            0 => chart
+                .draw_series(pts.map(|p| Circle::new(p, 3, style)))
+                .drawn(name)?,
+            1 => chart
+                .draw_series(pts.map(|p| TriangleMarker::new(p, 4, style)))
+                .drawn(name)?,
+            2 => chart
+                .draw_series(pts.map(|p| Cross::new(p, 3, style)))
+                .drawn(name)?,
+            _ => chart
+                .draw_series(pts.map(|(x, y)| {
+                    EmptyElement::at((x, y)) + Rectangle::new([(-3, -3), (3, 3)], style)
+                }))
+                .drawn(name)?,
+        };
     if let Some(label) = label {
         let anno = anno.label(label);
         match k % 4 {
@@ -377,6 +381,7 @@ mod tests {
     #[test]
     fn ticks_are_short() {
         assert_eq!(tick(0.0), "0");
+        assert_eq!(tick(-2.8e-17), "0");
         assert_eq!(tick(12.5), "12.5");
         assert_eq!(tick(3000.0), "3000");
         assert_eq!(tick(0.25), "0.25");
@@ -395,7 +400,14 @@ mod tests {
                 "time t (s)",
                 "force F (mN)",
             )?;
-            line(&mut chart, "test", vec![(0.0, 0.0), (1.0, 2.0)], 1, 2, Some("median"))?;
+            line(
+                &mut chart,
+                "test",
+                vec![(0.0, 0.0), (1.0, 2.0)],
+                1,
+                2,
+                Some("median"),
+            )?;
             markers(&mut chart, "test", &[(0.5, 1.0)], 0, Some("data"))?;
             legend(&mut chart, "test", SeriesLabelPosition::UpperLeft)
         })

@@ -68,32 +68,19 @@ pub struct RunRecord {
     pub settings: serde_json::Value,
 }
 
-/// Posterior and posterior predictive bands of one run at its data times (`predictive.csv`).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct PredictiveRun {
-    /// Run name.
-    pub run: String,
-    /// Instrument times (s).
-    pub time_s: Vec<f64>,
-    /// Observed force (N).
-    pub observed_n: Vec<f64>,
-    /// Model force without noise: 2.5 %, 50 %, 97.5 % (N).
-    pub model_n: [Vec<f64>; 3],
-    /// Predictive force with noise: 2.5 %, 25 %, 75 %, 97.5 % (N).
-    pub predictive_n: [Vec<f64>; 4],
-}
+/// Posterior and posterior predictive bands of one run at its data times, as
+/// `predictive.csv` holds them.
+pub type PredictiveRun = crate::model::Band;
 
-impl PredictiveRun {
-    /// Fraction of observations inside the 95 % predictive band.
-    pub fn coverage_95(&self) -> f64 {
-        let inside = (0..self.time_s.len())
-            .filter(|&j| {
-                let y = self.observed_n[j];
-                y >= self.predictive_n[0][j] && y <= self.predictive_n[3][j]
-            })
-            .count();
-        inside as f64 / self.time_s.len().max(1) as f64
-    }
+/// Fraction of a run's observations inside its 95 % predictive band.
+pub fn coverage_95(run: &PredictiveRun) -> f64 {
+    let inside = (0..run.time_s.len())
+        .filter(|&j| {
+            let y = run.observed_n[j];
+            y >= run.predictive_n[0][j] && y <= run.predictive_n[3][j]
+        })
+        .count();
+    inside as f64 / run.time_s.len().max(1) as f64
 }
 
 /// Everything read back from a run directory.
@@ -131,7 +118,10 @@ fn parse_json<T: serde::de::DeserializeOwned>(path: &Path, text: &str) -> Result
 ///
 /// # Errors
 /// [`ReportError::Parse`] when the key is present but not a list of data records.
-pub fn data_records(path: &Path, summary_text: &str) -> Result<Option<Vec<DataRecord>>, ReportError> {
+pub fn data_records(
+    path: &Path,
+    summary_text: &str,
+) -> Result<Option<Vec<DataRecord>>, ReportError> {
     let value: serde_json::Value = parse_json(path, summary_text)?;
     match value.get("data") {
         None | Some(serde_json::Value::Null) => Ok(None),
@@ -161,7 +151,8 @@ pub fn parse_predictive(path: &Path, text: &str) -> Result<Vec<PredictiveRun>, R
     };
     let mut lines = text.lines().enumerate();
     match lines.next() {
-        Some((_, header)) if header.split(',').count() == COLUMNS && header.starts_with("run,") => {}
+        Some((_, header)) if header.split(',').count() == COLUMNS && header.starts_with("run,") => {
+        }
         _ => {
             return Err(bad(
                 1,
@@ -194,7 +185,10 @@ pub fn parse_predictive(path: &Path, text: &str) -> Result<Vec<PredictiveRun>, R
         if runs.last().is_none_or(|r| r.run != name) {
             runs.push(PredictiveRun {
                 run: name.to_owned(),
-                ..PredictiveRun::default()
+                time_s: Vec::new(),
+                observed_n: Vec::new(),
+                model_n: Default::default(),
+                predictive_n: Default::default(),
             });
         }
         let run = runs.last_mut().expect("pushed above");
@@ -268,7 +262,7 @@ mod tests {
         let runs = parse_predictive(path, &text).unwrap();
         assert_eq!(runs.len(), 2);
         assert_eq!(runs[0].time_s.len(), 2);
-        assert!((runs[0].coverage_95() - 0.5).abs() < 1e-12);
+        assert!((coverage_95(&runs[0]) - 0.5).abs() < 1e-12);
         assert!((runs[1].predictive_n[3][0] - 2.0).abs() < 1e-12);
         let err = parse_predictive(path, &format!("{header}\na,0,x,1,1,1,0,0,1,2\n")).unwrap_err();
         assert!(err.to_string().contains("line 2"), "{err}");

@@ -2,12 +2,13 @@
 //! peak's density and its dependence on t0, the material forest plot, traces and corners.
 //! Values arrive in SI and are shown in mN, µm, µm⁻¹, s.
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use super::curves::{kernel_density, InterfaceCurve, PeakVsT0};
 use super::figures::{
     band, band_fills, caption_font, grid, ink, label_font, legend, line, linear_chart, markers,
-    range_of, small_font, svg_figure, tick, tint, widen, Drawn, PANEL,
+    range_of, small_font, svg_figure, tick, tint, widen, Area, Drawn, PANEL,
 };
 use super::inputs::PredictiveRun;
 use super::ReportError;
@@ -57,110 +58,171 @@ pub fn fit_figure(
     curve: Option<&InterfaceCurve>,
 ) -> Result<String, ReportError> {
     let panels = if curve.is_some() { 2 } else { 1 };
-    svg_figure(name, (PANEL.0 * panels, PANEL.1), |root| {
-        let areas = root.split_evenly((1, panels as usize));
-        let p = predictive;
-        let y_all = p
-            .observed_n
-            .iter()
-            .chain(&p.predictive_n[0])
-            .chain(&p.predictive_n[3])
-            .chain(std::iter::once(&0.0));
-        let (y0, y1) = range_of(y_all, 0.04);
-        let y = (y0 * MN, y1 * MN);
-        let x = range_of(p.time_s.iter(), 0.0);
-        let mut chart = linear_chart(
-            &areas[0],
-            name,
-            &format!("{}: observed time ({})", run.name, velocity_text(run.velocity_m_per_s)),
-            x,
-            y,
-            "instrument time t (s)",
-            "friction force F (mN)",
-        )?;
-        let (light, dark) = band_fills();
-        let scaled = |v: &[f64]| v.iter().map(|f| f * MN).collect::<Vec<f64>>();
-        band(
-            &mut chart,
-            name,
-            &p.time_s,
-            &scaled(&p.predictive_n[0]),
-            &scaled(&p.predictive_n[3]),
-            light,
-            Some("95 % predictive"),
-        )?;
-        band(
-            &mut chart,
-            name,
-            &p.time_s,
-            &scaled(&p.predictive_n[1]),
-            &scaled(&p.predictive_n[2]),
-            dark,
-            Some("50 % predictive"),
-        )?;
-        let data: Vec<(f64, f64)> = p
-            .time_s
-            .iter()
-            .zip(&p.observed_n)
-            .map(|(&t, &f)| (t, f * MN))
-            .collect();
-        markers(&mut chart, name, &data, 0, Some("data"))?;
-        let median: Vec<(f64, f64)> = p
-            .time_s
-            .iter()
-            .zip(&p.model_n[1])
-            .map(|(&t, &f)| (t, f * MN))
-            .collect();
-        line(&mut chart, name, median, 1, 2, Some("posterior median"))?;
-        legend(&mut chart, name, SeriesLabelPosition::LowerRight)?;
-
-        if let Some(c) = curve {
-            let tau_data: Vec<(f64, f64)> = p
-                .time_s
+    svg_figure(
+        name,
+        (PANEL.0 * panels, PANEL.1 + RESIDUAL_HEIGHT),
+        |root| {
+            let (top, bottom) = root.split_vertically(PANEL.1);
+            let areas = top.split_evenly((1, panels as usize));
+            let p = predictive;
+            residual_panel(&bottom.split_horizontally(PANEL.0).0, name, p)?;
+            let y_all = p
+                .observed_n
                 .iter()
-                .zip(&p.observed_n)
-                .map(|(&t, &f)| (c.interface_time(t, f), f * MN))
-                .collect();
-            let x = range_of(c.tau_s.iter(), 0.0);
+                .chain(&p.predictive_n[0])
+                .chain(&p.predictive_n[3])
+                .chain(std::iter::once(&0.0));
+            let (y0, y1) = range_of(y_all, 0.04);
+            let y = (y0 * MN, y1 * MN);
+            let x = range_of(p.time_s.iter(), 0.0);
             let mut chart = linear_chart(
-                &areas[1],
+                &areas[0],
                 name,
-                &format!("{}: interface time, elastic part removed", run.name),
+                &format!(
+                    "{}: observed time ({})",
+                    run.name,
+                    velocity_text(run.velocity_m_per_s)
+                ),
                 x,
                 y,
-                "interface time τ = t − F/(kv) (s)",
+                "instrument time t (s)",
                 "friction force F (mN)",
             )?;
-            band(
+            let scaled = |v: &[f64]| v.iter().map(|f| f * MN).collect::<Vec<f64>>();
+            predictive_bands(
                 &mut chart,
                 name,
-                &c.tau_s,
-                &scaled(&c.force_n[0]),
-                &scaled(&c.force_n[2]),
-                light,
-                Some("95 % posterior of F(τ)"),
+                &p.time_s,
+                [0, 1, 2, 3].map(|q| scaled(&p.predictive_n[q])),
+                true,
             )?;
-            markers(&mut chart, name, &tau_data, 0, Some("data at τ (median k)"))?;
-            let law: Vec<(f64, f64)> = c
-                .tau_s
-                .iter()
-                .zip(&c.force_n[1])
-                .map(|(&t, &f)| (t, f * MN))
-                .collect();
-            line(&mut chart, name, law, 1, 2, Some("law F(τ), median"))?;
-            if c.kv_n_per_s.is_some() {
-                let observed: Vec<(f64, f64)> = p
+            markers(
+                &mut chart,
+                name,
+                &in_mn(&p.time_s, &p.observed_n),
+                0,
+                Some("data"),
+            )?;
+            let median = in_mn(&p.time_s, &p.model_n[1]);
+            line(
+                &mut chart,
+                name,
+                median.clone(),
+                1,
+                2,
+                Some("posterior median"),
+            )?;
+            legend(&mut chart, name, SeriesLabelPosition::LowerRight)?;
+
+            if let Some(c) = curve {
+                let tau_data: Vec<(f64, f64)> = p
                     .time_s
                     .iter()
-                    .zip(&p.model_n[1])
-                    .map(|(&t, &f)| (t, f * MN))
+                    .zip(&p.observed_n)
+                    .map(|(&t, &f)| (c.interface_time(t, f), f * MN))
                     .collect();
-                line(&mut chart, name, observed, 3, 1, Some("median in observed t"))?;
+                let x = range_of(c.tau_s.iter(), 0.0);
+                let mut chart = linear_chart(
+                    &areas[1],
+                    name,
+                    &format!("{}: interface time, elastic part removed", run.name),
+                    x,
+                    y,
+                    "interface time τ = t − F/(kv) (s)",
+                    "friction force F (mN)",
+                )?;
+                band(
+                    &mut chart,
+                    name,
+                    &c.tau_s,
+                    &scaled(&c.force_n[0]),
+                    &scaled(&c.force_n[2]),
+                    band_fills().0,
+                    Some("95 % posterior of F(τ)"),
+                )?;
+                markers(&mut chart, name, &tau_data, 0, Some("data at τ (median k)"))?;
+                let law = in_mn(&c.tau_s, &c.force_n[1]);
+                line(&mut chart, name, law, 1, 2, Some("law F(τ), median"))?;
+                if c.kv_n_per_s.is_some() {
+                    line(&mut chart, name, median, 3, 1, Some("median in observed t"))?;
+                }
+                legend(&mut chart, name, SeriesLabelPosition::LowerRight)?;
             }
-            legend(&mut chart, name, SeriesLabelPosition::LowerRight)?;
-        }
-        Ok(())
-    })
+            Ok(())
+        },
+    )
+}
+
+/// Points (x, force in mN) from forces in N.
+fn in_mn(xs: &[f64], forces_n: &[f64]) -> Vec<(f64, f64)> {
+    xs.iter()
+        .zip(forces_n)
+        .map(|(&x, &f)| (x, f * MN))
+        .collect()
+}
+
+/// The 95 % (light) and 50 % (darker) predictive bands from the 2.5, 25, 75 and 97.5 %
+/// quantiles `q`, labelled in the legend when `labelled`.
+fn predictive_bands(
+    chart: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    name: &str,
+    xs: &[f64],
+    q: [Vec<f64>; 4],
+    labelled: bool,
+) -> Result<(), ReportError> {
+    let (light, dark) = band_fills();
+    let label = |text: &'static str| labelled.then_some(text);
+    band(
+        chart,
+        name,
+        xs,
+        &q[0],
+        &q[3],
+        light,
+        label("95 % predictive"),
+    )?;
+    band(
+        chart,
+        name,
+        xs,
+        &q[1],
+        &q[2],
+        dark,
+        label("50 % predictive"),
+    )
+}
+
+/// Height of the residual strip under a fit.
+const RESIDUAL_HEIGHT: u32 = 230;
+
+/// Data minus the posterior median in observed time, with the 50 % and 95 % predictive bands
+/// around it: where the bands are too thin to see on the force scale, misfit shows here.
+fn residual_panel(area: &Area, name: &str, p: &PredictiveRun) -> Result<(), ReportError> {
+    let median = &p.model_n[1];
+    let minus = |v: &[f64]| {
+        v.iter()
+            .zip(median)
+            .map(|(a, m)| (a - m) * MN)
+            .collect::<Vec<f64>>()
+    };
+    let residual = minus(&p.observed_n);
+    let (lo95, hi95) = (minus(&p.predictive_n[0]), minus(&p.predictive_n[3]));
+    let (lo50, hi50) = (minus(&p.predictive_n[1]), minus(&p.predictive_n[2]));
+    let y = range_of(residual.iter().chain(&lo95).chain(&hi95), 0.05);
+    let mut chart = linear_chart(
+        area,
+        name,
+        "residual: data − posterior median",
+        range_of(p.time_s.iter(), 0.0),
+        y,
+        "instrument time t (s)",
+        "residual (mN)",
+    )?;
+    predictive_bands(&mut chart, name, &p.time_s, [lo95, lo50, hi50, hi95], false)?;
+    let zero: Vec<(f64, f64)> = p.time_s.iter().map(|&t| (t, 0.0)).collect();
+    line(&mut chart, name, zero, 0, 1, None)?;
+    let points: Vec<(f64, f64)> = p.time_s.iter().copied().zip(residual).collect();
+    markers(&mut chart, name, &points, 0, None)
 }
 
 /// The slides of one contact against sliding distance x = vτ (the paper's Fig. 2 inset):
@@ -215,65 +277,60 @@ pub fn distance_figure(
     })
 }
 
-/// One run's peak for the density figure: name, F_peak draws (N), and (2.5 %, 50 %, 97.5 %).
+/// One panel of the peak density figure: title, F_peak draws (N), and (2.5 %, 50 %, 97.5 %).
 pub type PeakDraws = (String, Vec<f64>, [f64; 3]);
 
-/// Posterior density of the peak static friction per run, one panel per material, with the
-/// median and 95 % interval drawn under each curve.
+/// Posterior density of the peak static friction, one panel per run and per material mean:
+/// the density, its 95 % interval shaded under it, and the median as a dashed line.
 ///
 /// # Errors
 /// [`ReportError::Draw`].
-pub fn peak_density_figure(
-    name: &str,
-    materials: &[(String, Vec<PeakDraws>)],
-) -> Result<String, ReportError> {
-    let n = materials.len().max(1);
-    svg_figure(name, (PANEL.0 * n as u32, PANEL.1), |root| {
-        let areas = root.split_evenly((1, n));
-        for ((material, runs), area) in materials.iter().zip(&areas) {
-            let densities: Vec<(Vec<f64>, Vec<f64>)> = runs
-                .iter()
-                .map(|(_, draws, _)| {
-                    let mn: Vec<f64> = draws.iter().map(|f| f * MN).collect();
-                    kernel_density(&mn, 200)
-                })
-                .collect();
-            let top = densities
-                .iter()
-                .flat_map(|(_, d)| d.iter().copied())
-                .fold(0.0_f64, f64::max);
-            let xs = densities.iter().flat_map(|(g, _)| g.iter());
-            let rows = runs.len() as f64;
+pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, ReportError> {
+    let cols = panels.len().clamp(1, 3);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let (w, h) = (420u32, 300u32);
+    svg_figure(name, (w * cols as u32, h * rows as u32), |root| {
+        let areas = root.split_evenly((rows, cols));
+        for ((title, draws, q), area) in panels.iter().zip(&areas) {
+            let mn: Vec<f64> = draws.iter().map(|f| f * MN).collect();
+            let (grid_x, dens) = kernel_density(&mn, 200);
+            let top = dens.iter().copied().fold(0.0_f64, f64::max);
             let mut chart = linear_chart(
                 area,
                 name,
-                &format!("{material}: peak static friction F_peak"),
-                range_of(xs, 0.02),
-                (-0.12 * top * rows.max(1.0), top * 1.08),
+                title,
+                range_of(grid_x.iter(), 0.0),
+                (0.0, top * 1.1),
                 "F_peak (mN)",
-                "posterior density (1/mN)",
+                "density (1/mN)",
             )?;
-            for (k, ((run, _, q), (grid_x, dens))) in runs.iter().zip(&densities).enumerate() {
-                let pts: Vec<(f64, f64)> = grid_x.iter().copied().zip(dens.iter().copied()).collect();
-                let label = format!(
-                    "{run}: {} [{}, {}] mN",
-                    tick_mn(q[1]),
-                    tick_mn(q[0]),
-                    tick_mn(q[2])
-                );
-                line(&mut chart, name, pts, k, 2, Some(&label))?;
-                // The 95 % interval as a bar below the axis, the median as a tick on it.
-                let yk = -0.12 * top * (k as f64 + 0.5);
-                line(
-                    &mut chart,
-                    name,
-                    vec![(q[0] * MN, yk), (q[2] * MN, yk)],
-                    k,
-                    3,
-                    None,
-                )?;
-                markers(&mut chart, name, &[(q[1] * MN, yk)], k, None)?;
-            }
+            let (lo, med, hi) = (q[0] * MN, q[1] * MN, q[2] * MN);
+            let inside: Vec<usize> = (0..grid_x.len())
+                .filter(|&j| grid_x[j] >= lo && grid_x[j] <= hi)
+                .collect();
+            let xs: Vec<f64> = inside.iter().map(|&j| grid_x[j]).collect();
+            let ds: Vec<f64> = inside.iter().map(|&j| dens[j]).collect();
+            let (light, _) = band_fills();
+            band(
+                &mut chart,
+                name,
+                &xs,
+                &vec![0.0; xs.len()],
+                &ds,
+                light,
+                Some("95 % interval"),
+            )?;
+            let pts: Vec<(f64, f64)> = grid_x.iter().copied().zip(dens.iter().copied()).collect();
+            line(&mut chart, name, pts, 0, 2, Some("posterior density"))?;
+            let label = format!("median {} mN", tick_mn(q[1]));
+            line(
+                &mut chart,
+                name,
+                vec![(med, 0.0), (med, top * 1.05)],
+                1,
+                2,
+                Some(&label),
+            )?;
             legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
         }
         Ok(())
@@ -299,8 +356,14 @@ pub fn peak_t0_figure(
         let areas = root.split_evenly((1, n));
         for ((material, runs), area) in materials.iter().zip(&areas) {
             let t0s = runs.iter().flat_map(|(_, c)| c.t0_s.iter());
-            let (lo, hi) = t0s.fold((f64::INFINITY, 0.0_f64), |(lo, hi), &t| (lo.min(t), hi.max(t)));
-            let (lo, hi) = if lo.is_finite() && hi > lo { (lo, hi) } else { (1e-3, 1e3) };
+            let (lo, hi) = t0s.fold((f64::INFINITY, 0.0_f64), |(lo, hi), &t| {
+                (lo.min(t), hi.max(t))
+            });
+            let (lo, hi) = if lo.is_finite() && hi > lo {
+                (lo, hi)
+            } else {
+                (1e-3, 1e3)
+            };
             let ys: Vec<f64> = runs
                 .iter()
                 .flat_map(|(_, c)| c.peak_n[0].iter().chain(&c.peak_n[2]).map(|f| f * MN))
@@ -338,7 +401,14 @@ pub fn peak_t0_figure(
                 )?;
                 let median: Vec<(f64, f64)> =
                     c.t0_s.iter().copied().zip(scaled(&c.peak_n[1])).collect();
-                line(&mut chart, name, median, k, 2, Some(&format!("{run}: t0 varied")))?;
+                line(
+                    &mut chart,
+                    name,
+                    median,
+                    k,
+                    2,
+                    Some(&format!("{run}: t0 varied")),
+                )?;
                 let own: Vec<(f64, f64)> = c.draws.iter().map(|&(t, f)| (t, f * MN)).collect();
                 markers(
                     &mut chart,
@@ -348,7 +418,7 @@ pub fn peak_t0_figure(
                     Some(&format!("{run}: posterior draws")),
                 )?;
             }
-            legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
+            legend(&mut chart, name, SeriesLabelPosition::LowerLeft)?;
         }
         Ok(())
     })
@@ -400,7 +470,11 @@ pub fn forest_figure(name: &str, panels: &[ForestPanel]) -> Result<String, Repor
             let (area, below) = rest.split_vertically(h);
             rest = below;
             let n = panel.rows.len();
-            let xs = panel.rows.iter().flat_map(|r| [r.low, r.high]).collect::<Vec<_>>();
+            let xs = panel
+                .rows
+                .iter()
+                .flat_map(|r| [r.low, r.high])
+                .collect::<Vec<_>>();
             let (x0, x1) = range_of(xs.iter(), 0.08);
             let labels: Vec<String> = panel.rows.iter().map(|r| r.label.clone()).collect();
             let mut chart = ChartBuilder::on(&area)
@@ -533,9 +607,10 @@ pub fn trace_figure(
                     let style = ink(e).stroke_width(1);
                     let anno = chart.draw_series(LineSeries::new(pts, style)).drawn(name)?;
                     if p == 0 && w_i == 0 {
-                        anno.label(format!("ensemble {}", e + 1)).legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 24, y)], style.stroke_width(3))
-                        });
+                        anno.label(format!("ensemble {}", e + 1))
+                            .legend(move |(x, y)| {
+                                PathElement::new(vec![(x, y), (x + 24, y)], style.stroke_width(3))
+                            });
                     }
                 }
             }
@@ -577,52 +652,37 @@ pub fn corner_figure(
         for i in 0..n {
             for j in 0..=i.min(n - 1) {
                 let area = &areas[i * n + j];
-                let x_desc = if i == n - 1 { names[j].as_str() } else { "" };
-                let (x0, x1) = ranges[j];
+                let (grid_x, dens) = kernel_density(&columns[i], 120);
+                let top = dens.iter().copied().fold(0.0_f64, f64::max);
+                // The diagonal shows a density (no y ticks); below it, column i against j.
+                let y = if i == j {
+                    (0.0, (top * 1.1).max(f64::MIN_POSITIVE))
+                } else {
+                    ranges[i]
+                };
+                let mut chart = ChartBuilder::on(area)
+                    .margin(4)
+                    .x_label_area_size(if i == n - 1 { 44 } else { 8 })
+                    .y_label_area_size(if j == 0 { 56 } else { 8 })
+                    .build_cartesian_2d(ranges[j].0..ranges[j].1, y.0..y.1)
+                    .drawn(name)?;
+                chart
+                    .configure_mesh()
+                    .disable_mesh()
+                    .x_labels(if i == n - 1 { 3 } else { 0 })
+                    .y_labels(if j == 0 && i != j { 3 } else { 0 })
+                    .x_label_formatter(&|v| tick(*v))
+                    .y_label_formatter(&|v| tick(*v))
+                    .x_desc(if i == n - 1 { names[j].as_str() } else { "" })
+                    .y_desc(if j == 0 { names[i].as_str() } else { "" })
+                    .label_style(small_font())
+                    .axis_desc_style(small_font())
+                    .draw()
+                    .drawn(name)?;
                 if i == j {
-                    let (grid_x, dens) = kernel_density(&columns[i], 120);
-                    let top = dens.iter().copied().fold(0.0_f64, f64::max);
-                    let mut chart = ChartBuilder::on(area)
-                        .margin(4)
-                        .x_label_area_size(if i == n - 1 { 44 } else { 8 })
-                        .y_label_area_size(if j == 0 { 56 } else { 8 })
-                        .build_cartesian_2d(x0..x1, 0.0..(top * 1.1).max(f64::MIN_POSITIVE))
-                        .drawn(name)?;
-                    chart
-                        .configure_mesh()
-                        .disable_mesh()
-                        .x_labels(if i == n - 1 { 3 } else { 0 })
-                        .y_labels(0)
-                        .x_label_formatter(&|v| tick(*v))
-                        .x_desc(x_desc)
-                        .y_desc(if j == 0 { names[i].as_str() } else { "" })
-                        .label_style(small_font())
-                        .axis_desc_style(small_font())
-                        .draw()
-                        .drawn(name)?;
                     let pts: Vec<(f64, f64)> = grid_x.into_iter().zip(dens).collect();
                     line(&mut chart, name, pts, 0, 1, None)?;
                 } else {
-                    let (y0, y1) = ranges[i];
-                    let mut chart = ChartBuilder::on(area)
-                        .margin(4)
-                        .x_label_area_size(if i == n - 1 { 44 } else { 8 })
-                        .y_label_area_size(if j == 0 { 56 } else { 8 })
-                        .build_cartesian_2d(x0..x1, y0..y1)
-                        .drawn(name)?;
-                    chart
-                        .configure_mesh()
-                        .disable_mesh()
-                        .x_labels(if i == n - 1 { 3 } else { 0 })
-                        .y_labels(if j == 0 { 3 } else { 0 })
-                        .x_label_formatter(&|v| tick(*v))
-                        .y_label_formatter(&|v| tick(*v))
-                        .x_desc(x_desc)
-                        .y_desc(if j == 0 { names[i].as_str() } else { "" })
-                        .label_style(small_font())
-                        .axis_desc_style(small_font())
-                        .draw()
-                        .drawn(name)?;
                     let style = ink(0).mix(0.45).filled();
                     chart
                         .draw_series(
