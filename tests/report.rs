@@ -150,11 +150,16 @@ fn a_fit_writes_a_complete_self_contained_report() {
         "## Diagnostics",
         "| quantity | R̂ | ESS bulk | ESS tail | MCSE mean | τ (kept draws) |",
         "| quantity | unit | mean | sd | hdi_2.5% | hdi_97.5% | mcse_mean | mcse_sd | ess_bulk | ess_tail | r_hat |",
-        "| α[contact] | µm⁻¹ | 0.9",
         "μ_s = F_peak/F_N",
     ] {
         assert!(md.contains(text), "report.md lacks {text:?}");
     }
+    // α in µm⁻¹ (0.92 in the bundled data), not in 1/m.
+    assert!(
+        md.lines()
+            .any(|l| l.contains("α[contact]") && l.contains("| µm⁻¹ | 0.9")),
+        "no summary row of α in µm⁻¹"
+    );
     // 160 steps cannot converge: the verdict says so at the top, before any figure.
     let warning = md.find("> **WARNING: ").expect("a warning verdict");
     assert!(warning < md.find("![").unwrap());
