@@ -171,18 +171,21 @@ pub fn range_of<'v>(values: impl IntoIterator<Item = &'v f64>, pad: f64) -> (f64
     (lo - pad * w, hi + pad * w)
 }
 
-/// Axis tick text: short, without float noise.
+/// Axis tick text: four significant digits at most, without float noise or trailing zeros
+/// (neighbouring ticks such as 0.00405 and 0.0041 stay distinct).
 pub fn tick(v: f64) -> String {
-    let a = v.abs();
     // Ticks at zero come out as float noise such as -2.8e-17.
-    if a < 1e-12 {
-        "0".to_owned()
-    } else if !(1e-3..1e5).contains(&a) {
-        format!("{v:.1e}")
-    } else {
-        let s = format!("{v:.4}");
-        let s = s.trim_end_matches('0').trim_end_matches('.');
-        s.to_owned()
+    if v.abs() < 1e-12 {
+        return "0".to_owned();
+    }
+    let s = super::units::significant(v, 4);
+    match s.split_once('e') {
+        Some((mantissa, exponent)) => {
+            let m = mantissa.trim_end_matches('0').trim_end_matches('.');
+            format!("{m}e{exponent}")
+        }
+        None if s.contains('.') => s.trim_end_matches('0').trim_end_matches('.').to_owned(),
+        None => s,
     }
 }
 
@@ -385,7 +388,9 @@ mod tests {
         assert_eq!(tick(12.5), "12.5");
         assert_eq!(tick(3000.0), "3000");
         assert_eq!(tick(0.25), "0.25");
-        assert_eq!(tick(2e-7), "2.0e-7");
+        assert_eq!(tick(2e-7), "2e-7");
+        assert_eq!(tick(0.00405), "0.00405");
+        assert_eq!(tick(-1.25e6), "-1.25e6");
     }
 
     #[test]
