@@ -13,6 +13,8 @@
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable),
 //!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
+//! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
+//!   directory (feature `report`).
 //! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
 #![deny(clippy::float_cmp)]
 
@@ -24,6 +26,8 @@ pub mod fit;
 pub mod law;
 pub mod model;
 pub mod prec;
+#[cfg(feature = "report")]
+pub mod report;
 pub mod sampler;
 pub mod simulate;
 pub mod special;

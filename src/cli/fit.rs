@@ -126,6 +126,9 @@ struct RunRecord<'a> {
     slipbayes_version: &'static str,
     command: Vec<String>,
     model_file: String,
+    /// Where the model's data paths are relative to, relative to the run directory (so that
+    /// `slipbayes report DIR` finds the data again).
+    data_dir: String,
     settings: &'a FitSettings,
     dimension: usize,
     sampled_coordinates: Vec<String>,
@@ -290,6 +293,8 @@ fn fit_and_report(
     write_record(spec, &posterior, &settings, out)?;
     write_predictive(&posterior, &outcome, settings.seed, out)?;
     print_summary(&outcome);
+    #[cfg(feature = "report")]
+    super::report::write_and_print(out, spec, &posterior)?;
     let converged = outcome.summary.sampler.converged;
     if !converged {
         eprintln!(
@@ -302,6 +307,20 @@ fn fit_and_report(
     } else {
         ExitCode::from(2)
     })
+}
+
+#[cfg(feature = "report")]
+fn data_dir_from(out: &Path, base_dir: &Path) -> anyhow::Result<String> {
+    let rel = crate::report::relative_path(out, base_dir)
+        .with_context(|| format!("relating {} to {}", base_dir.display(), out.display()))?;
+    Ok(rel.display().to_string())
+}
+
+#[cfg(not(feature = "report"))]
+fn data_dir_from(out: &Path, base_dir: &Path) -> anyhow::Result<String> {
+    // Without the report feature nothing reads it back; record the base as given.
+    let _ = out;
+    Ok(base_dir.display().to_string())
 }
 
 fn write_record(
@@ -325,6 +344,7 @@ fn write_record(
         slipbayes_version: env!("CARGO_PKG_VERSION"),
         command: std::env::args().collect(),
         model_file: spec.source.display().to_string(),
+        data_dir: data_dir_from(out, &spec.base_dir)?,
         settings,
         dimension: posterior.dim(),
         sampled_coordinates: posterior.param_names(),

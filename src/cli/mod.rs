@@ -5,6 +5,8 @@
 mod fit;
 mod import;
 pub mod progress;
+#[cfg(feature = "report")]
+mod report;
 mod simulate;
 
 use std::process::ExitCode;
@@ -25,6 +27,8 @@ enum Command {
     Demo(fit::DemoArgs),
     #[cfg(feature = "parquet")]
     Fit(fit::FitArgs),
+    #[cfg(feature = "report")]
+    Report(report::ReportArgs),
     Simulate(simulate::SimulateArgs),
     Import(import::ImportCommandArgs),
 }
@@ -50,6 +54,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Demo(args) => fit::demo(&args),
         #[cfg(feature = "parquet")]
         Command::Fit(args) => fit::run(&args),
+        #[cfg(feature = "report")]
+        Command::Report(args) => report::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Import(args) => import::run(&args),
     }

@@ -282,17 +282,26 @@ pub fn kept_draws(
         .map(|n| chains.column(n))
         .collect::<Result<_, _>>()
         .map_err(storage)?;
-    let m = &outcome.summary.sampler;
-    let thin = m.thin.max(1);
+    Ok(kept_rows(&chains, &outcome.summary.sampler, max_draws)
+        .into_iter()
+        .map(|i| columns.iter().map(|c| c[i]).collect())
+        .collect())
+}
+
+/// Rows of `chains` kept after the burn-in and thinning recorded in `sampler`, at most
+/// `max_draws` of them spread evenly over the chains, in row order.
+pub fn kept_rows(
+    chains: &crate::storage::Chains,
+    sampler: &SamplerSummary,
+    max_draws: usize,
+) -> Vec<usize> {
+    let thin = sampler.thin.max(1);
+    let burn_in = sampler.burn_in;
     let kept: Vec<usize> = (0..chains.len())
-        .filter(|&i| chains.step[i] >= m.burn_in && (chains.step[i] - m.burn_in) % thin == 0)
+        .filter(|&i| chains.step[i] >= burn_in && (chains.step[i] - burn_in) % thin == 0)
         .collect();
     let every = kept.len().div_ceil(max_draws.max(1)).max(1);
-    Ok(kept
-        .iter()
-        .step_by(every)
-        .map(|&i| columns.iter().map(|c| c[i]).collect())
-        .collect())
+    kept.into_iter().step_by(every).collect()
 }
 
 /// Runs (or resumes) a fit of `density` into `out_dir` and writes its summaries; see the

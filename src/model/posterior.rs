@@ -876,6 +876,24 @@ impl Posterior {
         Ok(out)
     }
 
+    /// The first or fast slide of run `run` at the sampler coordinates `x`: its law in
+    /// interface time and the machine's elasticity, so that a report can redraw curves the
+    /// data do not sample (interface time, sliding distance, the peak against t0). `None` for
+    /// a repeat slide, which has no law of its own.
+    ///
+    /// # Errors
+    /// A law error (invalid parameters) at `x`.
+    pub fn run_slide(&self, x: &[f64], run: usize) -> Result<Option<ObservedSlide>, LawError> {
+        let r = &self.runs[run];
+        if r.scene == Scene::Repeat {
+            return Ok(None);
+        }
+        Ok(Some(ObservedSlide::new(
+            self.law_of(x, r)?,
+            Self::elastic_of(x, r)?,
+        )))
+    }
+
     /// Posterior (model) and posterior predictive (model plus noise) bands of every run at
     /// every `stride`-th data time, from `draws` (sampler coordinates). The noise of each draw
     /// comes from a ChaCha8 stream seeded with `seed`, so the bands are reproducible.

@@ -1,0 +1,46 @@
+//! `slipbayes report DIR`: rebuild a finished run's report without refitting.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::model::{ModelSpec, Posterior};
+use crate::report::{load_model, write_report};
+
+/// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
+/// (summary.json, settings.json, model.toml, predictive.csv, chains/), without refitting.
+/// The run's data files must still be where its model says (curves in interface time are
+/// redrawn through the model).
+#[derive(Debug, Args)]
+pub(super) struct ReportArgs {
+    /// The run directory (what `fit --out` or `demo` wrote).
+    dir: PathBuf,
+}
+
+pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
+    let spec = load_model(&args.dir)?;
+    let posterior = Posterior::new(&spec)
+        .with_context(|| format!("rebuilding the posterior of {}", args.dir.display()))?;
+    write_and_print(&args.dir, &spec, &posterior)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the report of the run in `dir` and says where it is.
+pub(super) fn write_and_print(
+    dir: &Path,
+    spec: &ModelSpec,
+    posterior: &Posterior,
+) -> anyhow::Result<()> {
+    let files = write_report(dir, spec, posterior)
+        .with_context(|| format!("writing the report of {}", dir.display()))?;
+    println!(
+        "report: {} and {} ({} figures in {})",
+        files.html.display(),
+        files.markdown.display(),
+        files.figures.len(),
+        dir.join(crate::report::FIGURES_DIR).display()
+    );
+    Ok(())
+}

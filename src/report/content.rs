@@ -1,0 +1,1132 @@
+//! The report's sections, from the run's files and the curves redrawn from its draws.
+
+use std::collections::BTreeMap;
+
+use super::curves::{coordinate_draws, interface_curve, peak_vs_t0, InterfaceCurve, PeakVsT0};
+use super::document::Block;
+use super::inputs::{coverage_95, PredictiveRun, RunInputs};
+use super::plots::{
+    corner_figure, distance_figure, fit_figure, forest_figure, peak_density_figure, peak_t0_figure,
+    trace_figure, velocity_text, ForestPanel, ForestRow, PeakDraws, RunView, TracePanel,
+};
+use super::units::{significant, DisplayUnit};
+use super::ReportError;
+use crate::diagnostics::quantile;
+use crate::fit::{kept_rows, QuantitySummary, ESS_MIN, RHAT_MAX};
+use crate::law::Scene;
+use crate::model::{ModelSpec, Posterior};
+
+/// Posterior draws behind every redrawn curve (as many as `predictive.csv` uses).
+const CURVE_DRAWS: usize = 200;
+/// Points of a redrawn curve.
+const CURVE_POINTS: usize = 300;
+/// Points of the peak-against-t0 curve.
+const T0_POINTS: usize = 40;
+/// t0 is varied this factor below and above the run's posterior range.
+const T0_SPAN: f64 = 30.0;
+/// Walkers per ensemble shown in the trace plots.
+const TRACE_WALKERS: usize = 3;
+/// Parameters per trace figure.
+const TRACES_PER_FIGURE: usize = 8;
+/// Every kept draw is used for densities and probabilities (`kept_rows` caps at this).
+const ALL_DRAWS: usize = usize::MAX;
+
+/// A finished report: its blocks and, separately, its figures (file name, SVG).
+pub struct Content {
+    /// Title.
+    pub title: String,
+    /// Blocks in order (figures included).
+    pub blocks: Vec<Block>,
+}
+
+/// Greek and sub-scripted names for the quantities slipbayes reports.
+pub fn symbol(name: &str) -> String {
+    match name {
+        "alpha" => "α",
+        "a_over_F_d" => "a/F_d",
+        "sigma" => "σ",
+        "tau_peak" => "τ_peak",
+        "mu_s" => "μ_s",
+        other => other,
+    }
+    .to_owned()
+}
+
+fn label(q: &QuantitySummary) -> String {
+    if q.group.is_empty() {
+        symbol(&q.name)
+    } else {
+        format!("{}[{}]", symbol(&q.name), q.group)
+    }
+}
+
+/// Why a quantity fails the convergence thresholds, in words (empty when it passes).
+pub fn failures(q: &QuantitySummary) -> Vec<String> {
+    let s = &q.stats;
+    let mut out = Vec::new();
+    match s.r_hat {
+        Some(r) if r >= RHAT_MAX || r.is_nan() => out.push(format!(
+            "{}: R̂ = {} (needs < {RHAT_MAX})",
+            label(q),
+            significant(r, 4)
+        )),
+        None => out.push(format!(
+            "{}: R̂ unavailable (one ensemble; run at least two)",
+            label(q)
+        )),
+        _ => {}
+    }
+    for (what, ess) in [("bulk", s.ess_bulk), ("tail", s.ess_tail)] {
+        if ess.is_nan() || ess <= ESS_MIN {
+            out.push(format!(
+                "{}: ESS {what} = {:.0} (needs > {ESS_MIN:.0})",
+                label(q),
+                ess
+            ));
+        }
+    }
+    out
+}
+
+fn interval(q: &QuantitySummary) -> String {
+    let u = DisplayUnit::of_si(&q.unit);
+    let s = &q.stats;
+    format!(
+        "{} [{}, {}]{}",
+        significant(u.show(s.median), 4),
+        significant(u.show(s.ci_low), 4),
+        significant(u.show(s.ci_high), 4),
+        if u.label.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", u.label)
+        }
+    )
+}
+
+fn heading(level: u8, id: &str, text: &str) -> Block {
+    Block::Heading {
+        level,
+        id: id.to_owned(),
+        text: text.to_owned(),
+    }
+}
+
+fn table(header: &[&str], rows: Vec<Vec<String>>, flagged: Vec<bool>) -> Block {
+    Block::Table {
+        header: header.iter().map(|h| (*h).to_owned()).collect(),
+        rows,
+        flagged,
+    }
+}
+
+/// Runs of the model as the report names them.
+pub fn run_views(spec: &ModelSpec) -> Vec<RunView> {
+    spec.file
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let contact = spec.run_contact[i];
+            RunView {
+                name: r.name.clone(),
+                scene: r.scene,
+                velocity_m_per_s: r.velocity_m_per_s,
+                contact: spec.file.contacts[contact].name.clone(),
+                material: spec.file.materials[spec.contact_material[contact]]
+                    .name
+                    .clone(),
+            }
+        })
+        .collect()
+}
+
+/// Everything the sections share.
+struct Context<'a> {
+    inputs: &'a RunInputs,
+    runs: Vec<RunView>,
+    materials: Vec<String>,
+    predictive: Vec<&'a PredictiveRun>,
+    curves: Vec<Option<InterfaceCurve>>,
+    quantities: Vec<&'a QuantitySummary>,
+    /// Kept rows of the chains (all of them).
+    kept: Vec<usize>,
+}
+
+impl Context<'_> {
+    fn find(&self, name: &str, group: &str) -> Option<&QuantitySummary> {
+        self.quantities
+            .iter()
+            .copied()
+            .find(|q| q.name == name && q.group == group)
+    }
+
+    fn kept_column(&self, column: &str) -> Option<Vec<f64>> {
+        let values = self.inputs.chains.column(column).ok()?;
+        Some(self.kept.iter().map(|&i| values[i]).collect())
+    }
+
+    fn slides(&self) -> impl Iterator<Item = (usize, &RunView)> {
+        self.runs
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.scene != Scene::Repeat)
+    }
+}
+
+/// Builds the report's content.
+///
+/// # Errors
+/// [`ReportError`] when the run's files do not match its model, or a figure fails.
+pub fn build(
+    inputs: &RunInputs,
+    spec: &ModelSpec,
+    posterior: &Posterior,
+) -> Result<Content, ReportError> {
+    let runs = run_views(spec);
+    let mismatch = |problem: String| ReportError::Mismatch {
+        dir: inputs.dir.clone(),
+        problem,
+    };
+    let predictive: Vec<&PredictiveRun> = runs
+        .iter()
+        .map(|r| {
+            inputs
+                .predictive
+                .iter()
+                .find(|p| p.run == r.name && !p.time_s.is_empty())
+                .ok_or_else(|| {
+                    mismatch(format!(
+                        "predictive.csv has no rows for run {:?} of model.toml; re-run the fit",
+                        r.name
+                    ))
+                })
+        })
+        .collect::<Result<_, _>>()?;
+    let draws = coordinate_draws(&inputs.chains, &inputs.summary.sampler, CURVE_DRAWS)?;
+    if draws.is_empty() {
+        return Err(mismatch("the chains hold no kept draws".into()));
+    }
+    let curves = (0..runs.len())
+        .map(|i| {
+            let end = predictive[i].time_s.last().copied().unwrap_or(1.0);
+            interface_curve(posterior, i, &draws, end, CURVE_POINTS)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let ctx = Context {
+        inputs,
+        materials: spec.file.materials.iter().map(|m| m.name.clone()).collect(),
+        runs,
+        predictive,
+        curves,
+        quantities: inputs
+            .summary
+            .parameters
+            .iter()
+            .chain(&inputs.summary.derived)
+            .collect(),
+        kept: kept_rows(&inputs.chains, &inputs.summary.sampler, ALL_DRAWS),
+    };
+    let run_name = inputs.dir.file_name().map_or_else(
+        || inputs.dir.display().to_string(),
+        |f| f.to_string_lossy().into_owned(),
+    );
+    let title = format!("slipbayes report: {run_name}");
+    let comparisons = material_comparisons(&ctx);
+    let mut blocks = glance(&ctx, &comparisons);
+    blocks.extend(provenance(&ctx));
+    blocks.extend(data_section(&ctx));
+    blocks.extend(fit_section(&ctx)?);
+    blocks.extend(peak_section(&ctx, posterior, &draws)?);
+    blocks.extend(materials_section(&ctx, &comparisons)?);
+    blocks.extend(diagnostics_section(&ctx)?);
+    blocks.extend(summary_section(&ctx));
+    Ok(Content { title, blocks })
+}
+
+/// One material comparison: quantity (symbol), unit, A, B, P(A > B), and the difference's
+/// and ratio's median with 95 % interval, in words.
+struct MaterialComparison {
+    name: String,
+    symbol: String,
+    a: String,
+    b: String,
+    p_a_greater: f64,
+    difference: String,
+    ratio: String,
+    /// Where it comes from: the fit's summary, or the chains (a mean over a material's
+    /// contacts or first slides).
+    source: &'static str,
+}
+
+/// Per draw, the mean over `columns` of the kept draws.
+fn mean_draws(ctx: &Context, columns: &[String]) -> Option<Vec<f64>> {
+    let cols: Vec<Vec<f64>> = columns
+        .iter()
+        .map(|c| ctx.kept_column(c))
+        .collect::<Option<_>>()?;
+    let n = cols.first()?.len();
+    Some(
+        (0..n)
+            .map(|d| cols.iter().map(|c| c[d]).sum::<f64>() / cols.len() as f64)
+            .collect(),
+    )
+}
+
+fn quantiles3(values: &[f64]) -> [f64; 3] {
+    [0.025, 0.5, 0.975].map(|p| quantile(values, p).unwrap_or(f64::NAN))
+}
+
+/// For F_d (per contact) and F_peak (per first slide), the material's mean per draw: the
+/// column names that enter it.
+fn material_members(ctx: &Context, name: &str, material: &str) -> Vec<String> {
+    match name {
+        "F_d" => {
+            let mut contacts: Vec<&str> = ctx
+                .runs
+                .iter()
+                .filter(|r| r.material == material)
+                .map(|r| r.contact.as_str())
+                .collect();
+            contacts.dedup();
+            contacts
+                .into_iter()
+                .filter_map(|c| ctx.find("F_d", c).map(|q| q.column.clone()))
+                .collect()
+        }
+        "F_peak" => ctx
+            .runs
+            .iter()
+            .filter(|r| r.material == material && r.scene == Scene::First)
+            .filter_map(|r| ctx.find("F_peak", &r.name).map(|q| q.column.clone()))
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+const MEAN_NOTE_F_D: &str = "mean of the material's contacts";
+const MEAN_NOTE_F_PEAK: &str = "mean of the material's first slides";
+
+fn material_comparisons(ctx: &Context) -> Vec<MaterialComparison> {
+    let stats_text = |s: &crate::fit::Stats, u: &DisplayUnit| {
+        format!(
+            "{} [{}, {}]",
+            significant(u.show(s.median), 4),
+            significant(u.show(s.ci_low), 4),
+            significant(u.show(s.ci_high), 4)
+        )
+    };
+    let mut out: Vec<MaterialComparison> = ctx
+        .inputs
+        .summary
+        .comparisons
+        .iter()
+        .map(|c| {
+            let u = DisplayUnit::of_si(&c.unit);
+            MaterialComparison {
+                name: c.name.clone(),
+                symbol: symbol(&c.name),
+                a: c.group_a.clone(),
+                b: c.group_b.clone(),
+                p_a_greater: c.p_a_greater,
+                difference: format!("{}{}", stats_text(&c.difference, &u), u.suffix()),
+                ratio: c.ratio.as_ref().map_or_else(
+                    || "–".to_owned(),
+                    |r| stats_text(r, &DisplayUnit::of_si("1")),
+                ),
+                source: "fit summary",
+            }
+        })
+        .collect();
+    for (name, note) in [("F_d", MEAN_NOTE_F_D), ("F_peak", MEAN_NOTE_F_PEAK)] {
+        for (i, a) in ctx.materials.iter().enumerate() {
+            for b in &ctx.materials[i + 1..] {
+                let (Some(da), Some(db)) = (
+                    mean_draws(ctx, &material_members(ctx, name, a)),
+                    mean_draws(ctx, &material_members(ctx, name, b)),
+                ) else {
+                    continue;
+                };
+                if da.is_empty() || da.len() != db.len() {
+                    continue;
+                }
+                let p = da.iter().zip(&db).filter(|(x, y)| x > y).count() as f64 / da.len() as f64;
+                let diff: Vec<f64> = da.iter().zip(&db).map(|(x, y)| x - y).collect();
+                let ratio: Vec<f64> = da.iter().zip(&db).map(|(x, y)| x / y).collect();
+                let u = DisplayUnit::of_si("N");
+                let d = quantiles3(&diff);
+                let r = quantiles3(&ratio);
+                out.push(MaterialComparison {
+                    name: name.to_owned(),
+                    symbol: format!("{name} ({note})"),
+                    a: a.clone(),
+                    b: b.clone(),
+                    p_a_greater: p,
+                    difference: format!(
+                        "{} [{}, {}]{}",
+                        significant(u.show(d[1]), 4),
+                        significant(u.show(d[0]), 4),
+                        significant(u.show(d[2]), 4),
+                        u.suffix()
+                    ),
+                    ratio: format!(
+                        "{} [{}, {}]",
+                        significant(r[1], 4),
+                        significant(r[0], 4),
+                        significant(r[2], 4)
+                    ),
+                    source: "chains",
+                });
+            }
+        }
+    }
+    out
+}
+
+fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
+    let sampler = &ctx.inputs.summary.sampler;
+    let failing: Vec<String> = ctx.quantities.iter().flat_map(|q| failures(q)).collect();
+    let ok = failing.is_empty() && sampler.converged;
+    let n = ctx.quantities.len();
+    let (title, mut lines) = if failing.is_empty() {
+        (
+            if sampler.converged {
+                format!("converged: all {n} reported quantities have R̂ < {RHAT_MAX} and ESS bulk and tail > {ESS_MIN:.0}")
+            } else {
+                format!(
+                    "all {n} reported quantities have R̂ < {RHAT_MAX} and ESS bulk and tail > {ESS_MIN:.0}, but the sampler reports {} other problem(s)",
+                    sampler.problems.len()
+                )
+            },
+            Vec::new(),
+        )
+    } else {
+        (
+            format!(
+                "{} check(s) fail R̂ < {RHAT_MAX} or ESS > {ESS_MIN:.0}; do not trust these quantities yet",
+                failing.len()
+            ),
+            failing,
+        )
+    };
+    if !sampler.converged {
+        if let Some(first) = sampler.problems.first() {
+            lines.push(format!("sampler: {first}"));
+        }
+        if sampler.problems.len() > 1 {
+            lines.push(format!(
+                "and {} more problem(s), listed under Diagnostics",
+                sampler.problems.len() - 1
+            ));
+        }
+    }
+    let mut blocks = vec![
+        heading(1, "glance", "At a glance"),
+        Block::Verdict { ok, title, lines },
+    ];
+    let coverage: Vec<String> = ctx
+        .runs
+        .iter()
+        .zip(&ctx.predictive)
+        .map(|(r, p)| {
+            format!(
+                "{}: {:.1} % of {} data points inside the 95 % predictive band",
+                r.name,
+                100.0 * coverage_95(p),
+                p.time_s.len()
+            )
+        })
+        .collect();
+    blocks.push(Block::Paragraph(
+        "Does the model fit the data? About 95 % of the points should fall inside the 95 % posterior predictive band of their run:".into(),
+    ));
+    blocks.push(Block::List(coverage));
+    let peaks: Vec<String> = ctx
+        .slides()
+        .filter_map(|(_, r)| ctx.find("F_peak", &r.name))
+        .map(|q| format!("{} = {} (median, 95 % interval)", label(q), interval(q)))
+        .chain(
+            ctx.quantities
+                .iter()
+                .filter(|q| q.name == "F_peak_new")
+                .map(|q| format!("{} (a new contact) = {}", label(q), interval(q))),
+        )
+        .collect();
+    if !peaks.is_empty() {
+        blocks.push(Block::Paragraph("Peak static friction:".into()));
+        blocks.push(Block::List(peaks));
+    }
+    if !comparisons.is_empty() {
+        blocks.push(Block::Paragraph("Do the materials differ?".into()));
+        blocks.push(Block::List(
+            comparisons
+                .iter()
+                .map(|c| {
+                    format!(
+                        "P({}[{}] > {}[{}]) = {:.3}",
+                        c.symbol, c.a, c.symbol, c.b, c.p_a_greater
+                    )
+                })
+                .collect(),
+        ));
+    }
+    blocks
+}
+
+fn provenance(ctx: &Context) -> Vec<Block> {
+    let record = &ctx.inputs.record;
+    let s = &ctx.inputs.summary.sampler;
+    let command = record
+        .command
+        .iter()
+        .map(|a| {
+            if a.contains(char::is_whitespace) {
+                format!("'{a}'")
+            } else {
+                a.clone()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ");
+    vec![
+        heading(1, "provenance", "How this was produced"),
+        Block::List(vec![
+            format!("command: {command}"),
+            format!("model file: {} (the exact model fitted is model.toml beside this report)", record.model_file),
+            format!("seed: {}", s.seed),
+            format!("slipbayes version: {}", record.slipbayes_version),
+            format!(
+                "sampler: {} ensembles × {} walkers × {} steps, burn-in {}, thin {}, {} kept draws, {} sampled dimensions",
+                s.ensembles, s.walkers, s.steps, s.burn_in, s.thin, s.draws, record.dimension
+            ),
+            format!("wall time: {:.1} s", s.wall_s),
+        ]),
+    ]
+}
+
+fn data_section(ctx: &Context) -> Vec<Block> {
+    let Some(records) = &ctx.inputs.data else {
+        return Vec::new();
+    };
+    let rows: Vec<Vec<String>> = records
+        .iter()
+        .map(|d| {
+            vec![
+                d.run.clone(),
+                d.file.clone(),
+                d.format.clone(),
+                d.points_read.to_string(),
+                d.points_used.to_string(),
+                d.dropped_invalid.to_string(),
+                d.window_s.map_or_else(
+                    || "all".to_owned(),
+                    |[lo, hi]| format!("{} – {} s", significant(lo, 4), significant(hi, 4)),
+                ),
+                d.binning.as_ref().map_or_else(
+                    || "none".to_owned(),
+                    |b| {
+                        format!(
+                            "{} bins of {} points",
+                            b.bins,
+                            significant(b.points_per_bin, 3)
+                        )
+                    },
+                ),
+                if d.conversions.is_empty() {
+                    "none".to_owned()
+                } else {
+                    d.conversions.join("; ")
+                },
+            ]
+        })
+        .collect();
+    let flagged = records.iter().map(|d| d.dropped_invalid > 0).collect();
+    vec![
+        heading(1, "data", "Data"),
+        Block::Paragraph(
+            "How each run's file was read; rows with dropped invalid points are marked.".into(),
+        ),
+        table(
+            &[
+                "run",
+                "file",
+                "format",
+                "points read",
+                "points used",
+                "dropped invalid",
+                "window",
+                "binning",
+                "conversions",
+            ],
+            rows,
+            flagged,
+        ),
+    ]
+}
+
+fn figure(file: String, caption: String, svg: String) -> Block {
+    Block::Figure { file, caption, svg }
+}
+
+/// A figure block named `file`, drawn by `draw` (which gets the name for its errors).
+fn drawn_figure(
+    file: &str,
+    caption: String,
+    draw: impl FnOnce(&str) -> Result<String, ReportError>,
+) -> Result<Block, ReportError> {
+    Ok(figure(file.to_owned(), caption, draw(file)?))
+}
+
+fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
+    let mut blocks = vec![
+        heading(1, "fit", "Fit to the data"),
+        Block::Paragraph(
+            "Each run: data (open circles; at most 500 points shown), the posterior median of the model and its 50 % and 95 % posterior predictive bands (model plus noise) in the instrument's time. First and fast slides also in interface time τ = t − F/(kv), with the elastic part of the machine removed as in the paper's Fig. 1(b): the data are moved to their interface time with the posterior median k, and the law F(τ) is redrawn from 200 posterior draws.".into(),
+        ),
+    ];
+    for (i, run) in ctx.runs.iter().enumerate() {
+        let file = format!("fit-{}.svg", run.name);
+        let svg = fit_figure(&file, run, ctx.predictive[i], ctx.curves[i].as_ref())?;
+        let caption = match run.scene {
+            Scene::Repeat => format!(
+                "{}: repeat slide at {}; elastic loading up to where the previous slide stopped.",
+                run.name,
+                velocity_text(run.velocity_m_per_s)
+            ),
+            Scene::StiffFast => format!(
+                "{}: fast slide at {}, declared stiff (τ = t).",
+                run.name,
+                velocity_text(run.velocity_m_per_s)
+            ),
+            Scene::First => format!(
+                "{}: first slide at {}; left in observed time, right in interface time.",
+                run.name,
+                velocity_text(run.velocity_m_per_s)
+            ),
+        };
+        blocks.push(figure(file, caption, svg));
+    }
+    // Contacts with slides, in model order.
+    let mut contacts: Vec<&str> = Vec::new();
+    for (_, r) in ctx.slides() {
+        if !contacts.contains(&r.contact.as_str()) {
+            contacts.push(&r.contact);
+        }
+    }
+    for contact in contacts {
+        let slides: Vec<(&RunView, &PredictiveRun, &InterfaceCurve)> = ctx
+            .slides()
+            .filter(|(_, r)| r.contact == contact)
+            .filter_map(|(i, r)| ctx.curves[i].as_ref().map(|c| (r, ctx.predictive[i], c)))
+            .collect();
+        let file = format!("distance-{contact}.svg");
+        let svg = distance_figure(&file, contact, &slides)?;
+        blocks.push(figure(
+            file,
+            format!(
+                "Contact {contact} against sliding distance x = vτ (the paper's Fig. 2 inset): slides at different velocities coincide when the state of the interface depends on distance alone."
+            ),
+            svg,
+        ));
+    }
+    Ok(blocks)
+}
+
+fn peak_section(
+    ctx: &Context,
+    posterior: &Posterior,
+    draws: &[(usize, Vec<f64>)],
+) -> Result<Vec<Block>, ReportError> {
+    let mut blocks = vec![
+        heading(1, "peak", "Peak static friction"),
+        Block::Paragraph(
+            "The peak of F(τ), where a/τ = αv (F − F_d), per posterior draw. Its credible interval carries the uncertainty of every parameter, t0 included.".into(),
+        ),
+    ];
+    let mut density: Vec<PeakDraws> = Vec::new();
+    let mut versus_t0: Vec<(String, Vec<(String, PeakVsT0)>)> = Vec::new();
+    let mut rows = Vec::new();
+    for material in &ctx.materials {
+        let mut v = Vec::new();
+        for (i, run) in ctx.slides().filter(|(_, r)| &r.material == material) {
+            let Some(q) = ctx.find("F_peak", &run.name) else {
+                continue;
+            };
+            let Some(values) = ctx.kept_column(&q.column) else {
+                continue;
+            };
+            let s = &q.stats;
+            density.push((
+                format!("{} ({material})", run.name),
+                values,
+                [s.ci_low, s.median, s.ci_high],
+            ));
+            if let Some(t0) = ctx.find("t0", &run.name) {
+                let range = (t0.stats.ci_low / T0_SPAN, t0.stats.ci_high * T0_SPAN);
+                if let Some(curve) = peak_vs_t0(posterior, i, draws, range, T0_POINTS)? {
+                    v.push((run.name.clone(), curve));
+                }
+            }
+            let cell = |name: &str| {
+                ctx.find(name, &run.name)
+                    .map_or_else(|| "–".to_owned(), interval)
+            };
+            rows.push(vec![
+                run.name.clone(),
+                velocity_text(run.velocity_m_per_s),
+                cell("F_peak"),
+                cell("tau_peak"),
+                cell("s_peak"),
+                cell("t_peak"),
+                cell("mu_s"),
+            ]);
+        }
+        let members = material_members(ctx, "F_peak", material);
+        if members.len() > 1 {
+            if let Some(mean) = mean_draws(ctx, &members) {
+                let q = quantiles3(&mean);
+                density.push((format!("{material}: {MEAN_NOTE_F_PEAK}"), mean, q));
+            }
+        }
+        if !v.is_empty() {
+            versus_t0.push((material.clone(), v));
+        }
+    }
+    if density.is_empty() {
+        blocks.push(Block::Paragraph(
+            "No slide of this model has a peak (no first or fast slides).".into(),
+        ));
+        return Ok(blocks);
+    }
+    let flagged = vec![false; rows.len()];
+    blocks.push(table(
+        &[
+            "run",
+            "velocity",
+            "F_peak",
+            "τ_peak (interface time)",
+            "s_peak = vτ_peak",
+            "t_peak (observed)",
+            "μ_s = F_peak/F_N",
+        ],
+        rows,
+        flagged,
+    ));
+    blocks.push(drawn_figure(
+        "peak-density.svg",
+        "Posterior density of the peak static friction per run and, where a material has several first slides, of their mean per draw: the shade is the 95 % interval, the dashed line the median.".to_owned(),
+        |file| peak_density_figure(file, &density),
+    )?);
+    if !versus_t0.is_empty() {
+        blocks.push(drawn_figure(
+            "peak-t0.svg",
+            format!(
+                "The peak against t0, as in the paper's Fig. 4: for each slide, t0 is varied over {T0_SPAN}× below and above its 95 % interval while αv, a and F_d come from {} posterior draws (line: median, shade: 95 %); the markers are the posterior draws of (t0, F_peak) themselves. F_peak grows as ln(1/t0): an uncertain t0 widens the peak's interval.",
+                draws.len()
+            ),
+            |file| peak_t0_figure(file, &versus_t0),
+        )?);
+    }
+    Ok(blocks)
+}
+
+fn materials_section(
+    ctx: &Context,
+    comparisons: &[MaterialComparison],
+) -> Result<Vec<Block>, ReportError> {
+    let mut blocks = vec![heading(1, "materials", "Materials and contacts")];
+    let p_text = |name: &str| {
+        comparisons
+            .iter()
+            .filter(|c| c.name == name)
+            .map(|c| {
+                format!(
+                    "P({}[{}] > {}[{}]) = {:.3}",
+                    symbol(name),
+                    c.a,
+                    symbol(name),
+                    c.b,
+                    c.p_a_greater
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut panels = Vec::new();
+    for name in ["alpha", "a", "a_over_F_d", "F_d", "F_peak"] {
+        let mut rows: Vec<ForestRow> = Vec::new();
+        let mut unit = String::new();
+        for q in ctx.quantities.iter().filter(|q| q.name == name) {
+            let u = DisplayUnit::of_si(&q.unit);
+            unit = q.unit.clone();
+            rows.push(ForestRow {
+                label: q.group.clone(),
+                median: u.show(q.stats.median),
+                low: u.show(q.stats.ci_low),
+                high: u.show(q.stats.ci_high),
+                material: ctx.materials.contains(&q.group),
+            });
+        }
+        if rows.is_empty() {
+            continue;
+        }
+        // F_d and F_peak are not material parameters: show the material's mean per draw.
+        for material in &ctx.materials {
+            let members = material_members(ctx, name, material);
+            if members.is_empty() {
+                continue;
+            }
+            if let Some(mean) = mean_draws(ctx, &members) {
+                let q = quantiles3(&mean);
+                let u = DisplayUnit::of_si("N");
+                rows.push(ForestRow {
+                    label: format!("{material} (mean)"),
+                    median: u.show(q[1]),
+                    low: u.show(q[0]),
+                    high: u.show(q[2]),
+                    material: true,
+                });
+            }
+        }
+        // Materials first, then their contacts and runs, in model order.
+        rows.sort_by_key(|r| !r.material);
+        let u = DisplayUnit::of_si(&unit);
+        let p = p_text(name);
+        panels.push(ForestPanel {
+            title: if p.is_empty() {
+                symbol(name)
+            } else {
+                format!("{}: {p}", symbol(name))
+            },
+            axis: format!("{}{}", symbol(name), u.suffix()),
+            rows,
+        });
+    }
+    if !panels.is_empty() {
+        blocks.push(drawn_figure(
+            "forest.svg",
+            format!(
+                "Forest plot: median (dot) and 95 % interval (bar) of each quantity per material (filled) and per contact or run (open). F_d and F_peak are not material parameters; their material rows are the {MEAN_NOTE_F_D} and the {MEAN_NOTE_F_PEAK}, per draw."
+            ),
+            |file| forest_figure(file, &panels),
+        )?);
+    }
+    if !comparisons.is_empty() {
+        let rows: Vec<Vec<String>> = comparisons
+            .iter()
+            .map(|c| {
+                vec![
+                    c.symbol.clone(),
+                    c.a.clone(),
+                    c.b.clone(),
+                    format!("{:.3}", c.p_a_greater),
+                    c.difference.clone(),
+                    c.ratio.clone(),
+                    c.source.to_owned(),
+                ]
+            })
+            .collect();
+        let flagged = vec![false; rows.len()];
+        blocks.push(table(
+            &[
+                "quantity",
+                "A",
+                "B",
+                "P(A > B)",
+                "A − B, median [95 %]",
+                "A / B, median [95 %]",
+                "from",
+            ],
+            rows,
+            flagged,
+        ));
+    }
+    Ok(blocks)
+}
+
+fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
+    let s = &ctx.inputs.summary.sampler;
+    let mut blocks = vec![
+        heading(1, "diagnostics", "Diagnostics"),
+        Block::List(vec![
+            format!("acceptance fraction (all walkers): {:.3}", s.acceptance),
+            format!(
+                "autocorrelation time τ: max {} steps, min {} steps, reliable (chains longer than 50 τ): {}",
+                s.tau_max.map_or_else(|| "–".into(), |t| significant(t, 3)),
+                s.tau_min.map_or_else(|| "–".into(), |t| significant(t, 3)),
+                if s.tau_reliable { "yes" } else { "no" }
+            ),
+            format!("log-density evaluations: {}", s.log_density_evals),
+            format!(
+                "rejected proposals by reason: {}",
+                if s.rejections.is_empty() {
+                    "none".to_owned()
+                } else {
+                    s.rejections
+                        .iter()
+                        .map(|(k, v)| format!("{k} {v}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            ),
+        ]),
+    ];
+    if !s.problems.is_empty() {
+        blocks.push(Block::Details {
+            summary: format!("The sampler reports {} problem(s):", s.problems.len()),
+            items: s.problems.clone(),
+        });
+    }
+    let rows: Vec<Vec<String>> = ctx
+        .quantities
+        .iter()
+        .map(|q| {
+            let st = &q.stats;
+            let u = DisplayUnit::of_si(&q.unit);
+            vec![
+                label(q),
+                st.r_hat.map_or_else(|| "–".into(), |r| format!("{r:.4}")),
+                format!("{:.0}", st.ess_bulk),
+                format!("{:.0}", st.ess_tail),
+                format!("{} {}", significant(u.show(st.mcse_mean), 3), u.label)
+                    .trim_end()
+                    .to_owned(),
+                st.tau.map_or_else(|| "–".into(), |t| significant(t, 3)),
+            ]
+        })
+        .collect();
+    let flagged = ctx
+        .quantities
+        .iter()
+        .map(|q| !failures(q).is_empty())
+        .collect();
+    blocks.push(Block::Paragraph(format!(
+        "Per quantity: R̂ between ensembles (rank-normalised), ESS bulk and tail, MCSE of the mean, and τ in kept draws. Rows failing R̂ < {RHAT_MAX} or ESS > {ESS_MIN:.0} are marked."
+    )));
+    blocks.push(table(
+        &[
+            "quantity",
+            "R̂",
+            "ESS bulk",
+            "ESS tail",
+            "MCSE mean",
+            "τ (kept draws)",
+        ],
+        rows,
+        flagged,
+    ));
+    blocks.extend(trace_blocks(ctx)?);
+    blocks.extend(corner_blocks(ctx)?);
+    Ok(blocks)
+}
+
+fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
+    let chains = &ctx.inputs.chains;
+    let mut panels = Vec::new();
+    for q in ctx
+        .inputs
+        .summary
+        .parameters
+        .iter()
+        .filter(|q| q.name != "sigma")
+    {
+        let Ok(series) = chains.series(&q.column) else {
+            continue;
+        };
+        let u = DisplayUnit::of_si(&q.unit);
+        panels.push(TracePanel {
+            title: format!("{}{}", label(q), u.suffix()),
+            series: series
+                .into_iter()
+                .map(|walkers| {
+                    walkers
+                        .into_iter()
+                        .take(TRACE_WALKERS)
+                        .map(|v| v.into_iter().map(|x| u.show(x)).collect())
+                        .collect()
+                })
+                .collect(),
+        });
+    }
+    let mut blocks = Vec::new();
+    let figures = panels.len().div_ceil(TRACES_PER_FIGURE);
+    for (k, chunk) in panels.chunks(TRACES_PER_FIGURE).enumerate() {
+        let file = format!("trace-{}.svg", k + 1);
+        let svg = trace_figure(&file, chunk, ctx.inputs.summary.sampler.burn_in)?;
+        blocks.push(figure(
+            file,
+            format!(
+                "Trace plots ({} of {figures}): {TRACE_WALKERS} walkers of each ensemble, ensembles told apart by shade; the vertical line ends the burn-in ({} steps). Noise levels σ are left out (they are drawn from their conditional posterior, not sampled).",
+                k + 1,
+                ctx.inputs.summary.sampler.burn_in
+            ),
+            svg,
+        ));
+    }
+    Ok(blocks)
+}
+
+fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
+    let mut blocks = Vec::new();
+    for material in &ctx.materials {
+        let Some((_, run)) = ctx
+            .slides()
+            .find(|(_, r)| &r.material == material && r.scene == Scene::First)
+            .or_else(|| ctx.slides().find(|(_, r)| &r.material == material))
+        else {
+            continue;
+        };
+        let groups = [material.as_str(), run.contact.as_str(), run.name.as_str()];
+        let chosen: Vec<&QuantitySummary> = ctx
+            .inputs
+            .summary
+            .parameters
+            .iter()
+            .filter(|q| q.name != "sigma" && groups.contains(&q.group.as_str()))
+            .collect();
+        if chosen.len() < 2 {
+            continue;
+        }
+        let mut names = Vec::new();
+        let mut columns = Vec::new();
+        for q in &chosen {
+            let Some(values) = ctx.kept_column(&q.column) else {
+                continue;
+            };
+            let u = DisplayUnit::of_si(&q.unit);
+            names.push(format!("{}{}", label(q), u.suffix()));
+            columns.push(values.into_iter().map(|x| u.show(x)).collect::<Vec<f64>>());
+        }
+        let file = format!("corner-{material}.svg");
+        let svg = corner_figure(&file, &names, &columns)?;
+        blocks.push(figure(
+            file,
+            format!(
+                "Corner plot of {material}'s main parameters as they enter run {}: posterior densities on the diagonal, pairs of kept draws below it (at most {} points per panel).",
+                run.name,
+                super::plots::CORNER_POINTS
+            ),
+            svg,
+        ));
+    }
+    Ok(blocks)
+}
+
+fn summary_section(ctx: &Context) -> Vec<Block> {
+    let hdi_prob = ctx.quantities.first().map_or(0.95, |q| q.stats.hdi_prob);
+    let lo = format!("hdi_{}%", super::figures::tick(50.0 * (1.0 - hdi_prob)));
+    let hi = format!("hdi_{}%", super::figures::tick(50.0 * (1.0 + hdi_prob)));
+    let rows: Vec<Vec<String>> = ctx
+        .quantities
+        .iter()
+        .map(|q| {
+            let s = &q.stats;
+            let u = DisplayUnit::of_si(&q.unit);
+            let v = |x: f64| significant(u.show(x), 4);
+            vec![
+                label(q),
+                u.label.clone(),
+                v(s.mean),
+                v(s.sd),
+                v(s.hdi_low),
+                v(s.hdi_high),
+                v(s.mcse_mean),
+                v(s.mcse_sd),
+                format!("{:.0}", s.ess_bulk),
+                format!("{:.0}", s.ess_tail),
+                s.r_hat.map_or_else(|| "–".into(), |r| format!("{r:.4}")),
+            ]
+        })
+        .collect();
+    let flagged = ctx
+        .quantities
+        .iter()
+        .map(|q| !failures(q).is_empty())
+        .collect();
+    let header = [
+        "quantity",
+        "unit",
+        "mean",
+        "sd",
+        &lo,
+        &hi,
+        "mcse_mean",
+        "mcse_sd",
+        "ess_bulk",
+        "ess_tail",
+        "r_hat",
+    ];
+    let mut units: BTreeMap<String, String> = BTreeMap::new();
+    for q in &ctx.quantities {
+        let u = DisplayUnit::of_si(&q.unit);
+        if !u.label.is_empty() && u.label != q.unit {
+            units.insert(q.unit.clone(), u.label.clone());
+        }
+    }
+    vec![
+        heading(1, "summary", "Summary table"),
+        Block::Paragraph(format!(
+            "ArviZ's columns, in the units users think in ({}); summary.csv beside this report holds the same in SI with full precision.",
+            units
+                .iter()
+                .map(|(si, shown)| format!("{si} shown as {shown}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+        table(&header, rows, flagged),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::Stats;
+
+    fn quantity(r_hat: Option<f64>, ess_bulk: f64, ess_tail: f64) -> QuantitySummary {
+        QuantitySummary {
+            name: "alpha".into(),
+            group: "PTFE".into(),
+            unit: "1/m".into(),
+            column: "alpha[PTFE]".into(),
+            stats: Stats {
+                mean: 0.92e6,
+                sd: 1e3,
+                median: 0.92e6,
+                ci_low: 0.91e6,
+                ci_high: 0.93e6,
+                ci_prob: 0.95,
+                hdi_low: 0.91e6,
+                hdi_high: 0.93e6,
+                hdi_prob: 0.95,
+                ess_bulk,
+                ess_tail,
+                r_hat,
+                mcse_mean: 10.0,
+                mcse_sd: 5.0,
+                ess_mean: ess_bulk,
+                tau: Some(2.0),
+                tau_reliable: Some(true),
+            },
+        }
+    }
+
+    #[test]
+    fn failing_quantities_are_named_in_words() {
+        assert!(failures(&quantity(Some(1.005), 800.0, 900.0)).is_empty());
+        let f = failures(&quantity(Some(1.02), 350.0, 900.0));
+        assert_eq!(f.len(), 2, "{f:?}");
+        assert!(f[0].contains("α[PTFE]: R̂ = 1.020"), "{f:?}");
+        assert!(f[1].contains("ESS bulk = 350"), "{f:?}");
+        let f = failures(&quantity(None, 800.0, 400.0));
+        assert!(f[0].contains("R̂ unavailable"), "{f:?}");
+        assert!(f[1].contains("ESS tail = 400"), "{f:?}");
+    }
+
+    #[test]
+    fn intervals_are_in_user_units() {
+        assert_eq!(
+            interval(&quantity(Some(1.0), 1e3, 1e3)),
+            "0.9200 [0.9100, 0.9300] µm⁻¹"
+        );
+    }
+}
