@@ -13,6 +13,8 @@
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable),
 //!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
+//! - [`validate`]: simulation-based calibration of the one-contact pipeline: prior draws,
+//!   simulated slides, fits, rank statistics and coverage (feature `parquet`).
 //! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
 #![deny(clippy::float_cmp)]
 
@@ -29,3 +31,5 @@ pub mod simulate;
 pub mod special;
 #[cfg(feature = "parquet")]
 pub mod storage;
+#[cfg(feature = "parquet")]
+pub mod validate;

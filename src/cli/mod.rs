@@ -5,6 +5,8 @@
 mod fit;
 pub mod progress;
 mod simulate;
+#[cfg(feature = "parquet")]
+mod validate;
 
 use std::process::ExitCode;
 
@@ -25,6 +27,8 @@ enum Command {
     #[cfg(feature = "parquet")]
     Fit(fit::FitArgs),
     Simulate(simulate::SimulateArgs),
+    #[cfg(feature = "parquet")]
+    Validate(validate::ValidateArgs),
 }
 
 /// Entry point of the `slipbayes` binary.
@@ -49,5 +53,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         #[cfg(feature = "parquet")]
         Command::Fit(args) => fit::run(&args),
         Command::Simulate(args) => simulate::run(&args),
+        #[cfg(feature = "parquet")]
+        Command::Validate(args) => validate::run(&args),
     }
 }
