@@ -65,9 +65,25 @@ pub(super) struct ValidateArgs {
     /// No line per replication.
     #[arg(long)]
     quiet: bool,
+    /// Only summarise the replications already finished in --out (e.g. of a run still going).
+    #[arg(long)]
+    report_only: bool,
+    /// Run the hard cases instead (into OUT/hard/): peak beyond the record, a short record,
+    /// k near stick-slip, t0 = 1e-6 s, large noise, a 10^6-point slide.
+    #[arg(long)]
+    hard: bool,
+    /// With --hard: only this case (repeatable).
+    #[arg(long = "case", requires = "hard")]
+    cases: Vec<String>,
+    /// With --hard: steps of the 10^6-point fit (it costs about 0.1 s per evaluation).
+    #[arg(long, default_value_t = 40, requires = "hard")]
+    million_steps: u64,
 }
 
 pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
+    if args.hard {
+        return hard(args);
+    }
     let settings = SbcSettings {
         model: args.model.clone(),
         replications: args.replications,
@@ -98,8 +114,12 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
             }
         }
     };
-    let reps = run_sbc(&settings, &args.out, args.overwrite, &progress)
-        .with_context(|| format!("validating into {}", args.out.display()))?;
+    let reps = if args.report_only {
+        crate::validate::finished_replications(&args.out)?
+    } else {
+        run_sbc(&settings, &args.out, args.overwrite, &progress)
+            .with_context(|| format!("validating into {}", args.out.display()))?
+    };
     let report = summarise(&settings, &reps);
     let limits = GrossLimits {
         min_coverage95: args.min_coverage95,
@@ -128,6 +148,39 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
         eprintln!("miscalibrated: {p}");
     }
     Ok(if problems.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    })
+}
+
+fn hard(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
+    let out = args.out.join("hard");
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut progress = |o: &crate::validate::hard::HardOutcome| {
+        if !args.quiet {
+            eprintln!(
+                "{}: {} in {:.1} s{}",
+                o.case.name,
+                if o.passed { "passed" } else { "FAILED" },
+                o.wall_s,
+                o.error
+                    .as_ref()
+                    .map_or(String::new(), |e| format!(" ({e})"))
+            );
+        }
+    };
+    let outcomes = crate::validate::hard::run_hard_cases(
+        &out,
+        &args.cases,
+        args.seed,
+        args.million_steps,
+        &command,
+        &mut progress,
+    )
+    .with_context(|| format!("writing the hard cases into {}", out.display()))?;
+    println!("written to {}", out.join("hard_cases.md").display());
+    Ok(if outcomes.iter().all(|o| o.passed) {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(2)

@@ -51,9 +51,9 @@ fn marginal_sigma_log_likelihood(ssr: f64, n: usize, low: f64, high: f64) -> Opt
 }
 
 /// ln[P(s, x_hi) − P(s, x_lo)] for 0 < x_lo < x_hi, P the regularised lower incomplete gamma
-/// function. When both arguments lie in one tail, the difference of two values near 0 (or near
-/// 1) underflows (or cancels) in linear space, so it is formed from logarithms of P (lower
-/// tail, series) or of Q = 1 − P (upper tail, continued fraction).
+/// function. When both arguments lie in one tail, the difference of two values near zero (or
+/// near one) underflows (or cancels) in linear space, so it is formed from logarithms of P
+/// (lower tail, by its series) or of Q = 1 − P (upper tail, by its continued fraction).
 fn ln_gamma_p_difference(s: f64, x_lo: f64, x_hi: f64) -> Option<f64> {
     use statrs::function::gamma::gamma_lr;
     let ln_diff = |ln_big: f64, ln_small: f64| {
@@ -68,6 +68,39 @@ fn ln_gamma_p_difference(s: f64, x_lo: f64, x_hi: f64) -> Option<f64> {
         let mass = gamma_lr(s, x_hi) - gamma_lr(s, x_lo);
         (mass > 0.0).then(|| mass.ln())
     }
+}
+
+/// A draw of σ from its conditional posterior when nearly all of it lies outside the prior's
+/// bounds [low, high] (far from the data, e.g. at a walker's start), where plain rejection
+/// fails. With u = SSR/(2σ²), u ~ Gamma(n/2, 1) truncated to [SSR/(2high²), SSR/(2low²)].
+/// Above the bounds (the lower truncation point u_h beyond the mode): exact rejection from the
+/// shifted exponential u = u_h + E/λ, λ = 1 − (n/2 − 1)/u_h, whose acceptance
+/// exp((n/2 − 1)[ln(u/u_h) − (u − u_h)/u_h]) ≤ 1. Below the bounds, or if that fails, the
+/// bound where the mass piles up: an approximation only ever needed before burn-in.
+fn truncated_sigma_tail_draw<R: rand::Rng>(
+    ssr: f64,
+    n: usize,
+    low: f64,
+    high: f64,
+    rng: &mut R,
+) -> f64 {
+    use rand_distr::{Distribution, Exp1};
+    let s = 0.5 * n as f64;
+    let u_h = 0.5 * ssr / (high * high);
+    let u_l = 0.5 * ssr / (low * low);
+    if u_h <= s + 1.0 || u_h.is_nan() {
+        return low;
+    }
+    let lambda = 1.0 - (s - 1.0) / u_h;
+    for _ in 0..1000 {
+        let e: f64 = Exp1.sample(rng);
+        let u = u_h + e / lambda;
+        let accept = ((s - 1.0) * ((u / u_h).ln() - (u - u_h) / u_h)).exp();
+        if u <= u_l && rng.random::<f64>() < accept {
+            return (0.5 * ssr / u).sqrt();
+        }
+    }
+    high
 }
 
 /// Terms of the incomplete gamma series and continued fraction, at most (both converge in
@@ -1131,7 +1164,7 @@ impl Posterior {
                 return sigma;
             }
         }
-        f64::NAN
+        truncated_sigma_tail_draw(ssr, n, group.low, group.high, &mut rng)
     }
     fn mean_fd(&self, x: &[f64], material: usize) -> f64 {
         let (mut sum, mut n) = (0.0, 0.0);
@@ -1300,13 +1333,13 @@ mod tests {
                 100usize,
                 1e-8_f64,
                 1.0_f64,
-                -499_501.569_840_448_93_f64,
+                -499_501.569_840_449_f64,
             ),
-            (1.0, 201, 3e-5, 3e-4, -5_554_371.725_334_000_6),
-            (0.01, 51, 3e-5, 3e-4, -55_344.278_381_508_284),
-            (1e-9, 201, 3e-5, 3e-4, -425.668_325_380_956_36),
-            (50.0, 8, 0.01, 1.5, -5.399_151_521_749_207_2),
-            (2.0, 10, 0.1, 10.0, -8.264_185_641_809_912_6e-13),
+            (1.0, 201, 3e-5, 3e-4, -5_554_371.725_334_001),
+            (0.01, 51, 3e-5, 3e-4, -55_344.278_381_508_29),
+            (1e-9, 201, 3e-5, 3e-4, -425.668_325_380_956_4),
+            (50.0, 8, 0.01, 1.5, -5.399_151_521_749_207),
+            (2.0, 10, 0.1, 10.0, -8.264_185_641_809_913e-13),
         ] {
             let half_ssr = 0.5 * ssr;
             let got = ln_gamma_p_difference(
@@ -1321,6 +1354,32 @@ mod tests {
                 "ssr {ssr} n {n}: {got} vs {reference}"
             );
         }
+    }
+
+    /// Far above the prior's bounds the conditional σ piles up just below `high`: the tail
+    /// draw matches the exact truncated law there, E[u] ≈ u_h + 1/λ.
+    #[test]
+    fn sigma_tail_draws_follow_the_truncated_conditional() {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let (ssr, n, low, high) = (1.0, 201usize, 3e-5, 3e-4);
+        let (s, u_h) = (100.5, 0.5 / (high * high));
+        let m = 20_000;
+        let draws: Vec<f64> = (0..m)
+            .map(|_| truncated_sigma_tail_draw(ssr, n, low, high, &mut rng))
+            .collect();
+        assert!(draws.iter().all(|&d| d > low && d <= high));
+        let mean_u = draws.iter().map(|d| 0.5 * ssr / (d * d)).sum::<f64>() / m as f64;
+        // Truncated Gamma(s) above u_h ≫ s: u − u_h is nearly Exp(λ), λ = 1 − (s − 1)/u_h;
+        // the Monte-Carlo error of the mean is about 1/(λ√m).
+        let lambda = 1.0 - (s - 1.0) / u_h;
+        assert!(
+            (mean_u - u_h - 1.0 / lambda).abs() < 5.0 / (lambda * (m as f64).sqrt()),
+            "{mean_u} vs {}",
+            u_h + 1.0 / lambda
+        );
+        // Below the bounds: the lower bound.
+        assert!((truncated_sigma_tail_draw(1e-12, n, low, high, &mut rng) - low).abs() < 1e-20);
     }
 
     #[test]

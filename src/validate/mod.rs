@@ -11,6 +11,7 @@
 //! atomically, to `DIR/replications/NNNNN.json`; a re-run with the same settings skips them.
 //!
 //! This part joins model, simulation and fit; it prints nothing (progress goes to a callback).
+pub mod hard;
 pub mod stats;
 pub mod svg;
 
@@ -835,6 +836,23 @@ pub fn run_sbc(
             Ok(rep)
         })
         .collect()
+}
+
+/// The replications finished so far in `out` (any order of indices), to report on a run that
+/// is still going or was stopped.
+///
+/// # Errors
+/// [`ValidateError::Io`] when `out` holds no replications directory.
+pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateError> {
+    let dir = out.join(REPLICATIONS_DIR);
+    let mut reps: Vec<Replication> = std::fs::read_dir(&dir)
+        .map_err(io("reading", &dir))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
+        .filter_map(|e| serde_json::from_str(&std::fs::read_to_string(e.path()).ok()?).ok())
+        .collect();
+    reps.sort_by_key(|r| r.index);
+    Ok(reps)
 }
 
 /// Writes `validation.json` (the report), `rank_histograms.svg` and `validation.md` (a table
