@@ -110,7 +110,8 @@ impl Uniformity {
                 .sum()
         };
         let dof = bins - 1;
-        let p_value = if dof == 0 {
+        // statrs' gamma_ur refuses x = 0 (a perfectly flat histogram).
+        let p_value = if dof == 0 || chi2 <= 0.0 {
             1.0
         } else {
             gamma_ur(0.5 * dof as f64, 0.5 * chi2)
