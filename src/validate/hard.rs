@@ -113,7 +113,7 @@ pub fn cases(million_steps: u64) -> Vec<HardCase> {
             repeat: None,
             ..standard(
                 "short-first-only",
-                "600 s of first slide only (301 points, no repeat): neither k nor t0 is pinned down",
+                "600 s of first slide only (301 points, no repeat slide), far before the peak at about 2 340 s",
             )
         },
         HardCase {
@@ -299,7 +299,7 @@ fn fit_case(
         false,
         &mut Silent,
     )
-    .map_err(|e| error_chain(&e))?;
+    .map_err(|e| super::error_chain(&e))?;
     let s = &fit.summary;
     outcome.converged = s.sampler.converged;
     outcome.log_density_evals = s.sampler.log_density_evals;
@@ -386,17 +386,6 @@ fn variance(x: &[f64]) -> f64 {
     let n = x.len() as f64;
     let mean = x.iter().sum::<f64>() / n;
     x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)
-}
-
-fn error_chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        text.push_str(": ");
-        text.push_str(&s.to_string());
-        source = s.source();
-    }
-    text
 }
 
 /// The outcomes as a Markdown section.

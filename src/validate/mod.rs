@@ -515,7 +515,7 @@ fn fit_and_rank(
         false,
         &mut Silent,
     )
-    .map_err(|e| format!("{e:#}"))?;
+    .map_err(|e| error_chain(&e))?;
     let chains = read_chains(&fit_dir).map_err(|e| e.to_string())?;
     let s = &outcome.summary.sampler;
     let kept: Vec<usize> = (0..chains.len())
@@ -584,6 +584,18 @@ fn fit_and_rank(
         wall_s: 0.0,
         failure: None,
     })
+}
+
+/// An error with its chain of causes, for a replication's record.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(": ");
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    text
 }
 
 /// Calibration of one quantity over all successful replications.
