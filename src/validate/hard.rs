@@ -379,6 +379,7 @@ fn fit_case(
         });
     }
     let _ = std::fs::remove_dir_all(dir.join("fit").join(crate::storage::CHAINS_DIR));
+    let _ = std::fs::remove_file(dir.join("fit").join(crate::storage::CHECKPOINT_FILE));
     Ok(())
 }
 

@@ -564,8 +564,10 @@ fn fit_and_rank(
         .filter(|q| tracked.iter().any(|t| t.column == q.column))
         .filter_map(|q| q.stats.r_hat)
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
-    // The chains have served; 200 replications of them would fill the disk.
+    // The chains and the checkpoint (10 MB) have served; 200 replications of them would
+    // fill the disk.
     let _ = std::fs::remove_dir_all(fit_dir.join(crate::storage::CHAINS_DIR));
+    let _ = std::fs::remove_file(fit_dir.join(crate::storage::CHECKPOINT_FILE));
     Ok(Replication {
         index: 0,
         truth: truth.clone(),
