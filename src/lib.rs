@@ -15,6 +15,8 @@
 //!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
 //!   directory (feature `report`).
+//! - [`validate`]: simulation-based calibration of the one-contact pipeline: prior draws,
+//!   simulated slides, fits, rank statistics and coverage (feature `parquet`).
 //! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
 #![deny(clippy::float_cmp)]
 
@@ -33,3 +35,5 @@ pub mod simulate;
 pub mod special;
 #[cfg(feature = "parquet")]
 pub mod storage;
+#[cfg(feature = "parquet")]
+pub mod validate;

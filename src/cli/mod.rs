@@ -8,6 +8,8 @@ pub mod progress;
 #[cfg(feature = "report")]
 mod report;
 mod simulate;
+#[cfg(feature = "parquet")]
+mod validate;
 
 use std::process::ExitCode;
 
@@ -31,6 +33,8 @@ enum Command {
     Report(report::ReportArgs),
     Simulate(simulate::SimulateArgs),
     Import(import::ImportCommandArgs),
+    #[cfg(feature = "parquet")]
+    Validate(validate::ValidateArgs),
 }
 
 /// Entry point of the `slipbayes` binary.
@@ -58,5 +62,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Report(args) => report::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Import(args) => import::run(&args),
+        #[cfg(feature = "parquet")]
+        Command::Validate(args) => validate::run(&args),
     }
 }

@@ -1,0 +1,188 @@
+//! `slipbayes validate`: simulation-based calibration of the one-contact pipeline.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use anyhow::Context;
+use clap::Args;
+
+use crate::validate::{run_sbc, summarise, write_report, GrossLimits, SbcSettings};
+
+/// Simulation-based calibration (Talts et al. 2018): draw parameters from the model's priors,
+/// simulate a first and a repeat slide, fit them, and rank the truth among the posterior draws.
+///
+/// Writes to --out: replications/NNNNN.json (one per replication, written as each finishes;
+/// re-running the same command continues where it stopped), validation.json,
+/// rank_histograms.svg and validation.md (χ² uniformity test and 50 %/95 % coverage per
+/// quantity). Exit code 2 on gross miscalibration (95 % coverage below --min-coverage95, 50 %
+/// coverage outside [20 %, 80 %], χ² p < 1e-4, or more than 5 % failed fits).
+#[derive(Debug, Args)]
+#[command(verbatim_doc_comment)]
+pub(super) struct ValidateArgs {
+    /// The one-contact model with the priors to draw from and fit with.
+    #[arg(long, default_value = "models/sbc.toml")]
+    model: PathBuf,
+    /// Output directory.
+    #[arg(long, default_value = "reports/validation")]
+    out: PathBuf,
+    /// Replications.
+    #[arg(long, default_value_t = 200)]
+    replications: usize,
+    /// Seed; replication i uses stream i of it.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulated first slide: length (s).
+    #[arg(long, default_value_t = 20_000.0)]
+    first_duration: f64,
+    /// Simulated first slide: sampling interval (s).
+    #[arg(long, default_value_t = 100.0)]
+    first_interval: f64,
+    /// Simulated repeat slide: length (s).
+    #[arg(long, default_value_t = 2_000.0)]
+    repeat_duration: f64,
+    /// Simulated repeat slide: sampling interval (s).
+    #[arg(long, default_value_t = 40.0)]
+    repeat_interval: f64,
+    /// Walkers per ensemble of each fit.
+    #[arg(long, default_value_t = 16)]
+    walkers: usize,
+    /// Ensembles of each fit.
+    #[arg(long, default_value_t = 4)]
+    ensembles: usize,
+    /// Steps of each fit.
+    #[arg(long, default_value_t = 1_000)]
+    steps: u64,
+    /// L, the thinned posterior draws each truth is ranked among (L + 1 a multiple of 10).
+    #[arg(long, default_value_t = 99)]
+    rank_draws: usize,
+    /// Smallest acceptable coverage of the 95 % intervals.
+    #[arg(long, default_value_t = 0.8)]
+    min_coverage95: f64,
+    /// Discard the replications of an earlier run in --out and start again.
+    #[arg(long)]
+    overwrite: bool,
+    /// No line per replication.
+    #[arg(long)]
+    quiet: bool,
+    /// Only summarise the replications already finished in --out (e.g. of a run still going).
+    #[arg(long)]
+    report_only: bool,
+    /// Run the hard cases instead (into OUT/hard/): peak beyond the record, a short record,
+    /// k near stick-slip, t0 = 1e-6 s, large noise, a 10^6-point slide.
+    #[arg(long)]
+    hard: bool,
+    /// With --hard: only this case (repeatable).
+    #[arg(long = "case", requires = "hard")]
+    cases: Vec<String>,
+    /// With --hard: steps of the 10^6-point fit (it costs about 0.1 s per evaluation).
+    #[arg(long, default_value_t = 40, requires = "hard")]
+    million_steps: u64,
+}
+
+pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
+    if args.hard {
+        return hard(args);
+    }
+    let settings = SbcSettings {
+        model: args.model.clone(),
+        replications: args.replications,
+        seed: args.seed,
+        first_duration_s: args.first_duration,
+        first_interval_s: args.first_interval,
+        repeat_duration_s: args.repeat_duration,
+        repeat_interval_s: args.repeat_interval,
+        walkers: args.walkers,
+        ensembles: args.ensembles,
+        steps: args.steps,
+        rank_draws: args.rank_draws,
+    };
+    let finished = AtomicUsize::new(0);
+    let total = args.replications;
+    let progress = |rep: &crate::validate::Replication| {
+        let n = finished.fetch_add(1, Ordering::Relaxed) + 1;
+        if !args.quiet {
+            match &rep.failure {
+                None => eprintln!(
+                    "replication {:>5} done ({n} this run of {total}): {:.1} s, τ_max {:.0}, converged {}",
+                    rep.index,
+                    rep.wall_s,
+                    rep.tau_max.unwrap_or(f64::NAN),
+                    rep.converged
+                ),
+                Some(f) => eprintln!("replication {:>5} failed: {f}", rep.index),
+            }
+        }
+    };
+    let reps = if args.report_only {
+        crate::validate::finished_replications(&args.out)?
+    } else {
+        run_sbc(&settings, &args.out, args.overwrite, &progress)
+            .with_context(|| format!("validating into {}", args.out.display()))?
+    };
+    let report = summarise(&settings, &reps);
+    let limits = GrossLimits {
+        min_coverage95: args.min_coverage95,
+        ..GrossLimits::default()
+    };
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    write_report(&report, &limits, &args.out, &command)?;
+    println!(
+        "{:<24} {:>8} {:>8} {:>10} {:>10}",
+        "quantity", "chi2", "p", "cover50", "cover95"
+    );
+    for q in &report.quantities {
+        println!(
+            "{:<24} {:>8.1} {:>8.3} {:>10.3} {:>10.3}",
+            q.column, q.uniformity.chi2, q.uniformity.p_value, q.coverage50.rate, q.coverage95.rate
+        );
+    }
+    println!(
+        "{} replications with ranks, {} failed; written to {}",
+        report.succeeded,
+        report.failures.len(),
+        args.out.display()
+    );
+    let problems = report.gross_problems(&limits);
+    for p in &problems {
+        eprintln!("miscalibrated: {p}");
+    }
+    Ok(if problems.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    })
+}
+
+fn hard(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
+    let out = args.out.join("hard");
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut progress = |o: &crate::validate::hard::HardOutcome| {
+        if !args.quiet {
+            eprintln!(
+                "{}: {} in {:.1} s{}",
+                o.case.name,
+                if o.passed { "passed" } else { "FAILED" },
+                o.wall_s,
+                o.error
+                    .as_ref()
+                    .map_or(String::new(), |e| format!(" ({e})"))
+            );
+        }
+    };
+    let outcomes = crate::validate::hard::run_hard_cases(
+        &out,
+        &args.cases,
+        args.seed,
+        args.million_steps,
+        &command,
+        &mut progress,
+    )
+    .with_context(|| format!("writing the hard cases into {}", out.display()))?;
+    println!("written to {}", out.join("hard_cases.md").display());
+    Ok(if outcomes.iter().all(|o| o.passed) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    })
+}

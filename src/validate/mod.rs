@@ -1,0 +1,972 @@
+//! Simulation-based calibration (SBC, Talts et al. 2018) of the whole pipeline on the
+//! one-contact model: draw the true parameters from the model file's priors, simulate the
+//! first and the repeat slide with [`crate::simulate`], fit them with [`crate::fit`], and
+//! record the rank of every true parameter (and of the true F_peak) among L thinned
+//! posterior draws. Calibrated posteriors give uniform ranks and intervals that cover the
+//! truth as often as they claim.
+//!
+//! Replication `i` depends only on (seed, i): its randomness is ChaCha8 stream `i` of the
+//! seed, and the fit is bit-identical on any number of threads, so replications run in
+//! parallel and a run can stop and continue. Each finished replication is written at once,
+//! atomically, to `DIR/replications/NNNNN.json`; a re-run with the same settings skips them.
+//!
+//! This part joins model, simulation and fit; it prints nothing (progress goes to a callback).
+pub mod hard;
+pub mod stats;
+pub mod svg;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::data::write_atomically;
+use crate::fit::{run_fit, ComparisonSpec, FitSettings};
+use crate::law::{Law, LawParams, Scene};
+use crate::model::spec::{Aging, Level, Param};
+use crate::model::{Kind, ModelSpec, Posterior};
+use crate::sampler::{Silent, Steps};
+use crate::simulate::{simulate, SimulateError, SimulationSpec};
+use crate::storage::read_chains;
+
+pub use stats::{Coverage, Uniformity};
+
+/// Sub-directory of one replication's files, and of their results.
+pub const REPLICATIONS_DIR: &str = "replications";
+/// The settings of a validation run, which a continued run must match.
+pub const SETTINGS_FILE: &str = "settings.json";
+/// Prior draws in a row that the law rejects (stick-slip) before a replication gives up.
+const MAX_REDRAWS: usize = 1000;
+
+/// Errors of a validation run (a failing fit is not one: it is recorded in its replication).
+#[derive(Debug, thiserror::Error)]
+pub enum ValidateError {
+    /// The model is not the one-contact model SBC runs on.
+    #[error("{path}: {message}")]
+    Model {
+        /// The model file.
+        path: PathBuf,
+        /// What is wrong and what to do.
+        message: String,
+    },
+    /// A setting is invalid.
+    #[error("{name} = {value}: {expected}")]
+    InvalidSetting {
+        /// Setting name as on the command line.
+        name: &'static str,
+        /// Its value.
+        value: String,
+        /// What is expected.
+        expected: &'static str,
+    },
+    /// The output directory holds a validation run with other settings.
+    #[error("{dir} holds a validation run with other settings ({problem}); use another --out, or --overwrite to start again")]
+    SettingsMismatch {
+        /// The output directory.
+        dir: PathBuf,
+        /// The first difference.
+        problem: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        /// What was being done.
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The model file could not be loaded.
+    #[error(transparent)]
+    Spec(#[from] crate::model::SpecError),
+}
+
+/// The simulated design and the fit of every replication.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SbcSettings {
+    /// Model file with the one-contact model and its priors (e.g. `models/sbc.toml`).
+    pub model: PathBuf,
+    /// Replications.
+    pub replications: usize,
+    /// Seed; replication i uses ChaCha8 stream i of it.
+    pub seed: u64,
+    /// Length of the simulated first slide (s).
+    pub first_duration_s: f64,
+    /// Its sampling interval (s).
+    pub first_interval_s: f64,
+    /// Length of the simulated repeat slide (s).
+    pub repeat_duration_s: f64,
+    /// Its sampling interval (s).
+    pub repeat_interval_s: f64,
+    /// Walkers per ensemble of each fit.
+    pub walkers: usize,
+    /// Independent ensembles of each fit.
+    pub ensembles: usize,
+    /// Steps of each fit.
+    pub steps: u64,
+    /// L: posterior draws the truth is ranked among (ranks lie in 0..=L; L + 1 should be a
+    /// multiple of 20, e.g. 99 or 199).
+    pub rank_draws: usize,
+}
+
+impl Default for SbcSettings {
+    /// The published design: 1 nm/s slides of 20 000 s every 100 s (first, 201 points) and
+    /// 2 000 s every 40 s (repeat, 51 points); fits of 4 × 16 walkers × 1 000 steps; L = 99.
+    fn default() -> Self {
+        Self {
+            model: PathBuf::from("models/sbc.toml"),
+            replications: 200,
+            seed: 1,
+            first_duration_s: 20_000.0,
+            first_interval_s: 100.0,
+            repeat_duration_s: 2_000.0,
+            repeat_interval_s: 40.0,
+            walkers: 16,
+            ensembles: 4,
+            steps: 1_000,
+            rank_draws: 99,
+        }
+    }
+}
+
+fn invalid(name: &'static str, value: impl ToString, expected: &'static str) -> ValidateError {
+    ValidateError::InvalidSetting {
+        name,
+        value: value.to_string(),
+        expected,
+    }
+}
+
+impl SbcSettings {
+    fn validate(&self) -> Result<(), ValidateError> {
+        if self.replications == 0 {
+            return Err(invalid("replications", 0, "at least 1 (200 to publish)"));
+        }
+        if self.rank_draws < 9 || (self.rank_draws + 1) % 10 != 0 {
+            return Err(invalid(
+                "rank-draws",
+                self.rank_draws,
+                "L with L + 1 a multiple of 10 (e.g. 99 or 199)",
+            ));
+        }
+        for (name, v) in [
+            ("first-duration", self.first_duration_s),
+            ("first-interval", self.first_interval_s),
+            ("repeat-duration", self.repeat_duration_s),
+            ("repeat-interval", self.repeat_interval_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(name, v, "a time > 0 s"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One quantity of the model whose truth is ranked: a chain column and how to get its truth.
+#[derive(Debug, Clone)]
+struct Tracked {
+    column: String,
+    truth: Truth,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Truth {
+    Param(Param),
+    AOverFd,
+    A,
+    /// σ of a run (index into the drawn σs).
+    Sigma(usize),
+    FPeak,
+}
+
+/// The one-contact model, checked, with the quantities to rank.
+#[derive(Debug, Clone)]
+struct Design {
+    spec: ModelSpec,
+    first: usize,
+    repeat: usize,
+    /// One σ per run (first, repeat), else one shared σ.
+    sigma_per_run: bool,
+}
+
+impl Design {
+    fn new(spec: ModelSpec) -> Result<Self, ValidateError> {
+        let bad = |message: String| ValidateError::Model {
+            path: spec.source.clone(),
+            message,
+        };
+        let f = &spec.file;
+        let scenes: Vec<Scene> = f.runs.iter().map(|r| r.scene).collect();
+        let first = scenes.iter().position(|&s| s == Scene::First);
+        let repeat = scenes.iter().position(|&s| s == Scene::Repeat);
+        let (Some(first), Some(repeat)) = (first, repeat) else {
+            return Err(bad("SBC runs on the one-contact model: one [[material]], one [[contact]], a `first` and a `repeat` run (see models/sbc.toml)".into()));
+        };
+        if f.materials.len() != 1 || f.contacts.len() != 1 || f.runs.len() != 2 {
+            return Err(bad(format!(
+                "SBC runs on the one-contact model, but this one has {} materials, {} contacts and {} runs; keep one of each and the two runs `first` and `repeat`",
+                f.materials.len(),
+                f.contacts.len(),
+                f.runs.len()
+            )));
+        }
+        if spec.run_follows[repeat] != Some(first) {
+            return Err(bad("run `repeat` must follow the first slide".into()));
+        }
+        if f.aging != Aging::Ratio || f.pooling.t0 {
+            return Err(bad(
+                "SBC draws a/F_d and one t0: use `aging = \"ratio\"` and no [pooling]".into(),
+            ));
+        }
+        if f.runs[first].window_s.is_some() || f.runs[repeat].window_s.is_some() {
+            return Err(bad(
+                "drop `window_s`: the simulated record is the fitted one".into(),
+            ));
+        }
+        let sigma_per_run = spec.level(Param::Sigma) == Level::Run;
+        Ok(Self {
+            spec,
+            first,
+            repeat,
+            sigma_per_run,
+        })
+    }
+
+    /// The posterior's columns whose truth is known: every parameter and F_peak.
+    fn tracked(&self, posterior: &Posterior) -> Vec<Tracked> {
+        let runs = &self.spec.file.runs;
+        posterior
+            .columns()
+            .iter()
+            .filter_map(|c| {
+                let truth = match (c.kind, c.name.as_str()) {
+                    (Kind::Parameter, "alpha") => Truth::Param(Param::Alpha),
+                    (Kind::Parameter, "a_over_F_d") => Truth::AOverFd,
+                    (Kind::Parameter, "a") => Truth::A,
+                    (Kind::Parameter, "F_d") => Truth::Param(Param::FD),
+                    (Kind::Parameter, "t0") => Truth::Param(Param::T0),
+                    (Kind::Parameter, "k") => Truth::Param(Param::K),
+                    (Kind::Parameter, "sigma") => Truth::Sigma(if self.sigma_per_run {
+                        usize::from(
+                            runs.iter().position(|r| r.name == c.group) == Some(self.repeat),
+                        )
+                    } else {
+                        0
+                    }),
+                    (Kind::Derived, "F_peak") => Truth::FPeak,
+                    _ => return None,
+                };
+                Some(Tracked {
+                    column: c.column.clone(),
+                    truth,
+                })
+            })
+            .collect()
+    }
+}
+
+/// The true parameters of one replication.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrueParams {
+    /// α (1/m).
+    pub alpha_per_m: f64,
+    /// a/F_d.
+    pub a_over_f_d: f64,
+    /// F_d (N).
+    pub f_d_n: f64,
+    /// t0 (s).
+    pub t0_s: f64,
+    /// k (N/m).
+    pub k_n_per_m: f64,
+    /// σ per run (first, repeat), or one shared σ.
+    pub sigma_n: Vec<f64>,
+    /// The law's peak force on the first slide (N).
+    pub f_peak_n: f64,
+}
+
+/// What one replication found.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Replication {
+    /// Index i (stream i of the seed).
+    pub index: usize,
+    /// The truth.
+    pub truth: TrueParams,
+    /// Prior draws rejected before this one because the law has no quasi-static path.
+    pub redraws: usize,
+    /// Seed of the fit.
+    pub fit_seed: u64,
+    /// Per tracked column: rank of the truth among the L thinned draws (0..=L).
+    pub ranks: BTreeMap<String, usize>,
+    /// Per tracked column: fraction of all post-burn-in draws below the truth.
+    pub quantiles: BTreeMap<String, f64>,
+    /// Whether the fit passed every convergence check.
+    pub converged: bool,
+    /// Largest R̂ between ensembles over the tracked quantities.
+    pub r_hat_max: Option<f64>,
+    /// τ_max of the fit (steps).
+    pub tau_max: Option<f64>,
+    /// Burn-in discarded (steps).
+    pub burn_in: u64,
+    /// Smallest step gap between two ranked draws of one walker, over τ_max.
+    pub min_gap_over_tau: Option<f64>,
+    /// Seconds this replication took.
+    pub wall_s: f64,
+    /// Why the fit failed, when it did (no ranks then).
+    pub failure: Option<String>,
+}
+
+/// Draws the true parameters from the model's priors until the law has a quasi-static path
+/// over the simulated record; returns them with the slides and the number of redraws.
+fn draw_and_simulate(
+    design: &Design,
+    settings: &SbcSettings,
+    rng: &mut ChaCha8Rng,
+) -> Result<(TrueParams, [crate::data::Series; 2], usize), String> {
+    let spec = &design.spec;
+    let runs = &spec.file.runs;
+    let v_first = runs[design.first].velocity_m_per_s;
+    let v_repeat = runs[design.repeat].velocity_m_per_s;
+    let draw = |name: &str, rng: &mut ChaCha8Rng| {
+        spec.prior(name)
+            .sample(rng)
+            .ok_or_else(|| format!("the prior of {name} keeps almost no mass inside its bounds"))
+    };
+    for redraws in 0..MAX_REDRAWS {
+        let alpha = draw("alpha", rng)?;
+        let ratio = draw("a_over_F_d", rng)?;
+        let f_d = draw("F_d", rng)?;
+        let t0 = draw("t0", rng)?;
+        let k = draw("k", rng)?;
+        let sigmas: Vec<f64> = (0..if design.sigma_per_run { 2 } else { 1 })
+            .map(|_| draw("sigma", rng))
+            .collect::<Result<_, _>>()?;
+        let noise_seeds: [u64; 2] = [rng.random(), rng.random()];
+        let Ok(params) = LawParams::new(alpha, ratio * f_d, f_d, t0) else {
+            continue;
+        };
+        let sim = |scene, duration, interval, sigma, seed, after| SimulationSpec {
+            scene,
+            params,
+            stiffness_n_per_m: Some(k),
+            velocity_m_per_s: if scene == Scene::First {
+                v_first
+            } else {
+                v_repeat
+            },
+            duration_s: duration,
+            interval_s: interval,
+            noise_sd_n: sigma,
+            seed,
+            f_end_n: None,
+            after_first_s: after,
+            normal_force_n: None,
+            normal_noise_sd_n: 0.0,
+        };
+        let first = match simulate(&sim(
+            Scene::First,
+            settings.first_duration_s,
+            settings.first_interval_s,
+            sigmas[0],
+            noise_seeds[0],
+            None,
+        )) {
+            Ok(s) => s.series,
+            Err(SimulateError::Law(_)) => continue,
+            Err(e) => return Err(e.to_string()),
+        };
+        let end = *first.time_s.last().ok_or("empty first slide")?;
+        let repeat = simulate(&sim(
+            Scene::Repeat,
+            settings.repeat_duration_s,
+            settings.repeat_interval_s,
+            *sigmas.last().unwrap_or(&sigmas[0]),
+            noise_seeds[1],
+            Some(end),
+        ))
+        .map_err(|e| e.to_string())?
+        .series;
+        let peak = Law::new(&params, v_first)
+            .map_err(|e| e.to_string())?
+            .peak()
+            .interior()
+            .map_or(f64::NAN, |p| p.force_n);
+        let truth = TrueParams {
+            alpha_per_m: alpha,
+            a_over_f_d: ratio,
+            f_d_n: f_d,
+            t0_s: t0,
+            k_n_per_m: k,
+            sigma_n: sigmas,
+            f_peak_n: peak,
+        };
+        return Ok((truth, [first, repeat], redraws));
+    }
+    Err(format!(
+        "{MAX_REDRAWS} prior draws in a row give stick-slip: the priors of k, α and a/F_d hardly allow a quasi-static slide"
+    ))
+}
+
+fn true_value(truth: &TrueParams, t: Truth) -> f64 {
+    match t {
+        Truth::Param(Param::Alpha) => truth.alpha_per_m,
+        Truth::Param(Param::FD) => truth.f_d_n,
+        Truth::Param(Param::T0) => truth.t0_s,
+        Truth::Param(Param::K) => truth.k_n_per_m,
+        Truth::Param(Param::A) | Truth::A => truth.a_over_f_d * truth.f_d_n,
+        Truth::Param(Param::Sigma) => truth.sigma_n[0],
+        Truth::AOverFd => truth.a_over_f_d,
+        Truth::Sigma(i) => truth.sigma_n[i.min(truth.sigma_n.len() - 1)],
+        Truth::FPeak => truth.f_peak_n,
+    }
+}
+
+/// Runs replication `index` in `dir` (its data and fit are left there, minus the chains).
+fn replicate(design: &Design, settings: &SbcSettings, index: usize, dir: &Path) -> Replication {
+    let started = Instant::now();
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+    rng.set_stream(index as u64);
+    let fit_seed: u64 = rng.random();
+    let failed = |truth, redraws, failure: String| Replication {
+        index,
+        truth,
+        redraws,
+        fit_seed,
+        ranks: BTreeMap::new(),
+        quantiles: BTreeMap::new(),
+        converged: false,
+        r_hat_max: None,
+        tau_max: None,
+        burn_in: 0,
+        min_gap_over_tau: None,
+        wall_s: started.elapsed().as_secs_f64(),
+        failure: Some(failure),
+    };
+    let nan_truth = TrueParams {
+        alpha_per_m: f64::NAN,
+        a_over_f_d: f64::NAN,
+        f_d_n: f64::NAN,
+        t0_s: f64::NAN,
+        k_n_per_m: f64::NAN,
+        sigma_n: vec![],
+        f_peak_n: f64::NAN,
+    };
+    let (truth, slides, redraws) = match draw_and_simulate(design, settings, &mut rng) {
+        Ok(t) => t,
+        Err(e) => return failed(nan_truth, MAX_REDRAWS, e),
+    };
+    match fit_and_rank(design, settings, dir, &truth, &slides, fit_seed) {
+        Ok(mut rep) => {
+            rep.index = index;
+            rep.redraws = redraws;
+            rep.wall_s = started.elapsed().as_secs_f64();
+            rep
+        }
+        Err(e) => failed(truth, redraws, e),
+    }
+}
+
+fn fit_and_rank(
+    design: &Design,
+    settings: &SbcSettings,
+    dir: &Path,
+    truth: &TrueParams,
+    slides: &[crate::data::Series; 2],
+    fit_seed: u64,
+) -> Result<Replication, String> {
+    let runs = &design.spec.file.runs;
+    std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    for (run, series) in [design.first, design.repeat].into_iter().zip(slides) {
+        series
+            .write_csv(&dir.join(&runs[run].data))
+            .map_err(|e| e.to_string())?;
+    }
+    let spec = ModelSpec::validate(
+        design.spec.file.clone(),
+        dir.to_path_buf(),
+        design.spec.source.clone(),
+    )
+    .map_err(|e| e.to_string())?;
+    let posterior = Posterior::new(&spec).map_err(|e| e.to_string())?;
+    let fit_settings = FitSettings {
+        walkers: settings.walkers,
+        ensembles: settings.ensembles,
+        seed: fit_seed,
+        steps: Steps::Fixed(settings.steps),
+        checkpoint_every: None,
+        quiet: true,
+        overwrite: true,
+        ..FitSettings::default()
+    };
+    let fit_dir = dir.join("fit");
+    let outcome = run_fit(
+        &posterior,
+        &posterior.quantities(),
+        &ComparisonSpec::default(),
+        posterior.start(),
+        &fit_settings,
+        &fit_dir,
+        false,
+        &mut Silent,
+    )
+    .map_err(|e| error_chain(&e))?;
+    let chains = read_chains(&fit_dir).map_err(|e| e.to_string())?;
+    let s = &outcome.summary.sampler;
+    let kept: Vec<usize> = (0..chains.len())
+        .filter(|&i| chains.step[i] >= s.burn_in)
+        .collect();
+    if kept.len() < settings.rank_draws {
+        return Err(format!(
+            "{} draws after burn-in, fewer than L = {}",
+            kept.len(),
+            settings.rank_draws
+        ));
+    }
+    // L draws evenly spread over the rows (step, then ensemble, then walker) after burn-in:
+    // each walker gives about L / (ensembles · walkers) draws, far apart in steps.
+    let chosen: Vec<usize> = (0..settings.rank_draws)
+        .map(|j| kept[((2 * j + 1) * kept.len()) / (2 * settings.rank_draws)])
+        .collect();
+    let mut last_of_walker: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    let mut min_gap: Option<u64> = None;
+    for &i in &chosen {
+        let key = (chains.ensemble[i], chains.walker[i]);
+        if let Some(prev) = last_of_walker.insert(key, chains.step[i]) {
+            let gap = chains.step[i] - prev;
+            min_gap = Some(min_gap.map_or(gap, |g| g.min(gap)));
+        }
+    }
+    let tracked = design.tracked(&posterior);
+    let mut ranks = BTreeMap::new();
+    let mut quantiles = BTreeMap::new();
+    for t in &tracked {
+        let column = chains.column(&t.column).map_err(|e| e.to_string())?;
+        let value = true_value(truth, t.truth);
+        let thinned: Vec<f64> = chosen.iter().map(|&i| column[i]).collect();
+        ranks.insert(t.column.clone(), stats::rank(value, &thinned));
+        let all: Vec<f64> = kept.iter().map(|&i| column[i]).collect();
+        quantiles.insert(
+            t.column.clone(),
+            stats::rank(value, &all) as f64 / all.len() as f64,
+        );
+    }
+    let r_hat_max = outcome
+        .summary
+        .parameters
+        .iter()
+        .chain(&outcome.summary.derived)
+        .filter(|q| tracked.iter().any(|t| t.column == q.column))
+        .filter_map(|q| q.stats.r_hat)
+        .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
+    // The chains and the checkpoint (10 MB) have served; 200 replications of them would
+    // fill the disk.
+    let _ = std::fs::remove_dir_all(fit_dir.join(crate::storage::CHAINS_DIR));
+    let _ = std::fs::remove_file(fit_dir.join(crate::storage::CHECKPOINT_FILE));
+    Ok(Replication {
+        index: 0,
+        truth: truth.clone(),
+        redraws: 0,
+        fit_seed,
+        ranks,
+        quantiles,
+        converged: s.converged,
+        r_hat_max,
+        tau_max: s.tau_max,
+        burn_in: s.burn_in,
+        min_gap_over_tau: match (min_gap, s.tau_max) {
+            (Some(g), Some(t)) if t > 0.0 => Some(g as f64 / t),
+            _ => None,
+        },
+        wall_s: 0.0,
+        failure: None,
+    })
+}
+
+/// An error with its chain of causes, for a replication's record.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(": ");
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    text
+}
+
+/// Calibration of one quantity over all successful replications.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QuantityCalibration {
+    /// Chain column, e.g. `alpha[PTFE]`.
+    pub column: String,
+    /// χ² test of uniform ranks.
+    pub uniformity: Uniformity,
+    /// Coverage of the central 50 % interval.
+    pub coverage50: Coverage,
+    /// Coverage of the central 95 % interval.
+    pub coverage95: Coverage,
+}
+
+/// The result of a validation run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SbcReport {
+    /// The settings.
+    pub settings: SbcSettings,
+    /// Replications that produced ranks.
+    pub succeeded: usize,
+    /// Replications whose fit failed, with the reasons.
+    pub failures: Vec<(usize, String)>,
+    /// Fits that passed every convergence check.
+    pub converged: usize,
+    /// Largest R̂ over all replications and tracked quantities.
+    pub r_hat_max: Option<f64>,
+    /// Median of τ_max over the replications (steps).
+    pub tau_max_median: Option<f64>,
+    /// Smallest gap between ranked draws of one walker, in units of that fit's τ_max.
+    pub min_gap_over_tau: Option<f64>,
+    /// Prior draws rejected for stick-slip, in all.
+    pub redraws: usize,
+    /// Median seconds per replication.
+    pub wall_s_median: f64,
+    /// Per quantity.
+    pub quantities: Vec<QuantityCalibration>,
+}
+
+/// Thresholds of gross miscalibration (the CI gate).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GrossLimits {
+    /// Smallest acceptable coverage of the 95 % interval.
+    pub min_coverage95: f64,
+    /// Acceptable range of the coverage of the 50 % interval.
+    pub coverage50: [f64; 2],
+    /// Smallest acceptable χ² p-value of the ranks.
+    pub min_p_value: f64,
+    /// Largest acceptable fraction of failed replications.
+    pub max_failed_fraction: f64,
+}
+
+impl Default for GrossLimits {
+    fn default() -> Self {
+        Self {
+            min_coverage95: 0.80,
+            coverage50: [0.2, 0.8],
+            min_p_value: 1e-4,
+            max_failed_fraction: 0.05,
+        }
+    }
+}
+
+impl SbcReport {
+    /// Every sign of gross miscalibration, in words; empty when there is none.
+    pub fn gross_problems(&self, limits: &GrossLimits) -> Vec<String> {
+        let mut problems = Vec::new();
+        let total = self.succeeded + self.failures.len();
+        if self.failures.len() as f64 > limits.max_failed_fraction * total as f64 {
+            problems.push(format!(
+                "{} of {total} replications failed (first: {:?})",
+                self.failures.len(),
+                self.failures.first()
+            ));
+        }
+        for q in &self.quantities {
+            if q.coverage95.rate < limits.min_coverage95 {
+                problems.push(format!(
+                    "{}: 95 % intervals cover the truth in {:.0} % of replications, below {:.0} %",
+                    q.column,
+                    100.0 * q.coverage95.rate,
+                    100.0 * limits.min_coverage95
+                ));
+            }
+            let [lo, hi] = limits.coverage50;
+            if !(q.coverage50.rate >= lo && q.coverage50.rate <= hi) {
+                problems.push(format!(
+                    "{}: 50 % intervals cover the truth in {:.0} % of replications, outside [{:.0} %, {:.0} %]",
+                    q.column,
+                    100.0 * q.coverage50.rate,
+                    100.0 * lo,
+                    100.0 * hi
+                ));
+            }
+            if q.uniformity.p_value < limits.min_p_value {
+                problems.push(format!(
+                    "{}: ranks are not uniform (χ² = {:.1} on {} dof, p = {:.1e})",
+                    q.column, q.uniformity.chi2, q.uniformity.dof, q.uniformity.p_value
+                ));
+            }
+        }
+        problems
+    }
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Summarises replications (in any order) into the report.
+pub fn summarise(settings: &SbcSettings, reps: &[Replication]) -> SbcReport {
+    let ok: Vec<&Replication> = reps.iter().filter(|r| r.failure.is_none()).collect();
+    let columns: Vec<String> = ok
+        .first()
+        .map(|r| r.ranks.keys().cloned().collect())
+        .unwrap_or_default();
+    let quantities = columns
+        .iter()
+        .map(|c| {
+            let ranks: Vec<usize> = ok.iter().filter_map(|r| r.ranks.get(c).copied()).collect();
+            let q: Vec<f64> = ok
+                .iter()
+                .filter_map(|r| r.quantiles.get(c).copied())
+                .collect();
+            QuantityCalibration {
+                column: c.clone(),
+                uniformity: Uniformity::test(&ranks, settings.rank_draws),
+                coverage50: Coverage::from_quantiles(0.5, &q),
+                coverage95: Coverage::from_quantiles(0.95, &q),
+            }
+        })
+        .collect();
+    SbcReport {
+        settings: settings.clone(),
+        succeeded: ok.len(),
+        failures: reps
+            .iter()
+            .filter_map(|r| r.failure.clone().map(|f| (r.index, f)))
+            .collect(),
+        converged: ok.iter().filter(|r| r.converged).count(),
+        r_hat_max: ok
+            .iter()
+            .filter_map(|r| r.r_hat_max)
+            .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r)))),
+        tau_max_median: median(ok.iter().filter_map(|r| r.tau_max).collect()),
+        min_gap_over_tau: ok
+            .iter()
+            .filter_map(|r| r.min_gap_over_tau)
+            .fold(None, |m: Option<f64>, g| Some(m.map_or(g, |m| m.min(g)))),
+        redraws: reps.iter().map(|r| r.redraws).sum(),
+        wall_s_median: median(reps.iter().map(|r| r.wall_s).collect()).unwrap_or(f64::NAN),
+        quantities,
+    }
+}
+
+fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> ValidateError {
+    let path = path.to_path_buf();
+    move |source| ValidateError::Io {
+        action,
+        path,
+        source,
+    }
+}
+
+fn first_difference(a: &SbcSettings, b: &SbcSettings) -> String {
+    let (a, b) = (
+        serde_json::to_value(a).unwrap_or_default(),
+        serde_json::to_value(b).unwrap_or_default(),
+    );
+    if let (Some(a), Some(b)) = (a.as_object(), b.as_object()) {
+        for (k, v) in a {
+            if k != "replications" && b.get(k) != Some(v) {
+                return format!("{k} was {} and is now {}", v, b.get(k).unwrap_or_default());
+            }
+        }
+    }
+    "unknown".into()
+}
+
+/// Runs (or continues) the validation in `out` and returns every replication, in index order.
+/// Finished replications of an earlier run with the same settings (the number of
+/// replications may grow) are read back instead of re-run. `progress` is called after each
+/// replication finishes, from whichever thread ran it.
+///
+/// # Errors
+/// [`ValidateError`] for a model that is not the one-contact model, invalid settings, an
+/// output directory holding another run (unless `overwrite`), or files that cannot be
+/// written. A failing fit is not an error: it is recorded in its replication.
+pub fn run_sbc(
+    settings: &SbcSettings,
+    out: &Path,
+    overwrite: bool,
+    progress: &(dyn Fn(&Replication) + Sync),
+) -> Result<Vec<Replication>, ValidateError> {
+    settings.validate()?;
+    let spec = ModelSpec::load(&settings.model)?;
+    let design = Design::new(spec)?;
+    let reps_dir = out.join(REPLICATIONS_DIR);
+    let settings_path = out.join(SETTINGS_FILE);
+    if overwrite {
+        match std::fs::remove_dir_all(&reps_dir) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(io("removing", &reps_dir)(e))
+            }
+            _ => {}
+        }
+    } else if let Ok(text) = std::fs::read_to_string(&settings_path) {
+        let earlier: SbcSettings =
+            serde_json::from_str(&text).map_err(|e| ValidateError::SettingsMismatch {
+                dir: out.to_path_buf(),
+                problem: format!("{} does not parse: {e}", settings_path.display()),
+            })?;
+        let mut same = earlier.clone();
+        same.replications = settings.replications;
+        if &same != settings {
+            return Err(ValidateError::SettingsMismatch {
+                dir: out.to_path_buf(),
+                problem: first_difference(&earlier, settings),
+            });
+        }
+    }
+    std::fs::create_dir_all(&reps_dir).map_err(io("creating", &reps_dir))?;
+    let json = serde_json::to_vec_pretty(settings).unwrap_or_default();
+    write_atomically(&settings_path, &json).map_err(io("writing", &settings_path))?;
+
+    let result_path = |i: usize| reps_dir.join(format!("{i:05}.json"));
+    let done = |i: usize| -> Option<Replication> {
+        let text = std::fs::read_to_string(result_path(i)).ok()?;
+        serde_json::from_str(&text).ok()
+    };
+    (0..settings.replications)
+        .into_par_iter()
+        .with_max_len(1)
+        .map(|i| {
+            if let Some(rep) = done(i) {
+                return Ok(rep);
+            }
+            let dir = reps_dir.join(format!("{i:05}"));
+            let rep = replicate(&design, settings, i, &dir);
+            let path = result_path(i);
+            let json = serde_json::to_vec_pretty(&rep).unwrap_or_default();
+            write_atomically(&path, &json).map_err(io("writing", &path))?;
+            progress(&rep);
+            Ok(rep)
+        })
+        .collect()
+}
+
+/// The replications finished so far in `out` (any order of indices), to report on a run that
+/// is still going or was stopped.
+///
+/// # Errors
+/// [`ValidateError::Io`] when `out` holds no replications directory.
+pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateError> {
+    let dir = out.join(REPLICATIONS_DIR);
+    let mut reps: Vec<Replication> = std::fs::read_dir(&dir)
+        .map_err(io("reading", &dir))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
+        .filter_map(|e| serde_json::from_str(&std::fs::read_to_string(e.path()).ok()?).ok())
+        .collect();
+    reps.sort_by_key(|r| r.index);
+    Ok(reps)
+}
+
+/// Writes `validation.json` (the report), `rank_histograms.svg` and `validation.md` (a table
+/// for people) into `out`; `command` is recorded in the Markdown.
+///
+/// # Errors
+/// [`ValidateError::Io`] when a file cannot be written.
+pub fn write_report(
+    report: &SbcReport,
+    limits: &GrossLimits,
+    out: &Path,
+    command: &str,
+) -> Result<(), ValidateError> {
+    let json_path = out.join("validation.json");
+    let json = serde_json::to_vec_pretty(report).unwrap_or_default();
+    write_atomically(&json_path, &json).map_err(io("writing", &json_path))?;
+    let panels: Vec<(String, &Uniformity)> = report
+        .quantities
+        .iter()
+        .map(|q| (q.column.clone(), &q.uniformity))
+        .collect();
+    let title = format!(
+        "SBC ranks, {} replications, L = {} (grey: 99 % band under uniformity)",
+        report.succeeded, report.settings.rank_draws
+    );
+    let svg_path = out.join("rank_histograms.svg");
+    write_atomically(
+        &svg_path,
+        svg::rank_histograms(&panels, report.succeeded, &title).as_bytes(),
+    )
+    .map_err(io("writing", &svg_path))?;
+    let md_path = out.join("validation.md");
+    write_atomically(&md_path, markdown(report, limits, command).as_bytes())
+        .map_err(io("writing", &md_path))
+}
+
+fn markdown(r: &SbcReport, limits: &GrossLimits, command: &str) -> String {
+    use std::fmt::Write;
+    let s = &r.settings;
+    let mut md = String::new();
+    let _ = writeln!(md, "## Simulation-based calibration\n");
+    let _ = writeln!(md, "Command: `{command}` (seed {}).\n", s.seed);
+    let _ = writeln!(
+        md,
+        "Model `{}`; per replication a first slide of {} s every {} s and a repeat slide of {} s every {} s, \
+         fitted with {} ensembles × {} walkers × {} steps; truths ranked among L = {} thinned draws.\n",
+        s.model.display(), s.first_duration_s, s.first_interval_s, s.repeat_duration_s,
+        s.repeat_interval_s, s.ensembles, s.walkers, s.steps, s.rank_draws
+    );
+    let _ = writeln!(
+        md,
+        "Replications: {} with ranks, {} failed; {} fits passed every convergence check; \
+         largest R̂ {}; median τ_max {} steps; ranked draws of one walker at least {} τ_max apart; \
+         {} prior draws redrawn for stick-slip; median {:.1} s per replication.\n",
+        r.succeeded,
+        r.failures.len(),
+        r.converged,
+        r.r_hat_max.map_or("n/a".into(), |v| format!("{v:.4}")),
+        r.tau_max_median.map_or("n/a".into(), |v| format!("{v:.0}")),
+        r.min_gap_over_tau
+            .map_or("n/a".into(), |v| format!("{v:.1}")),
+        r.redraws,
+        r.wall_s_median
+    );
+    let _ = writeln!(
+        md,
+        "| quantity | bins | χ² | dof | p (uniform) | 50 % coverage [95 % Wilson] | 95 % coverage [95 % Wilson] |\n|---|---|---|---|---|---|---|"
+    );
+    for q in &r.quantities {
+        let c = |c: &Coverage| {
+            format!(
+                "{:.3} ({}/{}) [{:.3}, {:.3}]",
+                c.rate, c.covered, c.n, c.wilson95[0], c.wilson95[1]
+            )
+        };
+        let _ = writeln!(
+            md,
+            "| `{}` | {} | {:.1} | {} | {:.3} | {} | {} |",
+            q.column,
+            q.uniformity.counts.len(),
+            q.uniformity.chi2,
+            q.uniformity.dof,
+            q.uniformity.p_value,
+            c(&q.coverage50),
+            c(&q.coverage95)
+        );
+    }
+    let problems = r.gross_problems(limits);
+    let _ = writeln!(
+        md,
+        "\nGross miscalibration (95 % coverage < {:.0} %, 50 % coverage outside [{:.0} %, {:.0} %], p < {:e}, more than {:.0} % failed fits): {}",
+        100.0 * limits.min_coverage95,
+        100.0 * limits.coverage50[0],
+        100.0 * limits.coverage50[1],
+        limits.min_p_value,
+        100.0 * limits.max_failed_fraction,
+        if problems.is_empty() { "none.".to_string() } else { problems.join("; ") }
+    );
+    for (i, f) in &r.failures {
+        let _ = writeln!(md, "\n- replication {i} failed: {f}");
+    }
+    md
+}
