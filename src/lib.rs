@@ -13,9 +13,13 @@
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable),
 //!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
+//! - [`bench`]: speed against error and the Python peer, for `slipbayes bench` (feature
+//!   `parquet`).
 //! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
 #![deny(clippy::float_cmp)]
 
+#[cfg(feature = "parquet")]
+pub mod bench;
 pub mod cli;
 pub mod data;
 pub mod diagnostics;

@@ -2,6 +2,8 @@
 //! an error once with its chain of causes. All real work lives in the library.
 
 #[cfg(feature = "parquet")]
+mod bench;
+#[cfg(feature = "parquet")]
 mod fit;
 pub mod progress;
 mod simulate;
@@ -25,6 +27,8 @@ enum Command {
     #[cfg(feature = "parquet")]
     Fit(fit::FitArgs),
     Simulate(simulate::SimulateArgs),
+    #[cfg(feature = "parquet")]
+    Bench(bench::BenchArgs),
 }
 
 /// Entry point of the `slipbayes` binary.
@@ -49,5 +53,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         #[cfg(feature = "parquet")]
         Command::Fit(args) => fit::run(&args),
         Command::Simulate(args) => simulate::run(&args),
+        #[cfg(feature = "parquet")]
+        Command::Bench(args) => bench::run_bench(&args),
     }
 }
