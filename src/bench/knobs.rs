@@ -314,7 +314,7 @@ pub fn study(
         let (model, points) = decimated_model(settings, k)?;
         jobs.push((
             Knob::Decimation,
-            format!("every {k}th point"),
+            format!("1 point in {k}"),
             model,
             points,
             None,
@@ -374,7 +374,57 @@ pub fn study(
 
 #[cfg(test)]
 mod tests {
-    use super::pareto_front;
+    use super::*;
+    use crate::bench::{BenchPlan, BenchSettings};
+
+    fn settings(scratch: &Path) -> BenchSettings {
+        BenchSettings {
+            plan: BenchPlan::new(true),
+            quick: true,
+            threads: 1,
+            one_contact_model: "benches/peer/one_contact.toml".into(),
+            demo_model: "models/demo.toml".into(),
+            first_csv: "data/ptfe-c1-first.csv".into(),
+            repeat_csv: "data/ptfe-c1-repeat.csv".into(),
+            fast_csv: "data/ptfe-c1-fast.csv".into(),
+            velocity_m_per_s: 1e-9,
+            peer: None,
+            probe_binary: None,
+            scratch: scratch.to_path_buf(),
+        }
+    }
+
+    #[test]
+    fn decimated_model_keeps_every_kth_point_and_the_last() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = settings(dir.path());
+        let first = read_series(&s.first_csv).unwrap();
+        let repeat = read_series(&s.repeat_csv).unwrap();
+        let k = 7;
+        let expected: usize = [first.len(), repeat.len()]
+            .iter()
+            .map(|&n| n.div_ceil(k) + usize::from((n - 1) % k != 0))
+            .sum();
+        let (model, points) = decimated_model(&s, k).unwrap();
+        assert_eq!(points, expected);
+        let (spec, posterior) = load_posterior(&model).unwrap();
+        assert_eq!(spec.file.runs.len(), 2);
+        // The first slide still ends where the repeat slide takes over.
+        let kept = read_series(&spec.data_path(0)).unwrap();
+        let end = |s: &Series| s.time_s.last().copied().unwrap_or(f64::NAN);
+        assert!((end(&kept) - end(&first)).abs() < 1e-9);
+        assert!(posterior.dim() >= 5);
+    }
+
+    #[test]
+    fn truth_of_the_bundled_contact_is_read() {
+        let first = read_truth(Path::new("data/ptfe-c1-first.csv")).unwrap();
+        assert!((first.params.alpha_per_m - 0.92e6).abs() < 1.0);
+        assert!(first.k_n_per_m.is_some() && first.f_peak_n.is_some());
+        let fast = read_truth(Path::new("data/ptfe-c1-fast.csv")).unwrap();
+        assert!(fast.k_n_per_m.is_none());
+        assert!(read_truth(Path::new("data/absent.csv")).is_err());
+    }
 
     #[test]
     fn pareto_front_keeps_only_undominated_points() {

@@ -10,6 +10,16 @@ use serde::Serialize;
 use super::{BenchError, BenchSettings, BENCH_SEED};
 use crate::sampler::Steps;
 
+/// What a probe process runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ProbeKind {
+    /// The sampler alone, chains streamed to Parquet.
+    Sample,
+    /// A whole `run_fit`: sampling, then the summary, which reads the chains back.
+    Fit,
+}
+
 /// Peak resident memory at two chain lengths.
 #[derive(Debug, Clone, Serialize)]
 pub struct MemoryProbe {
@@ -19,7 +29,9 @@ pub struct MemoryProbe {
     pub walkers_total: usize,
     /// Chain lengths (steps).
     pub steps: [u64; 2],
-    /// Peak resident memory (VmHWM) of each process, kB.
+    /// Peak resident memory (VmHWM) of the sampler alone streaming to Parquet, kB.
+    pub sample_peak_kb: [u64; 2],
+    /// Peak resident memory (VmHWM) of a whole fit (sampling and summary), kB.
     pub peak_kb: [u64; 2],
     /// Size of the chains written (bytes), to show what would have been held in memory.
     pub chain_bytes: [u64; 2],
@@ -56,14 +68,64 @@ pub struct ProbeReading {
     pub chain_bytes: u64,
 }
 
-/// The probe itself (run in a child process): one fit of `model` for `steps` steps into
-/// `out`, chains streamed to Parquet, then this process's peak memory.
+/// The sampler alone, streaming every step to Parquet in `out`.
+fn sample_streamed(model: &Path, steps: u64, out: &Path) -> Result<(), BenchError> {
+    use crate::sampler::{EnsembleSampler, LogDensity, SamplerConfig, Silent, DEFAULT_ENSEMBLES};
+    use crate::storage::{ParquetSink, SinkOptions};
+    use rand::SeedableRng;
+    let (_, posterior) = super::load_posterior(model)?;
+    let fail = |e: String| BenchError::run(format!("memory probe of {steps} steps"))(e);
+    let walkers = super::throughput::default_walkers(posterior.dim());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(BENCH_SEED);
+    rng.set_stream(crate::fit::INIT_STREAM);
+    let start = crate::sampler::initial_around_optimum(
+        &posterior,
+        posterior.start(),
+        walkers,
+        DEFAULT_ENSEMBLES,
+        &mut rng,
+    )
+    .map_err(|e| fail(e.to_string()))?;
+    let config = SamplerConfig::new(walkers, DEFAULT_ENSEMBLES, BENCH_SEED)
+        .map_err(|e| fail(e.to_string()))?;
+    let mut sampler =
+        EnsembleSampler::new(&posterior, config, start.walkers).map_err(|e| fail(e.to_string()))?;
+    let options = SinkOptions {
+        overwrite: true,
+        ..SinkOptions::default()
+    };
+    let mut sink = ParquetSink::create(
+        out,
+        &posterior.param_names(),
+        &posterior.derived_names(),
+        options,
+    )
+    .map_err(|e| fail(e.to_string()))?;
+    sampler
+        .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+        .map_err(|e| fail(e.to_string()))?;
+    sink.finish().map_err(|e| fail(e.to_string()))
+}
+
+/// The probe itself (run in a child process): the sampler alone or a whole fit of `model` for
+/// `steps` steps into `out`, chains streamed to Parquet, then this process's peak memory.
 ///
 /// # Errors
-/// [`BenchError`] when the fit fails or the peak cannot be read.
-pub fn probe(model: &Path, steps: u64, out: &Path) -> Result<ProbeReading, BenchError> {
-    let threads = rayon::current_num_threads();
-    super::knobs::fit_keeping(model, None, Steps::Fixed(steps), BENCH_SEED, out, threads)?;
+/// [`BenchError`] when the run fails or the peak cannot be read.
+pub fn probe(
+    kind: ProbeKind,
+    model: &Path,
+    steps: u64,
+    out: &Path,
+) -> Result<ProbeReading, BenchError> {
+    std::fs::create_dir_all(out).map_err(BenchError::io(out))?;
+    match kind {
+        ProbeKind::Sample => sample_streamed(model, steps, out)?,
+        ProbeKind::Fit => {
+            let threads = rayon::current_num_threads();
+            super::knobs::fit_keeping(model, None, Steps::Fixed(steps), BENCH_SEED, out, threads)?;
+        }
+    }
     let chain_bytes = dir_bytes(out);
     let _ = std::fs::remove_dir_all(out);
     let peak_kb = peak_rss_kb().ok_or_else(|| BenchError::Run {
@@ -87,28 +149,38 @@ pub fn probe_two_lengths(
     let (model, _) = super::knobs::decimated_model(settings, 10)?;
     let steps = settings.plan.memory_steps;
     let mut readings = Vec::new();
-    for &n in &steps {
-        let out = settings.scratch.join(format!("memory-{n}"));
-        let what = format!("memory probe of {n} steps");
-        let output = Command::new(binary)
-            .args(["bench", "--probe-memory"])
-            .arg(&model)
-            .args(["--probe-steps", &n.to_string(), "--probe-out"])
-            .arg(&out)
-            .output()
-            .map_err(|e| BenchError::run(what.clone())(e.to_string()))?;
-        if !output.status.success() {
-            return Err(BenchError::run(what)(
-                String::from_utf8_lossy(&output.stderr).into_owned(),
-            ));
+    for (kind, flag) in [(ProbeKind::Sample, "sample"), (ProbeKind::Fit, "fit")] {
+        for &n in &steps {
+            let out = settings.scratch.join(format!("memory-{flag}-{n}"));
+            let what = format!("memory probe ({flag}) of {n} steps");
+            let output = Command::new(binary)
+                .args(["bench", "--probe-memory"])
+                .arg(&model)
+                .args([
+                    "--probe-kind",
+                    flag,
+                    "--probe-steps",
+                    &n.to_string(),
+                    "--probe-out",
+                ])
+                .arg(&out)
+                .output()
+                .map_err(|e| BenchError::run(what.clone())(e.to_string()))?;
+            if !output.status.success() {
+                return Err(BenchError::run(what)(
+                    String::from_utf8_lossy(&output.stderr).into_owned(),
+                ));
+            }
+            let stdout = String::from_utf8_lossy(&output.stdout);
+            let reading: ProbeReading = stdout
+                .lines()
+                .last()
+                .and_then(|l| serde_json::from_str(l).ok())
+                .ok_or_else(|| {
+                    BenchError::run(what)(format!("no reading in its output: {stdout}"))
+                })?;
+            readings.push((kind, reading));
         }
-        let stdout = String::from_utf8_lossy(&output.stdout);
-        let reading: ProbeReading = stdout
-            .lines()
-            .last()
-            .and_then(|l| serde_json::from_str(l).ok())
-            .ok_or_else(|| BenchError::run(what)(format!("no reading in its output: {stdout}")))?;
-        readings.push(reading);
     }
     let (_, posterior) = super::load_posterior(&model)?;
     Ok(MemoryProbe {
@@ -117,7 +189,8 @@ pub fn probe_two_lengths(
             &posterior,
         )) * crate::sampler::DEFAULT_ENSEMBLES,
         steps,
-        peak_kb: [readings[0].peak_kb, readings[1].peak_kb],
-        chain_bytes: [readings[0].chain_bytes, readings[1].chain_bytes],
+        sample_peak_kb: [readings[0].1.peak_kb, readings[1].1.peak_kb],
+        peak_kb: [readings[2].1.peak_kb, readings[3].1.peak_kb],
+        chain_bytes: [readings[0].1.chain_bytes, readings[1].1.chain_bytes],
     })
 }

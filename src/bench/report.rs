@@ -232,17 +232,24 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
         let _ = writeln!(s, "- The peer was not run (`--no-peer`).");
     }
     if let Some(mem) = &r.memory {
+        let mb = |kb: u64| g(kb as f64 / 1024.0);
         let _ = writeln!(
             s,
-            "- Peak resident memory of a streamed fit: {} MB at {} steps, {} MB at {} steps \
-             ({}× longer chains, {} MB and {} MB of Parquet written).",
-            g(mem.peak_kb[0] as f64 / 1024.0),
+            "- Peak resident memory ({}, {} walkers; VmHWM of one process per reading) at {} and \
+             {} steps ({}× longer chains; {} MB and {} MB of Parquet written): the sampler \
+             streaming its chains to Parquet {} MB and {} MB; a whole fit, whose summary reads \
+             the chains back, {} MB and {} MB.",
+            mem.model,
+            mem.walkers_total,
             mem.steps[0],
-            g(mem.peak_kb[1] as f64 / 1024.0),
             mem.steps[1],
             mem.steps[1] / mem.steps[0].max(1),
             g(mem.chain_bytes[0] as f64 / 1048576.0),
             g(mem.chain_bytes[1] as f64 / 1048576.0),
+            mb(mem.sample_peak_kb[0]),
+            mb(mem.sample_peak_kb[1]),
+            mb(mem.peak_kb[0]),
+            mb(mem.peak_kb[1]),
         );
     }
     let _ = writeln!(

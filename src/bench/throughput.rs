@@ -177,7 +177,10 @@ pub fn measure(
         .stats(&names, burn_in)
         .map_err(BenchError::run(format!("ESS of the {name} run")))?;
     let ess = min_ess(&stats);
-    let identical = serial.draws.ensembles == parallel.draws.ensembles;
+    // Bit for bit: the same seed must give the same chains on any thread count.
+    let bits =
+        |d: &Draws| -> Vec<u64> { d.ensembles.iter().flatten().map(|v| v.to_bits()).collect() };
+    let identical = bits(&serial.draws) == bits(&parallel.draws);
     let runs = vec![
         thread_run(1, &serial, steps, ess),
         thread_run(threads, &parallel, steps, ess),

@@ -44,6 +44,9 @@ pub(super) struct BenchArgs {
     /// Internal: run one memory probe of this model (used by the bench itself).
     #[arg(long, hide = true, requires_all = ["probe_steps", "probe_out"])]
     probe_memory: Option<PathBuf>,
+    /// Internal: what the memory probe runs.
+    #[arg(long, hide = true, value_enum, default_value = "fit")]
+    probe_kind: memory::ProbeKind,
     /// Internal: steps of the memory probe.
     #[arg(long, hide = true)]
     probe_steps: Option<u64>,
@@ -56,7 +59,7 @@ pub(super) fn run_bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     if let (Some(model), Some(steps), Some(out)) =
         (&args.probe_memory, args.probe_steps, &args.probe_out)
     {
-        let reading = memory::probe(model, steps, out)?;
+        let reading = memory::probe(args.probe_kind, model, steps, out)?;
         println!("{}", serde_json::to_string(&reading)?);
         return Ok(ExitCode::SUCCESS);
     }
