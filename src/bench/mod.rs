@@ -108,7 +108,8 @@ pub struct BenchPlan {
     pub knob_steps: u64,
     /// Most steps of the default fit (run until converged).
     pub default_max_steps: u64,
-    /// Chain lengths of the two memory probes.
+    /// Chain lengths of the two memory probes; both above one Parquet row group (65,536 rows,
+    /// 512 steps of 128 walkers), the most the sink buffers.
     pub memory_steps: [u64; 2],
 }
 
@@ -129,7 +130,7 @@ impl BenchPlan {
                 decimations: vec![3, 10],
                 knob_steps: 200,
                 default_max_steps: 1500,
-                memory_steps: [200, 1600],
+                memory_steps: [600, 2400],
             }
         } else {
             Self {
@@ -145,7 +146,7 @@ impl BenchPlan {
                 decimations: vec![2, 5, 10, 30],
                 knob_steps: 800,
                 default_max_steps: crate::fit::DEFAULT_MAX_STEPS,
-                memory_steps: [500, 4000],
+                memory_steps: [1000, 8000],
             }
         }
     }
