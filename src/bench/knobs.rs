@@ -145,21 +145,6 @@ pub(crate) fn decimated_model(
     Ok((model, points))
 }
 
-/// One complete fit; its chains are removed afterwards.
-fn fit(
-    model: &Path,
-    walkers: Option<usize>,
-    steps: Steps,
-    seed: u64,
-    out: &Path,
-    threads: usize,
-) -> Result<(FitSummary, usize), BenchError> {
-    let result = fit_keeping(model, walkers, steps, seed, out, threads);
-    // Chains are not kept: the study needs only the summary.
-    let _ = std::fs::remove_dir_all(out);
-    result
-}
-
 /// One complete fit into `out` (chains streamed to Parquet and left there).
 pub(crate) fn fit_keeping(
     model: &Path,
@@ -268,7 +253,7 @@ pub fn study(
 
     progress("  reference fit (full data, long chains)");
     let clock = std::time::Instant::now();
-    let (reference, _) = fit(
+    let (reference, _) = fit_keeping(
         &full,
         None,
         Steps::Fixed(plan.reference_steps),
@@ -326,7 +311,7 @@ pub fn study(
     for (i, (knob, value, model, points, walkers, steps)) in jobs.into_iter().enumerate() {
         progress(&format!("  {}: {value}", knob.label()));
         let clock = std::time::Instant::now();
-        let (summary, walkers) = fit(
+        let (summary, walkers) = fit_keeping(
             &model,
             walkers,
             steps,
@@ -334,6 +319,8 @@ pub fn study(
             &runs_dir.join(format!("run-{i}")),
             threads,
         )?;
+        // Chains are not kept: the study needs only the summary.
+        let _ = std::fs::remove_dir_all(&runs_dir);
         let wall_s = clock.elapsed().as_secs_f64();
         let (m, f, t) = errors(&summary, &reference, &first, &repeat);
         runs.push(KnobRun {
@@ -375,23 +362,10 @@ pub fn study(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::{BenchPlan, BenchSettings};
+    use crate::bench::BenchSettings;
 
     fn settings(scratch: &Path) -> BenchSettings {
-        BenchSettings {
-            plan: BenchPlan::new(true),
-            quick: true,
-            threads: 1,
-            one_contact_model: "benches/peer/one_contact.toml".into(),
-            demo_model: "models/demo.toml".into(),
-            first_csv: "data/ptfe-c1-first.csv".into(),
-            repeat_csv: "data/ptfe-c1-repeat.csv".into(),
-            fast_csv: "data/ptfe-c1-fast.csv".into(),
-            velocity_m_per_s: 1e-9,
-            peer: None,
-            probe_binary: None,
-            scratch: scratch.to_path_buf(),
-        }
+        BenchSettings::bundled(true, 1, scratch.to_path_buf())
     }
 
     #[test]

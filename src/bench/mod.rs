@@ -181,6 +181,27 @@ pub struct BenchSettings {
     pub scratch: PathBuf,
 }
 
+impl BenchSettings {
+    /// The bundled inputs (run from the repository root): `benches/peer/one_contact.toml`,
+    /// `models/demo.toml` and PTFE contact 1 of `data/`; no peer, no memory probes.
+    pub fn bundled(quick: bool, threads: usize, scratch: PathBuf) -> Self {
+        Self {
+            plan: BenchPlan::new(quick),
+            quick,
+            threads,
+            one_contact_model: "benches/peer/one_contact.toml".into(),
+            demo_model: "models/demo.toml".into(),
+            first_csv: "data/ptfe-c1-first.csv".into(),
+            repeat_csv: "data/ptfe-c1-repeat.csv".into(),
+            fast_csv: "data/ptfe-c1-fast.csv".into(),
+            velocity_m_per_s: 1e-9,
+            peer: None,
+            probe_binary: None,
+            scratch,
+        }
+    }
+}
+
 /// Everything measured, as written to `results.json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct BenchResults {

@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::bench::peer::PeerCommand;
-use crate::bench::{memory, report, run, BenchPlan, BenchSettings};
+use crate::bench::{memory, report, run, BenchSettings};
 
 /// Measure speed against error and compare with the Python peer (emcee + numpy + scipy).
 ///
@@ -81,18 +81,13 @@ pub(super) fn run_bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         )
     };
     let settings = BenchSettings {
-        plan: BenchPlan::new(args.quick),
-        quick: args.quick,
-        threads,
-        one_contact_model: "benches/peer/one_contact.toml".into(),
-        demo_model: "models/demo.toml".into(),
-        first_csv: "data/ptfe-c1-first.csv".into(),
-        repeat_csv: "data/ptfe-c1-repeat.csv".into(),
-        fast_csv: "data/ptfe-c1-fast.csv".into(),
-        velocity_m_per_s: 1e-9,
         peer,
         probe_binary,
-        scratch: PathBuf::from("target").join("bench-scratch"),
+        ..BenchSettings::bundled(
+            args.quick,
+            threads,
+            PathBuf::from("target").join("bench-scratch"),
+        )
     };
     let started = std::time::Instant::now();
     let results = run(&settings, &mut |step| {
