@@ -17,9 +17,13 @@
 //!   directory (feature `report`).
 //! - [`validate`]: simulation-based calibration of the one-contact pipeline: prior draws,
 //!   simulated slides, fits, rank statistics and coverage (feature `parquet`).
+//! - [`bench`]: speed against error and the Python peer, for `slipbayes bench` (feature
+//!   `parquet`).
 //! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
 #![deny(clippy::float_cmp)]
 
+#[cfg(feature = "parquet")]
+pub mod bench;
 pub mod cli;
 pub mod data;
 pub mod diagnostics;

@@ -2,6 +2,8 @@
 //! an error once with its chain of causes. All real work lives in the library.
 
 #[cfg(feature = "parquet")]
+mod bench;
+#[cfg(feature = "parquet")]
 mod fit;
 mod import;
 pub mod progress;
@@ -35,6 +37,8 @@ enum Command {
     Import(import::ImportCommandArgs),
     #[cfg(feature = "parquet")]
     Validate(validate::ValidateArgs),
+    #[cfg(feature = "parquet")]
+    Bench(bench::BenchArgs),
 }
 
 /// Entry point of the `slipbayes` binary.
@@ -64,5 +68,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Import(args) => import::run(&args),
         #[cfg(feature = "parquet")]
         Command::Validate(args) => validate::run(&args),
+        #[cfg(feature = "parquet")]
+        Command::Bench(args) => bench::run_bench(&args),
     }
 }

@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""The Python peer of `slipbayes bench`: emcee + numpy + scipy on the one-contact posterior.
+
+Usage (run by `slipbayes bench`, which writes the problem file):
+    python benches/peer/friction_peer.py PROBLEM.json RESULT.json CHAINS.csv
+
+It fits the IDENTICAL posterior to slipbayes' `Posterior` for one first slide
+(src/model/posterior.rs, src/law/):
+- coordinates u = ln θ for α, a/F_d, F_d, t0, k; log-uniform priors on θ, so that with the
+  Jacobian the log-prior is 0 inside the bounds and −∞ outside (slipbayes drops the same
+  constant);
+- the law F(τ) = a e^(−x)[Ei(x) − Ei(x0)] + F_d (1 − e^(−x)), x = αvτ, a = (a/F_d)·F_d,
+  F = 0 before t0; the elastic correction t = τ + F(τ)/(kv) solved at every data time at
+  once by a vectorised safeguarded Newton iteration (bracket [t0, t], bisection whenever the
+  Newton step leaves the bracket or fails to halve the previous step); elastic loading
+  F = kv (t − t0) until t0 + F(t0)/(kv);
+- σ integrated out analytically under its log-uniform prior, as
+  `marginal_sigma_log_likelihood` does (regularised incomplete gamma for the truncation).
+
+Stick-slip (dF/dτ ≤ −kv) is checked at the solved τ of every data point (slipbayes checks the
+exact minimum of dF/dτ); both reject such points. Ei overflows in double precision beyond
+x ≈ 700 (slipbayes uses a scaled form); the peer rejects those points. Neither difference
+matters near the posterior, where the log-densities are compared.
+
+The problem file gives the data file, velocity, coordinate names, prior bounds, points at
+which to report the log-density (compared with slipbayes'), the initial walkers of every
+ensemble and the number of steps. emcee runs each ensemble with StretchMove(a=2) and
+vectorize=True (one numpy call per half-ensemble), the fastest way to use it.
+"""
+import json
+import sys
+import time
+
+import numpy as np
+from scipy.special import expi, gammainc, gammaln
+
+LN_SQRT_2PI = 0.9189385332046728
+NEWTON_REL_STEP = 1e-10
+MAX_ITERATIONS = 2200
+
+
+class OneContact:
+    def __init__(self, problem):
+        data = np.loadtxt(problem["data_csv"], delimiter=",", skiprows=1, ndmin=2)
+        self.t = data[:, 0].copy()
+        self.f_obs = data[:, 1].copy()
+        self.v = float(problem["velocity_m_per_s"])
+        names = problem["names"]
+        role = {}
+        for i, n in enumerate(names):
+            for key in ("alpha", "a_over_F_d", "F_d", "t0", "k"):
+                if n.startswith(f"ln_{key}["):
+                    role[key] = i
+        missing = {"alpha", "a_over_F_d", "F_d", "t0", "k"} - set(role)
+        if missing or len(names) != 5:
+            raise SystemExit(f"peer: unexpected coordinates {names}; missing {sorted(missing)}")
+        self.role = role
+        self.lo = np.log(np.array([b[0] for b in problem["bounds"]]))
+        self.hi = np.log(np.array([b[1] for b in problem["bounds"]]))
+        self.bounds = np.array(problem["bounds"], dtype=float)
+        self.sigma_low, self.sigma_high = problem["sigma_bounds"]
+
+    def law(self, tau, av, a, f_d, x0, ei_x0):
+        """F(τ) and dF/dτ for τ ≥ t0, broadcasting over (walker, point)."""
+        x = av * tau
+        e = np.exp(-x)
+        d = e * (expi(x) - ei_x0)
+        one_minus_e = np.where(x < 0.5, -np.expm1(-x), 1.0 - e)
+        aging = a * d
+        force = aging + f_d * one_minus_e
+        rate = a / tau - av * (aging - f_d * e)
+        return force, rate
+
+    def log_density(self, u):
+        """Log-posterior of a (walkers, 5) array of coordinates."""
+        u = np.atleast_2d(u)
+        out = np.full(u.shape[0], -np.inf)
+        theta = np.exp(u)
+        inside = np.all((theta >= self.bounds[:, 0]) & (theta <= self.bounds[:, 1]), axis=1)
+        if not inside.any():
+            return out
+        th = theta[inside]
+        r = self.role
+        alpha, ratio, f_d, t0, k = (th[:, r[n]] for n in ("alpha", "a_over_F_d", "F_d", "t0", "k"))
+        av = (alpha * self.v)[:, None]
+        f_d = f_d[:, None]
+        a = ratio[:, None] * f_d
+        t0 = t0[:, None]
+        kv = (k * self.v)[:, None]
+        x0 = av * t0
+        ei_x0 = expi(x0)
+        t = self.t[None, :]
+        with np.errstate(all="ignore"):
+            f_t0, _ = self.law(t0, av, a, f_d, x0, ei_x0)
+            loading_ends = t0 + f_t0 / kv
+            sliding = t > loading_ends
+            force = np.zeros(sliding.shape)
+            rate = np.zeros(sliding.shape)
+            # The sliding (walker, point) pairs, flattened; converged pairs leave the arrays,
+            # so every iteration evaluates the law only where it is still needed.
+            flat = np.flatnonzero(sliding)
+            w = flat // sliding.shape[1]
+            tt = np.broadcast_to(t, sliding.shape).ravel()[flat]
+            p_av, p_a, p_fd, p_kv = av[w, 0], a[w, 0], f_d[w, 0], kv[w, 0]
+            p_x0, p_ei = x0[w, 0], ei_x0[w, 0]
+            # Bracket [t0, t] holds the root: g(t0) < 0 <= g(t).
+            lo = t0[w, 0].copy()
+            hi = tt.copy()
+            # Warm start: the observed force says how much the spring holds.
+            tau = tt - self.f_obs[flat % sliding.shape[1]] / p_kv
+            tau = np.where((tau > lo) & (tau < hi), tau, lo + 0.5 * (hi - lo))
+            prev_step = hi - lo
+            for _ in range(MAX_ITERATIONS):
+                if flat.size == 0:
+                    break
+                f, fr = self.law(tau, p_av, p_a, p_fd, p_x0, p_ei)
+                g = tau + f / p_kv - tt
+                slope = 1.0 + fr / p_kv
+                hi = np.where(g > 0, tau, hi)
+                lo = np.where(g < 0, tau, lo)
+                newton = tau - g / slope
+                step = tau - newton
+                ok = (newton > lo) & (newton < hi) & (np.abs(step) * 2.0 <= np.abs(prev_step))
+                bisect = lo + 0.5 * (hi - lo)
+                converged = ok & (np.abs(step) <= NEWTON_REL_STEP * np.abs(tau))
+                # Adjacent doubles: the bracket is as small as it gets.
+                tiny = ~ok & ((bisect <= lo) | (bisect >= hi))
+                failed = ~np.isfinite(g)
+                done = (g == 0) | converged | tiny | failed
+                root = np.where(converged, newton, np.where(tiny, bisect, tau))
+                # The root is one tiny step from the last evaluation: F follows the tangent,
+                # as slipbayes does. A non-finite g leaves NaN, which rejects the point.
+                force.flat[flat[done]] = np.where(failed, np.nan, f + fr * (root - tau))[done]
+                rate.flat[flat[done]] = fr[done]
+                keep = ~done
+                new_tau = np.where(ok, newton, bisect)
+                prev_step = np.where(ok, step, hi - lo)[keep]
+                tau = new_tau[keep]
+                lo, hi, tt, flat = lo[keep], hi[keep], tt[keep], flat[keep]
+                p_av, p_a, p_fd, p_kv = p_av[keep], p_a[keep], p_fd[keep], p_kv[keep]
+                p_x0, p_ei = p_x0[keep], p_ei[keep]
+            force.flat[flat] = np.nan  # not converged: reject
+            model = np.where(sliding, force, np.where(t <= t0, 0.0, kv * (t - t0)))
+            stick_slip = np.any(sliding & (rate <= -kv), axis=1)
+            ssr = np.sum((self.f_obs[None, :] - model) ** 2, axis=1)
+            n = self.t.size
+            half_n, half_ssr = 0.5 * n, 0.5 * ssr
+            mass = gammainc(half_n, half_ssr / self.sigma_low**2) - gammainc(
+                half_n, half_ssr / self.sigma_high**2
+            )
+            ll = (
+                -n * LN_SQRT_2PI
+                + gammaln(half_n)
+                - np.log(2.0)
+                - half_n * np.log(half_ssr)
+                - np.log(np.log(self.sigma_high / self.sigma_low))
+                + np.log(mass)
+            )
+        valid = np.isfinite(ll) & (mass > 0) & (ssr > 0) & ~stick_slip
+        out[np.flatnonzero(inside)[valid]] = ll[valid]
+        return out
+
+
+def main():
+    problem_path, result_path, chains_path = sys.argv[1:4]
+    with open(problem_path) as fh:
+        problem = json.load(fh)
+    import emcee
+    import scipy
+
+    post = OneContact(problem)
+    points = np.array(problem["points"], dtype=float)
+    lp = post.log_density(points)
+
+    # Cost of one log-density: one point per call (the usual emcee log_prob) and in batches of
+    # half an ensemble (what vectorize=True does), best of a few repetitions.
+    initial = np.array(problem["initial"], dtype=float)
+    batch = initial[0][: initial.shape[1] // 2]
+    reps = int(problem.get("cost_reps", 5))
+    single, vectorised = [], []
+    for _ in range(reps):
+        t_start = time.perf_counter()
+        for x in batch:
+            post.log_density(x[None, :])
+        single.append((time.perf_counter() - t_start) / len(batch))
+        t_start = time.perf_counter()
+        post.log_density(batch)
+        vectorised.append((time.perf_counter() - t_start) / len(batch))
+
+    steps = int(problem["steps"])
+    rows = []
+    sampling = []
+    for e, walkers in enumerate(initial):
+        np.random.seed(int(problem["seed"]) + e)
+        sampler = emcee.EnsembleSampler(
+            walkers.shape[0],
+            walkers.shape[1],
+            post.log_density,
+            moves=emcee.moves.StretchMove(a=2.0),
+            vectorize=True,
+        )
+        t_start = time.perf_counter()
+        sampler.run_mcmc(walkers, steps, progress=False)
+        sampling.append(time.perf_counter() - t_start)
+        chain = sampler.get_chain()  # (steps, walkers, ndim)
+        rows.append((e, chain, float(np.mean(sampler.acceptance_fraction))))
+
+    with open(chains_path, "w") as fh:
+        fh.write("ensemble,walker,step," + ",".join(problem["names"]) + "\n")
+        for e, chain, _ in rows:
+            for w in range(chain.shape[1]):
+                for s in range(chain.shape[0]):
+                    fh.write(f"{e},{w},{s}," + ",".join(repr(float(v)) for v in chain[s, w]) + "\n")
+
+    result = {
+        "log_density": [float(v) if np.isfinite(v) else None for v in lp],
+        "seconds_per_eval_single": float(np.median(single)),
+        "seconds_per_eval_vectorised": float(np.median(vectorised)),
+        "sampling_s": sampling,
+        "acceptance": [r[2] for r in rows],
+        "versions": {
+            "python": sys.version.split()[0],
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "emcee": emcee.__version__,
+        },
+    }
+    with open(result_path, "w") as fh:
+        json.dump(result, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main()
