@@ -445,3 +445,46 @@ fn overflow_in_conversion_is_invalid() {
         "{message}"
     );
 }
+
+/// Inputs on which the fuzz targets (fuzz/) once panicked; each must now give a result or an
+/// error. The first byte chooses the options as in `fuzz/fuzz_targets/rheocompass.rs`.
+#[test]
+fn fuzz_regressions_do_not_panic() {
+    let dir = repo("tests/fuzz-regressions");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let data = std::fs::read(&path).unwrap();
+        let (choice, bytes) = data.split_first().map_or((0, &data[..]), |(c, r)| (*c, r));
+        let o = ImportOptions {
+            format: Some(Format::Rheocompass),
+            drop_invalid: choice & 1 == 1,
+            intervals: match choice >> 1 & 3 {
+                0 => IntervalChoice::All,
+                1 => IntervalChoice::Numbers(vec![1]),
+                2 => IntervalChoice::Numbers(vec![2]),
+                _ => IntervalChoice::Numbers(vec![1, 2]),
+            },
+            ..options()
+        };
+        let _ = import_bytes(bytes, &path, &o);
+        seen += 1;
+    }
+    assert!(seen >= 1);
+}
+
+/// The crash the RheoCompass fuzz target found: a second column header inside an interval.
+#[test]
+fn second_column_header_in_an_interval_is_an_error() {
+    let text = "Interval and data points:\t1\t2\nInterval data:\tTime\n\t[s]\n\t1\n\
+                Interval data:\tTime\tTorque\n\t2\t3\n";
+    let o = ImportOptions {
+        format: Some(Format::Rheocompass),
+        ..options()
+    };
+    let message = error(text, "two.txt", &o);
+    assert!(
+        message.contains("two.txt:5:1:") && message.contains("second `Interval data:`"),
+        "{message}"
+    );
+}
