@@ -396,7 +396,7 @@ proptest! {
         let spec = SimulationSpec {
             scene: Scene::First,
             params: LawParams::new(ln_alpha.exp(), ratio * f_d, f_d, 10.0).unwrap(),
-            stiffness_n_per_m: Some(1e4),
+            stiffness_n_per_m: Some(1e5),
             velocity_m_per_s: 1e-9,
             duration_s: 5000.0,
             interval_s: 37.0,
@@ -407,7 +407,10 @@ proptest! {
             normal_force_n: normal,
             normal_noise_sd_n: 1e-4,
         };
-        let series = simulate(&spec).unwrap().series;
+        // Some combinations slip (stick-slip) with this machine; they make no data file.
+        let simulated = simulate(&spec);
+        prop_assume!(simulated.is_ok());
+        let series = simulated.unwrap().series;
         let text = series.to_csv().unwrap();
         let back = import_bytes(text.as_bytes(), Path::new("sim.csv"), &options()).unwrap();
         prop_assert_eq!(back.series.len(), series.len());
