@@ -42,6 +42,7 @@ fn error(text: &str, name: &str, options: &ImportOptions) -> String {
         .to_string()
 }
 
+#[cfg(feature = "tabular")]
 fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * b.abs().max(1e-300)
 }
