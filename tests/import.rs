@@ -450,8 +450,8 @@ fn overflow_in_conversion_is_invalid() {
     );
 }
 
-/// Inputs on which the fuzz targets (fuzz/) once panicked; each must now give a result or an
-/// error. The first byte chooses the options as in `fuzz/fuzz_targets/rheocompass.rs`.
+/// Inputs on which the fuzz targets (fuzz/) once panicked, read with every combination of
+/// options (the targets pick them from the first byte): each must give a result or an error.
 #[test]
 fn fuzz_regressions_do_not_panic() {
     let dir = repo("tests/fuzz-regressions");
@@ -459,19 +459,23 @@ fn fuzz_regressions_do_not_panic() {
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         let data = std::fs::read(&path).unwrap();
-        let (choice, bytes) = data.split_first().map_or((0, &data[..]), |(c, r)| (*c, r));
-        let o = ImportOptions {
-            format: Some(Format::Rheocompass),
-            drop_invalid: choice & 1 == 1,
-            intervals: match choice >> 1 & 3 {
-                0 => IntervalChoice::All,
-                1 => IntervalChoice::Numbers(vec![1]),
-                2 => IntervalChoice::Numbers(vec![2]),
-                _ => IntervalChoice::Numbers(vec![1, 2]),
-            },
-            ..options()
-        };
-        let _ = import_bytes(bytes, &path, &o);
+        for bytes in [&data[..], &data[1..]] {
+            for drop_invalid in [false, true] {
+                for intervals in [vec![], vec![1], vec![2], vec![1, 2]] {
+                    let o = ImportOptions {
+                        format: Some(Format::Rheocompass),
+                        drop_invalid,
+                        intervals: if intervals.is_empty() {
+                            IntervalChoice::All
+                        } else {
+                            IntervalChoice::Numbers(intervals)
+                        },
+                        ..options()
+                    };
+                    let _ = import_bytes(bytes, &path, &o);
+                }
+            }
+        }
         seen += 1;
     }
     assert!(seen >= 1);
