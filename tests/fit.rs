@@ -185,8 +185,10 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     let json = read_json(&outcome.paths.summary_json);
     assert_eq!(
         keys(&json),
-        set(&["parameters", "derived", "comparisons", "sampler"])
+        set(&["parameters", "derived", "comparisons", "sampler", "data"])
     );
+    // A density that is not a friction model records no data files.
+    assert_eq!(json["data"], serde_json::json!([]));
     let params = json["parameters"].as_array().expect("array");
     let derived = json["derived"].as_array().expect("array");
     assert_eq!(params.len(), 3);

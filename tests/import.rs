@@ -42,6 +42,7 @@ fn error(text: &str, name: &str, options: &ImportOptions) -> String {
         .to_string()
 }
 
+#[cfg(feature = "tabular")]
 fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * b.abs().max(1e-300)
 }
@@ -396,7 +397,7 @@ proptest! {
         let spec = SimulationSpec {
             scene: Scene::First,
             params: LawParams::new(ln_alpha.exp(), ratio * f_d, f_d, 10.0).unwrap(),
-            stiffness_n_per_m: Some(1e4),
+            stiffness_n_per_m: Some(1e5),
             velocity_m_per_s: 1e-9,
             duration_s: 5000.0,
             interval_s: 37.0,
@@ -407,7 +408,10 @@ proptest! {
             normal_force_n: normal,
             normal_noise_sd_n: 1e-4,
         };
-        let series = simulate(&spec).unwrap().series;
+        // Some combinations slip (stick-slip) with this machine; they make no data file.
+        let simulated = simulate(&spec);
+        prop_assume!(simulated.is_ok());
+        let series = simulated.unwrap().series;
         let text = series.to_csv().unwrap();
         let back = import_bytes(text.as_bytes(), Path::new("sim.csv"), &options()).unwrap();
         prop_assert_eq!(back.series.len(), series.len());
@@ -442,6 +446,53 @@ fn overflow_in_conversion_is_invalid() {
     let message = error(text, "o.txt", &o);
     assert!(
         message.contains("o.txt:5:1:") && message.contains("out of range"),
+        "{message}"
+    );
+}
+
+/// Inputs on which the fuzz targets (fuzz/) once panicked, read with every combination of
+/// options (the targets pick them from the first byte): each must give a result or an error.
+#[test]
+fn fuzz_regressions_do_not_panic() {
+    let dir = repo("tests/fuzz-regressions");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let data = std::fs::read(&path).unwrap();
+        for bytes in [&data[..], &data[1..]] {
+            for drop_invalid in [false, true] {
+                for intervals in [vec![], vec![1], vec![2], vec![1, 2]] {
+                    let o = ImportOptions {
+                        format: Some(Format::Rheocompass),
+                        drop_invalid,
+                        intervals: if intervals.is_empty() {
+                            IntervalChoice::All
+                        } else {
+                            IntervalChoice::Numbers(intervals)
+                        },
+                        ..options()
+                    };
+                    let _ = import_bytes(bytes, &path, &o);
+                }
+            }
+        }
+        seen += 1;
+    }
+    assert!(seen >= 1);
+}
+
+/// The crash the RheoCompass fuzz target found: a second column header inside an interval.
+#[test]
+fn second_column_header_in_an_interval_is_an_error() {
+    let text = "Interval and data points:\t1\t2\nInterval data:\tTime\n\t[s]\n\t1\n\
+                Interval data:\tTime\tTorque\n\t2\t3\n";
+    let o = ImportOptions {
+        format: Some(Format::Rheocompass),
+        ..options()
+    };
+    let message = error(text, "two.txt", &o);
+    assert!(
+        message.contains("two.txt:5:1:") && message.contains("second `Interval data:`"),
         "{message}"
     );
 }

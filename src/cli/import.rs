@@ -88,7 +88,7 @@ impl ImportArgs {
 /// Convert an instrument file (CSV, Parquet, RheoCompass text export) to slipbayes' CSV
 /// (`time_s,force_N[,normal_force_N]`, SI units) and print what was found.
 ///
-///   slipbayes import data/rheocompass-ptfe.txt --out ptfe.csv
+///   slipbayes import data/rheocompass-ptfe-c1.txt --interval 1,2 --drop-invalid --out ptfe.csv
 ///   slipbayes import run.csv --time-column t --time-unit min \
 ///       --force-column torque --force-unit mN·m --moment-arm-m 7e-3 --out run-si.csv
 #[derive(Debug, Args)]

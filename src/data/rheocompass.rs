@@ -228,6 +228,18 @@ pub fn parse(bytes: &[u8], path: &Path, choice: &IntervalChoice) -> Result<Table
                     format!("`{COLUMNS_MARK}` before any `{INTERVAL_MARK}` line"),
                 ));
             };
+            // Rows already read have the first header's width (a fuzzing find).
+            if !interval.names.is_empty() {
+                return Err(malformed(
+                    line_no,
+                    1,
+                    format!(
+                        "a second `{COLUMNS_MARK}` line in interval {}; each interval has one \
+                         (was the file joined from two exports?)",
+                        interval.number
+                    ),
+                ));
+            }
             interval.names = fields[1..].iter().map(|s| s.trim().to_owned()).collect();
             interval.units = vec![None; interval.names.len()];
             interval.header_line = line_no;
