@@ -163,7 +163,12 @@ fn a_fit_writes_a_complete_self_contained_report() {
     // 160 steps cannot converge: the verdict says so at the top, before any figure.
     let warning = md.find("> **WARNING: ").expect("a warning verdict");
     assert!(warning < md.find("![").unwrap());
-    assert!(!md.contains("## Data\n"), "no data provenance was recorded");
+    // The quick path records how each file was read.
+    let data = &md[md.find("## Data\n").expect("a Data section")..];
+    assert!(
+        data.contains("ptfe-c1-first.csv | csv | 3001 | 3001 | 0 |"),
+        "{data}"
+    );
 }
 
 #[test]
@@ -229,8 +234,9 @@ fn data_provenance_is_rendered_when_present() {
     let out = slipbayes().arg("report").arg(&copy).output().unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
+    // `data` is part of the summary's schema: the error names the file and the position.
     assert!(
-        err.contains("summary.json") && err.contains("\"data\""),
+        err.contains("summary.json") && err.contains("line 1, column"),
         "{err}"
     );
 }
