@@ -45,6 +45,8 @@ pub struct RunData {
     /// Points averaged into each observation when binned: the noise of observation j is
     /// σ/√weights[j]. `None`: one point each.
     pub weights: Option<Vec<f64>>,
+    /// ½ Σ ln wⱼ, fixed once the data are binned: every log-density call adds it.
+    half_log_weights: f64,
     /// Where the data came from and what was done to them.
     pub provenance: Provenance,
 }
@@ -230,6 +232,7 @@ impl RunData {
             n_obs,
             normal_force,
             weights: None,
+            half_log_weights: 0.0,
             provenance: Provenance {
                 run: String::new(),
                 file: path.display().to_string(),
@@ -273,7 +276,8 @@ impl RunData {
             .normal_force
             .as_ref()
             .map(|v| edges.windows(2).map(|e| mean(&v[e[0]..e[1]])).collect());
-        let weights = edges.windows(2).map(|e| (e[1] - e[0]) as f64).collect();
+        let weights: Vec<f64> = edges.windows(2).map(|e| (e[1] - e[0]) as f64).collect();
+        self.half_log_weights = 0.5 * weights.iter().map(|w| w.ln()).sum::<f64>();
         // The model time where F_end is read (first slides) stays after the observations.
         model_times.extend_from_slice(&self.model_times[n..]);
         self.model_times = model_times;
@@ -293,11 +297,10 @@ impl RunData {
         self.weights.as_ref().map_or(1.0, |w| w[j])
     }
 
-    /// ½ Σ ln wⱼ: the normalising constant the weights add to the log-likelihood.
+    /// ½ Σ ln wⱼ: the normalising constant the weights add to the log-likelihood (computed
+    /// once, when the data are binned, not on every log-density call).
     pub fn half_log_weights(&self) -> f64 {
-        self.weights
-            .as_ref()
-            .map_or(0.0, |w| 0.5 * w.iter().map(|v| v.ln()).sum::<f64>())
+        self.half_log_weights
     }
 
     fn times(&self) -> &[f64] {
