@@ -15,16 +15,9 @@
 //!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
 //!   directory (feature `report`).
-//! - [`validate`]: simulation-based calibration of the one-contact pipeline: prior draws,
-//!   simulated slides, fits, rank statistics and coverage (feature `parquet`).
-//! - [`bench`]: speed against error and the Python peer, for `slipbayes bench` (feature
-//!   `parquet`).
-//! - [`cli`]: the command-line front end used by the thin `slipbayes` binary.
+
 #![deny(clippy::float_cmp)]
 
-#[cfg(feature = "parquet")]
-pub mod bench;
-pub mod cli;
 pub mod data;
 pub mod diagnostics;
 #[cfg(feature = "parquet")]
@@ -39,5 +32,3 @@ pub mod simulate;
 pub mod special;
 #[cfg(feature = "parquet")]
 pub mod storage;
-#[cfg(feature = "parquet")]
-pub mod validate;

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::sampler::{Observer, Progress, RunReport, RunStart};
+use slipbayes::sampler::{Observer, Progress, RunReport, RunStart};
 
 /// How often the text next to the bar is refreshed (formatting it every step would cost
 /// more than a cheap step).

@@ -7,8 +7,8 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use crate::data::import::DEFAULT_MOMENT_ARM_M;
-use crate::data::{import, ColumnMap, ColumnRef, Format, ImportOptions, IntervalChoice};
+use slipbayes::data::import::DEFAULT_MOMENT_ARM_M;
+use slipbayes::data::{import, ColumnMap, ColumnRef, Format, ImportOptions, IntervalChoice};
 
 /// How to read an instrument file: format, columns by name and unit, intervals.
 #[derive(Debug, Args, Clone)]

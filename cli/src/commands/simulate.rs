@@ -7,9 +7,9 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 
-use crate::data::write_atomically;
-use crate::law::{Elastic, Law, LawParams, Scene};
-use crate::simulate::{simulate, SimulationSpec};
+use slipbayes::data::write_atomically;
+use slipbayes::law::{Elastic, Law, LawParams, Scene};
+use slipbayes::simulate::{simulate, SimulationSpec};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum SceneArg {

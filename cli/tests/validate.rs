@@ -6,13 +6,13 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use slipbayes::validate::{
+use slipbayes_cli::validate::{
     run_sbc, summarise, GrossLimits, Replication, SbcSettings, ValidateError,
 };
 
 fn settings(replications: usize) -> SbcSettings {
     SbcSettings {
-        model: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models/sbc.toml"),
+        model: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models/sbc.toml"),
         replications,
         // Not the published run's seed: CI checks other replications than the report shows.
         seed: 2026,
@@ -99,7 +99,7 @@ fn the_gate_catches_overconfident_posteriors() {
             let (rank, q) = if i % 2 == 0 { (0, 0.0) } else { (50, 0.5) };
             Replication {
                 index: i,
-                truth: slipbayes::validate::TrueParams {
+                truth: slipbayes_cli::validate::TrueParams {
                     alpha_per_m: 1e6,
                     a_over_f_d: 0.6,
                     f_d_n: 1e-2,

@@ -10,9 +10,9 @@ use serde::Serialize;
 
 use super::chains::{min_ess, CoordStats, Draws};
 use super::{BenchError, BENCH_SEED};
-use crate::fit::INIT_STREAM;
-use crate::model::Posterior;
-use crate::sampler::{
+use slipbayes::fit::INIT_STREAM;
+use slipbayes::model::Posterior;
+use slipbayes::sampler::{
     initial_around_optimum, EnsembleSampler, LogDensity, MemorySink, SamplerConfig, Silent, Steps,
     DEFAULT_ENSEMBLES,
 };

@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 
 fn slipbayes() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_slipbayes"));
-    cmd.current_dir(env!("CARGO_MANIFEST_DIR"));
+    cmd.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
     cmd
 }
 
@@ -275,7 +275,7 @@ fn deterministic(text: &str) -> String {
 /// again (about 2 minutes) and every deterministic output compared, byte for byte.
 #[test]
 fn committed_demo_report_is_current() {
-    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("reports/demo");
+    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("../reports/demo");
     let tmp = tempfile::tempdir().unwrap();
     let fresh = tmp.path().join("demo");
     run_ok(slipbayes().args(["demo", "--quiet", "--out"]).arg(&fresh));

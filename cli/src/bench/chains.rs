@@ -4,8 +4,8 @@
 
 use serde::Serialize;
 
-use crate::diagnostics::{ess_bulk, mcse_quantile, quantile};
-use crate::sampler::MemoryChain;
+use slipbayes::diagnostics::{ess_bulk, mcse_quantile, quantile};
+use slipbayes::sampler::MemoryChain;
 
 /// Coordinates of a run: per ensemble, step-major `[step][walker][dim]`.
 #[derive(Debug, Clone)]
@@ -80,7 +80,7 @@ impl Draws {
                 let mean = all.iter().sum::<f64>() / n;
                 let sd = (all.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
                 let name = names.get(d).cloned().unwrap_or_else(|| format!("x{d}"));
-                let fail = |e: crate::diagnostics::DiagnosticsError| format!("{name}: {e}");
+                let fail = |e: slipbayes::diagnostics::DiagnosticsError| format!("{name}: {e}");
                 Ok(CoordStats {
                     median: quantile(&all, 0.5).map_err(fail)?,
                     sd,

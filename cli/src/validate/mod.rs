@@ -1,6 +1,6 @@
 //! Simulation-based calibration (SBC, Talts et al. 2018) of the whole pipeline on the
 //! one-contact model: draw the true parameters from the model file's priors, simulate the
-//! first and the repeat slide with [`crate::simulate`], fit them with [`crate::fit`], and
+//! first and the repeat slide with [`slipbayes::simulate`], fit them with [`slipbayes::fit`], and
 //! record the rank of every true parameter (and of the true F_peak) among L thinned
 //! posterior draws. Calibrated posteriors give uniform ranks and intervals that cover the
 //! truth as often as they claim.
@@ -24,14 +24,14 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::data::write_atomically;
-use crate::fit::{run_fit, ComparisonSpec, FitSettings};
-use crate::law::{Law, LawParams, Scene};
-use crate::model::spec::{Aging, Level, Param};
-use crate::model::{Kind, ModelSpec, Posterior};
-use crate::sampler::{Silent, Steps};
-use crate::simulate::{simulate, SimulateError, SimulationSpec};
-use crate::storage::read_chains;
+use slipbayes::data::write_atomically;
+use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings};
+use slipbayes::law::{Law, LawParams, Scene};
+use slipbayes::model::spec::{Aging, Level, Param};
+use slipbayes::model::{Kind, ModelSpec, Posterior};
+use slipbayes::sampler::{Silent, Steps};
+use slipbayes::simulate::{simulate, SimulateError, SimulationSpec};
+use slipbayes::storage::read_chains;
 
 pub use stats::{Coverage, Uniformity};
 
@@ -84,7 +84,7 @@ pub enum ValidateError {
     },
     /// The model file could not be loaded.
     #[error(transparent)]
-    Spec(#[from] crate::model::SpecError),
+    Spec(#[from] slipbayes::model::SpecError),
 }
 
 /// The simulated design and the fit of every replication.
@@ -328,7 +328,7 @@ fn draw_and_simulate(
     design: &Design,
     settings: &SbcSettings,
     rng: &mut ChaCha8Rng,
-) -> Result<(TrueParams, [crate::data::Series; 2], usize), String> {
+) -> Result<(TrueParams, [slipbayes::data::Series; 2], usize), String> {
     let spec = &design.spec;
     let runs = &spec.file.runs;
     let v_first = runs[design.first].velocity_m_per_s;
@@ -477,7 +477,7 @@ fn fit_and_rank(
     settings: &SbcSettings,
     dir: &Path,
     truth: &TrueParams,
-    slides: &[crate::data::Series; 2],
+    slides: &[slipbayes::data::Series; 2],
     fit_seed: u64,
 ) -> Result<Replication, String> {
     let runs = &design.spec.file.runs;
@@ -566,8 +566,8 @@ fn fit_and_rank(
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
     // The chains and the checkpoint (10 MB) have served; 200 replications of them would
     // fill the disk.
-    let _ = std::fs::remove_dir_all(fit_dir.join(crate::storage::CHAINS_DIR));
-    let _ = std::fs::remove_file(fit_dir.join(crate::storage::CHECKPOINT_FILE));
+    let _ = std::fs::remove_dir_all(fit_dir.join(slipbayes::storage::CHAINS_DIR));
+    let _ = std::fs::remove_file(fit_dir.join(slipbayes::storage::CHECKPOINT_FILE));
     Ok(Replication {
         index: 0,
         truth: truth.clone(),

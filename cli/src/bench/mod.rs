@@ -29,10 +29,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::model::{ModelSpec, Posterior};
+use slipbayes::model::{ModelSpec, Posterior};
 
 /// Seed of every run of the bench (the sampler's default).
-pub const BENCH_SEED: u64 = crate::sampler::DEFAULT_SEED;
+pub const BENCH_SEED: u64 = slipbayes::sampler::DEFAULT_SEED;
 
 /// Errors of a bench run; each names what failed and the file involved.
 #[derive(Debug, thiserror::Error)]
@@ -145,7 +145,7 @@ impl BenchPlan {
                 walkers: vec![12, 16, 64],
                 decimations: vec![2, 5, 10, 30],
                 knob_steps: 800,
-                default_max_steps: crate::fit::DEFAULT_MAX_STEPS,
+                default_max_steps: slipbayes::fit::DEFAULT_MAX_STEPS,
                 memory_steps: [1000, 8000],
             }
         }
@@ -254,7 +254,7 @@ pub fn run(
     let one = throughput::measure(
         "one-contact",
         &one_contact,
-        crate::sampler::DEFAULT_ENSEMBLES,
+        slipbayes::sampler::DEFAULT_ENSEMBLES,
         plan.one_contact_steps,
         settings.threads,
     )?;
@@ -291,7 +291,7 @@ pub fn run(
     let demo_throughput = throughput::measure(
         "demo",
         &demo,
-        crate::sampler::DEFAULT_ENSEMBLES,
+        slipbayes::sampler::DEFAULT_ENSEMBLES,
         plan.demo_steps,
         settings.threads,
     )?;

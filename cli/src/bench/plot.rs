@@ -5,7 +5,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::BenchError;
-use crate::data::write_atomically;
+use slipbayes::data::write_atomically;
 
 /// One point of an error-against-cost plot.
 #[derive(Debug, Clone)]

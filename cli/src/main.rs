@@ -1,5 +1,5 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    slipbayes::cli::main()
+    slipbayes_cli::main()
 }

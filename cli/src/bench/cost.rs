@@ -8,9 +8,9 @@ use std::time::Instant;
 use serde::Serialize;
 
 use super::{load_posterior, BenchError, BenchSettings};
-use crate::data::Series;
-use crate::law::{Elastic, Law, LawParams, ObservedSlide, RepeatSlide};
-use crate::sampler::LogDensity;
+use slipbayes::data::Series;
+use slipbayes::law::{Elastic, Law, LawParams, ObservedSlide, RepeatSlide};
+use slipbayes::sampler::LogDensity;
 
 /// One row of the cost table.
 #[derive(Debug, Clone, Serialize)]
@@ -130,7 +130,7 @@ pub fn measure(settings: &BenchSettings) -> Result<CostTable, BenchError> {
     let reps = settings.plan.cost_reps;
     let law_error = |what: &str| {
         let what = what.to_owned();
-        move |e: crate::law::LawError| BenchError::Input {
+        move |e: slipbayes::law::LawError| BenchError::Input {
             what: what.clone(),
             message: e.to_string(),
         }

@@ -8,17 +8,17 @@ use anyhow::{bail, Context};
 use clap::Args;
 use serde::Serialize;
 
-use crate::data::write_atomically;
-use crate::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings};
-use crate::law::Scene;
-use crate::model::spec::{
+use slipbayes::data::write_atomically;
+use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings};
+use slipbayes::law::Scene;
+use slipbayes::model::spec::{
     ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
 };
-use crate::model::{ModelSpec, Posterior};
-use crate::sampler::{LogDensity, Steps, StopRule};
+use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::{LogDensity, Steps, StopRule};
 
 use super::import::ImportArgs;
-use super::progress::ProgressBarObserver;
+use crate::progress::ProgressBarObserver;
 
 fn parse_window(text: &str) -> Result<[f64; 2], String> {
     let parts: Vec<&str> = text.split(',').collect();
@@ -311,7 +311,7 @@ fn fit_and_report(
 
 #[cfg(feature = "report")]
 fn data_dir_from(out: &Path, base_dir: &Path) -> anyhow::Result<String> {
-    let rel = crate::report::relative_path(out, base_dir)
+    let rel = slipbayes::report::relative_path(out, base_dir)
         .with_context(|| format!("relating {} to {}", base_dir.display(), out.display()))?;
     Ok(rel.display().to_string())
 }

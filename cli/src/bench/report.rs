@@ -8,7 +8,7 @@ use serde::Serialize;
 use super::knobs::{Knob, KnobRun};
 use super::plot::{error_vs_time, ErrorPoint};
 use super::{BenchError, BenchResults};
-use crate::data::write_atomically;
+use slipbayes::data::write_atomically;
 
 /// The machine and its load while the bench ran.
 #[derive(Debug, Clone, Serialize)]
@@ -288,7 +288,7 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
          over the sampled coordinates after dropping the first quarter of the steps (walkers \
          as chains; they are not independent, so take it as a relative measure). Both runs use \
          the same seed.\n",
-        crate::sampler::DEFAULT_ENSEMBLES
+        slipbayes::sampler::DEFAULT_ENSEMBLES
     );
     let _ = writeln!(
         s,

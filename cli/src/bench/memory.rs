@@ -8,7 +8,7 @@ use std::process::Command;
 use serde::Serialize;
 
 use super::{BenchError, BenchSettings, BENCH_SEED};
-use crate::sampler::Steps;
+use slipbayes::sampler::Steps;
 
 /// What a probe process runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
@@ -70,15 +70,17 @@ pub struct ProbeReading {
 
 /// The sampler alone, streaming every step to Parquet in `out`.
 fn sample_streamed(model: &Path, steps: u64, out: &Path) -> Result<(), BenchError> {
-    use crate::sampler::{EnsembleSampler, LogDensity, SamplerConfig, Silent, DEFAULT_ENSEMBLES};
-    use crate::storage::{ParquetSink, SinkOptions};
     use rand::SeedableRng;
+    use slipbayes::sampler::{
+        EnsembleSampler, LogDensity, SamplerConfig, Silent, DEFAULT_ENSEMBLES,
+    };
+    use slipbayes::storage::{ParquetSink, SinkOptions};
     let (_, posterior) = super::load_posterior(model)?;
     let fail = |e: String| BenchError::run(format!("memory probe of {steps} steps"))(e);
     let walkers = super::throughput::default_walkers(posterior.dim());
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(BENCH_SEED);
-    rng.set_stream(crate::fit::INIT_STREAM);
-    let start = crate::sampler::initial_around_optimum(
+    rng.set_stream(slipbayes::fit::INIT_STREAM);
+    let start = slipbayes::sampler::initial_around_optimum(
         &posterior,
         posterior.start(),
         walkers,
@@ -185,9 +187,9 @@ pub fn probe_two_lengths(
     let (_, posterior) = super::load_posterior(&model)?;
     Ok(MemoryProbe {
         model: "first + repeat slide of one contact, every 10th point".into(),
-        walkers_total: super::throughput::default_walkers(crate::sampler::LogDensity::dim(
+        walkers_total: super::throughput::default_walkers(slipbayes::sampler::LogDensity::dim(
             &posterior,
-        )) * crate::sampler::DEFAULT_ENSEMBLES,
+        )) * slipbayes::sampler::DEFAULT_ENSEMBLES,
         steps,
         sample_peak_kb: [readings[0].1.peak_kb, readings[1].1.peak_kb],
         peak_kb: [readings[2].1.peak_kb, readings[3].1.peak_kb],

@@ -11,9 +11,9 @@ use serde::Serialize;
 
 use super::cost::{read_series, read_truth, Truth};
 use super::{load_posterior, BenchError, BenchSettings, BENCH_SEED};
-use crate::data::{write_atomically, Series};
-use crate::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary, QuantitySummary};
-use crate::sampler::{LogDensity, Silent, Steps, StopRule};
+use slipbayes::data::{write_atomically, Series};
+use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary, QuantitySummary};
+use slipbayes::sampler::{LogDensity, Silent, Steps, StopRule};
 
 /// Which knob a run turns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -13,12 +13,12 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::data::write_atomically;
-use crate::fit::{kept_draws, run_fit, ComparisonSpec, FitSettings};
-use crate::law::{Law, LawParams, Scene};
-use crate::model::{ModelSpec, Posterior};
-use crate::sampler::{LogDensity, Silent, Steps};
-use crate::simulate::{simulate, SimulationSpec};
+use slipbayes::data::write_atomically;
+use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitSettings};
+use slipbayes::law::{Law, LawParams, Scene};
+use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::{LogDensity, Silent, Steps};
+use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// Contraction below which a quantity counts as not identified by the data.
 pub const IDENTIFIED_CONTRACTION: f64 = 0.5;
@@ -80,7 +80,7 @@ fn ptfe() -> (LawParams, f64, f64) {
 pub fn stick_slip_stiffness(
     params: &LawParams,
     duration_s: f64,
-) -> Result<f64, crate::law::LawError> {
+) -> Result<f64, slipbayes::law::LawError> {
     let law = Law::new(params, VELOCITY)?;
     let (_, rate) = law.min_rate_up_to(duration_s);
     Ok((-rate).max(0.0) / VELOCITY)
@@ -399,8 +399,8 @@ fn fit_case(
             verdict,
         });
     }
-    let _ = std::fs::remove_dir_all(dir.join("fit").join(crate::storage::CHAINS_DIR));
-    let _ = std::fs::remove_file(dir.join("fit").join(crate::storage::CHECKPOINT_FILE));
+    let _ = std::fs::remove_dir_all(dir.join("fit").join(slipbayes::storage::CHAINS_DIR));
+    let _ = std::fs::remove_file(dir.join("fit").join(slipbayes::storage::CHECKPOINT_FILE));
     Ok(())
 }
 

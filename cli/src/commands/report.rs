@@ -6,8 +6,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 
-use crate::model::{ModelSpec, Posterior};
-use crate::report::{load_model, write_report};
+use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::report::{load_model, write_report};
 
 /// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
 /// (summary.json, settings.json, model.toml, predictive.csv, chains/), without refitting.
@@ -40,7 +40,7 @@ pub(super) fn write_and_print(
         files.html.display(),
         files.markdown.display(),
         files.figures.len(),
-        dir.join(crate::report::FIGURES_DIR).display()
+        dir.join(slipbayes::report::FIGURES_DIR).display()
     );
     Ok(())
 }

@@ -6,7 +6,6 @@ mod bench;
 #[cfg(feature = "parquet")]
 mod fit;
 mod import;
-pub mod progress;
 #[cfg(feature = "report")]
 mod report;
 mod simulate;

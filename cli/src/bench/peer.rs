@@ -12,10 +12,10 @@ use serde::{Deserialize, Serialize};
 use super::chains::{median_error, min_ess, CoordStats, Draws};
 use super::throughput::{Measured, Reference};
 use super::{BenchError, BenchSettings};
-use crate::data::write_atomically;
-use crate::model::prior::Prior;
-use crate::model::{ModelSpec, Posterior};
-use crate::sampler::LogDensity;
+use slipbayes::data::write_atomically;
+use slipbayes::model::prior::Prior;
+use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::LogDensity;
 
 /// Relative agreement required of the peer's log-density (relative to max(|ours|, 1)).
 pub const LOG_DENSITY_RTOL: f64 = 1e-9;

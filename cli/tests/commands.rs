@@ -1,0 +1,90 @@
+//! The command line end to end: the `slipbayes` binary run as a user runs it.
+
+use std::path::{Path, PathBuf};
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
+}
+
+/// `fit` needs the Parquet chain storage.
+#[cfg(feature = "parquet")]
+#[test]
+fn rheocompass_export_fits_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fit");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .args(["fit", "--quiet", "--steps", "400", "--out"])
+        .arg(&out)
+        .arg(repo("models/rheocompass-ptfe.toml"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let data = summary["data"].as_array().unwrap();
+    assert_eq!(data.len(), 2);
+    assert_eq!(data[0]["format"], "rheocompass");
+    assert_eq!(data[0]["points_read"], 841);
+    assert_eq!(data[0]["points_used"], 840);
+    assert_eq!(data[0]["dropped_invalid"], 1);
+    assert!(data[0]["window_s"].is_null() && data[0]["binning"].is_null());
+    assert!(data[1]["conversions"][0]
+        .as_str()
+        .unwrap()
+        .contains("moment arm r = 0.007 m"));
+    // The data set's truth (data/make_bundle.sh, PTFE contact 1) lies in every 95 % interval.
+    let all: Vec<&serde_json::Value> = summary["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(summary["derived"].as_array().unwrap())
+        .collect();
+    for (name, truth) in [
+        ("alpha", 0.92e6),
+        ("a_over_F_d", 0.62),
+        ("F_d", 10e-3),
+        ("t0", 14.8),
+        ("k", 1.2e4),
+        ("F_peak", 0.019750769463131618),
+    ] {
+        let q = all.iter().find(|q| q["name"] == name).unwrap();
+        let (lo, hi) = (
+            q["ci_low"].as_f64().unwrap(),
+            q["ci_high"].as_f64().unwrap(),
+        );
+        assert!(
+            lo <= truth && truth <= hi,
+            "{name}: {truth} not in [{lo}, {hi}]"
+        );
+    }
+}
+
+#[test]
+fn import_command_converts_and_reports() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("first.csv");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .arg("import")
+        .arg(repo("data/rheocompass-ptfe-c1.txt"))
+        .args(["--interval", "1,2", "--drop-invalid", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let text = String::from_utf8(output.stdout).unwrap();
+    for expected in [
+        "UTF-16LE with BOM",
+        "decimal commas",
+        "interval 3: 501 points",
+        "Torque [µN·m]",
+        "F = M / r",
+        "841 read, 840 written, 1 invalid dropped",
+    ] {
+        assert!(
+            text.contains(expected),
+            "`{expected}` missing from:\n{text}"
+        );
+    }
+    let series = slipbayes::data::Series::read_csv(&out).unwrap();
+    assert_eq!(series.len(), 840);
+}
