@@ -29,9 +29,8 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use slipbayes::sampler::{
-    EnsembleSampler, LogDensity, LogDensityError, NullSink, SamplerConfig, Silent, Steps,
-};
+use slipbayes::density::{LogDensity, LogDensityError};
+use slipbayes::sampler::{EnsembleSampler, NullSink, SamplerConfig, Silent, Steps};
 
 #[path = "support/floor.rs"]
 mod floor;

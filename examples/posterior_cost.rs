@@ -1,7 +1,7 @@
 //! Cost of one evaluation of the demo posterior (`models/demo.toml`), with and without the
 //! derived quantities: `cargo run --release --example posterior_cost`.
+use slipbayes::density::LogDensity;
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::LogDensity;
 fn main() {
     let spec = ModelSpec::load(std::path::Path::new("models/demo.toml")).unwrap();
     let post = Posterior::new(&spec).unwrap();

@@ -26,9 +26,9 @@ use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::sampler::{
-    ChainSink, EnsembleSampler, LogDensity, LogDensityError, Move, NullSink, SamplerConfig, Silent,
-    StepView, Steps,
+    ChainSink, EnsembleSampler, Move, NullSink, SamplerConfig, Silent, StepView, Steps,
 };
 
 /// Keeps the chain like emcee's in-memory backend: positions and log-densities in buffers
@@ -332,7 +332,7 @@ fn posterior(args: &[String]) {
     let spec = ModelSpec::load(std::path::Path::new(&model)).expect("model file loads");
     let post = Posterior::new(&spec).expect("posterior builds");
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let start = slipbayes::sampler::initial_around_optimum(
+    let start = slipbayes::optimize::initial_around_optimum(
         &post,
         post.start(),
         walkers,

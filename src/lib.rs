@@ -19,11 +19,13 @@
 #![deny(clippy::float_cmp)]
 
 pub mod data;
+pub mod density;
 pub mod diagnostics;
 #[cfg(feature = "parquet")]
 pub mod fit;
 pub mod law;
 pub mod model;
+pub mod optimize;
 pub mod prec;
 #[cfg(feature = "report")]
 pub mod report;

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
+use slipbayes::density::LogDensity;
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::LogDensity;
 
 fn posterior(extra_run: &str, priors: &str) -> Posterior {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/ptfe-c1-first.csv");

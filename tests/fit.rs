@@ -8,12 +8,10 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use serde_json::Value;
-use slipbayes::fit::{
-    run_fit, ComparisonSpec, FitError, FitSettings, Quantity, QuantityKind, Stats, CSV_COLUMNS,
-};
-use slipbayes::sampler::{
-    LogDensity, LogDensityError, Observer, Progress, SamplerError, Silent, Steps,
-};
+use slipbayes::density::{LogDensity, LogDensityError};
+use slipbayes::density::{Quantity, QuantityKind};
+use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, Stats, CSV_COLUMNS};
+use slipbayes::sampler::{Observer, Progress, SamplerError, Silent, Steps};
 use slipbayes::storage::read_chains;
 use statrs::function::erf::erfc;
 

@@ -6,10 +6,10 @@ mod common;
 
 use std::path::Path;
 
+use slipbayes::density::LogDensity;
 use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings, FitSummary};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::LogDensity;
 use slipbayes::sampler::{Silent, Steps};
 
 const TRUTH: (f64, f64, f64, f64, f64) = (0.92e6, 0.62, 10e-3, 14.8, 1.2e4);
@@ -323,7 +323,7 @@ fn medians_approach_the_truth_as_data_grow() {
 /// Pooling t0 within a material adds the population and the new-contact peak prediction.
 #[test]
 fn pooled_t0_predicts_a_new_contact() {
-    use slipbayes::sampler::LogDensity;
+    use slipbayes::density::LogDensity;
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     common::simulate_ptfe(d, "f1.csv", Scene::First, 20_000.0, 100.0, 51, 0.0);

@@ -5,9 +5,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use slipbayes::density::LogDensity;
 use slipbayes::law::Scene;
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::LogDensity;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

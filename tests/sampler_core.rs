@@ -5,10 +5,13 @@ mod sampler_util;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sampler_util::Gaussian;
+use slipbayes::density::{LogDensity, LogDensityError};
+use slipbayes::optimize::{
+    initial_around_optimum, laplace_covariance, nelder_mead, NelderMeadOptions,
+};
 use slipbayes::sampler::{
-    initial_around_optimum, laplace_covariance, nelder_mead, EnsembleSampler, LogDensity,
-    LogDensityError, MemorySink, Move, NelderMeadOptions, SamplerConfig, SamplerError,
-    SamplerState, Silent, Steps, StopRule,
+    EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, SamplerState, Silent, Steps,
+    StopRule,
 };
 
 /// Bit patterns, compared without printing megabytes on failure.

@@ -7,9 +7,10 @@ mod sampler_util;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sampler_util::{assert_within, mean_and_mcse, Gaussian};
+use slipbayes::density::{LogDensity, LogDensityError};
+use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
-    initial_around_optimum, EnsembleSampler, LogDensity, LogDensityError, MemorySink, Move,
-    SamplerConfig, Silent, Steps, StopReason, StopRule,
+    EnsembleSampler, MemorySink, Move, SamplerConfig, Silent, Steps, StopReason, StopRule,
 };
 
 /// Allowed distance from the truth in Monte-Carlo standard errors.

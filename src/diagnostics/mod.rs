@@ -34,6 +34,7 @@ pub mod autocorr;
 pub mod ensemble;
 mod error;
 mod special;
+mod walkers;
 
 pub use arviz::{
     equal_tailed_interval, ess_bulk, ess_mean, ess_tail, hdi, mcse_mean, mcse_quantile, mcse_sd,
@@ -45,3 +46,4 @@ pub use autocorr::{
 };
 pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
+pub use walkers::{walker_condition_number, WALKER_CONDITION_LIMIT};

@@ -41,7 +41,7 @@ pub enum FitError {
         start: Vec<f64>,
         /// Why.
         #[source]
-        source: SamplerError,
+        source: crate::optimize::OptimizeError,
     },
     /// Sampling (or setting up the sampler) failed.
     #[error("{context}")]

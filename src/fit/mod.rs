@@ -41,9 +41,12 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+use crate::density::LogDensity;
+use crate::density::{Quantity, QuantityKind};
+use crate::optimize::initial_around_optimum;
 use crate::sampler::{
-    initial_around_optimum, EnsembleSampler, LogDensity, Observer, RunReport, SamplerConfig,
-    SamplerState, Silent, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_SEED,
+    EnsembleSampler, Observer, RunReport, SamplerConfig, SamplerState, Silent, Steps, StopRule,
+    DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
 use crate::storage::{
     read_chains, write_atomically, ParquetSink, SinkOptions, StorageError, CHAINS_DIR,
@@ -71,57 +74,6 @@ pub const DEFAULT_INTERVAL_PROB: f64 = 0.95;
 /// ChaCha8 stream of the seed used to draw the initial walkers; the sampler's streams are
 /// `(ensemble << 32) | walker`, far from this one.
 pub const INIT_STREAM: u64 = u64::MAX;
-
-/// Whether a quantity is reported as a model parameter or as a derived value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum QuantityKind {
-    /// A parameter (the `parameters` list of `summary.json`).
-    Parameter,
-    /// A derived quantity (the `derived` list).
-    Derived,
-}
-
-impl QuantityKind {
-    /// `"parameter"` or `"derived"`, as in `summary.csv`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Parameter => "parameter",
-            Self::Derived => "derived",
-        }
-    }
-}
-
-/// One reported quantity: which chain column holds its draws (a parameter or derived column
-/// name), and how it is reported.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Quantity {
-    /// The chain column.
-    pub column: String,
-    /// Reported name (e.g. `"F_peak"`); several groups may share it.
-    pub name: String,
-    /// Group (material, scene, ...); may be empty.
-    pub group: String,
-    /// Unit, for humans (e.g. `"N"`, `"1/m"`); may be empty.
-    pub unit: String,
-    /// The list it is reported in (its column may be a coordinate or a derived value).
-    pub kind: QuantityKind,
-}
-
-impl Quantity {
-    /// `name[group]`, or `name` when the group is empty: how problems refer to it.
-    pub fn label(&self) -> String {
-        label(&self.name, &self.group)
-    }
-}
-
-fn label(name: &str, group: &str) -> String {
-    if group.is_empty() {
-        name.to_owned()
-    } else {
-        format!("{name}[{group}]")
-    }
-}
 
 /// Material comparison: for each `name` in `names`, and each ordered pair (A, B) of `groups`
 /// (A before B in the list), the posterior of A − B and A / B, with intervals and P(A > B).

@@ -15,8 +15,9 @@ use std::path::PathBuf;
 use super::data::RunData;
 use super::prior::Prior;
 use super::spec::{Aging, Level, ModelSpec, Param};
+use crate::density::{LogDensity, LogDensityError};
 use crate::law::{Elastic, Law, LawError, ObservedSlide, RepeatSlide, Scene};
-use crate::sampler::{nelder_mead, LogDensity, LogDensityError, NelderMeadOptions};
+use crate::optimize::{nelder_mead, NelderMeadOptions};
 
 /// Log of √(2π).
 const LN_SQRT_2PI: f64 = 0.918_938_533_204_672_8;
@@ -692,9 +693,8 @@ impl Posterior {
     }
 
     /// The reported columns as the quantities a fit summarises.
-    #[cfg(feature = "parquet")]
-    pub fn quantities(&self) -> Vec<crate::fit::Quantity> {
-        use crate::fit::{Quantity, QuantityKind};
+    pub fn quantities(&self) -> Vec<crate::density::Quantity> {
+        use crate::density::{Quantity, QuantityKind};
         self.columns
             .iter()
             .map(|c| Quantity {

@@ -9,8 +9,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::density::Eval;
 use super::moves::Move;
+use crate::density::Eval;
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
 fn ensemble_stream(e: usize) -> u64 {

@@ -34,7 +34,7 @@ pub enum SamplerError {
     /// An initial walker is not a valid starting point.
     #[error(
         "initial walker {walker} of ensemble {ensemble} at {position:?} is not a valid start: {reason}; \
-         start the walkers inside the support (e.g. with initial_around_optimum)"
+         start the walkers inside the support (e.g. with optimize::initial_around_optimum)"
     )]
     BadInitialWalker {
         /// Ensemble index.
@@ -84,12 +84,6 @@ pub enum SamplerError {
     /// An earlier run of this sampler stopped on an error mid-step.
     #[error("the sampler stopped on an error mid-step; resume from the last checkpoint instead")]
     Poisoned,
-    /// Finding a starting point failed.
-    #[error("starting-point search failed: {detail}")]
-    Optimisation {
-        /// What went wrong.
-        detail: String,
-    },
     /// The sink could not store draws or a checkpoint.
     #[error("chain sink failed at step {step}")]
     Sink {

@@ -1,7 +1,7 @@
 //! Affine-invariant ensemble MCMC (Goodman & Weare 2010, as in emcee) over any log-density.
 //!
-//! The sampler knows nothing of friction: it sees a [`LogDensity`] over `&[f64]` with a
-//! fallible result. Points the density refuses (out of support, NaN, −∞) are rejected
+//! The sampler knows nothing of friction: it sees a [`LogDensity`](crate::density::LogDensity)
+//! over `&[f64]` with a fallible result. Points the density refuses (out of support, NaN, −∞) are rejected
 //! proposals counted per reason; only fatal faults (and +∞) stop a run.
 //!
 //! - Moves ([`Move`]): stretch, differential evolution and walk, mixable with weights; the
@@ -21,10 +21,9 @@
 //!
 //! # Quick start
 //! ```
-//! use slipbayes::sampler::{
-//!     initial_around_optimum, EnsembleSampler, LogDensity, LogDensityError, MemorySink,
-//!     SamplerConfig, Silent, Steps,
-//! };
+//! use slipbayes::density::{LogDensity, LogDensityError};
+//! use slipbayes::optimize::initial_around_optimum;
+//! use slipbayes::sampler::{EnsembleSampler, MemorySink, SamplerConfig, Silent, Steps};
 //! use rand::SeedableRng;
 //!
 //! /// A standard normal in two dimensions, restricted to x0 > -5.
@@ -52,12 +51,9 @@
 //! # }
 //! ```
 mod config;
-mod density;
 mod ensemble;
 mod error;
 mod history;
-mod init;
-mod lbfgs;
 mod memory;
 mod moves;
 mod observer;
@@ -68,14 +64,9 @@ pub mod sink;
 pub use config::{
     SamplerConfig, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
 };
-pub use density::{LogDensity, LogDensityError, REJECT_NAN, REJECT_NEG_INFINITY};
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;
 pub use history::History;
-pub use init::{
-    initial_around_optimum, laplace_covariance, nelder_mead, NelderMeadOptions, Optimum, Start,
-};
-pub use lbfgs::{lbfgs, LbfgsOptions};
 pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::Move;
 pub use observer::{Observer, Progress, RunStart, Silent};
@@ -83,8 +74,5 @@ pub use report::{
     stuck_walker_problems, EnsembleReport, RunReport, StopReason, TauReport, RHAT_CONVERGED,
     STUCK_ACCEPTANCE, TAU_FACTOR,
 };
-pub use run::{
-    walker_condition_number, EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION,
-    WALKER_CONDITION_LIMIT,
-};
+pub use run::{EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION};
 pub use sink::{ChainSink, StepView};

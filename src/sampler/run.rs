@@ -2,12 +2,10 @@
 
 use std::time::{Duration, Instant};
 
-use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::config::{SamplerConfig, Steps};
-use super::density::{classify, Eval, LogDensity};
 use super::ensemble::{Ensemble, EnsembleState, Fatal, Work};
 use super::error::SamplerError;
 use super::history::{History, RowHistory};
@@ -18,10 +16,8 @@ use super::report::{
     RunReport, StopReason, RHAT_CONVERGED, TAU_FACTOR,
 };
 use super::sink::{ChainSink, StepView};
-
-/// Largest condition number of the column-normalised, centred initial walker matrix
-/// (emcee's `walkers_independent` limit).
-pub const WALKER_CONDITION_LIMIT: f64 = 1e8;
+use crate::density::{classify, Eval, LogDensity};
+use crate::diagnostics::{walker_condition_number, WALKER_CONDITION_LIMIT};
 
 /// Version of the [`SamplerState`] layout.
 pub const STATE_VERSION: u32 = 1;
@@ -92,30 +88,6 @@ fn shape(what: String, expected: usize, got: usize) -> Result<(), SamplerError> 
             expected,
             got,
         })
-    }
-}
-
-/// Condition number of the centred walker matrix with columns scaled to unit norm
-/// (`walkers × ndim`); +∞ when a column is constant.
-pub fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
-    let walkers = positions.len() / ndim;
-    let mut m = DMatrix::from_row_slice(walkers, ndim, positions);
-    for mut col in m.column_iter_mut() {
-        let mean = col.mean();
-        col.add_scalar_mut(-mean);
-        let norm = col.norm();
-        if !(norm > 0.0 && norm.is_finite()) {
-            return f64::INFINITY;
-        }
-        col /= norm;
-    }
-    let sv = m.singular_values();
-    let max = sv.max();
-    let min = sv.min();
-    if min > 0.0 {
-        max / min
-    } else {
-        f64::INFINITY
     }
 }
 
@@ -794,7 +766,8 @@ fn check_dims(ndim: usize, config: &SamplerConfig) -> Result<(), SamplerError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampler::{LogDensityError, MemorySink, Move, NullSink, Silent};
+    use crate::density::LogDensityError;
+    use crate::sampler::{MemorySink, Move, NullSink, Silent};
 
     /// A 3-D standard normal without derived values.
     struct Normal3;

@@ -5,8 +5,9 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::diagnostics::mcse_mean;
-use slipbayes::sampler::{LogDensity, LogDensityError, MemoryChain};
+use slipbayes::sampler::MemoryChain;
 
 /// A zero-mean Gaussian with a given covariance.
 pub struct Gaussian {

@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use super::{load_posterior, BenchError, BenchSettings};
 use slipbayes::data::Series;
+use slipbayes::density::LogDensity;
 use slipbayes::law::{Elastic, Law, LawParams, ObservedSlide, RepeatSlide};
-use slipbayes::sampler::LogDensity;
 
 /// One row of the cost table.
 #[derive(Debug, Clone, Serialize)]

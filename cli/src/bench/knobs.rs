@@ -12,8 +12,9 @@ use serde::Serialize;
 use super::cost::{read_series, read_truth, Truth};
 use super::{load_posterior, BenchError, BenchSettings, BENCH_SEED};
 use slipbayes::data::{write_atomically, Series};
+use slipbayes::density::LogDensity;
 use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary, QuantitySummary};
-use slipbayes::sampler::{LogDensity, Silent, Steps, StopRule};
+use slipbayes::sampler::{Silent, Steps, StopRule};
 
 /// Which knob a run turns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

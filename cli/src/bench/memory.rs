@@ -71,16 +71,15 @@ pub struct ProbeReading {
 /// The sampler alone, streaming every step to Parquet in `out`.
 fn sample_streamed(model: &Path, steps: u64, out: &Path) -> Result<(), BenchError> {
     use rand::SeedableRng;
-    use slipbayes::sampler::{
-        EnsembleSampler, LogDensity, SamplerConfig, Silent, DEFAULT_ENSEMBLES,
-    };
+    use slipbayes::density::LogDensity;
+    use slipbayes::sampler::{EnsembleSampler, SamplerConfig, Silent, DEFAULT_ENSEMBLES};
     use slipbayes::storage::{ParquetSink, SinkOptions};
     let (_, posterior) = super::load_posterior(model)?;
     let fail = |e: String| BenchError::run(format!("memory probe of {steps} steps"))(e);
     let walkers = super::throughput::default_walkers(posterior.dim());
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(BENCH_SEED);
     rng.set_stream(slipbayes::fit::INIT_STREAM);
-    let start = slipbayes::sampler::initial_around_optimum(
+    let start = slipbayes::optimize::initial_around_optimum(
         &posterior,
         posterior.start(),
         walkers,
@@ -187,7 +186,7 @@ pub fn probe_two_lengths(
     let (_, posterior) = super::load_posterior(&model)?;
     Ok(MemoryProbe {
         model: "first + repeat slide of one contact, every 10th point".into(),
-        walkers_total: super::throughput::default_walkers(slipbayes::sampler::LogDensity::dim(
+        walkers_total: super::throughput::default_walkers(slipbayes::density::LogDensity::dim(
             &posterior,
         )) * slipbayes::sampler::DEFAULT_ENSEMBLES,
         steps,

@@ -13,9 +13,9 @@ use super::chains::{median_error, min_ess, CoordStats, Draws};
 use super::throughput::{Measured, Reference};
 use super::{BenchError, BenchSettings};
 use slipbayes::data::write_atomically;
+use slipbayes::density::LogDensity;
 use slipbayes::model::prior::Prior;
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::LogDensity;
 
 /// Relative agreement required of the peer's log-density (relative to max(|ours|, 1)).
 pub const LOG_DENSITY_RTOL: f64 = 1e-9;

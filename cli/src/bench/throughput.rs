@@ -10,11 +10,12 @@ use serde::Serialize;
 
 use super::chains::{min_ess, CoordStats, Draws};
 use super::{BenchError, BENCH_SEED};
+use slipbayes::density::LogDensity;
 use slipbayes::fit::INIT_STREAM;
 use slipbayes::model::Posterior;
+use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
-    initial_around_optimum, EnsembleSampler, LogDensity, MemorySink, SamplerConfig, Silent, Steps,
-    DEFAULT_ENSEMBLES,
+    EnsembleSampler, MemorySink, SamplerConfig, Silent, Steps, DEFAULT_ENSEMBLES,
 };
 
 /// One run at one thread count.

@@ -9,13 +9,14 @@ use clap::Args;
 use serde::Serialize;
 
 use slipbayes::data::write_atomically;
+use slipbayes::density::LogDensity;
 use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings};
 use slipbayes::law::Scene;
 use slipbayes::model::spec::{
     ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
 };
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::{LogDensity, Steps, StopRule};
+use slipbayes::sampler::{Steps, StopRule};
 
 use super::import::ImportArgs;
 use crate::progress::ProgressBarObserver;

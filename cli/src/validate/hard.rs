@@ -14,10 +14,11 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use slipbayes::data::write_atomically;
+use slipbayes::density::LogDensity;
 use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitSettings};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::{LogDensity, Silent, Steps};
+use slipbayes::sampler::{Silent, Steps};
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// Contraction below which a quantity counts as not identified by the data.

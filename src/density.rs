@@ -1,4 +1,9 @@
-//! The one thing the sampler knows about a model: a log-density over a slice of `f64`.
+//! The contract between models and the algorithms that explore them: a log-density over a
+//! slice of `f64` ([`LogDensity`]), and what its columns report ([`Quantity`]).
+//!
+//! The sampler and the optimisers see a model only through [`LogDensity`]; a fit reports the
+//! density's columns as the [`Quantity`]s the model names (a name, a group such as a material,
+//! a unit). Neither side knows anything of friction.
 
 use thiserror::Error;
 
@@ -108,5 +113,57 @@ pub(crate) fn classify<D: LogDensity + ?Sized>(
         Ok(_) => Eval::Fatal("log-density is +inf".to_string()),
         Err(LogDensityError::Rejected { reason }) => Eval::Rejected(reason),
         Err(LogDensityError::Fatal { message }) => Eval::Fatal(message),
+    }
+}
+
+/// Whether a quantity is reported as a model parameter or as a derived value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QuantityKind {
+    /// A parameter (or hyper-parameter) of the model: the `parameters` list of a summary.
+    Parameter,
+    /// A function of the parameters (a peak, a slip distance, ...): the `derived` list.
+    Derived,
+}
+
+impl QuantityKind {
+    /// `"parameter"` or `"derived"`, as in `summary.csv`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Parameter => "parameter",
+            Self::Derived => "derived",
+        }
+    }
+}
+
+/// One reported quantity: which column of a density's draws holds it (a sampled coordinate or
+/// a derived value) and how it is reported.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Quantity {
+    /// The column (a name from [`LogDensity::param_names`] or [`LogDensity::derived_names`]).
+    pub column: String,
+    /// Reported name (e.g. `"F_peak"`); several groups may share it.
+    pub name: String,
+    /// Group (material, contact, run, ...); may be empty.
+    pub group: String,
+    /// SI unit, for humans (e.g. `"N"`, `"1/m"`); may be empty.
+    pub unit: String,
+    /// The list it is reported in.
+    pub kind: QuantityKind,
+}
+
+impl Quantity {
+    /// `name[group]`, or `name` when the group is empty: how messages refer to it.
+    pub fn label(&self) -> String {
+        label(&self.name, &self.group)
+    }
+}
+
+/// `name[group]`, or `name` when `group` is empty.
+pub fn label(name: &str, group: &str) -> String {
+    if group.is_empty() {
+        name.to_owned()
+    } else {
+        format!("{name}[{group}]")
     }
 }

@@ -1,0 +1,33 @@
+//! Whether an ensemble's walkers span the parameter space (emcee's `walkers_independent`):
+//! an ensemble whose walkers lie (nearly) on a hyperplane can never leave it under
+//! affine-invariant moves.
+
+use nalgebra::DMatrix;
+
+/// Largest condition number of the column-normalised, centred initial walker matrix
+/// (emcee's `walkers_independent` limit).
+pub const WALKER_CONDITION_LIMIT: f64 = 1e8;
+
+/// Condition number of the centred walker matrix with columns scaled to unit norm
+/// (`walkers × ndim`); +∞ when a column is constant.
+pub fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
+    let walkers = positions.len() / ndim;
+    let mut m = DMatrix::from_row_slice(walkers, ndim, positions);
+    for mut col in m.column_iter_mut() {
+        let mean = col.mean();
+        col.add_scalar_mut(-mean);
+        let norm = col.norm();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return f64::INFINITY;
+        }
+        col /= norm;
+    }
+    let sv = m.singular_values();
+    let max = sv.max();
+    let min = sv.min();
+    if min > 0.0 {
+        max / min
+    } else {
+        f64::INFINITY
+    }
+}

@@ -1,0 +1,283 @@
+//! The Laplace approximation of a log-density and the walkers drawn from it.
+//!
+//! The mode is found with L-BFGS on finite-difference gradients, polished with Nelder–Mead
+//! (no gradients needed, robust to the rejections a density may return near the edge of its
+//! support), the local curvature with a central finite-difference Hessian, and walkers are
+//! drawn from `N(mode, H⁻¹)`. When `H` is not positive definite, the directions without
+//! positive curvature get a small fixed spread instead.
+
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use rand::Rng;
+use rand_distr::StandardNormal;
+
+use super::lbfgs::{lbfgs, LbfgsOptions};
+use super::nelder_mead::{nelder_mead, NelderMeadOptions};
+use super::OptimizeError;
+use crate::density::{classify, Eval, LogDensity};
+use crate::diagnostics::{walker_condition_number, WALKER_CONDITION_LIMIT};
+
+/// Covariance of the Laplace approximation at `mode` of the log-density `log_f`, from a
+/// central finite-difference Hessian: `(Σ, positive_definite)`, `Σ` row-major `n × n`.
+///
+/// Directions without positive curvature (or when a difference point is refused) get the
+/// fallback standard deviation `fallback_sd · max(|x_i|, 1)` along the coordinate axes.
+pub fn laplace_covariance<F: FnMut(&[f64]) -> f64>(
+    mut log_f: F,
+    mode: &[f64],
+    fallback_sd: f64,
+) -> (Vec<f64>, bool) {
+    let n = mode.len();
+    // ε^(1/4): balances truncation (h²) against rounding (ε/h²) of the second difference.
+    let h: Vec<f64> = mode
+        .iter()
+        .map(|x| f64::EPSILON.powf(0.25) * x.abs().max(1.0))
+        .collect();
+    let f0 = log_f(mode);
+    let mut x = mode.to_vec();
+    let mut at = |x: &mut Vec<f64>, moves: &[(usize, f64)]| {
+        for &(i, d) in moves {
+            x[i] += d;
+        }
+        let v = log_f(x);
+        for &(i, d) in moves {
+            x[i] -= d;
+        }
+        x.copy_from_slice(mode);
+        v
+    };
+    let mut hess = DMatrix::<f64>::zeros(n, n);
+    let mut finite = f0.is_finite();
+    for i in 0..n {
+        let fp = at(&mut x, &[(i, h[i])]);
+        let fm = at(&mut x, &[(i, -h[i])]);
+        finite &= fp.is_finite() && fm.is_finite();
+        hess[(i, i)] = -(fp - 2.0 * f0 + fm) / (h[i] * h[i]);
+        for j in 0..i {
+            let fpp = at(&mut x, &[(i, h[i]), (j, h[j])]);
+            let fpm = at(&mut x, &[(i, h[i]), (j, -h[j])]);
+            let fmp = at(&mut x, &[(i, -h[i]), (j, h[j])]);
+            let fmm = at(&mut x, &[(i, -h[i]), (j, -h[j])]);
+            finite &= fpp.is_finite() && fpm.is_finite() && fmp.is_finite() && fmm.is_finite();
+            let v = -(fpp - fpm - fmp + fmm) / (4.0 * h[i] * h[j]);
+            hess[(i, j)] = v;
+            hess[(j, i)] = v;
+        }
+    }
+    let fallback = |i: usize| (fallback_sd * mode[i].abs().max(1.0)).powi(2);
+    if !finite {
+        let mut cov = vec![0.0; n * n];
+        for i in 0..n {
+            cov[i * n + i] = fallback(i);
+        }
+        return (cov, false);
+    }
+    let eig = SymmetricEigen::new(hess);
+    let lmax = eig.eigenvalues.iter().copied().fold(0.0f64, f64::max);
+    let mut pd = true;
+    let mut inv = DVector::<f64>::zeros(n);
+    for (k, &l) in eig.eigenvalues.iter().enumerate() {
+        // Curvature this small relative to the largest is numerically zero.
+        if l > lmax * 1e-12 && l > 0.0 {
+            inv[k] = 1.0 / l;
+        } else {
+            pd = false;
+            // Spread along this eigenvector as the fallback would along an axis.
+            let v = eig.eigenvectors.column(k);
+            inv[k] = (0..n).map(|i| v[i] * v[i] * fallback(i)).sum();
+        }
+    }
+    let cov = &eig.eigenvectors * DMatrix::from_diagonal(&inv) * eig.eigenvectors.transpose();
+    let mut out = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            out[i * n + j] = cov[(i, j)];
+        }
+    }
+    (out, pd)
+}
+
+/// The mode of a log-density and the curvature there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Optimum {
+    /// Position of the mode.
+    pub x: Vec<f64>,
+    /// Log-density there.
+    pub log_density: f64,
+    /// Covariance of the Laplace approximation (row-major `ndim × ndim`).
+    pub covariance: Vec<f64>,
+    /// Whether the Hessian was positive definite (otherwise a fallback spread was used).
+    pub positive_definite: bool,
+    /// Log-density evaluations spent (optimisation and Hessian).
+    pub evaluations: usize,
+}
+
+/// Initial walkers and how they were found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Start {
+    /// `walkers[ensemble][walker]`, ready for the ensemble sampler.
+    pub walkers: Vec<Vec<Vec<f64>>>,
+    /// The mode and curvature.
+    pub optimum: Optimum,
+}
+
+/// Relative fallback spread along directions without positive curvature.
+pub const FALLBACK_SPREAD: f64 = 1e-3;
+/// Attempts to draw a walker inside the support before giving up.
+pub const MAX_DRAW_ATTEMPTS: usize = 1000;
+
+/// The log-density as a plain function for the optimisers: refused points are −∞, and every
+/// call is counted.
+struct Counted<'a, D: LogDensity + ?Sized> {
+    density: &'a D,
+    scratch: Vec<f64>,
+    evaluations: usize,
+}
+
+impl<'a, D: LogDensity + ?Sized> Counted<'a, D> {
+    fn new(density: &'a D) -> Self {
+        Self {
+            density,
+            scratch: vec![0.0; density.derived_names().len()],
+            evaluations: 0,
+        }
+    }
+
+    fn log_f(&mut self, x: &[f64]) -> f64 {
+        self.evaluations += 1;
+        match classify(self.density, x, &mut self.scratch) {
+            Eval::Finite(v) => v,
+            _ => f64::NEG_INFINITY,
+        }
+    }
+}
+
+/// The mode of `density` from `start` (L-BFGS, then a Nelder–Mead polish) and the covariance
+/// of the Laplace approximation there.
+///
+/// # Errors
+/// [`OptimizeError::Shape`] for a start of the wrong length, [`OptimizeError::StartNotFinite`]
+/// when `start` is not inside the support, [`OptimizeError::NoFiniteMode`] when the search
+/// ends where the density is not finite.
+pub fn find_mode<D: LogDensity + ?Sized>(
+    density: &D,
+    start: &[f64],
+) -> Result<Optimum, OptimizeError> {
+    let n = density.dim();
+    if start.len() != n {
+        return Err(OptimizeError::Shape {
+            expected: n,
+            got: start.len(),
+        });
+    }
+    let mut f = Counted::new(density);
+    if !f.log_f(start).is_finite() {
+        return Err(OptimizeError::StartNotFinite {
+            start: start.to_vec(),
+        });
+    }
+    // L-BFGS gets close cheaply in many dimensions; Nelder–Mead then polishes without
+    // trusting finite-difference gradients at the end.
+    let (near, _) = lbfgs(|x| -f.log_f(x), start, &LbfgsOptions::default());
+    let polish = NelderMeadOptions {
+        initial_step: 1e-3,
+        max_evals: 30 * n,
+        restarts: 1,
+        ..NelderMeadOptions::default()
+    };
+    let (mode, neg, _) = nelder_mead(|x| -f.log_f(x), &near, &polish);
+    if !neg.is_finite() {
+        return Err(OptimizeError::NoFiniteMode {
+            at: mode,
+            log_density: -neg,
+        });
+    }
+    let (covariance, positive_definite) =
+        laplace_covariance(|x| f.log_f(x), &mode, FALLBACK_SPREAD);
+    Ok(Optimum {
+        x: mode,
+        log_density: -neg,
+        covariance,
+        positive_definite,
+        evaluations: f.evaluations,
+    })
+}
+
+/// `ensembles × walkers` walkers drawn from the Laplace approximation `N(mode, Σ)` of
+/// `optimum`, redrawing points the density refuses, with a narrower spread as refusals
+/// mount.
+///
+/// # Errors
+/// [`OptimizeError::NoWalkerInSupport`] when a walker cannot be drawn inside the support,
+/// [`OptimizeError::DegenerateWalkers`] when an ensemble's walkers do not span the space.
+pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
+    density: &D,
+    optimum: &Optimum,
+    walkers: usize,
+    ensembles: usize,
+    rng: &mut R,
+) -> Result<Vec<Vec<Vec<f64>>>, OptimizeError> {
+    let mode = &optimum.x;
+    let n = mode.len();
+    let mut f = Counted::new(density);
+    let eig = SymmetricEigen::new(DMatrix::from_row_slice(n, n, &optimum.covariance));
+    // Σ = V Λ Vᵀ, so x = mode + V Λ^{1/2} z with z standard normal.
+    let root =
+        &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
+    let mut z = DVector::<f64>::zeros(n);
+    let mut all = Vec::with_capacity(ensembles);
+    for e in 0..ensembles {
+        let mut ens = Vec::with_capacity(walkers);
+        for w in 0..walkers {
+            let mut attempts = 0;
+            let x = loop {
+                attempts += 1;
+                z.iter_mut().for_each(|v| *v = rng.sample(StandardNormal));
+                // A mode pressed against the edge of the support (a posterior the data do not
+                // identify) refuses many Laplace draws: narrow the spread as refusals mount,
+                // halving it every tenth of the attempts.
+                let shrink = 0.5_f64.powi((attempts * 10 / MAX_DRAW_ATTEMPTS) as i32);
+                let d = (&root * &z) * shrink;
+                let x: Vec<f64> = mode.iter().zip(d.iter()).map(|(m, d)| m + d).collect();
+                if f.log_f(&x).is_finite() {
+                    break x;
+                }
+                if attempts >= MAX_DRAW_ATTEMPTS {
+                    return Err(OptimizeError::NoWalkerInSupport {
+                        ensemble: e,
+                        walker: w,
+                        mode: mode.clone(),
+                        attempts,
+                    });
+                }
+            };
+            ens.push(x);
+        }
+        let flat: Vec<f64> = ens.iter().flatten().copied().collect();
+        let condition = walker_condition_number(&flat, n);
+        if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
+            return Err(OptimizeError::DegenerateWalkers {
+                mode: mode.clone(),
+                condition,
+            });
+        }
+        all.push(ens);
+    }
+    Ok(all)
+}
+
+/// Finds the mode of `density` from `start` ([`find_mode`]) and draws `ensembles × walkers`
+/// walkers from the Laplace approximation there ([`laplace_walkers`]).
+///
+/// # Errors
+/// As [`find_mode`] and [`laplace_walkers`].
+pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
+    density: &D,
+    start: &[f64],
+    walkers: usize,
+    ensembles: usize,
+    rng: &mut R,
+) -> Result<Start, OptimizeError> {
+    let optimum = find_mode(density, start)?;
+    let walkers = laplace_walkers(density, &optimum, walkers, ensembles, rng)?;
+    Ok(Start { walkers, optimum })
+}
