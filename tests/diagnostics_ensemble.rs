@@ -76,7 +76,7 @@ fn one_walker_per_ensemble_is_arviz() {
             .collect();
         let x = EnsembleDraws::from_nested(&nested).expect("valid draws");
         assert_eq!(x.walkers(), 1);
-        let s = summarize(&x, r.hdi_prob).expect("valid summary");
+        let s = summarize(&x, r.hdi_prob, r.hdi_prob).expect("valid summary");
         let n = c.name.as_str();
         match (s.r_hat, c.r_hat) {
             (Some(got), Some(want)) => close(n, "r_hat", got, want),
@@ -157,7 +157,7 @@ const N: f64 = (E * W * STEPS) as f64;
 #[test]
 fn iid_draws_have_full_ess_and_unit_rhat() {
     let x = ar1_ensembles(E, W, STEPS, 0.0, 7, |_, _| 0.0);
-    let s = summarize(&x, 0.94).expect("valid");
+    let s = summarize(&x, 0.94, 0.94).expect("valid");
     for (what, ess) in [
         ("bulk", s.ess_bulk),
         ("tail", s.ess_tail),
@@ -182,7 +182,7 @@ fn iid_draws_have_full_ess_and_unit_rhat() {
 #[test]
 fn ensembles_stuck_in_different_modes_have_large_rhat() {
     let x = ar1_ensembles(E, W, STEPS, 0.5, 8, |e, _| if e < 2 { -3.0 } else { 3.0 });
-    let s = summarize(&x, 0.94).expect("valid");
+    let s = summarize(&x, 0.94, 0.94).expect("valid");
     let r = s.r_hat.expect("several ensembles");
     assert!(r > 1.5, "R-hat {r}");
     assert_eq!(ensemble_rhat(&x).ok(), s.r_hat);
@@ -200,7 +200,7 @@ fn ensembles_stuck_in_different_modes_have_large_rhat() {
 #[test]
 fn walkers_that_do_not_mix_lower_ess() {
     let x = ar1_ensembles(E, W, STEPS, 0.0, 9, |_, w| (w as f64 - 15.5) / 9.0);
-    let s = summarize(&x, 0.94).expect("valid");
+    let s = summarize(&x, 0.94, 0.94).expect("valid");
     assert!(s.ess_bulk < 0.1 * N, "ESS bulk {} of N {N}", s.ess_bulk);
     assert!(s.ess_mean < 0.1 * N, "ESS mean {} of N {N}", s.ess_mean);
     assert!(s.r_hat.expect("several ensembles") < 1.01);
@@ -213,7 +213,7 @@ fn walkers_that_do_not_mix_lower_ess() {
 fn autocorrelated_walkers_have_ess_n_over_tau() {
     for (phi, steps, seed) in [(0.5, STEPS, 10), (0.9, 2000, 11)] {
         let x = ar1_ensembles(E, W, steps, phi, seed, |_, _| 0.0);
-        let s = summarize(&x, 0.94).expect("valid");
+        let s = summarize(&x, 0.94, 0.94).expect("valid");
         let n = (E * W * steps) as f64;
         let tau = (1.0 + phi) / (1.0 - phi);
         for (what, ess) in [("bulk", s.ess_bulk), ("mean", s.ess_mean)] {
@@ -229,7 +229,7 @@ fn autocorrelated_walkers_have_ess_n_over_tau() {
 #[test]
 fn one_ensemble_has_no_rhat() {
     let x = ar1_ensembles(1, 8, 100, 0.0, 12, |_, _| 0.0);
-    let s = summarize(&x, 0.9).expect("valid");
+    let s = summarize(&x, 0.9, 0.9).expect("valid");
     assert!(s.r_hat.is_none());
     assert!(matches!(
         ensemble_rhat(&x),
@@ -272,6 +272,6 @@ fn invalid_ensembles_are_rejected_with_their_position() {
     assert!(EnsembleDraws::new(vec![], 0, 2, 4).is_err());
     let x = EnsembleDraws::from_fn(2, 2, 4, |e, w, t| (e + 2 * w + 3 * t) as f64).expect("valid");
     assert_eq!(x.series(1, 1), &[3.0, 6.0, 9.0, 12.0]);
-    assert!(summarize(&x, 1.0).is_err());
-    assert!(summarize(&x, 0.0).is_err());
+    assert!(summarize(&x, 1.0, 1.0).is_err());
+    assert!(summarize(&x, 0.0, 0.0).is_err());
 }

@@ -10,7 +10,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use serde_json::Value;
 use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::density::{Quantity, QuantityKind};
-use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, Stats, CSV_COLUMNS};
+use slipbayes::diagnostics::{Problem, Summary};
+use slipbayes::fit::run_dir::{CSV_COLUMNS, SUMMARY_CSV, SUMMARY_JSON};
+use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, RunDir, SummarySpec};
 use slipbayes::sampler::{Observer, Progress, SamplerError, Silent, Steps};
 use slipbayes::storage::read_chains;
 use statrs::function::erf::erfc;
@@ -81,6 +83,14 @@ fn toy_comparisons() -> ComparisonSpec {
     ComparisonSpec {
         names: vec!["alpha".into(), "log_alpha".into()],
         groups: vec!["A".into(), "B".into()],
+    }
+}
+
+fn toy_spec(quantities: Vec<Quantity>) -> SummarySpec {
+    SummarySpec {
+        quantities,
+        comparisons: toy_comparisons(),
+        ..SummarySpec::default()
     }
 }
 
@@ -168,11 +178,10 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     let s = settings(3000);
     let outcome = run_fit(
         &Toy { crash: None },
-        &toy_quantities(),
-        &toy_comparisons(),
+        &toy_spec(toy_quantities()),
         &START,
         &s,
-        &dir,
+        &RunDir::new(&dir),
         false,
         &mut Silent,
     )
@@ -180,7 +189,7 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     let sum = &outcome.summary;
 
     // --- summary.json: exact top-level shape, stats keys, sampler keys.
-    let json = read_json(&outcome.paths.summary_json);
+    let json = read_json(&outcome.dir.file(SUMMARY_JSON));
     assert_eq!(
         keys(&json),
         set(&["parameters", "derived", "comparisons", "sampler", "data"])
@@ -335,7 +344,7 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
         ("alpha", "log_alpha")
     );
     assert_eq!(alpha.unit, "1/m");
-    let d: &Stats = &alpha.difference;
+    let d: &Summary = &alpha.difference;
     assert_within("alpha difference", d.mean, ma - mb, d.mcse_mean, 4.0);
     let r = alpha.ratio.as_ref().expect("ratio defined");
     assert_within("alpha ratio", r.mean, ratio_mean, r.mcse_mean, 4.0);
@@ -362,7 +371,7 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     assert_eq!(alpha.p_a_greater.to_bits(), log_alpha.p_a_greater.to_bits());
 
     // --- summary.csv agrees with summary.json, field by field.
-    let csv = std::fs::read_to_string(&outcome.paths.summary_csv).expect("read csv");
+    let csv = std::fs::read_to_string(&outcome.dir.file(SUMMARY_CSV)).expect("read csv");
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
     assert_eq!(header, CSV_COLUMNS);
@@ -422,15 +431,14 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
     let mut s = settings(600);
     s.walkers = 8;
     s.quiet = false; // the observer must see the steps to trigger the crash
-    let (q, c) = (toy_quantities(), toy_comparisons());
+    let spec = toy_spec(toy_quantities());
     let run = |dir: &Path, resume: bool| {
         run_fit(
             &Toy { crash: None },
-            &q,
-            &c,
+            &spec,
             &START,
             &s,
-            dir,
+            &RunDir::new(dir),
             resume,
             &mut Silent,
         )
@@ -441,11 +449,10 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
     let flag = AtomicBool::new(false);
     let err = run_fit(
         &Toy { crash: Some(&flag) },
-        &q,
-        &c,
+        &spec,
         &START,
         &s,
-        &crashed,
+        &RunDir::new(&crashed),
         false,
         &mut CrashAfter {
             at: 450,
@@ -479,11 +486,10 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
     other_seed.seed += 1;
     let mismatch = run_fit(
         &Toy { crash: None },
-        &q,
-        &c,
+        &spec,
         &START,
         &other_seed,
-        &crashed,
+        &RunDir::new(&crashed),
         true,
         &mut Silent,
     )
@@ -526,12 +532,12 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
         v
     };
     assert_eq!(
-        strip(read_json(&reference.paths.summary_json)),
-        strip(read_json(&resumed.paths.summary_json))
+        strip(read_json(&reference.dir.file(SUMMARY_JSON))),
+        strip(read_json(&resumed.dir.file(SUMMARY_JSON)))
     );
     assert_eq!(
-        std::fs::read(&reference.paths.summary_csv).expect("csv"),
-        std::fs::read(&resumed.paths.summary_csv).expect("csv")
+        std::fs::read(&reference.dir.file(SUMMARY_CSV)).expect("csv"),
+        std::fs::read(&resumed.dir.file(SUMMARY_CSV)).expect("csv")
     );
 }
 
@@ -569,11 +575,10 @@ fn bimodal_target_is_reported_unconverged_with_reasons() {
     ];
     let outcome = run_fit(
         &Bimodal,
-        &quantities,
-        &ComparisonSpec::default(),
+        &SummarySpec::of(quantities.to_vec()),
         &[0.5, 0.0],
         &settings(3000),
-        tmp.path(),
+        &RunDir::new(tmp.path()),
         false,
         &mut Silent,
     )
@@ -584,16 +589,19 @@ fn bimodal_target_is_reported_unconverged_with_reasons() {
         sampler
             .problems
             .iter()
-            .any(|p| p.starts_with("x_bimodal: ESS bulk")),
+            .any(|p| p.to_string().starts_with("x_bimodal: ESS bulk")),
         "problems: {:#?}",
         sampler.problems
     );
     assert!(
-        sampler.problems[0].starts_with("chains of 3000 steps are shorter than 50 τ_max"),
+        matches!(
+            sampler.problems[0],
+            Problem::ChainsTooShort { steps: 3000, .. }
+        ),
         "the unreliable τ comes first: {:#?}",
         sampler.problems
     );
-    let json = read_json(&outcome.paths.summary_json);
+    let json = read_json(&outcome.dir.file(SUMMARY_JSON));
     assert_eq!(json["sampler"]["converged"], false);
     assert_eq!(
         json["sampler"]["problems"].as_array().map(Vec::len),
@@ -608,11 +616,10 @@ fn bad_requests_fail_before_any_work() {
     let try_fit = |q: &[Quantity], s: &FitSettings, resume: bool| {
         run_fit(
             &Toy { crash: None },
-            q,
-            &toy_comparisons(),
+            &toy_spec(q.to_vec()),
             &START,
             s,
-            &dir,
+            &RunDir::new(&dir),
             resume,
             &mut Silent,
         )
@@ -656,11 +663,10 @@ fn a_single_ensemble_cannot_be_called_converged() {
     s.ensembles = 1;
     let outcome = run_fit(
         &Toy { crash: None },
-        &toy_quantities(),
-        &toy_comparisons(),
+        &toy_spec(toy_quantities()),
         &START,
         &s,
-        tmp.path(),
+        &RunDir::new(tmp.path()),
         false,
         &mut Silent,
     )
@@ -671,7 +677,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
         sampler
             .problems
             .iter()
-            .any(|p| p.starts_with("only 1 ensemble")),
+            .any(|p| *p == Problem::SingleEnsemble),
         "{:#?}",
         sampler.problems
     );
@@ -680,7 +686,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
         .parameters
         .iter()
         .all(|q| q.stats.r_hat.is_none()));
-    let csv = std::fs::read_to_string(&outcome.paths.summary_csv).expect("csv");
+    let csv = std::fs::read_to_string(&outcome.dir.file(SUMMARY_CSV)).expect("csv");
     let r_hat_col = CSV_COLUMNS
         .iter()
         .position(|c| *c == "r_hat")

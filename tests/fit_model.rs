@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use slipbayes::density::LogDensity;
-use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings, FitSummary};
+use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
@@ -28,7 +28,6 @@ fn fit_full(
     std::fs::write(&path, model).unwrap();
     let spec = ModelSpec::load(&path).unwrap();
     let post = Posterior::new(&spec).unwrap();
-    let quantities = post.quantities();
     let settings = FitSettings {
         walkers: 20,
         ensembles: 4,
@@ -38,24 +37,12 @@ fn fit_full(
         quiet: true,
         ..FitSettings::default()
     };
-    let out = dir.join(name);
-    let materials = post.materials().to_vec();
-    let comparisons = ComparisonSpec {
-        names: if materials.len() > 1 {
-            vec!["alpha".into(), "a_over_F_d".into()]
-        } else {
-            vec![]
-        },
-        groups: materials,
-    };
-    let outcome = run_fit(
+    let outcome = fit_model(
         &post,
-        &quantities,
-        &comparisons,
-        post.start(),
         &settings,
-        &out,
+        &dir.join(name),
         false,
+        vec![],
         &mut Silent,
     )
     .unwrap();
@@ -75,7 +62,7 @@ fn run(name: &str, file: &str, scene: &str) -> String {
     )
 }
 
-fn get<'a>(s: &'a FitSummary, name: &str, group: &str) -> &'a slipbayes::fit::Stats {
+fn get<'a>(s: &'a FitSummary, name: &str, group: &str) -> &'a slipbayes::diagnostics::Summary {
     &s.parameters
         .iter()
         .chain(&s.derived)
@@ -175,7 +162,7 @@ fn short_first_slide_alone_leaves_k_wide() {
         kr.ci_high
     );
     // A repeat slide pins k: its interval is many times narrower than without one.
-    let width = |s: &slipbayes::fit::Stats| (s.ci_high / s.ci_low).ln();
+    let width = |s: &slipbayes::diagnostics::Summary| (s.ci_high / s.ci_low).ln();
     eprintln!(
         "ln-width of k: alone {:.4}, with repeat {:.4}",
         width(k),

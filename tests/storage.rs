@@ -5,10 +5,15 @@ use std::fs;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
+use slipbayes::data::write_atomically;
 use slipbayes::storage::{
-    read_chains, write_atomically, ChainSink, Chains, ParquetSink, SinkOptions, StepView,
-    StorageError,
+    read_chains, ChainSink, Chains, ParquetSink, SinkOptions, StepView, StorageError,
 };
+
+/// The chain store of a run directory, laid out as a fit's run directory lays it out.
+fn files(dir: &std::path::Path) -> slipbayes::storage::ChainFiles {
+    slipbayes::fit::RunDir::new(dir).chain_files()
+}
 
 const ENSEMBLES: usize = 3;
 const WALKERS: usize = 5;
@@ -106,10 +111,11 @@ fn options(row_group_rows: usize) -> SinkOptions {
 
 /// The reference: 100 steps written without interruption.
 fn uninterrupted(dir: &Path) -> Chains {
-    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     produce(&mut sink, 0, TOTAL_STEPS);
     sink.finish().expect("finish");
-    read_chains(dir).expect("read")
+    read_chains(&files(dir).chains).expect("read")
 }
 
 fn assert_bit_identical(a: &Chains, b: &Chains) {
@@ -200,7 +206,8 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
 
     let tmp = tempfile::tempdir().expect("tmp");
     let dir = tmp.path();
-    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     produce(&mut sink, 0, 55);
     assert!(
         sink.buffered_rows() > 0,
@@ -214,11 +221,11 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
         vec!["chains", "checkpoint.json", "part-000002.parquet.partial"]
     );
     assert_eq!(
-        read_chains(dir).expect("read").len(),
+        read_chains(&files(dir).chains).expect("read").len(),
         40 * ENSEMBLES * WALKERS
     );
 
-    let (mut sink, state) = ParquetSink::resume::<FakeState>(dir).expect("resume");
+    let (mut sink, state) = ParquetSink::resume::<FakeState>(&files(dir)).expect("resume");
     assert_eq!(
         state,
         FakeState {
@@ -234,7 +241,7 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     produce(&mut sink, state.next_step, TOTAL_STEPS);
     sink.finish().expect("finish");
 
-    assert_bit_identical(&read_chains(dir).expect("read"), &reference);
+    assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
     // Same part boundaries and deterministic encoding: the files themselves are identical.
     let (resumed, reference) = (part_bytes(dir), part_bytes(reference_dir.path()));
     assert_eq!(resumed.len(), reference.len());
@@ -256,7 +263,8 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
 
     let tmp = tempfile::tempdir().expect("tmp");
     let dir = tmp.path();
-    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     produce(&mut sink, 0, 40);
     let checkpoint_at_40 = fs::read(dir.join("checkpoint.json")).expect("checkpoint");
     produce(&mut sink, 40, 70);
@@ -278,7 +286,7 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
         ]
     );
 
-    let (mut sink, state) = ParquetSink::resume::<FakeState>(dir).expect("resume");
+    let (mut sink, state) = ParquetSink::resume::<FakeState>(&files(dir)).expect("resume");
     assert_eq!(state.next_step, 40);
     assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
     assert_eq!(
@@ -287,15 +295,20 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     );
     produce(&mut sink, state.next_step, TOTAL_STEPS);
     sink.finish().expect("finish");
-    assert_bit_identical(&read_chains(dir).expect("read"), &reference);
+    assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
 }
 
 #[test]
 fn memory_held_is_one_row_group_whatever_the_run_length() {
     let tmp = tempfile::tempdir().expect("tmp");
     let row_group_rows = 40; // not a multiple of the 15 rows of a step
-    let mut sink = ParquetSink::create(tmp.path(), &params(), &derived(), options(row_group_rows))
-        .expect("create");
+    let mut sink = ParquetSink::create(
+        &files(tmp.path()),
+        &params(),
+        &derived(),
+        options(row_group_rows),
+    )
+    .expect("create");
     let mut max_capacity = 0;
     for step in 0..400 {
         for e in 0..ENSEMBLES {
@@ -317,7 +330,7 @@ fn memory_held_is_one_row_group_whatever_the_run_length() {
     assert_eq!(sink.rows(), 400 * (ENSEMBLES * WALKERS) as u64);
     assert!(max_capacity <= row_group_rows, "capacity {max_capacity}");
     sink.finish().expect("finish");
-    let chains = read_chains(tmp.path()).expect("read");
+    let chains = read_chains(&files(tmp.path()).chains).expect("read");
     assert_eq!(chains.len(), 6000);
 }
 
@@ -328,12 +341,12 @@ fn existing_runs_are_protected_and_overwrite_replaces_them() {
     let _ = uninterrupted(dir);
     fs::write(dir.join("summary.json"), b"{}").expect("other output");
 
-    let err = ParquetSink::create(dir, &params(), &derived(), options(7)).unwrap_err();
+    let err = ParquetSink::create(&files(dir), &params(), &derived(), options(7)).unwrap_err();
     assert!(matches!(err, StorageError::CompletedRunExists { .. }));
     let message = err.to_string();
     assert!(message.contains("--overwrite") && message.contains(&dir.display().to_string()));
 
-    let err = ParquetSink::resume::<FakeState>(dir).unwrap_err();
+    let err = ParquetSink::resume::<FakeState>(&files(dir)).unwrap_err();
     assert!(matches!(err, StorageError::AlreadyFinished { .. }), "{err}");
 
     let opts = SinkOptions {
@@ -344,7 +357,8 @@ fn existing_runs_are_protected_and_overwrite_replaces_them() {
         row_group_rows: 1,
         ..opts
     };
-    let mut sink = ParquetSink::create(dir, &["x".to_string()], &[], opts).expect("overwrite");
+    let mut sink =
+        ParquetSink::create(&files(dir), &["x".to_string()], &[], opts).expect("overwrite");
     sink.record(&StepView {
         ensemble: 0,
         step: 0,
@@ -360,16 +374,16 @@ fn existing_runs_are_protected_and_overwrite_replaces_them() {
         vec!["chains", "part-000000.parquet.partial", "summary.json"]
     );
     // Killed before any checkpoint: an unfinished run with nothing to resume.
-    let err = ParquetSink::create(dir, &params(), &derived(), options(7)).unwrap_err();
+    let err = ParquetSink::create(&files(dir), &params(), &derived(), options(7)).unwrap_err();
     assert!(
         matches!(err, StorageError::UnfinishedRunExists { .. }),
         "{err}"
     );
-    let err = ParquetSink::resume::<FakeState>(dir).unwrap_err();
+    let err = ParquetSink::resume::<FakeState>(&files(dir)).unwrap_err();
     assert!(matches!(err, StorageError::NoCheckpoint { .. }), "{err}");
     assert!(err.to_string().contains("nothing to resume"));
     assert!(matches!(
-        read_chains(dir),
+        read_chains(&files(dir).chains),
         Err(StorageError::NoChains { .. })
     ));
 }
@@ -385,14 +399,15 @@ fn bad_names_shapes_and_foreign_parts_are_refused() {
         (vec![String::new()], vec![]),
         (vec!["a".to_string()], vec!["log_density".to_string()]),
     ] {
-        let err = ParquetSink::create(dir, &p, &d, options(7)).unwrap_err();
+        let err = ParquetSink::create(&files(dir), &p, &d, options(7)).unwrap_err();
         assert!(
             matches!(err, StorageError::InvalidName { .. }),
             "{p:?} {d:?}"
         );
     }
 
-    let mut sink = ParquetSink::create(dir, &params(), &derived(), options(7)).expect("create");
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     let s = fake_step(0, 0);
     let wrong_positions = StepView {
         ensemble: 0,
@@ -438,8 +453,13 @@ fn bad_names_shapes_and_foreign_parts_are_refused() {
 
     // A part of another model slipped in: resuming and reading both refuse it.
     let other_dir = tempfile::tempdir().expect("tmp");
-    let mut other = ParquetSink::create(other_dir.path(), &["gamma".to_string()], &[], options(7))
-        .expect("create");
+    let mut other = ParquetSink::create(
+        &files(other_dir.path()),
+        &["gamma".to_string()],
+        &[],
+        options(7),
+    )
+    .expect("create");
     other
         .record(&StepView {
             ensemble: 0,
@@ -454,15 +474,15 @@ fn bad_names_shapes_and_foreign_parts_are_refused() {
     let foreign = other_dir.path().join("chains/part-000000.parquet");
     fs::copy(&foreign, dir.join("chains/part-000001.parquet")).expect("copy");
     assert!(matches!(
-        read_chains(dir),
+        read_chains(&files(dir).chains),
         Err(StorageError::SchemaMismatch { .. })
     ));
     fs::copy(&foreign, dir.join("chains/part-000000.parquet")).expect("copy");
-    let err = ParquetSink::resume::<FakeState>(dir).unwrap_err();
+    let err = ParquetSink::resume::<FakeState>(&files(dir)).unwrap_err();
     assert!(matches!(err, StorageError::SchemaMismatch { .. }), "{err}");
 
     // A state of another sampler does not parse.
-    let err = ParquetSink::resume::<Vec<String>>(other_dir.path()).unwrap_err();
+    let err = ParquetSink::resume::<Vec<String>>(&files(other_dir.path())).unwrap_err();
     assert!(matches!(err, StorageError::BadCheckpoint { .. }), "{err}");
 }
 
@@ -472,7 +492,7 @@ fn missing_part_is_reported() {
     let dir = tmp.path();
     let _ = uninterrupted(dir);
     fs::remove_file(dir.join("chains/part-000001.parquet")).expect("remove");
-    let err = read_chains(dir).unwrap_err();
+    let err = read_chains(&files(dir).chains).unwrap_err();
     assert!(matches!(err, StorageError::Inconsistent { .. }), "{err}");
     assert!(err.to_string().contains("part-000001.parquet"));
 }

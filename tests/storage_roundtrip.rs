@@ -4,6 +4,11 @@
 use proptest::prelude::*;
 use slipbayes::storage::{read_chains, ChainSink, ParquetSink, SinkOptions, StepView};
 
+/// The chain store of a run directory, laid out as a fit's run directory lays it out.
+fn files(dir: &std::path::Path) -> slipbayes::storage::ChainFiles {
+    slipbayes::fit::RunDir::new(dir).chain_files()
+}
+
 /// Finite doubles with the awkward ones over-represented: signed zeros, subnormals, the
 /// extremes of the range and values near ±1e300.
 fn awkward_f64() -> impl Strategy<Value = f64> {
@@ -74,7 +79,7 @@ proptest! {
         let params: Vec<String> = (0..run.ndim).map(|i| format!("p{i}")).collect();
         let derived: Vec<String> = (0..run.nderived).map(|i| format!("d{i}")).collect();
         let opts = SinkOptions { row_group_rows: run.row_group_rows, overwrite: false };
-        let mut sink = ParquetSink::create(tmp.path(), &params, &derived, opts).expect("create");
+        let mut sink = ParquetSink::create(&files(tmp.path()), &params, &derived, opts).expect("create");
         let width = run.ndim + 1 + run.nderived;
         let mut rows = run.values.chunks_exact(width);
         for step in 0..run.steps {
@@ -100,7 +105,7 @@ proptest! {
         }
         sink.finish().expect("finish");
 
-        let chains = read_chains(tmp.path()).expect("read");
+        let chains = read_chains(&files(tmp.path()).chains).expect("read");
         prop_assert_eq!(&chains.param_names, &params);
         prop_assert_eq!(&chains.derived_names, &derived);
         prop_assert_eq!(chains.len(), run.steps * run.ensembles * run.walkers);

@@ -6,6 +6,11 @@ use std::time::Instant;
 
 use slipbayes::storage::{read_chains, ChainSink, ParquetSink, SinkOptions, StepView};
 
+/// The chain store of a run directory, laid out as a fit's run directory lays it out.
+fn files(dir: &std::path::Path) -> slipbayes::storage::ChainFiles {
+    slipbayes::fit::RunDir::new(dir).chain_files()
+}
+
 #[test]
 #[ignore = "measurement; run on demand with --ignored --nocapture"]
 fn write_and_read_a_million_rows_of_eight_value_columns() {
@@ -30,8 +35,13 @@ fn write_and_read_a_million_rows_of_eight_value_columns() {
     let mut derived_values = vec![0.0; WALKERS * derived.len()];
 
     let start = Instant::now();
-    let mut sink =
-        ParquetSink::create(tmp.path(), &params, &derived, SinkOptions::default()).expect("create");
+    let mut sink = ParquetSink::create(
+        &files(tmp.path()),
+        &params,
+        &derived,
+        SinkOptions::default(),
+    )
+    .expect("create");
     for step in 0..STEPS {
         for e in 0..ENSEMBLES {
             positions.iter_mut().for_each(|v| *v += next());
@@ -62,7 +72,7 @@ fn write_and_read_a_million_rows_of_eight_value_columns() {
         .map(|e| e.expect("entry").metadata().expect("metadata").len())
         .sum();
     let start = Instant::now();
-    let chains = read_chains(tmp.path()).expect("read");
+    let chains = read_chains(&files(tmp.path()).chains).expect("read");
     let read = start.elapsed();
     let rows = chains.len();
     assert_eq!(rows, STEPS as usize * ENSEMBLES * WALKERS);

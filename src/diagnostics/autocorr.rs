@@ -7,14 +7,12 @@
 //! so averaging their ACFs reduces noise without assuming they are independent chains);
 //! `tau(M) = 2 sum_{t <= M} rho(t) - 1`; the window is the first `M` with `M >= c tau(M)`, or
 //! the last lag if there is none. The estimate is trusted only when the run is longer than
-//! [`TAU_RELIABLE_FACTOR`] times tau (emcee's `tol = 50`).
+//! [`TAU_FACTOR`](super::TAU_FACTOR) times tau (emcee's `tol = 50`).
 
 use rustfft::{num_complex::Complex, FftPlanner};
 
 use super::error::{validate_chains, DiagnosticsError};
-
-/// emcee's `tol`: the estimate of tau is trusted only when `n_steps >= 50 tau`.
-pub const TAU_RELIABLE_FACTOR: f64 = 50.0;
+use super::verdict::TAU_FACTOR;
 
 /// emcee's default window factor `c`.
 pub const DEFAULT_WINDOW_FACTOR: f64 = 5.0;
@@ -30,7 +28,7 @@ pub struct AutocorrTime {
     pub tau: f64,
     /// The window `M` chosen by Sokal's rule (the last lag summed).
     pub window: usize,
-    /// Whether the run is long enough to trust `tau`: `n_steps >= TAU_RELIABLE_FACTOR * tau`
+    /// Whether the run is long enough to trust `tau`: `n_steps >= TAU_FACTOR * tau`
     /// (emcee raises `AutocorrError` exactly when this is false).
     pub reliable: bool,
 }
@@ -147,7 +145,7 @@ pub fn integrated_time(walkers: &[&[f64]], c: f64) -> Result<AutocorrTime, Diagn
     Ok(AutocorrTime {
         tau,
         window,
-        reliable: TAU_RELIABLE_FACTOR * tau <= n as f64,
+        reliable: TAU_FACTOR * tau <= n as f64,
     })
 }
 

@@ -26,7 +26,7 @@
 //! Point estimates and intervals (mean, sd, median, equal-tailed interval, HDI) pool all
 //! draws of all walkers of all ensembles.
 
-use serde::Serialize;
+use serde::{Deserialize, Deserializer, Serialize};
 
 use super::arviz::{
     ess_bulk_mat, ess_mean_mat, ess_tail_mat, eti_sorted, hdi_sorted, mcse_mean_mat, mcse_sd_mat,
@@ -208,49 +208,65 @@ impl EnsembleDraws {
     }
 }
 
-/// A posterior summary of one scalar quantity, with ArviZ's meaning for every column.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// A posterior summary of one scalar quantity, with ArviZ's meaning for every field: one row
+/// of `summary.json` and `summary.csv`. NaN values are written as JSON `null` and read back as
+/// NaN.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// Posterior mean over all draws.
+    #[serde(deserialize_with = "nullable")]
     pub mean: f64,
     /// Posterior standard deviation over all draws (`ddof = 1`).
+    #[serde(deserialize_with = "nullable")]
     pub sd: f64,
     /// Posterior median (numpy).
+    #[serde(deserialize_with = "nullable")]
     pub median: f64,
-    /// Probability of the credible intervals below.
-    pub ci_prob: f64,
-    /// Lower end of the equal-tailed interval (numpy linear quantile `(1 - ci_prob)/2`).
+    /// Lower end of the equal-tailed interval of probability `ci_prob` (numpy linear quantile
+    /// `(1 - ci_prob)/2`).
+    #[serde(deserialize_with = "nullable")]
     pub ci_low: f64,
     /// Upper end of the equal-tailed interval.
+    #[serde(deserialize_with = "nullable")]
     pub ci_high: f64,
-    /// Lower end of the highest-density interval of probability `ci_prob` (ArviZ, unimodal).
+    /// Probability of the equal-tailed interval.
+    pub ci_prob: f64,
+    /// Lower end of the highest-density interval of probability `hdi_prob` (ArviZ, unimodal).
+    #[serde(deserialize_with = "nullable")]
     pub hdi_low: f64,
     /// Upper end of the highest-density interval.
+    #[serde(deserialize_with = "nullable")]
     pub hdi_high: f64,
+    /// Probability of the HDI.
+    pub hdi_prob: f64,
+    /// Bulk ESS, every walker of every ensemble as a chain.
+    #[serde(deserialize_with = "nullable")]
+    pub ess_bulk: f64,
+    /// Tail ESS (smaller of the 5 % and 95 % quantile ESS), walkers as chains.
+    #[serde(deserialize_with = "nullable")]
+    pub ess_tail: f64,
+    /// Rank-normalised split R̂ between ensembles; `None` with one ensemble or when every
+    /// draw is equal.
+    pub r_hat: Option<f64>,
     /// Monte-Carlo standard error of the mean.
+    #[serde(deserialize_with = "nullable")]
     pub mcse_mean: f64,
     /// Monte-Carlo standard error of the sd.
+    #[serde(deserialize_with = "nullable")]
     pub mcse_sd: f64,
-    /// Bulk ESS, walkers as chains.
-    pub ess_bulk: f64,
-    /// Tail ESS (smaller of the 5% and 95% quantile ESS), walkers as chains.
-    pub ess_tail: f64,
     /// ESS of the mean, walkers as chains.
+    #[serde(deserialize_with = "nullable")]
     pub ess_mean: f64,
-    /// Rank-normalised split R-hat between ensembles; `None` with a single ensemble; NaN
-    /// (serialised as null) when every draw is equal.
-    pub r_hat: Option<f64>,
-    /// emcee's integrated autocorrelation time in steps (ACF averaged over all walkers of all
-    /// ensembles); `None` when a walker is constant (stuck), which leaves it undefined.
+    /// emcee's integrated autocorrelation time of the draws, in draws (ACF averaged over all
+    /// walkers of all ensembles); `None` when a walker is constant (stuck), which leaves it
+    /// undefined.
     pub tau: Option<f64>,
-    /// Whether `tau` is trustworthy: steps at least 50 tau.
+    /// Whether `tau` is trustworthy: draws per walker at least 50 τ.
     pub tau_reliable: Option<bool>,
-    /// Number of independent ensembles.
-    pub ensembles: usize,
-    /// Walkers per ensemble.
-    pub walkers: usize,
-    /// Steps per walker.
-    pub steps: usize,
+}
+
+fn nullable<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 /// Rank-normalised split R-hat between the ensembles of `x` (see the module documentation).
@@ -268,20 +284,26 @@ pub fn ensemble_rhat(x: &EnsembleDraws) -> Result<f64, DiagnosticsError> {
     Ok(rhat_rank_of_split(&x.split_ensemble_mat()))
 }
 
-/// Summarises one scalar quantity of an ensemble run; `ci_prob` is the probability of both
-/// the equal-tailed interval and the HDI (ArviZ's default is 0.94).
+/// Summarises one scalar quantity of an ensemble run: the equal-tailed interval of
+/// probability `ci_prob` and the HDI of probability `hdi_prob` (ArviZ's default is 0.94 for
+/// both).
 ///
 /// # Errors
-/// `ci_prob` outside (0, 1).
-pub fn summarize(x: &EnsembleDraws, ci_prob: f64) -> Result<Summary, DiagnosticsError> {
+/// `ci_prob` or `hdi_prob` outside (0, 1).
+pub fn summarize(
+    x: &EnsembleDraws,
+    ci_prob: f64,
+    hdi_prob: f64,
+) -> Result<Summary, DiagnosticsError> {
     check_prob("ci_prob", ci_prob, false)?;
+    check_prob("hdi_prob", hdi_prob, false)?;
     let walkers = x.walker_mat();
     let all = &x.data;
     let s = sorted(all);
     let (ci_low, ci_high) = eti_sorted(&s, ci_prob);
-    let (hdi_low, hdi_high) = hdi_sorted(&s, ci_prob)?;
+    let (hdi_low, hdi_high) = hdi_sorted(&s, hdi_prob)?;
     let r_hat = if x.ensembles >= 2 {
-        Some(rhat_rank_of_split(&x.split_ensemble_mat()))
+        Some(rhat_rank_of_split(&x.split_ensemble_mat())).filter(|r| !r.is_nan())
     } else {
         None
     };
@@ -290,21 +312,19 @@ pub fn summarize(x: &EnsembleDraws, ci_prob: f64) -> Result<Summary, Diagnostics
         mean: mean(all),
         sd: var(all, 1).sqrt(),
         median: median_of_sorted(&s),
-        ci_prob,
         ci_low,
         ci_high,
+        ci_prob,
         hdi_low,
         hdi_high,
-        mcse_mean: mcse_mean_mat(&walkers),
-        mcse_sd: mcse_sd_mat(&walkers),
+        hdi_prob,
         ess_bulk: ess_bulk_mat(&walkers),
         ess_tail: ess_tail_mat(&walkers),
-        ess_mean: ess_mean_mat(&walkers),
         r_hat,
+        mcse_mean: mcse_mean_mat(&walkers),
+        mcse_sd: mcse_sd_mat(&walkers),
+        ess_mean: ess_mean_mat(&walkers),
         tau: autocorr.map(|a| a.tau),
         tau_reliable: autocorr.map(|a| a.reliable),
-        ensembles: x.ensembles,
-        walkers: x.walkers,
-        steps: x.steps,
     })
 }

@@ -20,7 +20,7 @@
 //! let draws = EnsembleDraws::from_fn(2, 3, 100, |e, w, t| {
 //!     (t as f64 / 10.0 + w as f64).sin() + 0.1 * e as f64
 //! })?;
-//! let s = summarize(&draws, 0.94)?;
+//! let s = summarize(&draws, 0.94, 0.94)?;
 //! assert!(s.r_hat.is_some() && s.ess_bulk > 0.0 && s.hdi_low <= s.median);
 //!
 //! // The sampler's view: emcee's tau over the walkers of one ensemble.
@@ -34,6 +34,7 @@ pub mod autocorr;
 pub mod ensemble;
 mod error;
 mod special;
+pub mod verdict;
 mod walkers;
 
 pub use arviz::{
@@ -42,8 +43,10 @@ pub use arviz::{
 };
 pub use autocorr::{
     integrated_time, mean_acf, AutocorrTime, DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR,
-    TAU_RELIABLE_FACTOR,
 };
 pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
+pub use verdict::{
+    quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX, TAU_FACTOR,
+};
 pub use walkers::{walker_condition_number, WALKER_CONDITION_LIMIT};

@@ -101,16 +101,10 @@ pub enum FitError {
         #[source]
         source: DiagnosticsError,
     },
-    /// An output file could not be written.
-    #[error("cannot write {}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The summary could not be serialised.
-    #[error("cannot serialise the summary")]
-    Serialize(#[source] serde_json::Error),
+    /// A file of the run directory could not be written or read back.
+    #[error(transparent)]
+    RunDir(#[from] super::RunDirError),
+    /// A posterior draw has no valid law, so its predictive curve cannot be drawn.
+    #[error("computing the posterior predictive bands")]
+    Predictive(#[source] crate::law::LawError),
 }

@@ -1,68 +1,60 @@
-//! The orchestration behind `slipbayes fit`: start the walkers, sample into a run directory
-//! (with checkpoints, resumable after a kill), then summarise the chains and write
-//! `summary.json` and `summary.csv`.
+//! A whole fit: start the walkers, sample into a run directory (with checkpoints, resumable
+//! after a kill), summarise the chains, and write every file of the run directory.
 //!
-//! This part is generic over any [`LogDensity`]: it knows the names of the chain columns and
-//! how the caller wants each one reported ([`Quantity`]: a name, a group such as a material or
-//! a scene, a unit), never what they mean. It does not print; progress goes to the caller's
-//! [`Observer`], and the caller prints a table from the returned [`FitOutcome`].
+//! - [`run_fit`] fits any [`LogDensity`]: it knows the names of the chain columns and how the
+//!   caller wants each reported ([`SummarySpec`]: quantities, means over several columns,
+//!   comparisons between groups), never what they mean.
+//! - [`fit_model`] fits a friction [`Posterior`](crate::model::Posterior): it reports every
+//!   parameter and derived quantity, compares the materials, and adds the model, the run
+//!   record and the posterior predictive bands to the run directory.
+//! - [`run_dir`] names, writes and reads every file of a run directory.
 //!
-//! # What it does
-//! 1. Validates the settings, quantities and comparisons against the density's columns, before
+//! Neither prints: progress goes to the caller's [`Observer`], and the caller prints what the
+//! returned [`FitOutcome`] holds.
+//!
+//! # What [`run_fit`] does
+//! 1. Validates the settings and the summary spec against the density's columns, before
 //!    anything expensive.
-//! 2. Fresh run: creates a [`ParquetSink`] in the run directory (refusing one that holds a run
-//!    unless `overwrite`), draws the initial walkers with [`initial_around_optimum`] from the
-//!    given start (stream [`INIT_STREAM`] of the seed), and samples.
-//!    Resumed run: reopens the sink at its last checkpoint and continues the sampler from the
+//! 2. Fresh run: claims the run directory's chain store (refusing one that holds a run unless
+//!    `overwrite`), finds the mode from the given start and draws the initial walkers around
+//!    it ([`initial_around_optimum`], stream [`INIT_STREAM`] of the seed), and samples.
+//!    Resumed run: reopens the store at its last checkpoint and continues the sampler from the
 //!    saved state, so the chains end identical to an uninterrupted run with the same seed.
 //!    [`Steps::Fixed`] counts the *total* steps of the run, resumed or not.
 //! 3. Reads the chains back, discards the burn-in and thins as the [`RunReport`] suggests
-//!    (burn-in ⌈2 τ_max⌉ clamped to half the run, thin ⌊τ_min/2⌋), summarises every quantity
-//!    and every comparison ([`crate::diagnostics::summarize`]), and judges convergence: R̂
-//!    between ensembles below [`RHAT_MAX`], bulk and tail ESS above [`ESS_MIN`], τ reliable
-//!    (chains longer than 50 τ), no stuck walkers. Every failure is listed in words.
-//! 4. Writes `summary.json` and `summary.csv` atomically ([`write_atomically`]).
-//!
-//! # Layout of a run directory
-//! ```text
-//! DIR/chains/part-*.parquet   the draws (see crate::storage)
-//! DIR/checkpoint.json         the sampler state of the last checkpoint
-//! DIR/summary.json            parameters, derived quantities, comparisons, sampler
-//! DIR/summary.csv             one row per parameter and derived quantity (ArviZ columns)
-//! ```
+//!    (burn-in ⌈2 τ_max⌉ clamped to half the run, thin ⌊τ_min/2⌋), summarises every quantity,
+//!    aggregate and comparison ([`crate::diagnostics::summarize`]), and judges convergence
+//!    with [`crate::diagnostics::verdict`]: R̂ between ensembles below
+//!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
+//!    [`ESS_MIN`](crate::diagnostics::ESS_MIN), τ reliable, no stuck walkers.
+//! 4. Writes `summary.json` and `summary.csv` atomically.
 mod error;
-mod output;
-mod summary;
+mod model;
+pub mod run_dir;
+mod summarise;
 
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::density::LogDensity;
-use crate::density::{Quantity, QuantityKind};
+use crate::data::Provenance;
+use crate::density::{LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
     EnsembleSampler, Observer, RunReport, SamplerConfig, SamplerState, Silent, Steps, StopRule,
     DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
-use crate::storage::{
-    read_chains, write_atomically, ParquetSink, SinkOptions, StorageError, CHAINS_DIR,
-    CHECKPOINT_FILE,
-};
+use crate::storage::{ParquetSink, SinkOptions};
 
 pub use error::FitError;
-pub use output::{summary_csv, CSV_COLUMNS};
-pub use summary::{
-    Comparison, FitSummary, QuantitySummary, SamplerSummary, Stats, ESS_MIN, RHAT_MAX,
+pub use model::{fit_model, summary_spec, SettingOverrides};
+pub use run_dir::{
+    AggregateSummary, Comparison, FitSummary, QuantitySummary, RunDir, RunDirError, RunRecord,
+    SamplerSummary,
 };
 
-/// File name of the JSON summary inside the run directory.
-pub const SUMMARY_JSON: &str = "summary.json";
-/// File name of the CSV summary inside the run directory.
-pub const SUMMARY_CSV: &str = "summary.csv";
 /// Default checkpoint interval, in steps.
 pub const DEFAULT_CHECKPOINT_EVERY: u64 = 200;
 /// Default walkers per ensemble (must still be at least twice the dimension).
@@ -75,16 +67,56 @@ pub const DEFAULT_INTERVAL_PROB: f64 = 0.95;
 /// `(ensemble << 32) | walker`, far from this one.
 pub const INIT_STREAM: u64 = u64::MAX;
 
-/// Material comparison: for each `name` in `names`, and each ordered pair (A, B) of `groups`
+/// A mean over several columns per draw, reported like a quantity (e.g. the F_d of a material
+/// as the mean of its contacts').
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Aggregate {
+    /// Reported name.
+    pub name: String,
+    /// Group.
+    pub group: String,
+    /// Unit (that of every column averaged).
+    pub unit: String,
+    /// The columns averaged.
+    pub of: Vec<String>,
+    /// What the mean is over, in words (e.g. "mean of the material's contacts").
+    pub note: String,
+}
+
+/// Group comparison: for each `name` in `names`, and each ordered pair (A, B) of `groups`
 /// (A before B in the list), the posterior of A − B and A / B, with intervals and P(A > B).
-/// Draws are paired by (ensemble, walker, step). Pairs where A or B lacks the quantity are
-/// skipped; every name must exist in at least two of the groups.
+/// A and B are found among the quantities, then among the aggregates. Draws are paired by
+/// (ensemble, walker, step). Pairs where A or B lacks the quantity are skipped; every name
+/// must exist in at least two of the groups.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ComparisonSpec {
     /// Quantity names to compare.
     pub names: Vec<String>,
     /// Groups, in the order that decides A and B.
     pub groups: Vec<String>,
+}
+
+/// What a fit's summary reports.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SummarySpec {
+    /// The reported quantities.
+    pub quantities: Vec<Quantity>,
+    /// Means over several columns.
+    pub aggregates: Vec<Aggregate>,
+    /// Comparisons between groups.
+    pub comparisons: ComparisonSpec,
+    /// Where the data came from, recorded as they are.
+    pub data: Vec<Provenance>,
+}
+
+impl SummarySpec {
+    /// Reports `quantities`, nothing else.
+    pub fn of(quantities: Vec<Quantity>) -> Self {
+        Self {
+            quantities,
+            ..Self::default()
+        }
+    }
 }
 
 /// How to run and summarise a fit.
@@ -164,33 +196,6 @@ impl FitSettings {
     }
 }
 
-/// Where the outputs of a fit are.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct FitPaths {
-    /// The run directory.
-    pub dir: PathBuf,
-    /// The Parquet parts.
-    pub chains: PathBuf,
-    /// The checkpoint (marked finished).
-    pub checkpoint: PathBuf,
-    /// `summary.json`.
-    pub summary_json: PathBuf,
-    /// `summary.csv`.
-    pub summary_csv: PathBuf,
-}
-
-impl FitPaths {
-    fn new(dir: &Path) -> Self {
-        Self {
-            dir: dir.to_path_buf(),
-            chains: dir.join(CHAINS_DIR),
-            checkpoint: dir.join(CHECKPOINT_FILE),
-            summary_json: dir.join(SUMMARY_JSON),
-            summary_csv: dir.join(SUMMARY_CSV),
-        }
-    }
-}
-
 /// The result of a fit.
 #[derive(Debug, Clone)]
 pub struct FitOutcome {
@@ -199,41 +204,29 @@ pub struct FitOutcome {
     /// What `summary.json` holds.
     pub summary: FitSummary,
     /// Where the outputs are.
-    pub paths: FitPaths,
-}
-
-impl FitOutcome {
-    /// Adds where the data came from to the summary and rewrites `summary.json` (atomically).
-    ///
-    /// # Errors
-    /// [`FitError::Serialize`] or [`FitError::Write`].
-    pub fn record_data(&mut self, data: Vec<crate::data::Provenance>) -> Result<(), FitError> {
-        self.summary.data = data;
-        let json = serde_json::to_vec_pretty(&self.summary).map_err(FitError::Serialize)?;
-        write(&self.paths.summary_json, &json)
-    }
+    pub dir: RunDir,
 }
 
 /// Up to `max_draws` kept draws (after burn-in and thinning) of the columns `names`, spread
 /// evenly over the chains of a finished fit: one `Vec` per draw, in the order of `names`.
 ///
 /// # Errors
-/// [`FitError::Storage`] when the chains cannot be read or lack a column.
+/// [`FitError::RunDir`] when the chains cannot be read, [`FitError::Storage`] when they lack
+/// a column.
 pub fn kept_draws(
     outcome: &FitOutcome,
     names: &[String],
     max_draws: usize,
 ) -> Result<Vec<Vec<f64>>, FitError> {
-    let storage = |source| FitError::Storage {
-        context: format!("reading kept draws from {}", outcome.paths.dir.display()),
-        source,
-    };
-    let chains = read_chains(&outcome.paths.dir).map_err(storage)?;
+    let chains = outcome.dir.read_chains()?;
     let columns: Vec<&[f64]> = names
         .iter()
         .map(|n| chains.column(n))
         .collect::<Result<_, _>>()
-        .map_err(storage)?;
+        .map_err(|source| FitError::Storage {
+            context: format!("reading kept draws from {}", outcome.dir.path().display()),
+            source,
+        })?;
     Ok(kept_rows(&chains, &outcome.summary.sampler, max_draws)
         .into_iter()
         .map(|i| columns.iter().map(|c| c[i]).collect())
@@ -256,26 +249,25 @@ pub fn kept_rows(
     kept.into_iter().step_by(every).collect()
 }
 
-/// Runs (or resumes) a fit of `density` into `out_dir` and writes its summaries; see the
+/// Runs (or resumes) a fit of `density` into `dir` and writes its summaries; see the
 /// [module documentation](self). `start` is where the optimiser starts (ignored when
 /// resuming). `observer` receives the sampler's progress unless `settings.quiet`.
 ///
 /// # Errors
 /// [`FitError::InvalidSetting`], [`FitError::InvalidSpec`], [`FitError::Config`] before any
 /// work; [`FitError::Storage`] when the directory holds another run (fresh) or no resumable
-/// one (resume) or the chains cannot be written or read; [`FitError::ResumeMismatch`] when the
+/// one (resume) or the chains cannot be written; [`FitError::ResumeMismatch`] when the
 /// checkpoint belongs to other settings; [`FitError::Start`] when no starting walkers are
 /// found; [`FitError::Sampler`] when sampling fails (the last checkpoint stays resumable);
 /// [`FitError::TooFewDraws`], [`FitError::Diagnostics`] when the chains are too short to
-/// summarise; [`FitError::Write`] when a summary file cannot be written.
-#[allow(clippy::too_many_arguments)]
+/// summarise; [`FitError::RunDir`] when the chains cannot be read back or a summary cannot be
+/// written.
 pub fn run_fit<D: LogDensity + ?Sized>(
     density: &D,
-    quantities: &[Quantity],
-    comparisons: &ComparisonSpec,
+    spec: &SummarySpec,
     start: &[f64],
     settings: &FitSettings,
-    out_dir: &Path,
+    dir: &RunDir,
     resume: bool,
     observer: &mut impl Observer,
 ) -> Result<FitOutcome, FitError> {
@@ -283,18 +275,19 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     settings.validate(resume)?;
     let param_names = density.param_names();
     let derived_names = density.derived_names();
-    let plan = summary::Plan::new(&param_names, &derived_names, quantities, comparisons)?;
+    let plan = summarise::Plan::new(&param_names, &derived_names, spec)?;
     let config = settings.sampler_config()?;
-    let dir = out_dir.display();
+    let shown = dir.path().display();
+    let files = dir.chain_files();
     let storage = |context: String| move |source| FitError::Storage { context, source };
 
     let (mut sampler, mut sink, steps) = if resume {
         let (sink, state): (ParquetSink, SamplerState) =
-            ParquetSink::resume(out_dir).map_err(storage(format!("resuming from {dir}")))?;
+            ParquetSink::resume(&files).map_err(storage(format!("resuming from {shown}")))?;
         sink.check_columns(&param_names, &derived_names)
-            .map_err(storage(format!("resuming from {dir}")))?;
+            .map_err(storage(format!("resuming from {shown}")))?;
         let mismatch = |problem: String| FitError::ResumeMismatch {
-            dir: out_dir.to_path_buf(),
+            dir: dir.path().to_path_buf(),
             problem,
         };
         if state.seed != settings.seed {
@@ -305,7 +298,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         }
         if state.step != sink.steps() {
             return Err(FitError::Inconsistent {
-                dir: out_dir.to_path_buf(),
+                dir: dir.path().to_path_buf(),
                 problem: format!(
                     "the checkpoint's sampler state is at step {} but its chains end at step {}",
                     state.step,
@@ -325,7 +318,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         };
         let sampler = EnsembleSampler::from_state(density, config, state).map_err(|source| {
             FitError::Sampler {
-                context: format!("resuming the sampler from {dir}"),
+                context: format!("resuming the sampler from {shown}"),
                 source,
             }
         })?;
@@ -337,8 +330,8 @@ pub fn run_fit<D: LogDensity + ?Sized>(
             overwrite: settings.overwrite,
             ..SinkOptions::default()
         };
-        let sink = ParquetSink::create(out_dir, &param_names, &derived_names, options)
-            .map_err(storage(format!("starting a run in {dir}")))?;
+        let sink = ParquetSink::create(&files, &param_names, &derived_names, options)
+            .map_err(storage(format!("starting a run in {shown}")))?;
         let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
         rng.set_stream(INIT_STREAM);
         let initial = initial_around_optimum(
@@ -354,19 +347,14 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         })?;
         let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {
             FitError::Sampler {
-                context: format!("starting the sampler for {dir}"),
+                context: format!("starting the sampler for {shown}"),
                 source,
             }
         })?;
         (sampler, sink, settings.steps)
     };
 
-    let paths = FitPaths::new(out_dir);
-    // Summaries of an earlier run in this directory must not survive next to new chains.
-    for path in [&paths.summary_json, &paths.summary_csv] {
-        remove_if_present(path)?;
-    }
-
+    dir.remove_summaries()?;
     let mut silent = Silent;
     let observer: &mut dyn Observer = if settings.quiet {
         &mut silent
@@ -376,43 +364,18 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     let report = sampler
         .run(steps, &mut sink, observer)
         .map_err(|source| FitError::Sampler {
-            context: format!("sampling into {dir}"),
+            context: format!("sampling into {shown}"),
             source,
         })?;
     sink.finish()
-        .map_err(storage(format!("finishing the chains in {dir}")))?;
+        .map_err(storage(format!("finishing the chains in {shown}")))?;
 
-    let chains = read_chains(out_dir).map_err(storage(format!("reading the chains of {dir}")))?;
-    let summary = plan.summarise(&chains, &report, settings, out_dir, started)?;
-
-    let json = serde_json::to_vec_pretty(&summary).map_err(FitError::Serialize)?;
-    write(&paths.summary_json, &json)?;
-    write(&paths.summary_csv, summary_csv(&summary).as_bytes())?;
+    let chains = dir.read_chains()?;
+    let summary = plan.summarise(&chains, &report, settings, dir.path(), started)?;
+    dir.write_summary(&summary)?;
     Ok(FitOutcome {
         report,
         summary,
-        paths,
+        dir: dir.clone(),
     })
-}
-
-fn write(path: &Path, bytes: &[u8]) -> Result<(), FitError> {
-    write_atomically(path, bytes).map_err(|source| FitError::Write {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
-fn remove_if_present(path: &Path) -> Result<(), FitError> {
-    match std::fs::remove_file(path) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(source) => Err(FitError::Storage {
-            context: format!("removing the stale summary {}", path.display()),
-            source: StorageError::Io {
-                action: "remove",
-                path: path.to_path_buf(),
-                source,
-            },
-        }),
-    }
 }

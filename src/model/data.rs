@@ -79,6 +79,23 @@ impl RunData {
         Self::prepare(imported, &path, &r.name, &r.data, selection, r.scene)
     }
 
+    /// The data of run `run` of `spec` from a series already in memory (the run's data file
+    /// is not read): the run's window and binning apply as they would to the file.
+    ///
+    /// # Errors
+    /// As [`RunData::from_series`], and a binning that does not fit the points kept.
+    pub fn for_series(spec: &ModelSpec, run: usize, series: Series) -> Result<Self, RunDataError> {
+        let r = &spec.file.runs[run];
+        let path = spec.data_path(run);
+        let mut data = Self::from_series(series, &path, r.window_s, r.scene)?;
+        data.provenance.run = r.name.clone();
+        if let Some(bins) = r.bins {
+            data.bin(bins, &path)?;
+        }
+        data.provenance.points_used = data.n_obs;
+        Ok(data)
+    }
+
     /// Loads a file in any format with the default mapping, all of it (the simplest case).
     ///
     /// # Errors

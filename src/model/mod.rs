@@ -15,5 +15,5 @@ pub mod posterior;
 pub mod prior;
 pub mod spec;
 
-pub use posterior::{Band, Column, Kind, Posterior, PosteriorError};
+pub use posterior::{Band, Posterior, PosteriorError};
 pub use spec::{ModelFile, ModelSpec, SpecError};

@@ -28,7 +28,7 @@ pub fn coordinate_draws(
         .map(|n| chains.column(n))
         .collect::<Result<_, _>>()
         .map_err(|source| ReportError::Chains {
-            dir: std::path::PathBuf::from(crate::storage::CHAINS_DIR),
+            dir: chains.dir.clone(),
             source,
         })?;
     Ok(crate::fit::kept_rows(chains, sampler, max_draws)

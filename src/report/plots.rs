@@ -10,9 +10,9 @@ use super::figures::{
     band, band_fills, caption_font, grid, ink, label_font, legend, line, linear_chart, markers,
     range_of, small_font, svg_figure, tick, tint, widen, Area, Drawn, PANEL,
 };
-use super::inputs::PredictiveRun;
 use super::ReportError;
 use crate::law::Scene;
+use crate::model::Band;
 
 /// N to mN.
 const MN: f64 = 1e3;
@@ -54,7 +54,7 @@ pub fn velocity_text(v: f64) -> String {
 pub fn fit_figure(
     name: &str,
     run: &RunView,
-    predictive: &PredictiveRun,
+    predictive: &Band,
     curve: Option<&InterfaceCurve>,
 ) -> Result<String, ReportError> {
     let panels = if curve.is_some() { 2 } else { 1 };
@@ -197,7 +197,7 @@ const RESIDUAL_HEIGHT: u32 = 230;
 
 /// Data minus the posterior median in observed time, with the 50 % and 95 % predictive bands
 /// around it: where the bands are too thin to see on the force scale, misfit shows here.
-fn residual_panel(area: &Area, name: &str, p: &PredictiveRun) -> Result<(), ReportError> {
+fn residual_panel(area: &Area, name: &str, p: &Band) -> Result<(), ReportError> {
     let median = &p.model_n[1];
     let minus = |v: &[f64]| {
         v.iter()
@@ -233,7 +233,7 @@ fn residual_panel(area: &Area, name: &str, p: &PredictiveRun) -> Result<(), Repo
 pub fn distance_figure(
     name: &str,
     contact: &str,
-    slides: &[(&RunView, &PredictiveRun, &InterfaceCurve)],
+    slides: &[(&RunView, &Band, &InterfaceCurve)],
 ) -> Result<String, ReportError> {
     svg_figure(name, (PANEL.0 + 140, PANEL.1 + 20), |root| {
         let xs: Vec<f64> = slides

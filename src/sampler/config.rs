@@ -204,9 +204,9 @@ impl StopRule {
     pub fn new(max_steps: u64) -> Self {
         Self {
             check_every: 100,
-            tau_factor: 50.0,
+            tau_factor: crate::diagnostics::TAU_FACTOR,
             tau_rel_change: 0.01,
-            rhat_max: 1.01,
+            rhat_max: crate::diagnostics::RHAT_MAX,
             max_steps,
         }
     }

@@ -70,9 +70,6 @@ pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::Move;
 pub use observer::{Observer, Progress, RunStart, Silent};
-pub use report::{
-    stuck_walker_problems, EnsembleReport, RunReport, StopReason, TauReport, RHAT_CONVERGED,
-    STUCK_ACCEPTANCE, TAU_FACTOR,
-};
+pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION};
 pub use sink::{ChainSink, StepView};

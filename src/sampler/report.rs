@@ -7,16 +7,7 @@ use serde::{Deserialize, Serialize};
 use rayon::prelude::*;
 
 use super::history::RowHistory;
-use crate::diagnostics::{integrated_time, rhat, DEFAULT_WINDOW_FACTOR};
-
-/// Acceptance fraction below which a walker is reported as stuck.
-pub const STUCK_ACCEPTANCE: f64 = 0.01;
-/// Steps before stuck walkers are reported (earlier, a low fraction is noise).
-pub const STUCK_MIN_STEPS: u64 = 100;
-/// Largest R̂ between ensembles of a converged run (ArviZ's threshold).
-pub const RHAT_CONVERGED: f64 = 1.01;
-/// Required chain length in units of τ_max for a trusted τ (emcee's `tol`).
-pub const TAU_FACTOR: f64 = 50.0;
+use crate::diagnostics::{integrated_time, rhat, Problem, DEFAULT_WINDOW_FACTOR};
 
 /// Why the run stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -72,11 +63,12 @@ pub struct RunReport {
     pub tau: Option<TauReport>,
     /// R̂ between ensembles per parameter after burn-in (two or more ensembles).
     pub rhat: Option<Vec<f64>>,
-    /// Whether the run looks converged: τ trusted, R̂ below [`RHAT_CONVERGED`], no stuck
-    /// walkers. When false, `problems` says why.
+    /// Whether the run looks converged: τ trusted, R̂ below
+    /// [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), no stuck walkers. When false, `problems`
+    /// says why.
     pub converged: bool,
-    /// Reasons for not trusting the chains, for a human.
-    pub problems: Vec<String>,
+    /// Reasons for not trusting the chains.
+    pub problems: Vec<Problem>,
 }
 
 impl RunReport {
@@ -186,25 +178,4 @@ pub(crate) fn rhat_from_history(
     })
     .into_iter()
     .collect()
-}
-
-/// A sentence for each ensemble with walkers that accepted less than [`STUCK_ACCEPTANCE`] of
-/// their proposals, once the run has at least [`STUCK_MIN_STEPS`] steps.
-pub fn stuck_walker_problems(ensembles: &[EnsembleReport], steps: u64) -> Vec<String> {
-    if steps < STUCK_MIN_STEPS {
-        return Vec::new();
-    }
-    ensembles
-        .iter()
-        .enumerate()
-        .filter_map(|(e, rep)| {
-            let stuck = rep.acceptance.iter().filter(|&&a| a < STUCK_ACCEPTANCE).count();
-            (stuck > 0).then(|| {
-                format!(
-                    "{stuck} walker(s) of ensemble {e} accepted less than {:.0}% of proposals (stuck)",
-                    100.0 * STUCK_ACCEPTANCE
-                )
-            })
-        })
-        .collect()
 }

@@ -12,12 +12,13 @@ use super::history::{History, RowHistory};
 use super::moves::Move;
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
-    rhat_from_history, stuck_walker_problems, tau_from_history, tau_report, EnsembleReport,
-    RunReport, StopReason, RHAT_CONVERGED, TAU_FACTOR,
+    rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
 };
 use super::sink::{ChainSink, StepView};
 use crate::density::{classify, Eval, LogDensity};
-use crate::diagnostics::{walker_condition_number, WALKER_CONDITION_LIMIT};
+use crate::diagnostics::{
+    stuck_walkers, walker_condition_number, Problem, RHAT_MAX, TAU_FACTOR, WALKER_CONDITION_LIMIT,
+};
 
 /// Version of the [`SamplerState`] layout.
 pub const STATE_VERSION: u32 = 1;
@@ -661,30 +662,34 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let tau = tau_from_history(&self.history, self.ndim, parallel)
             .map(|t| tau_report(t, steps, TAU_FACTOR));
         match &tau {
-            None => problems.push(format!(
-                "no autocorrelation time could be estimated from {steps} steps (too short, or a stuck parameter)"
-            )),
-            Some(t) if !t.reliable => problems.push(format!(
-                "chains of {steps} steps are shorter than {TAU_FACTOR} τ_max = {:.0} steps; run longer",
-                TAU_FACTOR * t.max
-            )),
+            None => problems.push(Problem::NoAutocorrelationTime { steps }),
+            Some(t) if !t.reliable => problems.push(Problem::ChainsTooShort {
+                steps,
+                tau_max: t.max,
+            }),
             Some(_) => {}
         }
         let rhat = tau
             .as_ref()
             .and_then(|t| rhat_from_history(&self.history, self.ndim, t.burn_in, parallel));
         if let Some(r) = &rhat {
-            for (p, v) in r.iter().enumerate() {
-                if v.is_nan() || *v >= RHAT_CONVERGED {
-                    problems.push(format!(
-                        "R-hat between ensembles of parameter {p} is {v:.3} (≥ {RHAT_CONVERGED}): the ensembles disagree (multimodal or not mixed)"
-                    ));
+            for (name, &v) in self.density.param_names().into_iter().zip(r) {
+                if v.is_nan() {
+                    problems.push(Problem::RHatUndefined { quantity: name });
+                } else if v >= RHAT_MAX {
+                    problems.push(Problem::RHat {
+                        quantity: name,
+                        r_hat: v,
+                    });
                 }
             }
         } else if self.ensembles.len() > 1 {
-            problems.push("R-hat between ensembles could not be computed".into());
+            problems.push(Problem::RHatNotComputed);
         }
-        problems.extend(stuck_walker_problems(&ensembles, steps));
+        problems.extend(stuck_walkers(
+            ensembles.iter().map(|e| e.acceptance.as_slice()),
+            steps,
+        ));
         RunReport {
             steps_run,
             total_steps: steps,

@@ -1,35 +1,34 @@
 //! Chains streamed to Parquet, checkpoints for resuming, and atomic output files.
 //!
 //! The sampler hands draws to a [`ParquetSink`] through the [`ChainSink`] contract; the
-//! diagnostics read them back with [`read_chains`]. Every other output file of the crate goes
-//! through [`write_atomically`]. This part knows nothing of friction or of how draws are made:
-//! it stores rows and an opaque, serialisable sampler state.
+//! diagnostics read them back with [`read_chains`]. This part knows nothing of friction or of
+//! how draws are made: it stores rows and an opaque, serialisable sampler state, in the files
+//! its caller names ([`ChainFiles`]; a fit's run directory names them, see
+//! [`crate::fit::RunDir`]).
 //!
-//! # Layout of a run directory
+//! # The files of a chain store
 //!
 //! ```text
-//! DIR/
-//!   chains/part-000000.parquet        complete parts only: one per checkpoint interval
-//!   chains/part-000001.parquet
-//!   part-000002.parquet.partial       the part being written (never inside chains/)
-//!   checkpoint.json                   names, durable parts/rows/steps, sampler state, finished
+//! <chains>/part-000000.parquet        complete parts only: one per checkpoint interval
+//! <chains>/part-000001.parquet
+//! <dir>/part-000002.parquet.partial   the part being written (never inside <chains>)
+//! <checkpoint>                        names, durable parts/rows/steps, sampler state, finished
 //! ```
 //!
 //! - Every part has the columns `ensemble` (u32), `walker` (u32), `step` (u64), one f64 column
 //!   per parameter (named), `log_density` (f64), then one f64 column per derived value, all
 //!   non-nullable, Snappy-compressed, in row groups of at most [`SinkOptions::row_group_rows`]
 //!   rows. Rows are in recording order: step, then ensemble, then walker.
-//! - A part is written under a `.partial` name in `DIR` and renamed into `chains/` only when
-//!   complete (footer written, file fsynced, then `chains/` fsynced), so `chains/` never holds a
-//!   half-written file and can be read as one table by polars
-//!   (`pl.read_parquet("DIR/chains/*.parquet")`), pandas or pyarrow (`read_table("DIR/chains")`).
-//! - [`ChainSink::checkpoint`] closes the current part, then replaces `checkpoint.json`
+//! - A part is written under a `.partial` name in `<dir>` and renamed into `<chains>` only
+//!   when complete (footer written, file fsynced, then `<chains>` fsynced), so `<chains>`
+//!   never holds a half-written file and can be read as one table by polars
+//!   (`pl.read_parquet("<chains>/*.parquet")`), pandas or pyarrow (`read_table("<chains>")`).
+//! - [`ChainSink::checkpoint`] closes the current part, then replaces the checkpoint
 //!   atomically. The parts it counts, and the state it holds, are what a resumed run continues
 //!   from; parts numbered beyond it (written after the last checkpoint of a killed run) and
 //!   `.partial` files are removed by [`ParquetSink::resume`].
-//! - [`ParquetSink::finish`] closes the last part and marks `checkpoint.json` finished; a
-//!   finished directory is neither resumed nor overwritten without
-//!   [`SinkOptions::overwrite`].
+//! - [`ParquetSink::finish`] closes the last part and marks the checkpoint finished; a
+//!   finished store is neither resumed nor overwritten without [`SinkOptions::overwrite`].
 //!
 //! Memory held by a sink is one row group of buffered rows plus per-row-group footer metadata,
 //! whatever the length of the run.
@@ -40,7 +39,6 @@ mod sink;
 use crate::data::atomic as io;
 use std::path::{Path, PathBuf};
 
-pub use crate::data::write_atomically;
 pub use crate::sampler::sink::{ChainSink, StepView};
 pub use read::{read_chains, Chains};
 pub use sink::{ParquetSink, SinkOptions};
@@ -54,10 +52,17 @@ pub const STEP_COLUMN: &str = "step";
 /// Name of the column holding each walker's log-density.
 pub const LOG_DENSITY_COLUMN: &str = "log_density";
 
-/// Sub-directory of a run directory holding the complete parts.
-pub const CHAINS_DIR: &str = "chains";
-/// File of a run directory holding the last checkpoint.
-pub const CHECKPOINT_FILE: &str = "checkpoint.json";
+/// Where a chain store keeps its files; the caller (a fit's run directory) names them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChainFiles {
+    /// The directory holding the store: parts being written (`.partial`) live here until
+    /// they are complete.
+    pub dir: PathBuf,
+    /// The directory of complete parts (inside `dir`).
+    pub chains: PathBuf,
+    /// The checkpoint file (inside `dir`).
+    pub checkpoint: PathBuf,
+}
 
 /// What went wrong while storing or reading chains, with the path at fault and what to do.
 #[derive(Debug, thiserror::Error)]
@@ -229,12 +234,12 @@ impl StorageError {
     }
 }
 
-/// Name of the complete part number `index` inside `chains/`.
+/// Name of the complete part number `index` inside the chains directory.
 fn part_name(index: u64) -> String {
     format!("part-{index:06}.parquet")
 }
 
-/// Name of the part being written, inside the run directory.
+/// Name of the part being written, inside the store's directory.
 fn partial_name(index: u64) -> String {
     format!("part-{index:06}.parquet.partial")
 }
@@ -248,7 +253,7 @@ fn parse_part_name(name: &str) -> Option<u64> {
     digits.parse().ok()
 }
 
-/// Whether a file name in the run directory is a leftover of an interrupted write of ours.
+/// Whether a file name in the store's directories is a leftover of an interrupted write of ours.
 fn is_leftover_name(name: &str) -> bool {
     (name.starts_with("part-") && name.ends_with(".parquet.partial")) || io::is_temporary_name(name)
 }

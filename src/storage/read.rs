@@ -12,13 +12,13 @@ use polars_parquet::read::{
 use polars_utils::mmap::{MemReader, MemSlice};
 
 use super::sink::list_parts;
-use super::{
-    StorageError, CHAINS_DIR, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
-};
+use super::{StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN};
 
 /// The chains of a run, in memory, row by row in file order (step, then ensemble, then walker).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Chains {
+    /// The directory the parts were read from.
+    pub dir: PathBuf,
     /// Names of the parameter columns, in file order.
     pub param_names: Vec<String>,
     /// Names of the derived columns, in file order.
@@ -66,7 +66,7 @@ impl Chains {
             .position(|&n| n == name)
             .ok_or_else(|| StorageError::ColumnMissing {
                 column: name.to_owned(),
-                path: PathBuf::from(CHAINS_DIR),
+                path: self.dir.clone(),
             })?;
         Ok(&self.columns[index])
     }
@@ -103,7 +103,7 @@ impl Chains {
             let step = self.step[i];
             if last_step[e][w].is_some_and(|last| last >= step) {
                 return Err(StorageError::Inconsistent {
-                    dir: PathBuf::from(CHAINS_DIR),
+                    dir: self.dir.clone(),
                     problem: format!(
                         "walker {w} of ensemble {e} has step {step} after step {}",
                         last_step[e][w].unwrap_or_default()
@@ -117,8 +117,8 @@ impl Chains {
     }
 }
 
-/// Reads every complete part in `DIR/chains` (in part order) into memory. Parts written after
-/// the last checkpoint of a killed run are complete files and are included; `.partial` files
+/// Reads every complete part in the chains directory `chains_dir` (in part order) into
+/// memory. Parts written after the last checkpoint of a killed run are complete files and are included; `.partial` files
 /// never are.
 ///
 /// # Errors
@@ -126,11 +126,12 @@ impl Chains {
 /// number is missing; [`StorageError::ColumnMissing`] or [`StorageError::SchemaMismatch`] when
 /// a part lacks an index or log-density column or differs from the first part;
 /// [`StorageError::Parquet`] or [`StorageError::Io`] when a part cannot be read.
-pub fn read_chains(dir: &Path) -> Result<Chains, StorageError> {
-    let chains_dir = dir.join(CHAINS_DIR);
-    let parts = list_parts(&chains_dir)?;
+pub fn read_chains(chains_dir: &Path) -> Result<Chains, StorageError> {
+    let parts = list_parts(chains_dir)?;
     if parts.is_empty() {
-        return Err(StorageError::NoChains { dir: chains_dir });
+        return Err(StorageError::NoChains {
+            dir: chains_dir.to_path_buf(),
+        });
     }
     if let Some((expected, (found, _))) = parts
         .iter()
@@ -138,9 +139,9 @@ pub fn read_chains(dir: &Path) -> Result<Chains, StorageError> {
         .find(|(i, (index, _))| *i as u64 != *index)
     {
         return Err(StorageError::Inconsistent {
-            dir: dir.to_path_buf(),
+            dir: chains_dir.to_path_buf(),
             problem: format!(
-                "chains/{} is missing (found part {found} next)",
+                "{} is missing (found part {found} next)",
                 super::part_name(expected as u64)
             ),
         });
@@ -159,6 +160,7 @@ pub fn read_chains(dir: &Path) -> Result<Chains, StorageError> {
                 let expected = chains_schema(&params, &derived);
                 check_schema(path, &schema, &expected)?;
                 let empty = Chains {
+                    dir: chains_dir.to_path_buf(),
                     columns: vec![Vec::new(); params.len() + 1 + derived.len()],
                     param_names: params,
                     derived_names: derived,
@@ -180,7 +182,9 @@ pub fn read_chains(dir: &Path) -> Result<Chains, StorageError> {
     }
     chains
         .map(|(_, c)| c)
-        .ok_or(StorageError::NoChains { dir: chains_dir })
+        .ok_or_else(|| StorageError::NoChains {
+            dir: chains_dir.to_path_buf(),
+        })
 }
 
 /// The schema every part of a run with these names has.

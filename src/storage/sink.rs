@@ -17,8 +17,8 @@ use serde::{Deserialize, Serialize};
 
 use super::read::{chains_schema, check_schema, read_part_footer};
 use super::{
-    is_leftover_name, parse_part_name, part_name, partial_name, ChainSink, StepView, StorageError,
-    CHAINS_DIR, CHECKPOINT_FILE, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
+    is_leftover_name, parse_part_name, part_name, partial_name, ChainFiles, ChainSink, StepView,
+    StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
 };
 use crate::data::atomic::{sync_dir, write_atomically};
 
@@ -129,7 +129,7 @@ struct OpenPart {
 /// Streams chains to Parquet parts in a run directory and checkpoints them with the sampler
 /// state (see the [module documentation](super) for the layout).
 pub struct ParquetSink {
-    dir: PathBuf,
+    files: ChainFiles,
     param_names: Vec<String>,
     derived_names: Vec<String>,
     schema: Arc<ArrowSchema>,
@@ -146,7 +146,7 @@ pub struct ParquetSink {
 impl std::fmt::Debug for ParquetSink {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ParquetSink")
-            .field("dir", &self.dir)
+            .field("files", &self.files)
             .field("param_names", &self.param_names)
             .field("derived_names", &self.derived_names)
             .field("row_group_rows", &self.row_group_rows)
@@ -160,18 +160,18 @@ impl std::fmt::Debug for ParquetSink {
 }
 
 impl ParquetSink {
-    /// Starts a new run in `dir` (created if needed) with one f64 column per parameter and per
-    /// derived value, named as given.
+    /// Starts a new run in the files of `files` (directories created if needed) with one f64
+    /// column per parameter and per derived value, named as given.
     ///
     /// # Errors
     /// [`StorageError::InvalidName`] for empty, duplicate or reserved names
     /// (`ensemble`, `walker`, `step`, `log_density`);
     /// [`StorageError::InvalidRowGroupSize`] for a zero row-group size;
-    /// [`StorageError::CompletedRunExists`] or [`StorageError::UnfinishedRunExists`] when `dir`
-    /// holds chains or a checkpoint and [`SinkOptions::overwrite`] is off;
+    /// [`StorageError::CompletedRunExists`] or [`StorageError::UnfinishedRunExists`] when
+    /// `files` hold chains or a checkpoint and [`SinkOptions::overwrite`] is off;
     /// [`StorageError::Io`] when the directory cannot be prepared.
     pub fn create(
-        dir: &Path,
+        files: &ChainFiles,
         param_names: &[String],
         derived_names: &[String],
         options: SinkOptions,
@@ -180,9 +180,10 @@ impl ParquetSink {
         if options.row_group_rows == 0 {
             return Err(StorageError::InvalidRowGroupSize { rows: 0 });
         }
+        let dir = files.dir.as_path();
         fs::create_dir_all(dir).map_err(|e| StorageError::io("create directory", dir, e))?;
-        let chains_dir = dir.join(CHAINS_DIR);
-        let existing = existing_run(dir)?;
+        let chains_dir = &files.chains;
+        let existing = existing_run(files)?;
         if let Some(finished) = existing {
             if !options.overwrite {
                 let dir = dir.to_path_buf();
@@ -192,33 +193,34 @@ impl ParquetSink {
                     StorageError::UnfinishedRunExists { dir }
                 });
             }
-            remove_run(dir)?;
+            remove_run(files)?;
         }
-        fs::create_dir_all(&chains_dir)
-            .map_err(|e| StorageError::io("create directory", &chains_dir, e))?;
+        fs::create_dir_all(chains_dir)
+            .map_err(|e| StorageError::io("create directory", chains_dir, e))?;
         sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
         Ok(Self::new(
-            dir,
+            files,
             param_names.to_vec(),
             derived_names.to_vec(),
             options.row_group_rows,
         ))
     }
 
-    /// Reopens the run in `dir` at its last checkpoint: removes `.partial` and temporary files
+    /// Reopens the run in `files` at its last checkpoint: removes `.partial` and temporary files
     /// and every part written after the checkpoint, checks the kept parts against the
     /// checkpoint, and returns the sink positioned to continue with the saved sampler state.
     /// The next step to record is [`ParquetSink::steps`]; rows are grouped as in the original
     /// run, so a resumed run writes the same files as an uninterrupted one.
     ///
     /// # Errors
-    /// [`StorageError::NoCheckpoint`] when `dir` has no `checkpoint.json`;
+    /// [`StorageError::NoCheckpoint`] when there is no checkpoint;
     /// [`StorageError::AlreadyFinished`] when the run finished;
     /// [`StorageError::BadCheckpoint`] when the checkpoint or its state cannot be parsed as `S`;
     /// [`StorageError::SchemaMismatch`] or [`StorageError::Inconsistent`] when the kept parts
     /// do not match the checkpoint; [`StorageError::Io`] on file-system errors.
-    pub fn resume<S: DeserializeOwned>(dir: &Path) -> Result<(Self, S), StorageError> {
-        let checkpoint_path = dir.join(CHECKPOINT_FILE);
+    pub fn resume<S: DeserializeOwned>(files: &ChainFiles) -> Result<(Self, S), StorageError> {
+        let dir = files.dir.as_path();
+        let checkpoint_path = files.checkpoint.clone();
         let checkpoint = match read_checkpoint(&checkpoint_path)? {
             Some(c) => c,
             None => {
@@ -240,10 +242,10 @@ impl ParquetSink {
             }
         })?;
 
-        remove_leftovers(dir)?;
-        let chains_dir = dir.join(CHAINS_DIR);
+        remove_leftovers(files)?;
+        let chains_dir = &files.chains;
         let mut present = Vec::new();
-        for (index, path) in list_parts(&chains_dir)? {
+        for (index, path) in list_parts(chains_dir)? {
             if index >= checkpoint.parts {
                 // Written after the checkpoint by the killed run: the resumed run rewrites it.
                 fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
@@ -251,7 +253,7 @@ impl ParquetSink {
                 present.push(index);
             }
         }
-        sync_dir(&chains_dir).map_err(|e| StorageError::io("sync directory", &chains_dir, e))?;
+        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
 
         let inconsistent = |problem: String| StorageError::Inconsistent {
@@ -261,7 +263,7 @@ impl ParquetSink {
         if let Some(missing) = (0..checkpoint.parts).find(|i| present.binary_search(i).is_err()) {
             return Err(inconsistent(format!(
                 "{} lists {} parts but {} is missing",
-                CHECKPOINT_FILE,
+                checkpoint_path.display(),
                 checkpoint.parts,
                 part_name(missing)
             )));
@@ -277,12 +279,15 @@ impl ParquetSink {
         if rows != checkpoint.rows {
             return Err(inconsistent(format!(
                 "{} records {} rows but its {} parts hold {}",
-                CHECKPOINT_FILE, checkpoint.rows, checkpoint.parts, rows
+                checkpoint_path.display(),
+                checkpoint.rows,
+                checkpoint.parts,
+                rows
             )));
         }
 
         let mut sink = Self::new(
-            dir,
+            files,
             checkpoint.param_names,
             checkpoint.derived_names,
             checkpoint.row_group_rows.max(1),
@@ -296,7 +301,7 @@ impl ParquetSink {
     }
 
     fn new(
-        dir: &Path,
+        files: &ChainFiles,
         param_names: Vec<String>,
         derived_names: Vec<String>,
         row_group_rows: usize,
@@ -304,7 +309,7 @@ impl ParquetSink {
         let schema = Arc::new(chains_schema(&param_names, &derived_names));
         let value_columns = param_names.len() + 1 + derived_names.len();
         Self {
-            dir: dir.to_path_buf(),
+            files: files.clone(),
             buffer: RowBuffer::with_capacity(row_group_rows, value_columns),
             param_names,
             derived_names,
@@ -339,15 +344,15 @@ impl ParquetSink {
             v
         };
         Err(StorageError::SchemaMismatch {
-            path: self.dir.join(CHECKPOINT_FILE),
+            path: self.files.checkpoint.clone(),
             expected: list(param_names, derived_names),
             found: list(&self.param_names, &self.derived_names),
         })
     }
 
-    /// The run directory.
-    pub fn dir(&self) -> &Path {
-        &self.dir
+    /// Where the chains and the checkpoint are.
+    pub fn files(&self) -> &ChainFiles {
+        &self.files
     }
 
     /// Names of the parameter columns.
@@ -409,7 +414,11 @@ impl ParquetSink {
         }
         let part = match &mut self.part {
             Some(part) => part,
-            slot => slot.insert(open_part(&self.dir, self.durable_parts, &self.schema)?),
+            slot => slot.insert(open_part(
+                &self.files.dir,
+                self.durable_parts,
+                &self.schema,
+            )?),
         };
         let arrays = self.buffer.take_arrays(self.row_group_rows);
         let path = part.path.clone();
@@ -451,10 +460,10 @@ impl ParquetSink {
         file.sync_all()
             .map_err(|e| StorageError::io("sync", &path, e))?;
         drop(file);
-        let chains_dir = self.dir.join(CHAINS_DIR);
+        let chains_dir = &self.files.chains;
         let target = chains_dir.join(part_name(part.index));
         fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))?;
-        sync_dir(&chains_dir).map_err(|e| StorageError::io("sync directory", &chains_dir, e))?;
+        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         self.durable_parts += 1;
         self.durable_rows += part.rows;
         Ok(())
@@ -472,10 +481,10 @@ impl ParquetSink {
             finished,
             state: self.last_state.clone(),
         };
-        let path = self.dir.join(CHECKPOINT_FILE);
+        let path = &self.files.checkpoint;
         let mut bytes = serde_json::to_vec_pretty(&checkpoint).map_err(StorageError::State)?;
         bytes.push(b'\n');
-        write_atomically(&path, &bytes).map_err(|e| StorageError::io("write", &path, e))
+        write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))
     }
 }
 
@@ -623,43 +632,44 @@ fn read_checkpoint(path: &Path) -> Result<Option<CheckpointFile>, StorageError> 
     Ok(Some(checkpoint))
 }
 
-/// Whether `dir` holds a run of ours: `Some(finished)`, or `None` when it holds none.
-fn existing_run(dir: &Path) -> Result<Option<bool>, StorageError> {
-    match read_checkpoint(&dir.join(CHECKPOINT_FILE)) {
+/// Whether `files` hold a run of ours: `Some(finished)`, or `None` when they hold none.
+fn existing_run(files: &ChainFiles) -> Result<Option<bool>, StorageError> {
+    match read_checkpoint(&files.checkpoint) {
         Ok(Some(c)) => return Ok(Some(c.finished)),
         Ok(None) => {}
         // An unreadable checkpoint still marks a run; only --overwrite may remove it.
         Err(StorageError::BadCheckpoint { .. }) => return Ok(Some(false)),
         Err(e) => return Err(e),
     }
-    let has_parts = !list_parts(&dir.join(CHAINS_DIR))?.is_empty();
-    let has_leftovers = !list_leftovers(dir)?.is_empty();
+    let has_parts = !list_parts(&files.chains)?.is_empty();
+    let has_leftovers = !list_leftovers(&files.dir)?.is_empty();
     Ok((has_parts || has_leftovers).then_some(false))
 }
 
 /// Removes the parts, leftovers and checkpoint of an earlier run (nothing else).
-fn remove_run(dir: &Path) -> Result<(), StorageError> {
-    let chains_dir = dir.join(CHAINS_DIR);
-    for (_, path) in list_parts(&chains_dir)? {
+fn remove_run(files: &ChainFiles) -> Result<(), StorageError> {
+    let chains_dir = &files.chains;
+    for (_, path) in list_parts(chains_dir)? {
         fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
     }
-    remove_leftovers(dir)?;
-    let checkpoint = dir.join(CHECKPOINT_FILE);
-    match fs::remove_file(&checkpoint) {
+    remove_leftovers(files)?;
+    let checkpoint = &files.checkpoint;
+    match fs::remove_file(checkpoint) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(StorageError::io("remove", &checkpoint, e)),
+        Err(e) => return Err(StorageError::io("remove", checkpoint, e)),
     }
     if chains_dir.is_dir() {
-        sync_dir(&chains_dir).map_err(|e| StorageError::io("sync directory", &chains_dir, e))?;
+        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
     }
-    sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))
+    sync_dir(&files.dir).map_err(|e| StorageError::io("sync directory", &files.dir, e))
 }
 
-/// Removes `.partial` parts and temporary files of interrupted writes in `dir` and `chains/`.
-fn remove_leftovers(dir: &Path) -> Result<(), StorageError> {
-    let mut leftovers = list_leftovers(dir)?;
-    leftovers.extend(list_leftovers(&dir.join(CHAINS_DIR))?);
+/// Removes `.partial` parts and temporary files of interrupted writes in the store's directory
+/// and its chains directory.
+fn remove_leftovers(files: &ChainFiles) -> Result<(), StorageError> {
+    let mut leftovers = list_leftovers(&files.dir)?;
+    leftovers.extend(list_leftovers(&files.chains)?);
     for path in leftovers {
         fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
     }

@@ -13,7 +13,7 @@ use super::cost::{read_series, read_truth, Truth};
 use super::{load_posterior, BenchError, BenchSettings, BENCH_SEED};
 use slipbayes::data::{write_atomically, Series};
 use slipbayes::density::LogDensity;
-use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings, FitSummary, QuantitySummary};
+use slipbayes::fit::{run_fit, FitSettings, FitSummary, QuantitySummary, RunDir, SummarySpec};
 use slipbayes::sampler::{Silent, Steps, StopRule};
 
 /// Which knob a run turns.
@@ -174,11 +174,10 @@ pub(crate) fn fit_keeping(
         .install(|| {
             run_fit(
                 &posterior,
-                &posterior.quantities(),
-                &ComparisonSpec::default(),
+                &SummarySpec::of(posterior.quantities().to_vec()),
                 posterior.start(),
                 &settings,
-                out,
+                &RunDir::new(out),
                 false,
                 &mut Silent,
             )
@@ -188,10 +187,7 @@ pub(crate) fn fit_keeping(
 }
 
 fn find<'a>(s: &'a FitSummary, column: &str) -> Option<&'a QuantitySummary> {
-    s.parameters
-        .iter()
-        .chain(&s.derived)
-        .find(|q| q.column == column)
+    s.quantities().find(|q| q.column == column)
 }
 
 /// The true value of a reported parameter, where the data files give it.
@@ -365,8 +361,17 @@ mod tests {
     use super::*;
     use crate::bench::BenchSettings;
 
+    /// The repository root: cargo runs this crate's tests from `cli/`.
+    fn repo(path: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
+    }
+
     fn settings(scratch: &Path) -> BenchSettings {
-        BenchSettings::bundled(true, 1, scratch.to_path_buf())
+        let mut s = BenchSettings::bundled(true, 1, scratch.to_path_buf());
+        s.first_csv = repo("data/ptfe-c1-first.csv");
+        s.repeat_csv = repo("data/ptfe-c1-repeat.csv");
+        s.fast_csv = repo("data/ptfe-c1-fast.csv");
+        s
     }
 
     #[test]
@@ -393,12 +398,12 @@ mod tests {
 
     #[test]
     fn truth_of_the_bundled_contact_is_read() {
-        let first = read_truth(Path::new("data/ptfe-c1-first.csv")).unwrap();
+        let first = read_truth(&repo("data/ptfe-c1-first.csv")).unwrap();
         assert!((first.params.alpha_per_m - 0.92e6).abs() < 1.0);
         assert!(first.k_n_per_m.is_some() && first.f_peak_n.is_some());
-        let fast = read_truth(Path::new("data/ptfe-c1-fast.csv")).unwrap();
+        let fast = read_truth(&repo("data/ptfe-c1-fast.csv")).unwrap();
         assert!(fast.k_n_per_m.is_none());
-        assert!(read_truth(Path::new("data/absent.csv")).is_err());
+        assert!(read_truth(&repo("data/absent.csv")).is_err());
     }
 
     #[test]

@@ -72,6 +72,7 @@ pub struct ProbeReading {
 fn sample_streamed(model: &Path, steps: u64, out: &Path) -> Result<(), BenchError> {
     use rand::SeedableRng;
     use slipbayes::density::LogDensity;
+    use slipbayes::fit::RunDir;
     use slipbayes::sampler::{EnsembleSampler, SamplerConfig, Silent, DEFAULT_ENSEMBLES};
     use slipbayes::storage::{ParquetSink, SinkOptions};
     let (_, posterior) = super::load_posterior(model)?;
@@ -96,7 +97,7 @@ fn sample_streamed(model: &Path, steps: u64, out: &Path) -> Result<(), BenchErro
         ..SinkOptions::default()
     };
     let mut sink = ParquetSink::create(
-        out,
+        &RunDir::new(out).chain_files(),
         &posterior.param_names(),
         &posterior.derived_names(),
         options,

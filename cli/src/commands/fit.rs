@@ -6,17 +6,14 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use serde::Serialize;
 
-use slipbayes::data::write_atomically;
 use slipbayes::density::LogDensity;
-use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitOutcome, FitSettings};
+use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::law::Scene;
 use slipbayes::model::spec::{
     ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
 };
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::{Steps, StopRule};
 
 use super::import::ImportArgs;
 use crate::progress::ProgressBarObserver;
@@ -121,21 +118,6 @@ pub(super) struct DemoArgs {
     run: RunArgs,
 }
 
-/// What `settings.json` records: enough to re-run the fit exactly.
-#[derive(Debug, Serialize)]
-struct RunRecord<'a> {
-    slipbayes_version: &'static str,
-    command: Vec<String>,
-    model_file: String,
-    /// Where the model's data paths are relative to, relative to the run directory (so that
-    /// `slipbayes report DIR` finds the data again).
-    data_dir: String,
-    settings: &'a FitSettings,
-    dimension: usize,
-    sampled_coordinates: Vec<String>,
-    priors: Vec<(String, String)>,
-}
-
 pub(super) fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
     let spec = match (&args.model, &args.first) {
         (Some(path), None) => ModelSpec::load(path)?,
@@ -228,26 +210,16 @@ fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
     )?)
 }
 
-fn settings_for(spec: &ModelSpec, dim: usize, run: &RunArgs) -> FitSettings {
-    let s = &spec.file.sampler;
-    let walkers = run
-        .walkers
-        .or(s.walkers)
-        .unwrap_or_else(|| (2 * dim + 4).max(32).next_multiple_of(2));
-    let max_steps = run.max_steps.unwrap_or(s.max_steps);
-    let steps = match run.steps.or(s.steps) {
-        Some(n) => Steps::Fixed(n),
-        None => Steps::UntilConverged(StopRule::new(max_steps)),
-    };
-    FitSettings {
-        walkers,
-        ensembles: s.ensembles,
-        seed: run.seed.unwrap_or(s.seed),
-        steps,
-        checkpoint_every: Some(s.checkpoint_every),
-        quiet: run.quiet,
-        overwrite: run.overwrite,
-        ..FitSettings::default()
+impl RunArgs {
+    fn overrides(&self, overwrite: bool) -> SettingOverrides {
+        SettingOverrides {
+            seed: self.seed,
+            walkers: self.walkers,
+            steps: self.steps,
+            max_steps: self.max_steps,
+            quiet: self.quiet,
+            overwrite: self.overwrite || overwrite,
+        }
     }
 }
 
@@ -258,44 +230,21 @@ fn fit_and_report(
     replace_earlier: bool,
 ) -> anyhow::Result<ExitCode> {
     let posterior = Posterior::new(spec)?;
-    let quantities = posterior.quantities();
-    // Compare materials on what the model reports per material.
-    let materials = posterior.materials().to_vec();
-    let per_material = |name: &str| {
-        quantities
-            .iter()
-            .filter(|q| q.name == name && materials.contains(&q.group))
-            .count()
-            >= 2
-    };
-    let comparisons = ComparisonSpec {
-        names: ["alpha", "a", "a_over_F_d", "F_peak_new"]
-            .into_iter()
-            .filter(|n| per_material(n))
-            .map(String::from)
-            .collect(),
-        groups: materials.clone(),
-    };
-    let mut settings = settings_for(spec, posterior.dim(), run);
-    settings.overwrite |= replace_earlier;
+    let settings = FitSettings::for_model(spec, posterior.dim(), &run.overrides(replace_earlier));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut observer = ProgressBarObserver::new(run.quiet);
-    let mut outcome = run_fit(
+    let command = std::env::args().collect();
+    let outcome = fit_model(
         &posterior,
-        &quantities,
-        &comparisons,
-        posterior.start(),
         &settings,
         out,
         run.resume,
+        command,
         &mut observer,
     )?;
-    outcome.record_data(posterior.data_provenance())?;
-    write_record(spec, &posterior, &settings, out)?;
-    write_predictive(&posterior, &outcome, settings.seed, out)?;
     print_summary(&outcome);
     #[cfg(feature = "report")]
-    super::report::write_and_print(out, spec, &posterior)?;
+    super::report::write_and_print(&outcome.dir, &posterior)?;
     let converged = outcome.summary.sampler.converged;
     if !converged {
         eprintln!(
@@ -308,97 +257,6 @@ fn fit_and_report(
     } else {
         ExitCode::from(2)
     })
-}
-
-#[cfg(feature = "report")]
-fn data_dir_from(out: &Path, base_dir: &Path) -> anyhow::Result<String> {
-    let rel = slipbayes::report::relative_path(out, base_dir)
-        .with_context(|| format!("relating {} to {}", base_dir.display(), out.display()))?;
-    Ok(rel.display().to_string())
-}
-
-#[cfg(not(feature = "report"))]
-fn data_dir_from(out: &Path, base_dir: &Path) -> anyhow::Result<String> {
-    // Without the report feature nothing reads it back; record the base as given.
-    let _ = out;
-    Ok(base_dir.display().to_string())
-}
-
-fn write_record(
-    spec: &ModelSpec,
-    posterior: &Posterior,
-    settings: &FitSettings,
-    out: &Path,
-) -> anyhow::Result<()> {
-    let model_toml = toml::to_string_pretty(&spec.file).context("serialising the model")?;
-    let header = format!(
-        "# The exact model fitted (from {}); data paths are relative to {}.\n",
-        spec.source.display(),
-        spec.base_dir.display()
-    );
-    write_atomically(
-        &out.join("model.toml"),
-        format!("{header}{model_toml}").as_bytes(),
-    )
-    .with_context(|| format!("writing {}", out.join("model.toml").display()))?;
-    let record = RunRecord {
-        slipbayes_version: env!("CARGO_PKG_VERSION"),
-        command: std::env::args().collect(),
-        model_file: spec.source.display().to_string(),
-        data_dir: data_dir_from(out, &spec.base_dir)?,
-        settings,
-        dimension: posterior.dim(),
-        sampled_coordinates: posterior.param_names(),
-        priors: posterior.prior_descriptions(),
-    };
-    let json = serde_json::to_string_pretty(&record)?;
-    write_atomically(&out.join("settings.json"), json.as_bytes())
-        .with_context(|| format!("writing {}", out.join("settings.json").display()))?;
-    Ok(())
-}
-
-/// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
-/// to cost seconds.
-const PREDICTIVE_DRAWS: usize = 200;
-/// Points per run in `predictive.csv`, at most.
-const PREDICTIVE_POINTS: usize = 500;
-
-/// Writes `predictive.csv`: per run and (subsampled) data time, the observed force and the
-/// posterior and posterior predictive bands from kept draws spread evenly over the chains.
-fn write_predictive(
-    posterior: &Posterior,
-    outcome: &FitOutcome,
-    seed: u64,
-    out: &Path,
-) -> anyhow::Result<()> {
-    let draws = kept_draws(outcome, &posterior.param_names(), PREDICTIVE_DRAWS)
-        .context("reading the kept draws back")?;
-    let longest = posterior.max_points();
-    let bands = posterior
-        .predictive_bands(&draws, longest.div_ceil(PREDICTIVE_POINTS), seed)
-        .context("computing the posterior predictive bands")?;
-    let mut csv = String::from(
-        "run,time_s,observed_N,model_q025_N,model_median_N,model_q975_N,pred_q025_N,pred_q25_N,pred_q75_N,pred_q975_N\n",
-    );
-    for b in &bands {
-        for j in 0..b.time_s.len() {
-            csv.push_str(&format!(
-                "{},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?}\n",
-                b.run,
-                b.time_s[j],
-                b.observed_n[j],
-                b.model_n[0][j],
-                b.model_n[1][j],
-                b.model_n[2][j],
-                b.predictive_n[0][j],
-                b.predictive_n[1][j],
-                b.predictive_n[2][j],
-                b.predictive_n[3][j]
-            ));
-        }
-    }
-    let path = out.join("predictive.csv");
-    write_atomically(&path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))
 }
 
 fn print_summary(outcome: &FitOutcome) {
@@ -434,5 +292,5 @@ fn print_summary(outcome: &FitOutcome) {
     for p in &m.problems {
         println!("  problem: {p}");
     }
-    println!("written to {}", outcome.paths.dir.display());
+    println!("written to {}", outcome.dir.path().display());
 }

@@ -1,13 +1,15 @@
 //! `slipbayes report DIR`: rebuild a finished run's report without refitting.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
 
-use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::report::{load_model, write_report};
+use slipbayes::fit::run_dir::FIGURES_DIR;
+use slipbayes::fit::RunDir;
+use slipbayes::model::Posterior;
+use slipbayes::report::write_report;
 
 /// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
 /// (summary.json, settings.json, model.toml, predictive.csv, chains/), without refitting.
@@ -20,27 +22,24 @@ pub(super) struct ReportArgs {
 }
 
 pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
-    let spec = load_model(&args.dir)?;
+    let dir = RunDir::new(&args.dir);
+    let spec = dir.read_model()?;
     let posterior = Posterior::new(&spec)
         .with_context(|| format!("rebuilding the posterior of {}", args.dir.display()))?;
-    write_and_print(&args.dir, &spec, &posterior)?;
+    write_and_print(&dir, &posterior)?;
     Ok(ExitCode::SUCCESS)
 }
 
 /// Writes the report of the run in `dir` and says where it is.
-pub(super) fn write_and_print(
-    dir: &Path,
-    spec: &ModelSpec,
-    posterior: &Posterior,
-) -> anyhow::Result<()> {
-    let files = write_report(dir, spec, posterior)
-        .with_context(|| format!("writing the report of {}", dir.display()))?;
+pub(super) fn write_and_print(dir: &RunDir, posterior: &Posterior) -> anyhow::Result<()> {
+    let files = write_report(dir, posterior)
+        .with_context(|| format!("writing the report of {}", dir.path().display()))?;
     println!(
         "report: {} and {} ({} figures in {})",
         files.html.display(),
         files.markdown.display(),
         files.figures.len(),
-        dir.join(slipbayes::report::FIGURES_DIR).display()
+        dir.file(FIGURES_DIR).display()
     );
     Ok(())
 }

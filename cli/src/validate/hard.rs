@@ -15,8 +15,10 @@ use serde::{Deserialize, Serialize};
 
 use slipbayes::data::write_atomically;
 use slipbayes::density::LogDensity;
-use slipbayes::fit::{kept_draws, run_fit, ComparisonSpec, FitSettings};
+use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
+use slipbayes::fit::{kept_draws, run_fit, FitSettings, RunDir, SummarySpec};
 use slipbayes::law::{Law, LawParams, Scene};
+use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
 use slipbayes::simulate::{simulate, SimulationSpec};
@@ -274,26 +276,29 @@ fn fit_case(
         .map_err(|e| format!("simulating the first slide: {e}"))?
         .series;
     outcome.first_points = first.len();
-    first
-        .write_csv(&dir.join("first.csv"))
-        .map_err(|e| e.to_string())?;
+    let mut slides = vec![first.clone()];
     let mut model = String::from(
         "# Hard case: default priors, one contact.\n[[material]]\nname = \"m\"\n[[contact]]\nname = \"c\"\nmaterial = \"m\"\n",
     );
     model += &run_toml("first", "first.csv", "first", None, case.first_bins);
     if let Some(design) = case.repeat {
         let end = first.time_s.last().copied().unwrap_or(case.first.0);
-        simulate(&spec(Scene::Repeat, design, seed + 1, Some(end)))
-            .map_err(|e| format!("simulating the repeat slide: {e}"))?
-            .series
-            .write_csv(&dir.join("repeat.csv"))
-            .map_err(|e| e.to_string())?;
+        slides.push(
+            simulate(&spec(Scene::Repeat, design, seed + 1, Some(end)))
+                .map_err(|e| format!("simulating the repeat slide: {e}"))?
+                .series,
+        );
         model += &run_toml("repeat", "repeat.csv", "repeat", Some("first"), None);
     }
-    let model_path = dir.join("model.toml");
-    write_atomically(&model_path, model.as_bytes()).map_err(|e| e.to_string())?;
-    let spec = ModelSpec::load(&model_path).map_err(|e| e.to_string())?;
-    let posterior = Posterior::new(&spec).map_err(|e| e.to_string())?;
+    // The model and its slides stay in memory; only the fit's chains go to disk.
+    let spec = ModelSpec::parse(&model, &dir.join("model.toml")).map_err(|e| e.to_string())?;
+    let data = slides
+        .into_iter()
+        .enumerate()
+        .map(|(run, series)| RunData::for_series(&spec, run, series))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| e.to_string())?;
+    let posterior = Posterior::from_data(&spec, data).map_err(|e| e.to_string())?;
     let timer = Instant::now();
     let at_start = posterior.log_density(posterior.start(), &mut []);
     outcome.eval_s = timer.elapsed().as_secs_f64();
@@ -310,14 +315,13 @@ fn fit_case(
         overwrite: true,
         ..FitSettings::default()
     };
-    let quantities = posterior.quantities();
+    let fit_dir = RunDir::new(dir.join("fit"));
     let fit = run_fit(
         &posterior,
-        &quantities,
-        &ComparisonSpec::default(),
+        &SummarySpec::of(posterior.quantities().to_vec()),
         posterior.start(),
         &settings,
-        &dir.join("fit"),
+        &fit_dir,
         false,
         &mut Silent,
     )
@@ -327,9 +331,7 @@ fn fit_case(
     outcome.log_density_evals = s.sampler.log_density_evals;
     outcome.sampling_s = s.sampler.wall_s;
     outcome.r_hat_max = s
-        .parameters
-        .iter()
-        .chain(&s.derived)
+        .quantities()
         .filter_map(|q| q.stats.r_hat)
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
 
@@ -400,8 +402,8 @@ fn fit_case(
             verdict,
         });
     }
-    let _ = std::fs::remove_dir_all(dir.join("fit").join(slipbayes::storage::CHAINS_DIR));
-    let _ = std::fs::remove_file(dir.join("fit").join(slipbayes::storage::CHECKPOINT_FILE));
+    let _ = std::fs::remove_dir_all(fit_dir.file(CHAINS_DIR));
+    let _ = std::fs::remove_file(fit_dir.file(CHECKPOINT_JSON));
     Ok(())
 }
 

@@ -25,13 +25,16 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use slipbayes::data::write_atomically;
-use slipbayes::fit::{run_fit, ComparisonSpec, FitSettings};
+use slipbayes::density::QuantityKind;
+use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
+use slipbayes::fit::{run_fit, FitSettings};
+use slipbayes::fit::{RunDir, SummarySpec};
 use slipbayes::law::{Law, LawParams, Scene};
+use slipbayes::model::data::RunData;
 use slipbayes::model::spec::{Aging, Level, Param};
-use slipbayes::model::{Kind, ModelSpec, Posterior};
+use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
 use slipbayes::simulate::{simulate, SimulateError, SimulationSpec};
-use slipbayes::storage::read_chains;
 
 pub use stats::{Coverage, Uniformity};
 
@@ -243,24 +246,24 @@ impl Design {
     fn tracked(&self, posterior: &Posterior) -> Vec<Tracked> {
         let runs = &self.spec.file.runs;
         posterior
-            .columns()
+            .quantities()
             .iter()
             .filter_map(|c| {
                 let truth = match (c.kind, c.name.as_str()) {
-                    (Kind::Parameter, "alpha") => Truth::Param(Param::Alpha),
-                    (Kind::Parameter, "a_over_F_d") => Truth::AOverFd,
-                    (Kind::Parameter, "a") => Truth::A,
-                    (Kind::Parameter, "F_d") => Truth::Param(Param::FD),
-                    (Kind::Parameter, "t0") => Truth::Param(Param::T0),
-                    (Kind::Parameter, "k") => Truth::Param(Param::K),
-                    (Kind::Parameter, "sigma") => Truth::Sigma(if self.sigma_per_run {
+                    (QuantityKind::Parameter, "alpha") => Truth::Param(Param::Alpha),
+                    (QuantityKind::Parameter, "a_over_F_d") => Truth::AOverFd,
+                    (QuantityKind::Parameter, "a") => Truth::A,
+                    (QuantityKind::Parameter, "F_d") => Truth::Param(Param::FD),
+                    (QuantityKind::Parameter, "t0") => Truth::Param(Param::T0),
+                    (QuantityKind::Parameter, "k") => Truth::Param(Param::K),
+                    (QuantityKind::Parameter, "sigma") => Truth::Sigma(if self.sigma_per_run {
                         usize::from(
                             runs.iter().position(|r| r.name == c.group) == Some(self.repeat),
                         )
                     } else {
                         0
                     }),
-                    (Kind::Derived, "F_peak") => Truth::FPeak,
+                    (QuantityKind::Derived, "F_peak") => Truth::FPeak,
                     _ => return None,
                 };
                 Some(Tracked {
@@ -480,20 +483,19 @@ fn fit_and_rank(
     slides: &[slipbayes::data::Series; 2],
     fit_seed: u64,
 ) -> Result<Replication, String> {
-    let runs = &design.spec.file.runs;
+    let spec = &design.spec;
     std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
+    // The simulated slides are fitted from memory; only the chains go to disk.
+    let mut data: Vec<Option<RunData>> = vec![None; spec.file.runs.len()];
     for (run, series) in [design.first, design.repeat].into_iter().zip(slides) {
-        series
-            .write_csv(&dir.join(&runs[run].data))
-            .map_err(|e| e.to_string())?;
+        data[run] =
+            Some(RunData::for_series(spec, run, series.clone()).map_err(|e| e.to_string())?);
     }
-    let spec = ModelSpec::validate(
-        design.spec.file.clone(),
-        dir.to_path_buf(),
-        design.spec.source.clone(),
-    )
-    .map_err(|e| e.to_string())?;
-    let posterior = Posterior::new(&spec).map_err(|e| e.to_string())?;
+    let data: Vec<RunData> = data
+        .into_iter()
+        .collect::<Option<_>>()
+        .ok_or("the SBC model has a run that is neither the first nor the repeat slide")?;
+    let posterior = Posterior::from_data(spec, data).map_err(|e| e.to_string())?;
     let fit_settings = FitSettings {
         walkers: settings.walkers,
         ensembles: settings.ensembles,
@@ -504,11 +506,10 @@ fn fit_and_rank(
         overwrite: true,
         ..FitSettings::default()
     };
-    let fit_dir = dir.join("fit");
+    let fit_dir = RunDir::new(dir.join("fit"));
     let outcome = run_fit(
         &posterior,
-        &posterior.quantities(),
-        &ComparisonSpec::default(),
+        &SummarySpec::of(posterior.quantities().to_vec()),
         posterior.start(),
         &fit_settings,
         &fit_dir,
@@ -516,7 +517,7 @@ fn fit_and_rank(
         &mut Silent,
     )
     .map_err(|e| error_chain(&e))?;
-    let chains = read_chains(&fit_dir).map_err(|e| e.to_string())?;
+    let chains = fit_dir.read_chains().map_err(|e| e.to_string())?;
     let s = &outcome.summary.sampler;
     let kept: Vec<usize> = (0..chains.len())
         .filter(|&i| chains.step[i] >= s.burn_in)
@@ -558,16 +559,14 @@ fn fit_and_rank(
     }
     let r_hat_max = outcome
         .summary
-        .parameters
-        .iter()
-        .chain(&outcome.summary.derived)
+        .quantities()
         .filter(|q| tracked.iter().any(|t| t.column == q.column))
         .filter_map(|q| q.stats.r_hat)
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
     // The chains and the checkpoint (10 MB) have served; 200 replications of them would
     // fill the disk.
-    let _ = std::fs::remove_dir_all(fit_dir.join(slipbayes::storage::CHAINS_DIR));
-    let _ = std::fs::remove_file(fit_dir.join(slipbayes::storage::CHECKPOINT_FILE));
+    let _ = std::fs::remove_dir_all(fit_dir.file(CHAINS_DIR));
+    let _ = std::fs::remove_file(fit_dir.file(CHECKPOINT_JSON));
     Ok(Replication {
         index: 0,
         truth: truth.clone(),

@@ -1,7 +1,7 @@
 //! `summary.csv`: one row per parameter and derived quantity, ArviZ's column names.
 
 use super::summary::{FitSummary, QuantitySummary};
-use super::QuantityKind;
+use crate::density::QuantityKind;
 
 /// Columns of `summary.csv`, in order.
 pub const CSV_COLUMNS: [&str; 16] = [

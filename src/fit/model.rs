@@ -1,0 +1,201 @@
+//! Fitting a friction model: what its summary reports, how a model file's sampler settings
+//! combine with a caller's, and the files a friction fit adds to its run directory.
+
+use std::path::Path;
+
+use super::run_dir::{relative_path, RunRecord};
+use super::{
+    kept_draws, run_fit, Aggregate, ComparisonSpec, FitError, FitOutcome, FitSettings, RunDir,
+    SummarySpec,
+};
+use crate::density::LogDensity;
+use crate::law::Scene;
+use crate::model::{ModelSpec, Posterior};
+use crate::sampler::{Observer, Steps, StopRule};
+
+/// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
+/// to cost seconds.
+const PREDICTIVE_DRAWS: usize = 200;
+/// Points per run in `predictive.csv`, at most.
+const PREDICTIVE_POINTS: usize = 500;
+
+/// Quantities compared between materials when each material reports them.
+const COMPARED: [&str; 6] = ["alpha", "a", "a_over_F_d", "F_d", "F_peak", "F_peak_new"];
+
+/// Settings a caller (the command line) may impose over a model file's `[sampler]` table.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SettingOverrides {
+    /// Seed.
+    pub seed: Option<u64>,
+    /// Walkers per ensemble.
+    pub walkers: Option<usize>,
+    /// A fixed number of steps.
+    pub steps: Option<u64>,
+    /// The step cap when running until converged.
+    pub max_steps: Option<u64>,
+    /// Forward no progress.
+    pub quiet: bool,
+    /// Replace an earlier run in the directory.
+    pub overwrite: bool,
+}
+
+impl FitSettings {
+    /// The settings of a fit of `spec` (whose posterior has `dim` sampled dimensions): the
+    /// model file's `[sampler]` table under `overrides`; walkers default to
+    /// max(32, 2·dim + 4), rounded up to even.
+    pub fn for_model(spec: &ModelSpec, dim: usize, overrides: &SettingOverrides) -> Self {
+        let s = &spec.file.sampler;
+        let walkers = overrides
+            .walkers
+            .or(s.walkers)
+            .unwrap_or_else(|| (2 * dim + 4).max(32).next_multiple_of(2));
+        let max_steps = overrides.max_steps.unwrap_or(s.max_steps);
+        let steps = match overrides.steps.or(s.steps) {
+            Some(n) => Steps::Fixed(n),
+            None => Steps::UntilConverged(StopRule::new(max_steps)),
+        };
+        Self {
+            walkers,
+            ensembles: s.ensembles,
+            seed: overrides.seed.unwrap_or(s.seed),
+            steps,
+            checkpoint_every: Some(s.checkpoint_every),
+            quiet: overrides.quiet,
+            overwrite: overrides.overwrite,
+            ..Self::default()
+        }
+    }
+}
+
+/// What the summary of a fit of `posterior` reports: every parameter and derived quantity;
+/// per material, the mean F_d of its contacts and the mean F_peak of its first slides (where
+/// F_d, or F_peak, is not a material quantity already); the materials compared on every
+/// quantity that two or more of them report; and where each run's data came from.
+pub fn summary_spec(posterior: &Posterior) -> SummarySpec {
+    let quantities = posterior.quantities().to_vec();
+    let spec = posterior.spec();
+    let materials: Vec<String> = posterior
+        .materials()
+        .into_iter()
+        .map(String::from)
+        .collect();
+    let mut aggregates = Vec::new();
+    for material in &materials {
+        let runs = spec.file.runs.iter().enumerate().filter(|(i, _)| {
+            spec.file.materials[spec.contact_material[spec.run_contact[*i]]].name == *material
+        });
+        let mut contacts: Vec<&str> = Vec::new();
+        let mut first_slides: Vec<&str> = Vec::new();
+        for (i, run) in runs {
+            let contact = spec.file.contacts[spec.run_contact[i]].name.as_str();
+            if !contacts.contains(&contact) {
+                contacts.push(contact);
+            }
+            if run.scene == Scene::First {
+                first_slides.push(run.name.as_str());
+            }
+        }
+        for (name, groups, note) in [
+            ("F_d", contacts, "mean of the material's contacts"),
+            (
+                "F_peak",
+                first_slides,
+                "mean of the material's first slides",
+            ),
+        ] {
+            let reported = |group: &str| {
+                quantities
+                    .iter()
+                    .find(|q| q.name == name && q.group == group)
+            };
+            if reported(material).is_some() {
+                continue;
+            }
+            let members: Vec<&crate::density::Quantity> =
+                groups.into_iter().filter_map(reported).collect();
+            if let Some(first) = members.first() {
+                aggregates.push(Aggregate {
+                    name: name.to_owned(),
+                    group: material.clone(),
+                    unit: first.unit.clone(),
+                    of: members.iter().map(|q| q.column.clone()).collect(),
+                    note: note.to_owned(),
+                });
+            }
+        }
+    }
+    let per_material = |name: &str| {
+        let in_quantities = quantities
+            .iter()
+            .filter(|q| q.name == name && materials.contains(&q.group))
+            .count();
+        let in_aggregates = aggregates.iter().filter(|a| a.name == name).count();
+        in_quantities + in_aggregates >= 2
+    };
+    let comparisons = ComparisonSpec {
+        names: COMPARED
+            .into_iter()
+            .filter(|n| per_material(n))
+            .map(String::from)
+            .collect(),
+        groups: materials,
+    };
+    SummarySpec {
+        quantities,
+        aggregates,
+        comparisons,
+        data: posterior.data_provenance(),
+    }
+}
+
+/// Fits `posterior` into the run directory `out` and writes all of it: the chains and
+/// checkpoint, `summary.json` and `summary.csv` ([`run_fit`] with [`summary_spec`]), then
+/// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`.
+///
+/// # Errors
+/// As [`run_fit`]; [`FitError::RunDir`] when a file cannot be written;
+/// [`FitError::Predictive`] when a posterior draw has no valid law.
+pub fn fit_model(
+    posterior: &Posterior,
+    settings: &FitSettings,
+    out: &Path,
+    resume: bool,
+    command: Vec<String>,
+    observer: &mut impl Observer,
+) -> Result<FitOutcome, FitError> {
+    let dir = RunDir::new(out);
+    let spec = posterior.spec();
+    let outcome = run_fit(
+        posterior,
+        &summary_spec(posterior),
+        posterior.start(),
+        settings,
+        &dir,
+        resume,
+        observer,
+    )?;
+    dir.write_model(spec)?;
+    let data_dir = relative_path(out, &spec.base_dir).map_err(|source| {
+        FitError::RunDir(super::RunDirError::Write {
+            path: out.to_path_buf(),
+            source,
+        })
+    })?;
+    dir.write_record(&RunRecord {
+        slipbayes_version: env!("CARGO_PKG_VERSION").to_owned(),
+        command,
+        model_file: spec.source.display().to_string(),
+        data_dir: Some(data_dir.display().to_string()),
+        settings: settings.clone(),
+        dimension: posterior.dim(),
+        sampled_coordinates: posterior.param_names(),
+        priors: posterior.prior_descriptions(),
+    })?;
+    let draws = kept_draws(&outcome, &posterior.param_names(), PREDICTIVE_DRAWS)?;
+    let stride = posterior.max_points().div_ceil(PREDICTIVE_POINTS);
+    let bands = posterior
+        .predictive_bands(&draws, stride, settings.seed)
+        .map_err(FitError::Predictive)?;
+    dir.write_predictive(&bands)?;
+    Ok(outcome)
+}

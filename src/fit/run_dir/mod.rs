@@ -1,0 +1,299 @@
+//! The run directory: the one place that names, writes and reads every file of a fit.
+//!
+//! ```text
+//! DIR/model.toml          the exact model fitted (data paths relative to `data_dir`)
+//! DIR/settings.json       how it was run: version, command, settings, coordinates, priors
+//! DIR/summary.json        parameters, derived quantities, aggregates, comparisons, sampler
+//! DIR/summary.csv         one row per parameter and derived quantity (ArviZ's columns)
+//! DIR/predictive.csv      posterior and posterior predictive bands at the data times
+//! DIR/chains/*.parquet    the draws (see crate::storage)
+//! DIR/checkpoint.json     the sampler state of the last checkpoint
+//! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
+//! ```
+//!
+//! A fit writes the first seven ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
+//! report reads them back through the same types ([`FitSummary`], [`RunRecord`],
+//! [`Band`]) and writes the last three. Every file is written atomically: a reader never
+//! sees half of one.
+
+mod csv;
+mod predictive;
+mod record;
+mod summary;
+
+use std::path::{Path, PathBuf};
+
+use crate::data::write_atomically;
+use crate::model::{Band, ModelFile, ModelSpec};
+use crate::storage::{read_chains, ChainFiles, Chains, StorageError};
+
+pub use csv::{summary_csv, CSV_COLUMNS};
+pub use predictive::PREDICTIVE_HEADER;
+pub use record::{relative_path, RunRecord};
+pub use summary::{AggregateSummary, Comparison, FitSummary, QuantitySummary, SamplerSummary};
+
+/// The exact model fitted.
+pub const MODEL_TOML: &str = "model.toml";
+/// How the fit was run.
+pub const SETTINGS_JSON: &str = "settings.json";
+/// The posterior summary as JSON.
+pub const SUMMARY_JSON: &str = "summary.json";
+/// The posterior summary as CSV.
+pub const SUMMARY_CSV: &str = "summary.csv";
+/// The posterior and posterior predictive bands.
+pub const PREDICTIVE_CSV: &str = "predictive.csv";
+/// The folder of complete chain parts.
+pub const CHAINS_DIR: &str = "chains";
+/// The sampler state of the last checkpoint.
+pub const CHECKPOINT_JSON: &str = "checkpoint.json";
+/// The HTML report.
+pub const REPORT_HTML: &str = "report.html";
+/// The Markdown report.
+pub const REPORT_MD: &str = "report.md";
+/// The folder of the report's SVG figures.
+pub const FIGURES_DIR: &str = "figures";
+
+/// What went wrong reading or writing a file of a run directory; each names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum RunDirError {
+    /// A file could not be read.
+    #[error("reading {}: {source}; is this a finished run directory (slipbayes fit --out)?", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file is malformed.
+    #[error("{}: {message}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Where and what.
+        message: String,
+    },
+    /// A file could not be written (or a stale one removed).
+    #[error("writing {}: {source}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The model recorded in the directory is no longer valid.
+    #[error("loading the model of the run from {}: {message}", path.display())]
+    Model {
+        /// `model.toml`.
+        path: PathBuf,
+        /// The cause and what to do.
+        message: String,
+    },
+    /// The chains could not be read.
+    #[error("reading the chains of {}", dir.display())]
+    Chains {
+        /// The run directory.
+        dir: PathBuf,
+        /// The cause.
+        #[source]
+        source: StorageError,
+    },
+}
+
+/// A run directory: where a fit writes and from where a report reads.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RunDir {
+    path: PathBuf,
+}
+
+impl RunDir {
+    /// The run directory at `path` (nothing is created or read yet).
+    pub fn new(path: impl Into<PathBuf>) -> Self {
+        Self { path: path.into() }
+    }
+
+    /// The directory itself.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// A file of the directory, by one of this module's names.
+    pub fn file(&self, name: &str) -> PathBuf {
+        self.path.join(name)
+    }
+
+    /// Where the chain store keeps its parts and checkpoint.
+    pub fn chain_files(&self) -> ChainFiles {
+        ChainFiles {
+            dir: self.path.clone(),
+            chains: self.file(CHAINS_DIR),
+            checkpoint: self.file(CHECKPOINT_JSON),
+        }
+    }
+
+    /// The chains, read back into memory.
+    ///
+    /// # Errors
+    /// [`RunDirError::Chains`] when they cannot be read.
+    pub fn read_chains(&self) -> Result<Chains, RunDirError> {
+        read_chains(&self.file(CHAINS_DIR)).map_err(|source| RunDirError::Chains {
+            dir: self.path.clone(),
+            source,
+        })
+    }
+
+    /// Writes `bytes` to the file `name` of the directory, atomically.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write(&self, name: &str, bytes: &[u8]) -> Result<PathBuf, RunDirError> {
+        let path = self.file(name);
+        write_atomically(&path, bytes).map_err(|source| RunDirError::Write {
+            path: path.clone(),
+            source,
+        })?;
+        Ok(path)
+    }
+
+    /// Reads the text of the file `name`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`] naming the file.
+    pub fn read(&self, name: &str) -> Result<String, RunDirError> {
+        let path = self.file(name);
+        std::fs::read_to_string(&path).map_err(|source| RunDirError::Read { path, source })
+    }
+
+    /// Writes `summary.json` and `summary.csv`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write_summary(&self, summary: &FitSummary) -> Result<(), RunDirError> {
+        let mut json = serde_json::to_vec_pretty(summary).map_err(|e| RunDirError::Parse {
+            path: self.file(SUMMARY_JSON),
+            message: format!("cannot serialise the summary: {e}"),
+        })?;
+        json.push(b'\n');
+        self.write(SUMMARY_JSON, &json)?;
+        self.write(SUMMARY_CSV, summary_csv(summary).as_bytes())?;
+        Ok(())
+    }
+
+    /// `summary.json`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`] or [`RunDirError::Parse`] naming the file and line.
+    pub fn read_summary(&self) -> Result<FitSummary, RunDirError> {
+        parse_json(&self.file(SUMMARY_JSON), &self.read(SUMMARY_JSON)?)
+    }
+
+    /// Removes the summaries of an earlier run, which must not survive next to new chains.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] when a summary exists but cannot be removed.
+    pub fn remove_summaries(&self) -> Result<(), RunDirError> {
+        for name in [SUMMARY_JSON, SUMMARY_CSV] {
+            let path = self.file(name);
+            match std::fs::remove_file(&path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(source) => return Err(RunDirError::Write { path, source }),
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes `model.toml`: the model as fitted, with a header saying where its data paths are
+    /// relative to.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write_model(&self, spec: &ModelSpec) -> Result<(), RunDirError> {
+        let model = toml::to_string_pretty(&spec.file).map_err(|e| RunDirError::Parse {
+            path: self.file(MODEL_TOML),
+            message: format!("cannot serialise the model: {e}"),
+        })?;
+        let header = format!(
+            "# The exact model fitted (from {}); data paths are relative to {}.\n",
+            spec.source.display(),
+            spec.base_dir.display()
+        );
+        self.write(MODEL_TOML, format!("{header}{model}").as_bytes())?;
+        Ok(())
+    }
+
+    /// The model of the run: its `model.toml`, with data paths resolved against the directory
+    /// `settings.json` records (`data_dir`, relative to the run directory), or, for runs that
+    /// predate it, against the directory of the model file it names.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`] or [`RunDirError::Parse`] for a missing or malformed file;
+    /// [`RunDirError::Model`] when the model is invalid.
+    pub fn read_model(&self) -> Result<ModelSpec, RunDirError> {
+        let record = self.read_record()?;
+        let base_dir = match &record.data_dir {
+            Some(d) => self.path.join(d),
+            None => Path::new(&record.model_file)
+                .parent()
+                .map(Path::to_path_buf)
+                .unwrap_or_default(),
+        };
+        let path = self.file(MODEL_TOML);
+        let file: ModelFile =
+            toml::from_str(&self.read(MODEL_TOML)?).map_err(|e| RunDirError::Parse {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        ModelSpec::validate(file, base_dir, path.clone()).map_err(|e| RunDirError::Model {
+            path,
+            message: e.to_string(),
+        })
+    }
+
+    /// Writes `settings.json`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write_record(&self, record: &RunRecord) -> Result<(), RunDirError> {
+        let json = serde_json::to_string_pretty(record).map_err(|e| RunDirError::Parse {
+            path: self.file(SETTINGS_JSON),
+            message: format!("cannot serialise the run record: {e}"),
+        })?;
+        self.write(SETTINGS_JSON, json.as_bytes())?;
+        Ok(())
+    }
+
+    /// `settings.json`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`] or [`RunDirError::Parse`] naming the file and line.
+    pub fn read_record(&self) -> Result<RunRecord, RunDirError> {
+        parse_json(&self.file(SETTINGS_JSON), &self.read(SETTINGS_JSON)?)
+    }
+
+    /// Writes `predictive.csv`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write_predictive(&self, bands: &[Band]) -> Result<(), RunDirError> {
+        self.write(PREDICTIVE_CSV, predictive::to_csv(bands).as_bytes())?;
+        Ok(())
+    }
+
+    /// `predictive.csv`, one band per run in file order.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`], or [`RunDirError::Parse`] naming the line and column.
+    pub fn read_predictive(&self) -> Result<Vec<Band>, RunDirError> {
+        let path = self.file(PREDICTIVE_CSV);
+        predictive::parse(&path, &self.read(PREDICTIVE_CSV)?)
+    }
+}
+
+fn parse_json<T: serde::de::DeserializeOwned>(path: &Path, text: &str) -> Result<T, RunDirError> {
+    serde_json::from_str(text).map_err(|e| RunDirError::Parse {
+        path: path.to_path_buf(),
+        message: format!("line {}, column {}: {e}", e.line(), e.column()),
+    })
+}

@@ -1,0 +1,611 @@
+//! From chains to posterior summaries: the burn-in and thinning, one [`Summary`] per
+//! quantity, aggregate and comparison, and the verdict on convergence.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::Path;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::run_dir::{AggregateSummary, Comparison, FitSummary, QuantitySummary, SamplerSummary};
+use super::{FitError, FitSettings, SummarySpec};
+use crate::density::QuantityKind;
+use crate::diagnostics::{
+    mcse_mean, quantity_problems, stuck_walkers, summarize, EnsembleDraws, Problem, Summary,
+    MIN_DRAWS,
+};
+use crate::sampler::RunReport;
+use crate::storage::Chains;
+
+/// One side of a comparison: a reported quantity or an aggregate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Operand {
+    Quantity(usize),
+    Aggregate(usize),
+}
+
+/// A validated plan: which columns to summarise, which to average, and which pairs to
+/// compare.
+#[derive(Debug)]
+pub(crate) struct Plan {
+    spec: SummarySpec,
+    /// (name, unit, note, A, B).
+    pairs: Vec<(String, String, String, Operand, Operand)>,
+}
+
+fn invalid(what: &'static str, problem: String) -> FitError {
+    FitError::InvalidSpec { what, problem }
+}
+
+impl Plan {
+    pub(crate) fn new(
+        param_names: &[String],
+        derived_names: &[String],
+        spec: &SummarySpec,
+    ) -> Result<Self, FitError> {
+        let quantities = &spec.quantities;
+        if quantities.is_empty() {
+            return Err(invalid(
+                "quantity",
+                "no quantities to report: give at least one".into(),
+            ));
+        }
+        let known = |column: &str| {
+            param_names.iter().any(|n| n == column) || derived_names.iter().any(|n| n == column)
+        };
+        let mut seen = HashSet::new();
+        for q in quantities {
+            // The kind decides the list a quantity is reported in; its column may be a
+            // sampled coordinate or a derived value (e.g. a parameter in SI units computed
+            // from its log-scale coordinate).
+            if !known(&q.column) {
+                return Err(invalid(
+                    "quantity",
+                    format!(
+                        "{} reads column {:?}, which the density does not have; its columns are {param_names:?} and {derived_names:?}",
+                        q.label(),
+                        q.column
+                    ),
+                ));
+            }
+            if q.name.is_empty() {
+                return Err(invalid(
+                    "quantity",
+                    format!("the quantity of column {:?} has an empty name", q.column),
+                ));
+            }
+            if !seen.insert((q.name.as_str(), q.group.as_str())) {
+                return Err(invalid(
+                    "quantity",
+                    format!(
+                        "{} is reported twice; give each name and group once",
+                        q.label()
+                    ),
+                ));
+            }
+        }
+        for a in &spec.aggregates {
+            let label = crate::density::label(&a.name, &a.group);
+            if a.of.is_empty() {
+                return Err(invalid(
+                    "aggregate",
+                    format!("{label} averages no columns; give at least one"),
+                ));
+            }
+            if let Some(c) = a.of.iter().find(|c| !known(c)) {
+                return Err(invalid(
+                    "aggregate",
+                    format!("{label} averages column {c:?}, which the density does not have"),
+                ));
+            }
+            if !seen.insert((a.name.as_str(), a.group.as_str())) {
+                return Err(invalid(
+                    "aggregate",
+                    format!("{label} is reported twice (as a quantity or an aggregate)"),
+                ));
+            }
+        }
+        let comparisons = &spec.comparisons;
+        for (list, what) in [(&comparisons.names, "name"), (&comparisons.groups, "group")] {
+            let mut unique = HashSet::new();
+            if let Some(dup) = list.iter().find(|n| !unique.insert(n.as_str())) {
+                return Err(invalid(
+                    "comparison",
+                    format!("{what} {dup:?} is listed twice"),
+                ));
+            }
+        }
+        let operand = |name: &str, group: &str| {
+            if let Some(i) = quantities
+                .iter()
+                .position(|q| q.name == name && q.group == group)
+            {
+                return Some((
+                    Operand::Quantity(i),
+                    quantities[i].unit.clone(),
+                    String::new(),
+                ));
+            }
+            spec.aggregates
+                .iter()
+                .position(|a| a.name == name && a.group == group)
+                .map(|i| {
+                    let a = &spec.aggregates[i];
+                    (Operand::Aggregate(i), a.unit.clone(), a.note.clone())
+                })
+        };
+        let mut pairs = Vec::new();
+        for name in &comparisons.names {
+            let present: Vec<(&String, (Operand, String, String))> = comparisons
+                .groups
+                .iter()
+                .filter_map(|g| operand(name, g).map(|o| (g, o)))
+                .collect();
+            if present.len() < 2 {
+                return Err(invalid(
+                    "comparison",
+                    format!(
+                        "{name:?} is reported in {} of the groups {:?}; a comparison needs it in at least two",
+                        present.len(),
+                        comparisons.groups
+                    ),
+                ));
+            }
+            for (k, (ga, (a, unit_a, note_a))) in present.iter().enumerate() {
+                for (gb, (b, unit_b, _)) in &present[k + 1..] {
+                    if unit_a != unit_b {
+                        return Err(invalid(
+                            "comparison",
+                            format!(
+                                "{name}[{ga}] is in {unit_a:?} but {name}[{gb}] in {unit_b:?}; compare quantities of one unit"
+                            ),
+                        ));
+                    }
+                    pairs.push((name.clone(), unit_a.clone(), note_a.clone(), *a, *b));
+                }
+            }
+        }
+        Ok(Self {
+            spec: spec.clone(),
+            pairs,
+        })
+    }
+
+    /// Summaries of the chains of a finished run.
+    pub(crate) fn summarise(
+        &self,
+        chains: &Chains,
+        report: &RunReport,
+        settings: &FitSettings,
+        dir: &Path,
+        started: Instant,
+    ) -> Result<FitSummary, FitError> {
+        let total = report.total_steps;
+        let layout = Layout::check(chains, settings.ensembles, settings.walkers, total, dir)?;
+        let mut problems = Vec::new();
+        let selection = Selection::new(report, &mut problems)?;
+        let column = |name: &str| {
+            chains.column(name).map_err(|source| FitError::Storage {
+                context: format!("reading column {name:?} of {}", dir.display()),
+                source,
+            })
+        };
+        let quantities = &self.spec.quantities;
+        let columns: Vec<&[f64]> = quantities
+            .iter()
+            .map(|q| column(&q.column))
+            .collect::<Result<_, _>>()?;
+        let members: Vec<Vec<&[f64]>> = self
+            .spec
+            .aggregates
+            .iter()
+            .map(|a| a.of.iter().map(|c| column(c)).collect())
+            .collect::<Result<_, _>>()?;
+        // The value of an operand at a row: a column, or the mean of an aggregate's columns.
+        let value = |o: Operand, row: usize| match o {
+            Operand::Quantity(i) => columns[i][row],
+            Operand::Aggregate(i) => {
+                let m = &members[i];
+                m.iter().map(|c| c[row]).sum::<f64>() / m.len() as f64
+            }
+        };
+        let kept = |f: &(dyn Fn(usize) -> f64 + Sync)| {
+            EnsembleDraws::from_fn(
+                layout.ensembles,
+                layout.walkers,
+                selection.kept,
+                |e, w, t| f(layout.row(selection.step(t), e, w)),
+            )
+        };
+        let probs = (settings.ci_prob, settings.hdi_prob);
+        let summary_of = |label: String, f: &(dyn Fn(usize) -> f64 + Sync)| {
+            let diag = |source| FitError::Diagnostics {
+                quantity: label.clone(),
+                source,
+            };
+            summarize(&kept(f).map_err(diag)?, probs.0, probs.1).map_err(diag)
+        };
+
+        let stats: Vec<Summary> = (0..quantities.len())
+            .into_par_iter()
+            .map(|i| {
+                summary_of(quantities[i].label(), &|row| {
+                    value(Operand::Quantity(i), row)
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let aggregates: Vec<AggregateSummary> = (0..self.spec.aggregates.len())
+            .into_par_iter()
+            .map(|i| {
+                let a = &self.spec.aggregates[i];
+                let label = crate::density::label(&a.name, &a.group);
+                Ok(AggregateSummary {
+                    name: a.name.clone(),
+                    group: a.group.clone(),
+                    unit: a.unit.clone(),
+                    of: a.of.clone(),
+                    note: a.note.clone(),
+                    stats: summary_of(label, &|row| value(Operand::Aggregate(i), row))?,
+                })
+            })
+            .collect::<Result<_, FitError>>()?;
+        let label_of = |o: Operand| match o {
+            Operand::Quantity(i) => quantities[i].label(),
+            Operand::Aggregate(i) => {
+                let a = &self.spec.aggregates[i];
+                crate::density::label(&a.name, &a.group)
+            }
+        };
+        let group_of = |o: Operand| match o {
+            Operand::Quantity(i) => quantities[i].group.clone(),
+            Operand::Aggregate(i) => self.spec.aggregates[i].group.clone(),
+        };
+        let comparisons: Vec<Comparison> = self
+            .pairs
+            .par_iter()
+            .map(|(name, unit, note, a, b)| {
+                let what = format!("{} − {}", label_of(*a), label_of(*b));
+                let (a, b) = (*a, *b);
+                let difference = summary_of(what.clone(), &|row| value(a, row) - value(b, row))?;
+                // A zero or non-finite ratio draw leaves the ratio undefined, not the fit.
+                let ratio = kept(&|row| value(a, row) / value(b, row))
+                    .ok()
+                    .and_then(|r| summarize(&r, probs.0, probs.1).ok());
+                let above = kept(&|row| {
+                    if value(a, row) > value(b, row) {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
+                .map_err(|source| FitError::Diagnostics {
+                    quantity: what,
+                    source,
+                })?;
+                let (p, p_mcse) = probability(&above);
+                Ok(Comparison {
+                    name: name.clone(),
+                    unit: unit.clone(),
+                    group_a: group_of(a),
+                    group_b: group_of(b),
+                    note: note.clone(),
+                    difference,
+                    ratio,
+                    p_a_greater: p,
+                    p_a_greater_mcse: p_mcse,
+                })
+            })
+            .collect::<Result<_, FitError>>()?;
+
+        if settings.ensembles < 2 {
+            problems.push(Problem::SingleEnsemble);
+        }
+        for (q, s) in quantities.iter().zip(&stats) {
+            problems.extend(quantity_problems(&q.label(), s, settings.ensembles));
+        }
+        problems.extend(stuck_walkers(
+            report.ensembles.iter().map(|e| e.acceptance.as_slice()),
+            total,
+        ));
+        let mut rejections = BTreeMap::new();
+        for ens in &report.ensembles {
+            for (reason, n) in &ens.rejections {
+                *rejections.entry(reason.clone()).or_insert(0) += n;
+            }
+        }
+
+        let mut parameters = Vec::new();
+        let mut derived = Vec::new();
+        for (q, s) in quantities.iter().zip(stats) {
+            let summary = QuantitySummary {
+                name: q.name.clone(),
+                group: q.group.clone(),
+                unit: q.unit.clone(),
+                column: q.column.clone(),
+                stats: s,
+            };
+            match q.kind {
+                QuantityKind::Parameter => parameters.push(summary),
+                QuantityKind::Derived => derived.push(summary),
+            }
+        }
+        let tau = report.tau.as_ref();
+        Ok(FitSummary {
+            parameters,
+            derived,
+            aggregates,
+            comparisons,
+            sampler: SamplerSummary {
+                walkers: layout.walkers,
+                steps: total,
+                ensembles: layout.ensembles,
+                burn_in: selection.burn_in,
+                thin: selection.thin,
+                kept_steps: selection.kept,
+                draws: layout.ensembles * layout.walkers * selection.kept,
+                acceptance: report.mean_acceptance(),
+                tau_max: tau.map(|t| t.max),
+                tau_min: tau.map(|t| t.min),
+                tau_reliable: tau.is_some_and(|t| t.reliable),
+                log_density_evals: report.evaluations(),
+                wall_s: started.elapsed().as_secs_f64(),
+                converged: problems.is_empty(),
+                problems,
+                rejections,
+                seed: settings.seed,
+                stopped_by: report.stopped_by,
+                steps_run: report.steps_run,
+            },
+            data: self.spec.data.clone(),
+        })
+    }
+}
+
+/// Mean of 0/1 indicator draws and its MCSE (`None` when every draw agrees, where the MCSE
+/// estimate is undefined).
+fn probability(indicator: &EnsembleDraws) -> (f64, Option<f64>) {
+    let series: Vec<&[f64]> = (0..indicator.ensembles())
+        .flat_map(|e| (0..indicator.walkers()).map(move |w| (e, w)))
+        .map(|(e, w)| indicator.series(e, w))
+        .collect();
+    let n: usize = series.iter().map(|s| s.len()).sum();
+    let ones: f64 = series.iter().flat_map(|s| s.iter()).sum();
+    let p = ones / n as f64;
+    let mcse = mcse_mean(&series)
+        .ok()
+        .filter(|m| m.is_finite() && *m > 0.0);
+    (p, mcse)
+}
+
+/// Rows of a complete run are in recording order: step, then ensemble, then walker.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    ensembles: usize,
+    walkers: usize,
+}
+
+impl Layout {
+    fn check(
+        chains: &Chains,
+        ensembles: usize,
+        walkers: usize,
+        steps: u64,
+        dir: &Path,
+    ) -> Result<Self, FitError> {
+        let inconsistent = |problem: String| FitError::Inconsistent {
+            dir: dir.to_path_buf(),
+            problem,
+        };
+        let expected = ensembles as u64 * walkers as u64 * steps;
+        if chains.len() as u64 != expected {
+            return Err(inconsistent(format!(
+                "{} rows, but {ensembles} ensembles × {walkers} walkers × {steps} steps make {expected}",
+                chains.len()
+            )));
+        }
+        let layout = Self { ensembles, walkers };
+        for step in 0..steps {
+            for e in 0..ensembles {
+                for w in 0..walkers {
+                    let row = layout.row(step, e, w);
+                    if chains.step[row] != step
+                        || chains.ensemble[row] as usize != e
+                        || chains.walker[row] as usize != w
+                    {
+                        return Err(inconsistent(format!(
+                            "row {row} holds step {}, ensemble {}, walker {} where step {step}, ensemble {e}, walker {w} was expected",
+                            chains.step[row], chains.ensemble[row], chains.walker[row]
+                        )));
+                    }
+                }
+            }
+        }
+        Ok(layout)
+    }
+
+    fn row(&self, step: u64, e: usize, w: usize) -> usize {
+        (step as usize * self.ensembles + e) * self.walkers + w
+    }
+}
+
+/// Which steps are kept: `burn_in, burn_in + thin, …` below the total.
+#[derive(Debug, Clone, Copy)]
+struct Selection {
+    burn_in: u64,
+    thin: u64,
+    kept: usize,
+}
+
+impl Selection {
+    fn new(report: &RunReport, problems: &mut Vec<Problem>) -> Result<Self, FitError> {
+        let total = report.total_steps;
+        let half = total / 2;
+        let (mut burn_in, mut thin) = match &report.tau {
+            Some(t) => {
+                if !t.reliable {
+                    problems.push(Problem::ChainsTooShort {
+                        steps: total,
+                        tau_max: t.max,
+                    });
+                }
+                (t.burn_in, t.thin)
+            }
+            None => {
+                // Without τ, the first half is discarded and every step kept.
+                problems.push(Problem::NoAutocorrelationTime { steps: total });
+                (half, 1)
+            }
+        };
+        if burn_in > half {
+            problems.push(Problem::BurnInCapped {
+                burn_in,
+                used: half,
+            });
+            burn_in = half;
+        }
+        let count = |thin: u64| ((total - burn_in).div_ceil(thin.max(1))) as usize;
+        if count(thin) < MIN_DRAWS && thin > 1 {
+            thin = 1;
+        }
+        let kept = count(thin);
+        if kept < MIN_DRAWS {
+            return Err(FitError::TooFewDraws {
+                kept,
+                burn_in,
+                total,
+                needed: MIN_DRAWS,
+            });
+        }
+        Ok(Self {
+            burn_in,
+            thin,
+            kept,
+        })
+    }
+
+    fn step(&self, t: usize) -> u64 {
+        self.burn_in + t as u64 * self.thin
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::density::Quantity;
+    use crate::fit::{Aggregate, ComparisonSpec};
+
+    fn q(column: &str, name: &str, group: &str, kind: QuantityKind) -> Quantity {
+        Quantity {
+            column: column.into(),
+            name: name.into(),
+            group: group.into(),
+            unit: String::new(),
+            kind,
+        }
+    }
+
+    fn names(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    fn spec(quantities: Vec<Quantity>, comparisons: ComparisonSpec) -> SummarySpec {
+        SummarySpec {
+            quantities,
+            comparisons,
+            ..SummarySpec::default()
+        }
+    }
+
+    #[test]
+    fn plan_refuses_what_it_cannot_report() {
+        let params = names(&["a", "b"]);
+        let derived = names(&["d_a", "d_b"]);
+        let none = ComparisonSpec::default();
+        let p = QuantityKind::Parameter;
+        let d = QuantityKind::Derived;
+        let err = |s: SummarySpec| {
+            Plan::new(&params, &derived, &s)
+                .expect_err("must be refused")
+                .to_string()
+        };
+        assert!(err(spec(vec![], none.clone())).contains("no quantities"));
+        // A parameter may be reported from a derived column (e.g. in SI units).
+        assert!(Plan::new(
+            &params,
+            &derived,
+            &spec(vec![q("d_a", "x", "", p)], none.clone())
+        )
+        .is_ok());
+        assert!(err(spec(vec![q("zz", "x", "", d)], none.clone())).contains("\"zz\""));
+        assert!(err(spec(
+            vec![q("a", "x", "g", p), q("b", "x", "g", p)],
+            none.clone()
+        ))
+        .contains("twice"));
+        let ab = ComparisonSpec {
+            names: names(&["x"]),
+            groups: names(&["A", "B"]),
+        };
+        assert!(err(spec(
+            vec![q("a", "x", "A", p), q("b", "x", "C", p)],
+            ab.clone()
+        ))
+        .contains("1 of the groups"));
+        let ok = Plan::new(
+            &params,
+            &derived,
+            &spec(
+                vec![
+                    q("a", "x", "A", p),
+                    q("b", "x", "B", p),
+                    q("d_a", "y", "A", d),
+                ],
+                ab.clone(),
+            ),
+        )
+        .expect("valid plan");
+        assert_eq!(ok.pairs.len(), 1);
+        assert_eq!(
+            (ok.pairs[0].3, ok.pairs[0].4),
+            (Operand::Quantity(0), Operand::Quantity(1))
+        );
+    }
+
+    #[test]
+    fn aggregates_are_checked_and_compared_like_quantities() {
+        let params = names(&["a", "b"]);
+        let derived = names(&["d_a", "d_b"]);
+        let p = QuantityKind::Parameter;
+        let mean = |group: &str, of: &[&str]| Aggregate {
+            name: "y".into(),
+            group: group.into(),
+            unit: String::new(),
+            of: names(of),
+            note: "mean".into(),
+        };
+        let with = |aggregates: Vec<Aggregate>| SummarySpec {
+            quantities: vec![q("a", "x", "A", p)],
+            aggregates,
+            comparisons: ComparisonSpec {
+                names: names(&["y"]),
+                groups: names(&["A", "B"]),
+            },
+            data: Vec::new(),
+        };
+        let err = |s: SummarySpec| Plan::new(&params, &derived, &s).unwrap_err().to_string();
+        assert!(err(with(vec![mean("A", &[]), mean("B", &["b"])])).contains("no columns"));
+        assert!(err(with(vec![mean("A", &["zz"]), mean("B", &["b"])])).contains("\"zz\""));
+        let ok = Plan::new(
+            &params,
+            &derived,
+            &with(vec![mean("A", &["a", "b"]), mean("B", &["d_b"])]),
+        )
+        .expect("valid plan");
+        assert_eq!(ok.pairs.len(), 1);
+        assert_eq!(ok.pairs[0].2, "mean");
+        assert_eq!(
+            (ok.pairs[0].3, ok.pairs[0].4),
+            (Operand::Aggregate(0), Operand::Aggregate(1))
+        );
+    }
+}

@@ -1,0 +1,147 @@
+//! The reported values of a draw: every parameter in SI units, σ of a marginalised group
+//! drawn from its conditional posterior, a per contact and material, the peak of each slide
+//! and the predicted peak of a new contact of a pooled material.
+//!
+//! Where a derived value needs randomness (σ's conditional draw, a new contact's t0), the
+//! random numbers are a deterministic function of the bits of the draw itself, so that the
+//! density stays a pure function of `x` and the sampler stays reproducible.
+
+use super::layout::{PeakField, Population, Source};
+use super::likelihood::SigmaFit;
+use super::Posterior;
+use crate::law::{Elastic, Law, Peak};
+
+impl Posterior {
+    /// Writes the value of every reported column at `x`, in column order, into `derived`
+    /// (of length `quantities().len()`). `sigma_fit[g]` = (sum of squared residuals, points)
+    /// of marginalised σ group g at `x`, for the conditional draw of σ.
+    pub(super) fn derived_values(&self, x: &[f64], sigma_fit: &SigmaFit, derived: &mut [f64]) {
+        // Peaks are computed once per run and read by several columns.
+        let mut peak_cache: Option<(usize, Option<Peak>, Option<f64>)> = None;
+        for (out, source) in derived.iter_mut().zip(&self.sources) {
+            *out = match *source {
+                Source::Coord(i) => x[i].exp(),
+                Source::T0(src) => src.value(x),
+                Source::Sigma(g) => {
+                    let (ssr, n) = sigma_fit[g];
+                    let group = &self.sigma_groups[g];
+                    group.conditional_draw(hash_bits(x, group.salt), ssr, n)
+                }
+                Source::AContact { ratio, f_d } => x[ratio].exp() * x[f_d].exp(),
+                Source::AMaterial(m) => self.materials[m]
+                    .aging
+                    .map_or(f64::NAN, |a| x[a.coord].exp() * self.mean_fd(x, m)),
+                Source::Peak { run, field } => {
+                    let (_, peak, kv) = match peak_cache {
+                        Some(c) if c.0 == run => c,
+                        _ => {
+                            let r = &self.runs[run];
+                            let peak = r.law(x).ok().and_then(|law| law.peak().interior());
+                            let kv = match r.elastic(x) {
+                                Ok(Elastic::Spring { kv }) => Some(kv),
+                                _ => None,
+                            };
+                            let c = (run, peak, kv);
+                            peak_cache = Some(c);
+                            c
+                        }
+                    };
+                    let r = &self.runs[run];
+                    peak.map_or(f64::NAN, |p| match field {
+                        PeakField::Force => p.force_n,
+                        PeakField::InterfaceTime => p.tau_s,
+                        PeakField::SlipDistance => p.slip_m(r.velocity),
+                        PeakField::ObservedTime => p.observed_time_s(kv),
+                        PeakField::StaticCoefficient => {
+                            r.normal_force.map_or(f64::NAN, |f_n| p.force_n / f_n)
+                        }
+                    })
+                }
+                Source::PeakNew(pop) => self.new_contact_peak(x, &self.populations[pop]),
+            };
+        }
+    }
+
+    /// The peak of a new contact of a pooled material: its t0 drawn from the material's t0
+    /// population, F_d the mean of the material's contacts, at the material's slow velocity.
+    fn new_contact_peak(&self, x: &[f64], p: &Population) -> f64 {
+        let m = p.material;
+        let material = &self.materials[m];
+        let (Some(aging), Some(v)) = (material.aging, material.slow_velocity) else {
+            return f64::NAN;
+        };
+        let alpha = material.alpha.map_or(f64::NAN, |i| x[i].exp());
+        let f_d = self.mean_fd(x, m);
+        let a = if aging.ratio {
+            x[aging.coord].exp() * f_d
+        } else {
+            x[aging.coord].exp()
+        };
+        // The standard-normal draw is a deterministic function of the draw itself so that the
+        // sampler stays reproducible; hashing the bits makes it independent of the values.
+        let z = hashed_normal(x, m as u64);
+        let t0 = (x[p.mu] + x[p.ln_s].exp() * z).exp();
+        Law::from_rate(alpha * v, a, f_d, t0)
+            .ok()
+            .and_then(|law| law.peak().interior())
+            .map_or(f64::NAN, |p| p.force_n)
+    }
+
+    /// Mean F_d (N) of the contacts of `material`.
+    fn mean_fd(&self, x: &[f64], material: usize) -> f64 {
+        let (mut sum, mut n) = (0.0, 0.0);
+        for (c, &m) in self.spec.contact_material.iter().enumerate() {
+            if m == material {
+                if let Some(i) = self.contact_fd[c] {
+                    sum += x[i].exp();
+                    n += 1.0;
+                }
+            }
+        }
+        sum / n
+    }
+}
+
+/// A standard-normal number that is a deterministic function of the bits of `x` and `salt`
+/// (hashing, then the Box–Muller transform).
+fn hashed_normal(x: &[f64], salt: u64) -> f64 {
+    let h = hash_bits(x, salt);
+    let u1 = ((h >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    let h2 = hash_bits(&[f64::from_bits(h)], salt ^ 1);
+    let u2 = ((h2 >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// SplitMix64 hash of the bits of `x` and `salt`.
+fn hash_bits(x: &[f64], salt: u64) -> u64 {
+    fn mix(h: &mut u64, v: u64) {
+        *h = h.wrapping_add(v).wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = *h;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        *h = z ^ (z >> 31);
+    }
+    let mut h = 0x9E37_79B9_7F4A_7C15_u64 ^ salt;
+    for v in x {
+        mix(&mut h, v.to_bits());
+    }
+    h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hashed_normal_is_standard_normal() {
+        let draws: Vec<f64> = (0..20_000).map(|i| hashed_normal(&[i as f64], 7)).collect();
+        let mean = draws.iter().sum::<f64>() / draws.len() as f64;
+        let var = draws.iter().map(|z| (z - mean).powi(2)).sum::<f64>() / draws.len() as f64;
+        // 4 standard errors.
+        assert!(mean.abs() < 4.0 / (draws.len() as f64).sqrt(), "{mean}");
+        assert!(
+            (var - 1.0).abs() < 4.0 * (2.0 / draws.len() as f64).sqrt(),
+            "{var}"
+        );
+    }
+}

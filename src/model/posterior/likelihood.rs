@@ -1,0 +1,188 @@
+//! The likelihood: independent Gaussian noise of standard deviation σ on each run's force, a
+//! sum over runs. Each run's term reads only the coordinates of its own contact and material
+//! (and, for a repeat slide, the force where the first slide of the same contact stopped), so
+//! a block of one contact's coordinates can be updated by evaluating that contact's runs alone.
+//!
+//! A repeat slide loads elastically up to F_end, the force where the slide it follows stopped
+//! (its model force at its last recorded time), or F_d when it follows none.
+
+use super::layout::{SigmaSource, T0Source};
+use super::sigma::marginal_sigma_log_likelihood;
+use super::Posterior;
+use crate::density::LogDensityError;
+use crate::law::{Elastic, Law, LawError, ObservedSlide, RepeatSlide, Scene};
+use crate::model::data::RunData;
+
+/// Log of √(2π).
+pub(super) const LN_SQRT_2PI: f64 = 0.918_938_533_204_672_8;
+
+/// Most runs a model may have (the likelihood keeps per-run scratch on the stack).
+pub const MAX_RUNS: usize = 256;
+
+/// Rejection label: the law has no quasi-static solution (stick-slip).
+pub const REJECT_STICK_SLIP: &str = "stick_slip";
+/// Rejection label: a parameter outside its prior's support.
+pub const REJECT_PRIOR: &str = "outside_prior";
+/// Rejection label: the law cannot be evaluated at these parameters (e.g. αv·t0 underflows).
+pub const REJECT_LAW: &str = "law_invalid";
+
+/// A run with its data and the coordinates of its parameters.
+#[derive(Debug, Clone)]
+pub(super) struct RunModel {
+    pub name: String,
+    pub scene: Scene,
+    pub velocity: f64,
+    pub data: RunData,
+    pub contact: usize,
+    pub alpha: Option<usize>,
+    /// Coordinate of ln a (or of ln a/F_d when `ratio`).
+    pub a: Option<usize>,
+    pub ratio: bool,
+    pub f_d: usize,
+    pub t0: Option<T0Source>,
+    pub k: Option<usize>,
+    pub sigma: SigmaSource,
+    /// The first slide a repeat slide follows.
+    pub follows: Option<usize>,
+    /// Normal force F_N (N), when known.
+    pub normal_force: Option<f64>,
+}
+
+/// The fit of one run at a point: its weighted sum of squared residuals and the model force at
+/// its last model time (F_end, for the repeat slide that follows it).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RunResiduals {
+    pub ssr: f64,
+    pub last_force: f64,
+}
+
+impl RunModel {
+    /// The law of this run's slide at `x`.
+    pub fn law(&self, x: &[f64]) -> Result<Law, LawError> {
+        let f_d = x[self.f_d].exp();
+        let a = match self.a {
+            Some(i) if self.ratio => x[i].exp() * f_d,
+            Some(i) => x[i].exp(),
+            None => 0.0,
+        };
+        let alpha = self.alpha.map_or(f64::NAN, |i| x[i].exp());
+        let t0 = self.t0.map_or(f64::NAN, |s| s.value(x));
+        Law::from_rate(alpha * self.velocity, a, f_d, t0)
+    }
+
+    /// The machine's elasticity for this run at `x` (none for a slide declared stiff).
+    pub fn elastic(&self, x: &[f64]) -> Result<Elastic, LawError> {
+        match (self.scene, self.k) {
+            (Scene::StiffFast, _) | (_, None) => Ok(Elastic::Stiff),
+            (_, Some(k)) => Elastic::spring(x[k].exp(), self.velocity),
+        }
+    }
+
+    /// Visits (index, force) of the model at every model time; `f_end` is where the slide a
+    /// repeat slide follows stopped (`None`: F_d).
+    pub fn visit_forces(
+        &self,
+        x: &[f64],
+        f_end: Option<f64>,
+        mut visit: impl FnMut(usize, f64),
+    ) -> Result<(), LawError> {
+        match self.scene {
+            Scene::Repeat => {
+                let end = f_end.unwrap_or_else(|| x[self.f_d].exp());
+                let slide = RepeatSlide::from_elastic(self.elastic(x)?, end)?;
+                for (i, &t) in self.data.model_times.iter().enumerate() {
+                    visit(i, slide.force(t));
+                }
+                Ok(())
+            }
+            Scene::First | Scene::StiffFast => {
+                let slide = ObservedSlide::new(self.law(x)?, self.elastic(x)?);
+                slide.for_each_force(&self.data.model_times, |i, _, f| visit(i, f))
+            }
+        }
+    }
+
+    /// Weighted sum of squared residuals at `x` (a bin mean of w points has variance σ²/w)
+    /// and the force at the last model time.
+    pub fn residuals(&self, x: &[f64], f_end: Option<f64>) -> Result<RunResiduals, LawError> {
+        let obs = &self.data.force;
+        let n = self.data.n_obs;
+        let weights = self.data.weights.as_deref();
+        let mut ssr = 0.0;
+        let mut last = 0.0;
+        self.visit_forces(x, f_end, |j, f| {
+            if j < n {
+                let e = obs[j] - f;
+                ssr += weights.map_or(1.0, |w| w[j]) * e * e;
+            }
+            last = f;
+        })?;
+        Ok(RunResiduals {
+            ssr,
+            last_force: last,
+        })
+    }
+}
+
+/// Per marginalised σ group: (sum of weighted squared residuals, observations).
+pub(super) type SigmaFit = [(f64, usize); MAX_RUNS];
+
+impl Posterior {
+    /// The log-likelihood at `x`; fills `sigma_fit` with the residuals of each marginalised σ
+    /// group (for the conditional draw of σ among the derived values).
+    pub(super) fn log_likelihood(
+        &self,
+        x: &[f64],
+        sigma_fit: &mut SigmaFit,
+    ) -> Result<f64, LogDensityError> {
+        let law_error = |e: LawError| match e {
+            LawError::StickSlip { .. } => LogDensityError::rejected(REJECT_STICK_SLIP),
+            _ => LogDensityError::rejected(REJECT_LAW),
+        };
+        // Small fixed scratch on the stack: no allocation on the sampler's hot path.
+        let mut f_end = [None; MAX_RUNS];
+        let mut ll = 0.0;
+        for &i in &self.order {
+            let r = &self.runs[i];
+            let fit = r
+                .residuals(x, r.follows.and_then(|j| f_end[j]))
+                .map_err(law_error)?;
+            ll += r.data.half_log_weights();
+            if r.scene == Scene::First {
+                f_end[i] = Some(fit.last_force);
+            }
+            let n = r.data.n_obs;
+            match r.sigma {
+                SigmaSource::Coord(s) => {
+                    let sigma = x[s].exp();
+                    ll +=
+                        -(n as f64) * (sigma.ln() + LN_SQRT_2PI) - 0.5 * fit.ssr / (sigma * sigma);
+                }
+                SigmaSource::Marginal(g) => {
+                    sigma_fit[g].0 += fit.ssr;
+                    sigma_fit[g].1 += n;
+                }
+            }
+        }
+        for (group, &(ssr, n)) in self.sigma_groups.iter().zip(sigma_fit.iter()) {
+            ll += marginal_sigma_log_likelihood(ssr, n, group.low, group.high)
+                .ok_or(LogDensityError::rejected(REJECT_PRIOR))?;
+        }
+        Ok(ll)
+    }
+
+    /// The F_end of every first slide at `x` (indexed by run), for curves of single runs.
+    pub(super) fn first_slide_ends(&self, x: &[f64]) -> Result<Vec<Option<f64>>, LawError> {
+        let mut f_end = vec![None; self.runs.len()];
+        for &i in &self.order {
+            let r = &self.runs[i];
+            if r.scene == Scene::First {
+                let slide = ObservedSlide::new(r.law(x)?, r.elastic(x)?);
+                let mut last = 0.0;
+                slide.for_each_force(&r.data.model_times, |_, _, f| last = f)?;
+                f_end[i] = Some(last);
+            }
+        }
+        Ok(f_end)
+    }
+}

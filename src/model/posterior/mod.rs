@@ -1,0 +1,236 @@
+//! The joint posterior of a model over all its runs, as a [`LogDensity`] for the sampler.
+//!
+//! Built in three steps ([`Posterior::from_data`]): the [`layout`] of sampled coordinates and
+//! reported columns, the runs with their data, and the evaluation order. Each part of the
+//! density has a file of its own:
+//!
+//! - [`layout`]: which coordinate each parameter of each run reads (levels, pooling, the
+//!   marginalised σ groups) and which column each reported value goes to.
+//! - [`likelihood`]: a sum over runs; each run's term reads only its contact's and
+//!   material's coordinates.
+//! - [`sigma`]: σ integrated out of the likelihood and drawn from its conditional posterior.
+//! - [`derived`]: the reported values of a draw (SI parameters, peaks, a new contact's peak).
+//! - [`start`]: the optimiser's start from rough features of the data (computed on first use).
+//! - [`predictive`]: curves of single runs and the posterior predictive bands.
+//!
+//! The model itself is described in `docs/model.md`.
+
+mod derived;
+mod layout;
+mod likelihood;
+mod predictive;
+mod sigma;
+mod start;
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use layout::{Coord, CoordPrior, Layout, MaterialModel, Population, SigmaGroup, Source};
+use likelihood::{RunModel, SigmaFit, LN_SQRT_2PI};
+
+use super::data::RunData;
+use super::spec::ModelSpec;
+use crate::density::{LogDensity, LogDensityError, Quantity};
+use crate::law::Scene;
+
+pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
+pub use predictive::Band;
+
+/// The posterior of a validated model with its data loaded.
+#[derive(Debug, Clone)]
+pub struct Posterior {
+    /// The model it was built from.
+    spec: ModelSpec,
+    coords: Vec<Coord>,
+    /// The reported columns, in the order of the derived values.
+    quantities: Vec<Quantity>,
+    /// How each reported column is computed.
+    sources: Vec<Source>,
+    runs: Vec<RunModel>,
+    /// Run indices in evaluation order: slides that others follow come first.
+    order: Vec<usize>,
+    sigma_groups: Vec<SigmaGroup>,
+    populations: Vec<Population>,
+    materials: Vec<MaterialModel>,
+    /// Per contact: coordinate of ln F_d.
+    contact_fd: Vec<Option<usize>>,
+    /// The optimiser's start, computed on first use (it fits every slide on its own).
+    start: OnceLock<Vec<f64>>,
+}
+
+/// Errors building a posterior.
+#[derive(Debug, thiserror::Error)]
+pub enum PosteriorError {
+    /// A run's data could not be loaded or is unusable.
+    #[error(transparent)]
+    Data(#[from] super::data::RunDataError),
+    /// A structural problem (e.g. a parameter at a level that does not fit the scenes).
+    #[error("{source_file}: {message}")]
+    Model {
+        /// Model file.
+        source_file: PathBuf,
+        /// What is wrong and what to do.
+        message: String,
+    },
+}
+
+impl Posterior {
+    /// Loads every run's data (with its format, columns, window and binning) and builds the
+    /// posterior over them.
+    ///
+    /// # Errors
+    /// [`PosteriorError`] naming the file, line or key at fault.
+    pub fn new(spec: &ModelSpec) -> Result<Self, PosteriorError> {
+        check_run_count(spec)?;
+        let data = (0..spec.file.runs.len())
+            .map(|i| RunData::for_run(spec, i))
+            .collect::<Result<Vec<_>, _>>()?;
+        Self::from_data(spec, data)
+    }
+
+    /// The posterior of `spec` over data already in memory, one [`RunData`] per run of the
+    /// model in its order (the runs' data paths are not read).
+    ///
+    /// # Errors
+    /// [`PosteriorError::Model`] when the number of data sets is not the number of runs, or
+    /// the model has more than [`MAX_RUNS`] runs.
+    pub fn from_data(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
+        check_run_count(spec)?;
+        if data.len() != spec.file.runs.len() {
+            return Err(PosteriorError::Model {
+                source_file: spec.source.clone(),
+                message: format!(
+                    "{} data sets for {} runs; give one per [[run]], in the model's order",
+                    data.len(),
+                    spec.file.runs.len()
+                ),
+            });
+        }
+        let layout = Layout::new(spec, data);
+        let order = evaluation_order(&layout.runs);
+        Ok(Self {
+            spec: spec.clone(),
+            coords: layout.coords,
+            quantities: layout.quantities,
+            sources: layout.sources,
+            runs: layout.runs,
+            order,
+            sigma_groups: layout.sigma_groups,
+            populations: layout.populations,
+            materials: layout.materials,
+            contact_fd: layout.contact_fd,
+            start: OnceLock::new(),
+        })
+    }
+
+    /// The model this posterior was built from.
+    pub fn spec(&self) -> &ModelSpec {
+        &self.spec
+    }
+
+    /// The reported columns, in the order of the derived values: every parameter in SI units
+    /// and every derived quantity.
+    pub fn quantities(&self) -> &[Quantity] {
+        &self.quantities
+    }
+
+    /// Each sampled coordinate with a sentence describing its prior.
+    pub fn prior_descriptions(&self) -> Vec<(String, String)> {
+        self.coords
+            .iter()
+            .map(|c| {
+                let d = match &c.prior {
+                    CoordPrior::Log(p) => format!("ln of a parameter with prior {}", p.describe()),
+                    CoordPrior::StdNormal => "standard normal (non-centred pooled t0)".to_string(),
+                };
+                (c.name.clone(), d)
+            })
+            .collect()
+    }
+
+    /// Where each run's data came from and what was done to them (the `data` of
+    /// `summary.json`).
+    pub fn data_provenance(&self) -> Vec<crate::data::Provenance> {
+        self.runs
+            .iter()
+            .map(|r| r.data.provenance.clone())
+            .collect()
+    }
+
+    /// Observations in the longest run.
+    pub fn max_points(&self) -> usize {
+        self.runs.iter().map(|r| r.data.n_obs).max().unwrap_or(0)
+    }
+
+    /// Material names, in model order.
+    pub fn materials(&self) -> Vec<&str> {
+        self.materials.iter().map(|m| m.name.as_str()).collect()
+    }
+
+    /// A starting point for the optimiser, from rough features of the data; computed the
+    /// first time it is asked for.
+    pub fn start(&self) -> &[f64] {
+        self.start.get_or_init(|| self.heuristic_start())
+    }
+
+    fn log_prior(&self, x: &[f64]) -> Result<f64, LogDensityError> {
+        let mut lp = 0.0;
+        for (c, &u) in self.coords.iter().zip(x) {
+            lp += match &c.prior {
+                CoordPrior::Log(prior) => {
+                    let l = prior.ln_density(u.exp());
+                    if l == f64::NEG_INFINITY {
+                        return Err(LogDensityError::rejected(REJECT_PRIOR));
+                    }
+                    l + u
+                }
+                CoordPrior::StdNormal => -0.5 * u * u - LN_SQRT_2PI,
+            };
+        }
+        Ok(lp)
+    }
+}
+
+/// A model may have at most [`MAX_RUNS`] runs.
+fn check_run_count(spec: &ModelSpec) -> Result<(), PosteriorError> {
+    let n_runs = spec.file.runs.len();
+    if n_runs > MAX_RUNS {
+        return Err(PosteriorError::Model {
+            source_file: spec.source.clone(),
+            message: format!("{n_runs} runs; a model may have at most {MAX_RUNS}: split it"),
+        });
+    }
+    Ok(())
+}
+
+/// Runs that are followed (first and fast slides) before the repeat slides that follow them.
+fn evaluation_order(runs: &[RunModel]) -> Vec<usize> {
+    let (mut order, repeats): (Vec<usize>, Vec<usize>) =
+        (0..runs.len()).partition(|&i| runs[i].scene != Scene::Repeat);
+    order.extend(repeats);
+    order
+}
+
+impl LogDensity for Posterior {
+    fn dim(&self) -> usize {
+        self.coords.len()
+    }
+
+    fn param_names(&self) -> Vec<String> {
+        self.coords.iter().map(|c| c.name.clone()).collect()
+    }
+
+    fn derived_names(&self) -> Vec<String> {
+        self.quantities.iter().map(|q| q.column.clone()).collect()
+    }
+
+    fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
+        let lp = self.log_prior(x)?;
+        let mut sigma_fit: SigmaFit = [(0.0, 0); MAX_RUNS];
+        let ll = self.log_likelihood(x, &mut sigma_fit)?;
+        if !derived.is_empty() {
+            self.derived_values(x, &sigma_fit, derived);
+        }
+        Ok(lp + ll)
+    }
+}
