@@ -13,6 +13,9 @@
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable),
 //!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
+//! - [`plot`]: the one plotting layer (SVG through plotters) of reports, `bench` and
+//!   `validate`: figures, charts, axes and ticks, lines, markers, bands, bars, legends, one
+//!   palette.
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
 //!   directory (feature `report`).
 
@@ -26,6 +29,7 @@ pub mod fit;
 pub mod law;
 pub mod model;
 pub mod optimize;
+pub mod plot;
 pub mod prec;
 #[cfg(feature = "report")]
 pub mod report;

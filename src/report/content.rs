@@ -15,6 +15,7 @@ use crate::diagnostics::{Summary, ESS_MIN, RHAT_MAX};
 use crate::fit::{kept_rows, AggregateSummary, QuantitySummary};
 use crate::law::Scene;
 use crate::model::{Band, ModelSpec, Posterior};
+use crate::plot::DrawError;
 
 /// Posterior draws behind every redrawn curve (as many as `predictive.csv` uses).
 const CURVE_DRAWS: usize = 200;
@@ -474,7 +475,7 @@ fn figure(file: String, caption: String, svg: String) -> Block {
 fn drawn_figure(
     file: &str,
     caption: String,
-    draw: impl FnOnce(&str) -> Result<String, ReportError>,
+    draw: impl FnOnce(&str) -> Result<String, DrawError>,
 ) -> Result<Block, ReportError> {
     Ok(figure(file.to_owned(), caption, draw(file)?))
 }
@@ -905,8 +906,8 @@ fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
 
 fn summary_section(ctx: &Context) -> Vec<Block> {
     let hdi_prob = ctx.quantities.first().map_or(0.95, |q| q.stats.hdi_prob);
-    let lo = format!("hdi_{}%", super::figures::tick(50.0 * (1.0 - hdi_prob)));
-    let hi = format!("hdi_{}%", super::figures::tick(50.0 * (1.0 + hdi_prob)));
+    let lo = format!("hdi_{}%", crate::plot::tick(50.0 * (1.0 - hdi_prob)));
+    let hi = format!("hdi_{}%", crate::plot::tick(50.0 * (1.0 + hdi_prob)));
     let rows: Vec<Vec<String>> = ctx
         .quantities
         .iter()

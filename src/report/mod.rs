@@ -18,7 +18,6 @@
 mod content;
 mod curves;
 mod document;
-mod figures;
 mod inputs;
 mod plots;
 mod units;
@@ -60,13 +59,8 @@ pub enum ReportError {
     #[error("redrawing a curve from a posterior draw: {0}")]
     Law(crate::law::LawError),
     /// A figure could not be drawn.
-    #[error("drawing figure {figure}: {message}")]
-    Draw {
-        /// The figure.
-        figure: String,
-        /// The cause.
-        message: String,
-    },
+    #[error(transparent)]
+    Draw(#[from] crate::plot::DrawError),
 }
 
 /// Where a report was written.

@@ -2,17 +2,16 @@
 //! peak's density and its dependence on t0, the material forest plot, traces and corners.
 //! Values arrive in SI and are shown in mN, µm, µm⁻¹, s.
 
-use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use super::curves::{kernel_density, InterfaceCurve, PeakVsT0};
-use super::figures::{
-    band, band_fills, caption_font, grid, ink, label_font, legend, line, linear_chart, markers,
-    range_of, small_font, svg_figure, tick, tint, widen, Area, Drawn, PANEL,
-};
-use super::ReportError;
 use crate::law::Scene;
 use crate::model::Band;
+use crate::plot::{
+    band, band_fills, caption_font, grid, ink, label_font, legend, line, linear_chart, markers,
+    panel_grid, range_of, significant, small_font, svg_figure, tick, tint, widen, Area, DrawError,
+    Drawn, LinearChart, PANEL,
+};
 
 /// N to mN.
 const MN: f64 = 1e3;
@@ -50,13 +49,13 @@ pub fn velocity_text(v: f64) -> String {
 /// slide with a law, a second panel in interface time with the elastic part removed.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
+/// [`DrawError`] when the backend fails.
 pub fn fit_figure(
     name: &str,
     run: &RunView,
     predictive: &Band,
     curve: Option<&InterfaceCurve>,
-) -> Result<String, ReportError> {
+) -> Result<String, DrawError> {
     let panels = if curve.is_some() { 2 } else { 1 };
     svg_figure(
         name,
@@ -164,12 +163,12 @@ fn in_mn(xs: &[f64], forces_n: &[f64]) -> Vec<(f64, f64)> {
 /// The 95 % (light) and 50 % (darker) predictive bands from the 2.5, 25, 75 and 97.5 %
 /// quantiles `q`, labelled in the legend when `labelled`.
 fn predictive_bands(
-    chart: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    chart: &mut LinearChart<'_, '_>,
     name: &str,
     xs: &[f64],
     q: [Vec<f64>; 4],
     labelled: bool,
-) -> Result<(), ReportError> {
+) -> Result<(), DrawError> {
     let (light, dark) = band_fills();
     let label = |text: &'static str| labelled.then_some(text);
     band(
@@ -197,7 +196,7 @@ const RESIDUAL_HEIGHT: u32 = 230;
 
 /// Data minus the posterior median in observed time, with the 50 % and 95 % predictive bands
 /// around it: where the bands are too thin to see on the force scale, misfit shows here.
-fn residual_panel(area: &Area, name: &str, p: &Band) -> Result<(), ReportError> {
+fn residual_panel(area: &Area, name: &str, p: &Band) -> Result<(), DrawError> {
     let median = &p.model_n[1];
     let minus = |v: &[f64]| {
         v.iter()
@@ -229,12 +228,12 @@ fn residual_panel(area: &Area, name: &str, p: &Band) -> Result<(), ReportError> 
 /// slides at different velocities fall on one curve when the law holds.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
+/// [`DrawError`] when the backend fails.
 pub fn distance_figure(
     name: &str,
     contact: &str,
     slides: &[(&RunView, &Band, &InterfaceCurve)],
-) -> Result<String, ReportError> {
+) -> Result<String, DrawError> {
     svg_figure(name, (PANEL.0 + 140, PANEL.1 + 20), |root| {
         let xs: Vec<f64> = slides
             .iter()
@@ -284,10 +283,9 @@ pub type PeakDraws = (String, Vec<f64>, [f64; 3]);
 /// the density, its 95 % interval shaded under it, and the median as a dashed line.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
-pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, ReportError> {
-    let cols = panels.len().clamp(1, 3);
-    let rows = panels.len().div_ceil(cols).max(1);
+/// [`DrawError`] when the backend fails.
+pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, DrawError> {
+    let (rows, cols) = panel_grid(panels.len(), 3);
     let (w, h) = (420u32, 300u32);
     svg_figure(name, (w * cols as u32, h * rows as u32), |root| {
         let areas = root.split_evenly((rows, cols));
@@ -338,7 +336,7 @@ pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, R
 }
 
 fn tick_mn(f_n: f64) -> String {
-    super::units::significant(f_n * MN, 4)
+    significant(f_n * MN, 4)
 }
 
 /// The peak against t0 (the paper's Fig. 4) per material: for each slide, the median and
@@ -346,11 +344,11 @@ fn tick_mn(f_n: f64) -> String {
 /// and the posterior draws of (t0, F_peak) themselves.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
+/// [`DrawError`] when the backend fails.
 pub fn peak_t0_figure(
     name: &str,
     materials: &[(String, Vec<(String, PeakVsT0)>)],
-) -> Result<String, ReportError> {
+) -> Result<String, DrawError> {
     let n = materials.len().max(1);
     svg_figure(name, (PANEL.0 * n as u32, PANEL.1 + 40), |root| {
         let areas = root.split_evenly((1, n));
@@ -457,8 +455,8 @@ const FOREST_FRAME_PX: u32 = 110;
 /// 95 % interval; materials filled, contacts and runs open.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
-pub fn forest_figure(name: &str, panels: &[ForestPanel]) -> Result<String, ReportError> {
+/// [`DrawError`] when the backend fails.
+pub fn forest_figure(name: &str, panels: &[ForestPanel]) -> Result<String, DrawError> {
     let heights: Vec<u32> = panels
         .iter()
         .map(|p| FOREST_FRAME_PX + FOREST_ROW_PX * p.rows.len() as u32)
@@ -552,12 +550,8 @@ const TRACE_POINTS: usize = 250;
 /// (dark to light), the burn-in marked.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
-pub fn trace_figure(
-    name: &str,
-    panels: &[TracePanel],
-    burn_in: u64,
-) -> Result<String, ReportError> {
+/// [`DrawError`] when the backend fails.
+pub fn trace_figure(name: &str, panels: &[TracePanel], burn_in: u64) -> Result<String, DrawError> {
     let cols = 2usize;
     let rows = panels.len().div_ceil(cols).max(1);
     let (w, h) = (480u32, 210u32);
@@ -636,12 +630,12 @@ pub const CORNER_POINTS: usize = 200;
 /// draws of `names[i]` in display units, paired by index.
 ///
 /// # Errors
-/// [`ReportError::Draw`].
+/// [`DrawError`] when the backend fails.
 pub fn corner_figure(
     name: &str,
     names: &[String],
     columns: &[Vec<f64>],
-) -> Result<String, ReportError> {
+) -> Result<String, DrawError> {
     let n = names.len().max(1);
     let cell = 190u32;
     svg_figure(name, (cell * n as u32, cell * n as u32), |root| {

@@ -3,6 +3,10 @@
 //! Everything inside slipbayes is SI; a report shows forces in mN, α in µm⁻¹, distances in
 //! µm, times in s and stiffness in N/m, as the paper does.
 
+// Numbers are written by the plotting layer's rule, which tick labels need without the
+// `report` feature; the report's tables use the same.
+pub use crate::plot::significant;
+
 /// How a quantity in an SI unit is shown: the unit's label and the factor from SI to it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisplayUnit {
@@ -45,28 +49,6 @@ impl DisplayUnit {
     }
 }
 
-/// `x` with `digits` significant digits, in plain notation between 1e-3 and 1e5 and in
-/// scientific notation (`1.23e-7`) outside; `–` for a missing (NaN) value.
-pub fn significant(x: f64, digits: usize) -> String {
-    if x.is_nan() {
-        return "–".to_owned();
-    }
-    if x.is_infinite() {
-        return if x > 0.0 { "∞" } else { "−∞" }.to_owned();
-    }
-    if x == 0.0 {
-        return "0".to_owned();
-    }
-    let digits = digits.max(1);
-    let magnitude = x.abs().log10().floor() as i32;
-    if (-3..5).contains(&magnitude) {
-        let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = digits - 1)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -83,17 +65,5 @@ mod tests {
         assert_eq!(DisplayUnit::of_si("N/m").suffix(), " (N/m)");
         assert_eq!(DisplayUnit::of_si("1").suffix(), "");
         assert_eq!(DisplayUnit::of_si("kg").label, "kg");
-    }
-
-    #[test]
-    fn significant_digits() {
-        assert_eq!(significant(12.345, 3), "12.3");
-        assert_eq!(significant(0.0123456, 3), "0.0123");
-        assert_eq!(significant(921691.2, 4), "9.217e5");
-        assert_eq!(significant(1.0094, 4), "1.009");
-        assert_eq!(significant(-0.5, 2), "-0.50");
-        assert_eq!(significant(f64::NAN, 3), "–");
-        assert_eq!(significant(0.0, 3), "0");
-        assert_eq!(significant(2.5e-7, 2), "2.5e-7");
     }
 }

@@ -1,4 +1,4 @@
-//! SVG plots of error against wall time (plotters, SVG backend, no font libraries).
+//! SVG plots of error against wall time, on the crate's plotting layer ([`slipbayes::plot`]).
 
 use std::path::Path;
 
@@ -6,6 +6,9 @@ use plotters::prelude::*;
 
 use super::BenchError;
 use slipbayes::data::write_atomically;
+use slipbayes::plot::{
+    chart, legend, markers, styled_line, svg_figure, Dash, DrawError, Drawn, Frame,
+};
 
 /// One point of an error-against-cost plot.
 #[derive(Debug, Clone)]
@@ -25,13 +28,15 @@ pub struct ErrorPoint {
 /// Errors are shown on a log axis; exact zeros (the reference against itself) sit at its floor.
 const ERROR_FLOOR: f64 = 1e-3;
 
-const PALETTE: [RGBColor; 5] = [
-    RGBColor(0, 114, 178),
-    RGBColor(230, 159, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(213, 94, 0),
-];
+/// Size of the plot (pixels).
+const SIZE: (u32, u32) = (820, 540);
+/// A standard frame with more ticks: wall times often span less than a decade, and a log
+/// axis offers few ticks inside one.
+const FRAME: Frame = Frame {
+    x_labels: 12,
+    y_labels: 12,
+    ..Frame::PANEL
+};
 
 /// Writes an error-against-wall-time plot (both axes logarithmic) with the Pareto front as a
 /// staircase and the default setting ringed.
@@ -44,20 +49,24 @@ pub fn error_vs_time(
     y_label: &str,
     points: &[ErrorPoint],
 ) -> Result<(), BenchError> {
-    let mut svg = String::new();
-    draw(&mut svg, title, y_label, points)
-        .map_err(|e| BenchError::run(format!("plot {}", path.display()))(e))?;
+    let name = path.display().to_string();
+    let svg = draw(&name, title, y_label, points)
+        .map_err(|e| BenchError::run(format!("plot {name}"))(e.message))?;
     write_atomically(path, svg.as_bytes()).map_err(BenchError::io(path))
 }
 
-fn draw(svg: &mut String, title: &str, y_label: &str, points: &[ErrorPoint]) -> Result<(), String> {
-    let e = |err: &dyn std::fmt::Display| err.to_string();
+fn draw(
+    name: &str,
+    title: &str,
+    y_label: &str,
+    points: &[ErrorPoint],
+) -> Result<String, DrawError> {
     let finite: Vec<&ErrorPoint> = points
         .iter()
         .filter(|p| p.wall_s.is_finite() && p.wall_s > 0.0 && p.error.is_finite())
         .collect();
     if finite.is_empty() {
-        return Err("no finite points to plot".into());
+        return Err(DrawError::new(name, "no finite points to plot"));
     }
     let y = |p: &ErrorPoint| p.error.max(ERROR_FLOOR);
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0_f64, f64::INFINITY, 0.0_f64);
@@ -67,82 +76,64 @@ fn draw(svg: &mut String, title: &str, y_label: &str, points: &[ErrorPoint]) -> 
         y0 = y0.min(y(p));
         y1 = y1.max(y(p));
     }
-    let root = SVGBackend::with_string(svg, (820, 540)).into_drawing_area();
-    root.fill(&WHITE).map_err(|err| e(&err))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(
-            (x0 / 1.5..x1 * 1.5).log_scale(),
-            (y0 / 2.0..y1 * 2.0).log_scale(),
-        )
-        .map_err(|err| e(&err))?;
-    chart
-        .configure_mesh()
-        .x_desc("wall time (s)")
-        .y_desc(y_label)
-        .draw()
-        .map_err(|err| e(&err))?;
-
-    let mut series: Vec<&'static str> = Vec::new();
-    for p in &finite {
-        if !series.contains(&p.series) {
-            series.push(p.series);
+    svg_figure(name, SIZE, |root| {
+        let mut chart = chart(
+            root,
+            name,
+            &FRAME,
+            title,
+            ((x0 / 1.5..x1 * 1.5).log_scale(), "wall time (s)"),
+            ((y0 / 2.0..y1 * 2.0).log_scale(), y_label),
+        )?;
+        let mut series: Vec<&'static str> = Vec::new();
+        for p in &finite {
+            if !series.contains(&p.series) {
+                series.push(p.series);
+            }
         }
-    }
-    for (i, name) in series.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
-        let these: Vec<(f64, f64)> = finite
+        // Knobs differ in marker shape as well as ink, as every series of the crate's figures.
+        for (k, label) in series.iter().enumerate() {
+            let these: Vec<(f64, f64)> = finite
+                .iter()
+                .filter(|p| p.series == *label)
+                .map(|p| (p.wall_s, y(p)))
+                .collect();
+            markers(&mut chart, name, &these, k, Some(label))?;
+        }
+        let mut front: Vec<(f64, f64)> = finite
             .iter()
-            .filter(|p| p.series == *name)
+            .filter(|p| p.pareto)
             .map(|p| (p.wall_s, y(p)))
             .collect();
-        chart
-            .draw_series(these.iter().map(|&c| Circle::new(c, 5, color.filled())))
-            .map_err(|err| e(&err))?
-            .label(*name)
-            .legend(move |(x, y)| Circle::new((x, y), 5, color.filled()));
-    }
-    let mut front: Vec<(f64, f64)> = finite
-        .iter()
-        .filter(|p| p.pareto)
-        .map(|p| (p.wall_s, y(p)))
-        .collect();
-    front.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // A staircase: each front point holds until a later, better one.
-    let mut stairs = Vec::with_capacity(2 * front.len());
-    for (i, &(x, yv)) in front.iter().enumerate() {
-        if i > 0 {
-            stairs.push((x, front[i - 1].1));
+        front.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // A staircase: each front point holds until a later, better one.
+        let mut stairs = Vec::with_capacity(2 * front.len());
+        for (i, &(x, yv)) in front.iter().enumerate() {
+            if i > 0 {
+                stairs.push((x, front[i - 1].1));
+            }
+            stairs.push((x, yv));
         }
-        stairs.push((x, yv));
-    }
-    chart
-        .draw_series(LineSeries::new(stairs, BLACK.stroke_width(1)))
-        .map_err(|err| e(&err))?
-        .label("Pareto front")
-        .legend(|(x, y)| PathElement::new(vec![(x - 8, y), (x + 8, y)], BLACK));
-    chart
-        .draw_series(
-            finite
-                .iter()
-                .filter(|p| p.default)
-                .map(|p| Circle::new((p.wall_s, y(p)), 10, BLACK.stroke_width(2))),
-        )
-        .map_err(|err| e(&err))?
-        .label("default (ringed)")
-        .legend(|(x, y)| Circle::new((x, y), 6, BLACK.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|err| e(&err))?;
-    root.present().map_err(|err| e(&err))?;
-    Ok(())
+        styled_line(
+            &mut chart,
+            name,
+            stairs,
+            BLACK.stroke_width(1),
+            Dash::Solid,
+            Some("Pareto front"),
+        )?;
+        chart
+            .draw_series(
+                finite
+                    .iter()
+                    .filter(|p| p.default)
+                    .map(|p| Circle::new((p.wall_s, y(p)), 10, BLACK.stroke_width(2))),
+            )
+            .drawn(name)?
+            .label("default (ringed)")
+            .legend(|(x, y)| Circle::new((x + 12, y), 6, BLACK.stroke_width(2)));
+        legend(&mut chart, name, SeriesLabelPosition::UpperRight)
+    })
 }
 
 #[cfg(test)]
@@ -158,9 +149,8 @@ mod tests {
             pareto,
             default,
         };
-        let mut svg = String::new();
-        draw(
-            &mut svg,
+        let svg = draw(
+            "t.svg",
             "t",
             "err",
             &[
@@ -171,6 +161,7 @@ mod tests {
         )
         .unwrap();
         assert!(svg.contains("<svg") && svg.contains("walkers") && svg.contains("Pareto front"));
-        assert!(draw(&mut String::new(), "t", "e", &[]).is_err());
+        let err = draw("e.svg", "t", "e", &[]).unwrap_err();
+        assert_eq!(err.figure, "e.svg");
     }
 }

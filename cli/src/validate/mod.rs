@@ -88,6 +88,9 @@ pub enum ValidateError {
     /// The model file could not be loaded.
     #[error(transparent)]
     Spec(#[from] slipbayes::model::SpecError),
+    /// A figure (the rank histograms) could not be drawn.
+    #[error(transparent)]
+    Draw(#[from] slipbayes::plot::DrawError),
 }
 
 /// The simulated design and the fit of every replication.
@@ -872,7 +875,8 @@ pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateErr
 /// for people) into `out`; `command` is recorded in the Markdown.
 ///
 /// # Errors
-/// [`ValidateError::Io`] when a file cannot be written.
+/// [`ValidateError::Io`] when a file cannot be written, [`ValidateError::Draw`] when the
+/// histograms cannot be drawn.
 pub fn write_report(
     report: &SbcReport,
     limits: &GrossLimits,
@@ -892,11 +896,8 @@ pub fn write_report(
         report.succeeded, report.settings.rank_draws
     );
     let svg_path = out.join("rank_histograms.svg");
-    write_atomically(
-        &svg_path,
-        svg::rank_histograms(&panels, report.succeeded, &title).as_bytes(),
-    )
-    .map_err(io("writing", &svg_path))?;
+    let histograms = svg::rank_histograms(&panels, report.succeeded, &title)?;
+    write_atomically(&svg_path, histograms.as_bytes()).map_err(io("writing", &svg_path))?;
     let md_path = out.join("validation.md");
     write_atomically(&md_path, markdown(report, limits, command).as_bytes())
         .map_err(io("writing", &md_path))
