@@ -20,6 +20,7 @@
 //!   directory (feature `report`).
 
 #![deny(clippy::float_cmp)]
+#![warn(missing_docs)]
 
 pub mod data;
 pub mod density;

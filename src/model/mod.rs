@@ -11,9 +11,11 @@
 //! posterior is sampled or stored.
 
 pub mod data;
+mod one_contact;
 pub mod posterior;
 pub mod prior;
 pub mod spec;
 
+pub use one_contact::OneContact;
 pub use posterior::{Band, Posterior, PosteriorError};
 pub use spec::{ModelFile, ModelSpec, SpecError};

@@ -26,7 +26,7 @@ use std::path::PathBuf;
 
 use crate::fit::run_dir::{FIGURES_DIR, REPORT_HTML, REPORT_MD};
 use crate::fit::{RunDir, RunDirError};
-use crate::model::Posterior;
+use crate::model::{ModelSpec, Posterior};
 
 pub use document::{render_html, render_markdown, Block};
 pub use inputs::{coverage_95, RunInputs};
@@ -38,6 +38,16 @@ pub enum ReportError {
     /// A file of the run directory is missing, malformed or cannot be written.
     #[error(transparent)]
     RunDir(#[from] RunDirError),
+    /// The model of the run (its `model.toml` and the data it names) could not be loaded
+    /// again.
+    #[error("rebuilding the posterior of {}: {source}", dir.display())]
+    Model {
+        /// The run directory.
+        dir: PathBuf,
+        /// The cause, naming the file, line or key.
+        #[source]
+        source: crate::model::PosteriorError,
+    },
     /// The chains lack a column the report needs.
     #[error("reading the chains of {}", dir.display())]
     Chains {
@@ -72,6 +82,20 @@ pub struct ReportFiles {
     pub markdown: PathBuf,
     /// The SVG figures, in report order.
     pub figures: Vec<PathBuf>,
+}
+
+/// Rebuilds the report of the finished run in `dir` from its files alone: the model is read
+/// from its `model.toml` (the data files must still be where it says), nothing is refitted.
+///
+/// # Errors
+/// As [`write_report`], and [`ReportError::Model`] when the model cannot be loaded again.
+pub fn rebuild_report(dir: &RunDir) -> Result<ReportFiles, ReportError> {
+    let spec: ModelSpec = dir.read_model()?;
+    let posterior = Posterior::new(&spec).map_err(|source| ReportError::Model {
+        dir: dir.path().to_path_buf(),
+        source,
+    })?;
+    write_report(dir, &posterior)
 }
 
 /// Builds the report of the finished run in `dir`, fitted with `posterior` (whose model

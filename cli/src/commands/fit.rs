@@ -9,11 +9,7 @@ use clap::Args;
 
 use slipbayes::density::LogDensity;
 use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
-use slipbayes::law::Scene;
-use slipbayes::model::spec::{
-    ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
-};
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::{ModelSpec, OneContact, Posterior};
 
 use super::import::ImportArgs;
 use crate::progress::ProgressBarObserver;
@@ -138,76 +134,19 @@ pub(super) fn demo(args: &DemoArgs) -> anyhow::Result<ExitCode> {
 
 /// The one-contact model of the quick path: groups `first`, `repeat` (runs) and `contact`.
 fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
-    let Some(velocity) = args.velocity else {
+    let Some(velocity_m_per_s) = args.velocity else {
         bail!("--velocity is required with --first (m/s, e.g. 1e-9 for 1 nm/s)");
     };
-    let absolute = |p: &Path| -> anyhow::Result<PathBuf> {
-        std::path::absolute(p).with_context(|| format!("resolving {}", p.display()))
-    };
-    let import = args.import.options();
-    // The mapping, binning and drop rule apply to every file of the quick path; the window to
-    // the first slide.
-    let with_import = |mut run: RunSpec| {
-        run.format = import.format;
-        run.columns = import.columns.clone();
-        run.moment_arm_m = Some(import.moment_arm_m);
-        run.interval = Some(import.intervals.clone());
-        run.drop_invalid = import.drop_invalid;
-        run.bins = args.bins;
-        run
-    };
-    let scene = if args.stiff {
-        Scene::StiffFast
-    } else {
-        Scene::First
-    };
-    let mut first_run = with_import(RunSpec::new(
-        "first",
-        "contact",
-        absolute(first)?,
-        velocity,
-        scene,
-    ));
-    first_run.window_s = args.window_s;
-    let mut runs = vec![first_run];
-    if let Some(repeat) = &args.repeat {
-        if args.stiff {
-            bail!("--repeat needs a first slide with the elastic correction; drop --stiff");
-        }
-        let mut run = with_import(RunSpec::new(
-            "repeat",
-            "contact",
-            absolute(repeat)?,
-            velocity,
-            Scene::Repeat,
-        ));
-        run.follows = Some("first".into());
-        runs.push(run);
-    }
-    let levels = [(Param::Alpha, Level::Contact), (Param::A, Level::Contact)]
-        .into_iter()
-        .collect();
-    let file = ModelFile {
-        materials: vec![MaterialSpec {
-            name: "material".into(),
-        }],
-        contacts: vec![ContactSpec {
-            name: "contact".into(),
-            material: "material".into(),
-            normal_force_n: args.normal_force,
-        }],
-        runs,
-        levels,
-        aging: Default::default(),
-        pooling: PoolingSpec::default(),
-        priors: Default::default(),
-        sampler: SamplerSpec::default(),
-    };
-    Ok(ModelSpec::validate(
-        file,
-        PathBuf::from("."),
-        PathBuf::from("<command line>"),
-    )?)
+    Ok(ModelSpec::one_contact(&OneContact {
+        first: first.to_path_buf(),
+        repeat: args.repeat.clone(),
+        velocity_m_per_s,
+        stiff: args.stiff,
+        normal_force_n: args.normal_force,
+        window_s: args.window_s,
+        bins: args.bins,
+        import: args.import.options(),
+    })?)
 }
 
 impl RunArgs {

@@ -9,7 +9,7 @@ use clap::Args;
 use slipbayes::fit::run_dir::FIGURES_DIR;
 use slipbayes::fit::RunDir;
 use slipbayes::model::Posterior;
-use slipbayes::report::write_report;
+use slipbayes::report::{rebuild_report, write_report, ReportFiles};
 
 /// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
 /// (summary.json, settings.json, model.toml, predictive.csv, chains/), without refitting.
@@ -23,10 +23,9 @@ pub(super) struct ReportArgs {
 
 pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     let dir = RunDir::new(&args.dir);
-    let spec = dir.read_model()?;
-    let posterior = Posterior::new(&spec)
-        .with_context(|| format!("rebuilding the posterior of {}", args.dir.display()))?;
-    write_and_print(&dir, &posterior)?;
+    let files = rebuild_report(&dir)
+        .with_context(|| format!("writing the report of {}", dir.path().display()))?;
+    print_written(&dir, &files);
     Ok(ExitCode::SUCCESS)
 }
 
@@ -34,6 +33,11 @@ pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
 pub(super) fn write_and_print(dir: &RunDir, posterior: &Posterior) -> anyhow::Result<()> {
     let files = write_report(dir, posterior)
         .with_context(|| format!("writing the report of {}", dir.path().display()))?;
+    print_written(dir, &files);
+    Ok(())
+}
+
+fn print_written(dir: &RunDir, files: &ReportFiles) {
     println!(
         "report: {} and {} ({} figures in {})",
         files.html.display(),
@@ -41,5 +45,4 @@ pub(super) fn write_and_print(dir: &RunDir, posterior: &Posterior) -> anyhow::Re
         files.figures.len(),
         dir.file(FIGURES_DIR).display()
     );
-    Ok(())
 }

@@ -1,55 +1,54 @@
-//! Reports end to end: a real (short) fit writes report.html, report.md and figures;
-//! `slipbayes report DIR` rebuilds them identically; the optional data provenance is rendered;
-//! and the committed `reports/demo/` is what the current code produces on the bundled data.
+//! Reports end to end through the library: a real (short) fit writes report.html, report.md
+//! and figures; a report rebuilt from the run directory alone is the same; the optional data
+//! provenance is rendered; errors name the file at fault.
 #![cfg(feature = "report")]
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::OnceLock;
 
-fn slipbayes() -> Command {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_slipbayes"));
-    cmd.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
-    cmd
+use slipbayes::data::ImportOptions;
+use slipbayes::density::LogDensity;
+use slipbayes::fit::{fit_model, FitSettings, RunDir, SettingOverrides};
+use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::report::{rebuild_report, write_report};
+use slipbayes::sampler::Silent;
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
 }
 
-fn run_ok(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("slipbayes runs");
-    assert!(
-        out.status.success(),
-        "{cmd:?} failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// One short quick-path fit shared by the tests of this file (a fit costs seconds).
+/// One short quick-path fit shared by the tests of this file (a fit costs seconds): what
+/// `slipbayes fit --first … --repeat … --velocity 1e-9 --normal-force 0.05 --steps 160` does.
 fn quick_fit() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
     DIR.get_or_init(|| {
         let dir = tempfile::tempdir().expect("temp dir");
         let out = dir.path().join("run");
-        run_ok(
-            slipbayes()
-                .args([
-                    "fit",
-                    "--first",
-                    "data/ptfe-c1-first.csv",
-                    "--repeat",
-                    "data/ptfe-c1-repeat.csv",
-                    "--velocity",
-                    "1e-9",
-                    "--normal-force",
-                    "0.05",
-                    "--steps",
-                    "160",
-                    "--quiet",
-                    "--out",
-                ])
-                .arg(&out),
-        );
+        let spec = ModelSpec::one_contact(&OneContact {
+            first: repo("data/ptfe-c1-first.csv"),
+            repeat: Some(repo("data/ptfe-c1-repeat.csv")),
+            velocity_m_per_s: 1e-9,
+            stiff: false,
+            normal_force_n: Some(0.05),
+            window_s: None,
+            bins: None,
+            import: ImportOptions::default(),
+        })
+        .unwrap();
+        let posterior = Posterior::new(&spec).unwrap();
+        let overrides = SettingOverrides {
+            steps: Some(160),
+            quiet: true,
+            ..SettingOverrides::default()
+        };
+        let settings = FitSettings::for_model(&spec, posterior.dim(), &overrides);
+        fs::create_dir_all(&out).unwrap();
+        let command = ["slipbayes", "fit", "--quick-path-test"]
+            .map(String::from)
+            .to_vec();
+        let outcome = fit_model(&posterior, &settings, &out, false, command, &mut Silent).unwrap();
+        write_report(&outcome.dir, &posterior).unwrap();
         dir
     })
     .path()
@@ -172,7 +171,7 @@ fn a_fit_writes_a_complete_self_contained_report() {
 }
 
 #[test]
-fn report_command_rebuilds_the_same_report() {
+fn a_report_rebuilt_from_the_run_directory_is_the_same() {
     let tmp = tempfile::tempdir().unwrap();
     let copy = tmp.path().join("moved-run");
     copy_dir(&run_dir(), &copy);
@@ -180,8 +179,8 @@ fn report_command_rebuilds_the_same_report() {
         fs::remove_file(copy.join(f)).unwrap();
     }
     fs::remove_dir_all(copy.join("figures")).unwrap();
-    let stdout = run_ok(slipbayes().arg("report").arg(&copy));
-    assert!(stdout.contains("report.html"), "{stdout}");
+    let files = rebuild_report(&RunDir::new(&copy)).unwrap();
+    assert_eq!(files.html, copy.join("report.html"));
     // The title names the run directory; everything else is the same, byte for byte.
     let original = fs::read_to_string(run_dir().join("report.md")).unwrap();
     let rebuilt = fs::read_to_string(copy.join("report.md")).unwrap();
@@ -216,7 +215,7 @@ fn data_provenance_is_rendered_when_present() {
          "window_s": null, "binning": null, "conversions": []}
     ]);
     fs::write(&path, serde_json::to_string_pretty(&summary).unwrap()).unwrap();
-    run_ok(slipbayes().arg("report").arg(&copy));
+    rebuild_report(&RunDir::new(&copy)).unwrap();
     let md = fs::read_to_string(copy.join("report.md")).unwrap();
     assert!(md.contains("## Data\n"), "{md}");
     assert!(md.contains(
@@ -231,9 +230,7 @@ fn data_provenance_is_rendered_when_present() {
     // A malformed fragment is an error naming the file and the key.
     summary["data"] = serde_json::json!([{"run": 3}]);
     fs::write(&path, serde_json::to_string(&summary).unwrap()).unwrap();
-    let out = slipbayes().arg("report").arg(&copy).output().unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = rebuild_report(&RunDir::new(&copy)).unwrap_err().to_string();
     // `data` is part of the summary's schema: the error names the file and the position.
     assert!(
         err.contains("summary.json") && err.contains("line 1, column"),
@@ -244,77 +241,11 @@ fn data_provenance_is_rendered_when_present() {
 #[test]
 fn report_of_a_directory_without_a_run_says_what_is_missing() {
     let tmp = tempfile::tempdir().unwrap();
-    let out = slipbayes().arg("report").arg(tmp.path()).output().unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = rebuild_report(&RunDir::new(tmp.path()))
+        .unwrap_err()
+        .to_string();
     assert!(
         err.contains("settings.json") && err.contains("finished run directory"),
         "{err}"
     );
-}
-
-/// Lines of a report that change between identical fits: the command line and the wall time.
-fn deterministic(text: &str) -> String {
-    text.lines()
-        .map(|l| {
-            let mut l = l.to_owned();
-            for key in ["command: ", "wall time: "] {
-                // In Markdown a whole list line; in HTML one <li> of a longer line.
-                while let Some(start) = l.find(key) {
-                    let end = l[start..].find("</li>").map_or(l.len(), |e| start + e);
-                    l.replace_range(start..end, "");
-                }
-            }
-            l
-        })
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
-/// The committed `reports/demo/` must be what `slipbayes demo` produces now: the demo is run
-/// again (about 2 minutes) and every deterministic output compared, byte for byte.
-#[test]
-fn committed_demo_report_is_current() {
-    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("../reports/demo");
-    let tmp = tempfile::tempdir().unwrap();
-    let fresh = tmp.path().join("demo");
-    run_ok(slipbayes().args(["demo", "--quiet", "--out"]).arg(&fresh));
-    for file in ["summary.csv", "predictive.csv", "model.toml"] {
-        assert_eq!(
-            fs::read_to_string(committed.join(file)).unwrap(),
-            fs::read_to_string(fresh.join(file)).unwrap(),
-            "reports/demo/{file} is stale: regenerate with `cargo run --release -- demo`"
-        );
-    }
-    for file in ["report.md", "report.html"] {
-        let (a, b) = (
-            fs::read_to_string(committed.join(file)).unwrap(),
-            fs::read_to_string(fresh.join(file)).unwrap(),
-        );
-        assert!(
-            deterministic(&a) == deterministic(&b),
-            "reports/demo/{file} is stale: regenerate with `cargo run --release -- demo`"
-        );
-    }
-    let md = fs::read_to_string(fresh.join("report.md")).unwrap();
-    let linked = figures_linked(&md);
-    assert!(linked.len() >= 20, "{linked:?}");
-    let mut committed_figures: Vec<String> = fs::read_dir(committed.join("figures"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    committed_figures.sort();
-    let mut fresh_figures = linked.clone();
-    fresh_figures.sort();
-    assert_eq!(
-        committed_figures, fresh_figures,
-        "figures/ holds stale files"
-    );
-    for file in linked {
-        assert!(
-            fs::read(committed.join("figures").join(&file)).unwrap()
-                == fs::read(fresh.join("figures").join(&file)).unwrap(),
-            "reports/demo/figures/{file} is stale: regenerate with `cargo run --release -- demo`"
-        );
-    }
 }
