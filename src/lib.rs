@@ -5,19 +5,31 @@
 //! - [`special`]: the exponential integral Ei and its scaled forms, to full double precision.
 //! - [`law`]: the aging-rejuvenation friction law of Farain and Bonn, its elastic correction,
 //!   the repeat-slide model and the static friction peak. Knows nothing of files or sampling.
-//! - [`data`]: reading and writing data sets (`time_s,force_N` CSV) and their true values.
-//! - [`simulate`]: synthetic data sets from known parameters.
+//! - [`density`]: the log-density contract ([`density::LogDensity`]) shared by the sampler,
+//!   the optimisers and the model, and the names and units of reported quantities.
+//! - [`optimize`]: L-BFGS, Nelder–Mead and the Laplace approximation that places starting
+//!   walkers around a mode.
 //! - [`sampler`]: an affine-invariant ensemble MCMC sampler over any log-density. Knows nothing
 //!   of friction.
-//! - [`diagnostics`]: autocorrelation time, R-hat, ESS, MCSE and credible intervals.
+//! - [`diagnostics`]: autocorrelation time, R-hat, ESS, MCSE, credible intervals, and the
+//!   verdicts ([`diagnostics::Problem`]) that decide whether a run has converged.
+//! - [`data`]: reading data sets (`time_s,force_N` CSV) and instrument exports, their true
+//!   values, and writing files atomically.
+//! - [`simulate`]: synthetic data sets from known parameters.
+//! - [`model`]: model files, priors and the joint posterior of many runs, contacts and
+//!   materials.
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
-//! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable),
-//!   summarise, write `summary.json` and `summary.csv` (feature `parquet`).
+//! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable) and
+//!   summarise; [`fit::run_dir`] names, writes and reads every file of a run directory
+//!   (feature `parquet`).
 //! - [`plot`]: the one plotting layer (SVG through plotters) of reports, `bench` and
 //!   `validate`: figures, charts, axes and ticks, lines, markers, bands, bars, legends, one
 //!   palette.
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
 //!   directory (feature `report`).
+//!
+//! The command line, `bench` and `validate` live in the workspace's `cli/` crate, which only
+//! parses, prints and calls this library.
 
 #![deny(clippy::float_cmp)]
 #![warn(missing_docs)]

@@ -14,7 +14,6 @@ use slipbayes::diagnostics::{Problem, Summary};
 use slipbayes::fit::run_dir::{CSV_COLUMNS, SUMMARY_CSV, SUMMARY_JSON};
 use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, RunDir, SummarySpec};
 use slipbayes::sampler::{Observer, Progress, SamplerError, Silent, Steps};
-use slipbayes::storage::read_chains;
 use statrs::function::erf::erfc;
 
 /// Standard normal CDF.
@@ -192,7 +191,14 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     let json = read_json(&outcome.dir.file(SUMMARY_JSON));
     assert_eq!(
         keys(&json),
-        set(&["parameters", "derived", "comparisons", "sampler", "data"])
+        set(&[
+            "parameters",
+            "derived",
+            "aggregates",
+            "comparisons",
+            "sampler",
+            "data"
+        ])
     );
     // A density that is not a friction model records no data files.
     assert_eq!(json["data"], serde_json::json!([]));
@@ -371,7 +377,7 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     assert_eq!(alpha.p_a_greater.to_bits(), log_alpha.p_a_greater.to_bits());
 
     // --- summary.csv agrees with summary.json, field by field.
-    let csv = std::fs::read_to_string(&outcome.dir.file(SUMMARY_CSV)).expect("read csv");
+    let csv = std::fs::read_to_string(outcome.dir.file(SUMMARY_CSV)).expect("read csv");
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
     assert_eq!(header, CSV_COLUMNS);
@@ -507,8 +513,8 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
     );
     assert_eq!(resumed.report.total_steps, 600);
 
-    let a = read_chains(&whole).expect("chains");
-    let b = read_chains(&crashed).expect("chains");
+    let a = RunDir::new(&whole).read_chains().expect("chains");
+    let b = RunDir::new(&crashed).read_chains().expect("chains");
     assert_eq!(a.len(), 600 * 4 * 8);
     assert_eq!(
         (&a.ensemble, &a.walker, &a.step),
@@ -536,8 +542,8 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
         strip(read_json(&resumed.dir.file(SUMMARY_JSON)))
     );
     assert_eq!(
-        std::fs::read(&reference.dir.file(SUMMARY_CSV)).expect("csv"),
-        std::fs::read(&resumed.dir.file(SUMMARY_CSV)).expect("csv")
+        std::fs::read(reference.dir.file(SUMMARY_CSV)).expect("csv"),
+        std::fs::read(resumed.dir.file(SUMMARY_CSV)).expect("csv")
     );
 }
 
@@ -674,10 +680,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
     let sampler = &outcome.summary.sampler;
     assert!(!sampler.converged);
     assert!(
-        sampler
-            .problems
-            .iter()
-            .any(|p| *p == Problem::SingleEnsemble),
+        sampler.problems.contains(&Problem::SingleEnsemble),
         "{:#?}",
         sampler.problems
     );
@@ -686,7 +689,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
         .parameters
         .iter()
         .all(|q| q.stats.r_hat.is_none()));
-    let csv = std::fs::read_to_string(&outcome.dir.file(SUMMARY_CSV)).expect("csv");
+    let csv = std::fs::read_to_string(outcome.dir.file(SUMMARY_CSV)).expect("csv");
     let r_hat_col = CSV_COLUMNS
         .iter()
         .position(|c| *c == "r_hat")
