@@ -9,7 +9,7 @@
 //! - [`progress`]: the progress bar (a terminal) or progress lines (batch jobs) of a fit.
 //! - [`validate`]: simulation-based calibration of the one-contact pipeline and the hard cases
 //!   (feature `parquet`).
-//! - [`bench`]: speed against error, side by side with the Python peer (feature `parquet`).
+//! - [`mod@bench`]: speed against error, side by side with the Python peer (feature `parquet`).
 #![deny(clippy::float_cmp)]
 
 #[cfg(feature = "parquet")]

@@ -5,7 +5,7 @@
 //! notation so that a file reads back bit-exactly. Every output file goes through
 //! [`write_atomically`], so no half-written file is ever left looking complete.
 //!
-//! Users' instrument files come in through [`import`]: CSV and Parquet tables (through polars,
+//! Users' instrument files come in through [`mod@import`]: CSV and Parquet tables (through polars,
 //! feature `tabular`) and Anton Paar RheoCompass text exports ([`rheocompass`]), with a column
 //! mapping by name and unit ([`units`]), converted to SI and checked before any fit.
 //!

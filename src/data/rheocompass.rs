@@ -4,7 +4,7 @@
 //! start with an empty field. Tabs or commas separate fields; the text is UTF-8, UTF-16 with a
 //! byte-order mark, or Latin-1; numbers may use a decimal comma; invalid points carry text
 //! where numbers belong. The reader keeps every cell as found and leaves judging them to the
-//! mapping ([`super::import`]).
+//! mapping ([`mod@super::import`]).
 
 use std::fmt;
 use std::path::Path;

@@ -7,7 +7,7 @@
 //! so averaging their ACFs reduces noise without assuming they are independent chains);
 //! `tau(M) = 2 sum_{t <= M} rho(t) - 1`; the window is the first `M` with `M >= c tau(M)`, or
 //! the last lag if there is none. The estimate is trusted only when the run is longer than
-//! [`TAU_FACTOR`](super::TAU_FACTOR) times tau (emcee's `tol = 50`).
+//! [`super::TAU_FACTOR`] times tau (emcee's `tol = 50`).
 
 use rustfft::{num_complex::Complex, FftPlanner};
 

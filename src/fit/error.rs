@@ -95,7 +95,7 @@ pub enum FitError {
     /// A posterior summary could not be computed.
     #[error("cannot summarise {quantity}")]
     Diagnostics {
-        /// The quantity ("name[group]") or comparison.
+        /// The quantity (`name[group]`) or comparison.
         quantity: String,
         /// The diagnostics error.
         #[source]

@@ -43,7 +43,7 @@ pub struct RunData {
     /// Normal force (N) per observation, when recorded.
     pub normal_force: Option<Vec<f64>>,
     /// Points averaged into each observation when binned: the noise of observation j is
-    /// σ/√weights[j]. `None`: one point each.
+    /// `σ/√weights[j]`. `None`: one point each.
     pub weights: Option<Vec<f64>>,
     /// ½ Σ ln wⱼ, fixed once the data are binned: every log-density call adds it.
     half_log_weights: f64,

@@ -4,7 +4,7 @@
 //! - [`spec`]: model files (`models/*.toml`), validated at load with errors naming the key.
 //! - [`prior`]: prior distributions and their log-scale Jacobians.
 //! - [`data`]: a run's data loaded, checked and windowed for the likelihood.
-//! - [`posterior`]: the posterior as a [`crate::sampler::LogDensity`], with every reported
+//! - [`posterior`]: the posterior as a [`crate::density::LogDensity`], with every reported
 //!   quantity (parameters in SI, peaks, μ_s, predictions) as derived values.
 //!
 //! This module joins the friction law to data and priors; it knows nothing of how the

@@ -1,8 +1,8 @@
 //! Optimisers and the Laplace approximation: finding the mode of a log-density, its curvature,
 //! and walkers drawn around it, so that a sampler starts close to the posterior.
 //!
-//! - [`lbfgs`]: limited-memory BFGS on central finite-difference gradients.
-//! - [`nelder_mead`]: the simplex method, for functions that refuse some points.
+//! - [`mod@lbfgs`]: limited-memory BFGS on central finite-difference gradients.
+//! - [`mod@nelder_mead`]: the simplex method, for functions that refuse some points.
 //! - [`laplace`]: the mode ([`find_mode`]), the covariance of the Laplace approximation
 //!   ([`laplace_covariance`]) and walkers drawn from it ([`laplace_walkers`],
 //!   [`initial_around_optimum`]).

@@ -73,7 +73,7 @@ impl Machine {
     }
 }
 
-/// Paths written by [`write`].
+/// Paths written by [`fn@write`].
 #[derive(Debug, Clone)]
 pub struct Written {
     /// The markdown report.

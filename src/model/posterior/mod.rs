@@ -1,17 +1,17 @@
 //! The joint posterior of a model over all its runs, as a [`LogDensity`] for the sampler.
 //!
-//! Built in three steps ([`Posterior::from_data`]): the [`layout`] of sampled coordinates and
+//! Built in three steps ([`Posterior::from_data`]): the `layout` of sampled coordinates and
 //! reported columns, the runs with their data, and the evaluation order. Each part of the
 //! density has a file of its own:
 //!
-//! - [`layout`]: which coordinate each parameter of each run reads (levels, pooling, the
+//! - `layout`: which coordinate each parameter of each run reads (levels, pooling, the
 //!   marginalised σ groups) and which column each reported value goes to.
-//! - [`likelihood`]: a sum over runs; each run's term reads only its contact's and
+//! - `likelihood`: a sum over runs; each run's term reads only its contact's and
 //!   material's coordinates.
-//! - [`sigma`]: σ integrated out of the likelihood and drawn from its conditional posterior.
-//! - [`derived`]: the reported values of a draw (SI parameters, peaks, a new contact's peak).
-//! - [`start`]: the optimiser's start from rough features of the data (computed on first use).
-//! - [`predictive`]: curves of single runs and the posterior predictive bands.
+//! - `sigma`: σ integrated out of the likelihood and drawn from its conditional posterior.
+//! - `derived`: the reported values of a draw (SI parameters, peaks, a new contact's peak).
+//! - `start`: the optimiser's start from rough features of the data (computed on first use).
+//! - `predictive`: curves of single runs and the posterior predictive bands.
 //!
 //! The model itself is described in `docs/model.md`.
 
