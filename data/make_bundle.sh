@@ -7,7 +7,7 @@ cargo build --release --quiet
 sim() { ./target/release/slipbayes simulate "$@"; }
 
 # PTFE on glass: alpha and a/F_d near the paper's Fig. 2 fit (0.92 1/um, 0.62); F_d, k, sigma,
-# F_N are not given by the paper and are plausible choices (MODEL.md section 7).
+# F_N are not given by the paper and are plausible choices (docs/model.md §7).
 # Contact 1: first slide at 1 nm/s (t0 = 14.8 s as in Fig. 2), repeat slide, and a fast 4 um/s
 # slide declared stiff after re-aging the contact (t0 = 4 ms).
 sim --scene first  --alpha 0.92e6 --a 6.2e-3 --f-d 10e-3 --t0 14.8 --k 1.2e4 --velocity 1e-9 \

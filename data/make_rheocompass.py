@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes data/rheocompass-ptfe-c1.txt: a realistic synthetic Anton Paar RheoCompass text
-export (MODEL.md section 9) made from slipbayes' own simulator output, PTFE contact 1
+export (docs/model.md §9) made from slipbayes' own simulator output, PTFE contact 1
 (data/ptfe-c1-first.csv and data/ptfe-c1-repeat.csv, made by data/make_bundle.sh).
 
 What a European-locale export looks like: UTF-16LE with a byte-order mark, CRLF line ends, tab

@@ -1,5 +1,5 @@
 //! The friction law, its elastic correction and its peak against 50-digit mpmath references
-//! (tests/reference/make_law_reference.py), and on the hard cases of MODEL.md §8.
+//! (tests/reference/make_law_reference.py), and on the hard cases of docs/model.md §8.
 
 mod common;
 

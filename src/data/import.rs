@@ -24,7 +24,7 @@ pub enum Format {
     Csv,
     /// Apache Parquet.
     Parquet,
-    /// Anton Paar RheoCompass text export (MODEL.md §9).
+    /// Anton Paar RheoCompass text export (docs/model.md §9).
     Rheocompass,
 }
 

@@ -1,4 +1,4 @@
-//! Anton Paar RheoCompass text exports (MODEL.md §9): a header block (`Project:`, `Test:`,
+//! Anton Paar RheoCompass text exports (docs/model.md §9): a header block (`Project:`, `Test:`,
 //! `Result:`), then per interval a line `Interval and data points:<TAB>i<TAB>n`, a line
 //! `Interval data:` with the column names, a units row (`[s]`, `[mN·m]`, …) and data rows that
 //! start with an empty field. Tabs or commas separate fields; the text is UTF-8, UTF-16 with a

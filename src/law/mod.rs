@@ -80,7 +80,7 @@ pub enum LawError {
     },
 }
 
-/// What kind of slide a run is, which decides the physics that applies (MODEL.md §4).
+/// What kind of slide a run is, which decides the physics that applies (docs/model.md §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Scene {

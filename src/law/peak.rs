@@ -1,4 +1,4 @@
-//! The static friction peak (MODEL.md §6) and the steepest weakening on a path.
+//! The static friction peak (docs/model.md §6) and the steepest weakening on a path.
 //!
 //! With a > 0 the law has exactly one interior maximum: at any stationary point
 //! d²F/dτ² = −a/τ² < 0, so every stationary point is a maximum and there can be only one.

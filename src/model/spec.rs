@@ -100,7 +100,7 @@ impl Param {
         }
     }
 
-    /// Level of MODEL.md §5 when the model file says nothing.
+    /// The default level (docs/model.md §5), used when the model file says nothing.
     pub fn default_level(self) -> Level {
         match self {
             Self::Alpha | Self::A => Level::Material,
@@ -306,7 +306,7 @@ pub struct ModelFile {
     /// Runs.
     #[serde(rename = "run")]
     pub runs: Vec<RunSpec>,
-    /// Level of each parameter (defaults of MODEL.md §5).
+    /// Level of each parameter (defaults of docs/model.md §5).
     #[serde(default)]
     pub levels: BTreeMap<Param, Level>,
     /// Parameterisation of the aging amplitude.

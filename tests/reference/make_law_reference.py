@@ -54,7 +54,7 @@ def s(v):
     return mp.nstr(v, 50, strip_zeros=False, min_fixed=-1, max_fixed=-1) if v != 0 else "0"
 
 
-# Parameter sets spanning MODEL.md section 8: t0 1e-9..1e3 s, alpha_v 1e-12..1e3 1/s,
+# Parameter sets spanning docs/model.md §8: t0 1e-9..1e3 s, alpha_v 1e-12..1e3 1/s,
 # tau up to 1e8 s, a -> 0 and a >> F_d. Forces are in newtons.
 CASES = [
     # name, alpha_v, a, f_d, t0

@@ -60,7 +60,7 @@ pub struct HardCase {
 
 const VELOCITY: f64 = 1e-9;
 
-/// The PTFE truth of MODEL.md §7 with plausible F_d, k and σ (as in the bundled data).
+/// The PTFE truth of docs/model.md §7 with plausible F_d, k and σ (as in the bundled data).
 fn ptfe() -> (LawParams, f64, f64) {
     let f_d = 10e-3;
     (
@@ -417,7 +417,7 @@ fn variance(x: &[f64]) -> f64 {
 pub fn markdown(outcomes: &[HardOutcome], command: &str) -> String {
     use std::fmt::Write;
     let mut md = String::new();
-    let _ = writeln!(md, "## Hard cases\n\nCommand: `{command}`. Default priors (log-uniform over many decades), one contact at 1 nm/s, PTFE truth of MODEL.md §7 (α = 0.92 µm⁻¹, a/F_d = 0.62, F_d = 10 mN, t0 = 14.8 s, k = 1.2e4 N/m, σ = 0.1 mN) except where the case changes it. Contraction = 1 − sd²(ln θ | data)/sd²(ln θ); below {IDENTIFIED_CONTRACTION} the data do not identify θ.\n");
+    let _ = writeln!(md, "## Hard cases\n\nCommand: `{command}`. Default priors (log-uniform over many decades), one contact at 1 nm/s, PTFE truth of docs/model.md §7 (α = 0.92 µm⁻¹, a/F_d = 0.62, F_d = 10 mN, t0 = 14.8 s, k = 1.2e4 N/m, σ = 0.1 mN) except where the case changes it. Contraction = 1 − sd²(ln θ | data)/sd²(ln θ); below {IDENTIFIED_CONTRACTION} the data do not identify θ.\n");
     for o in outcomes {
         let c = &o.case;
         let _ = writeln!(
