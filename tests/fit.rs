@@ -371,7 +371,7 @@ fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     assert_eq!(alpha.p_a_greater.to_bits(), log_alpha.p_a_greater.to_bits());
 
     // --- summary.csv agrees with summary.json, field by field.
-    let csv = std::fs::read_to_string(&outcome.dir.file(SUMMARY_CSV)).expect("read csv");
+    let csv = std::fs::read_to_string(outcome.dir.file(SUMMARY_CSV)).expect("read csv");
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
     assert_eq!(header, CSV_COLUMNS);
@@ -536,8 +536,8 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
         strip(read_json(&resumed.dir.file(SUMMARY_JSON)))
     );
     assert_eq!(
-        std::fs::read(&reference.dir.file(SUMMARY_CSV)).expect("csv"),
-        std::fs::read(&resumed.dir.file(SUMMARY_CSV)).expect("csv")
+        std::fs::read(reference.dir.file(SUMMARY_CSV)).expect("csv"),
+        std::fs::read(resumed.dir.file(SUMMARY_CSV)).expect("csv")
     );
 }
 
@@ -674,10 +674,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
     let sampler = &outcome.summary.sampler;
     assert!(!sampler.converged);
     assert!(
-        sampler
-            .problems
-            .iter()
-            .any(|p| *p == Problem::SingleEnsemble),
+        sampler.problems.contains(&Problem::SingleEnsemble),
         "{:#?}",
         sampler.problems
     );
@@ -686,7 +683,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
         .parameters
         .iter()
         .all(|q| q.stats.r_hat.is_none()));
-    let csv = std::fs::read_to_string(&outcome.dir.file(SUMMARY_CSV)).expect("csv");
+    let csv = std::fs::read_to_string(outcome.dir.file(SUMMARY_CSV)).expect("csv");
     let r_hat_col = CSV_COLUMNS
         .iter()
         .position(|c| *c == "r_hat")

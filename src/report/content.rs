@@ -702,9 +702,7 @@ fn materials_section(
     if !panels.is_empty() {
         blocks.push(drawn_figure(
             "forest.svg",
-            format!(
-                "Forest plot: median (dot) and 95 % interval (bar) of each quantity per material (filled) and per contact or run (open). F_d and F_peak are not material parameters; their material rows are the mean of the material's contacts and the mean of its first slides, per draw."
-            ),
+            "Forest plot: median (dot) and 95 % interval (bar) of each quantity per material (filled) and per contact or run (open). F_d and F_peak are not material parameters; their material rows are the mean of the material's contacts and the mean of its first slides, per draw.".to_string(),
             |file| forest_figure(file, &panels),
         )?);
     }
