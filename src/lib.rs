@@ -2,7 +2,9 @@
 //!
 //! The crate is layered so that each part knows only what it must:
 //!
-//! - [`special`]: the exponential integral Ei and its scaled forms, to full double precision.
+//! - [`special`]: the special functions, to (nearly) full double precision: the exponential
+//!   integral Ei and its scaled forms, the incomplete gamma and beta functions, the normal
+//!   quantile.
 //! - [`law`]: the aging-rejuvenation friction law of Farain and Bonn, its elastic correction,
 //!   the repeat-slide model and the static friction peak. Knows nothing of files or sampling.
 //! - [`density`]: the log-density contract ([`density::LogDensity`]) shared by the sampler,

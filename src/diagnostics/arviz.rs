@@ -10,7 +10,7 @@
 use rustfft::{num_complex::Complex, FftPlanner};
 
 use super::error::{check_prob, validate_chains, DiagnosticsError};
-use super::special::{beta_ppf, norm_ppf};
+use crate::special::{beta_ppf, norm_ppf};
 
 /// Fewest draws per chain for R-hat, ESS and MCSE (ArviZ's `min_draws = 4`).
 pub const MIN_DRAWS: usize = 4;

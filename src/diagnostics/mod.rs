@@ -33,7 +33,6 @@ pub mod arviz;
 pub mod autocorr;
 pub mod ensemble;
 mod error;
-mod special;
 pub mod verdict;
 mod walkers;
 

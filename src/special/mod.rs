@@ -1,6 +1,7 @@
-//! The exponential integral Ei(x) for x > 0 and the scaled forms the friction law needs, to
-//! full double precision, with no allocation and no dependence on the rest of the crate.
+//! The special functions of the crate, to (nearly) full double precision, with no allocation
+//! and no dependence on the rest of the crate: x, s, a, b are plain dimensionless numbers.
 //!
+//! The exponential integral, for the friction law:
 //! - [`ei`]: Ei(x) = −PV∫_{−x}^{∞} e^(−t)/t dt.
 //! - [`ei_scaled`]: S(x) = e^(−x) Ei(x), finite for every finite x > 0.
 //! - [`ei_scaled_diff`] and [`ScaledEiDiff`]: D(x, x0) = e^(−x) [Ei(x) − Ei(x0)] for
@@ -12,7 +13,18 @@
 //! Accuracy against 50-digit mpmath references (`tests/special.rs`,
 //! `tests/reference/make_ei_reference.py`) is stated in [`crate::prec`].
 //!
-//! This module knows nothing of friction: x and x0 are plain dimensionless numbers.
+//! The regularised incomplete gamma function, for the noise level σ integrated out of the
+//! likelihood under a log-uniform prior:
+//! - [`gamma_p`], [`gamma_q`]: P(s, x) and Q(s, x) = 1 − P(s, x), each without cancellation.
+//! - [`ln_gamma_p`], [`ln_gamma_q`]: their logarithms, finite however deep in the tails.
+//! - [`ln_gamma_p_diff`]: ln[P(s, x_hi) − P(s, x_lo)], the log mass of an interval.
+//!
+//! For ArviZ's diagnostics: [`norm_ppf`] (rank normalisation), and [`beta_reg`] and
+//! [`beta_ppf`], the regularised incomplete beta function and its quantile (the MCSE of a
+//! quantile). The upper incomplete gamma function and the incomplete beta function share one
+//! continued-fraction evaluator (`cf`). Their accuracy against 50-digit mpmath
+//! (`tests/special_gamma_beta.rs`, `tests/reference/make_special_reference.py`) is stated in
+//! each function's documentation and in [`crate::prec`].
 //!
 //! ```
 //! use slipbayes::special::{ei, ei_scaled, ei_scaled_diff, ScaledEiDiff};
@@ -24,11 +36,27 @@
 //! let prepared = ScaledEiDiff::new(1e-15);
 //! assert_eq!(prepared.eval(1e-4).to_bits(), ei_scaled_diff(1e-4, 1e-15).to_bits());
 //! ```
+//!
+//! ```
+//! use slipbayes::special::{beta_ppf, gamma_p, gamma_q, ln_gamma_q, norm_ppf};
+//! // P(1, x) = 1 − e^(−x); Q far in the upper tail, where it underflows, in log space.
+//! assert!((gamma_p(1.0, 2.0) - (1.0 - (-2.0f64).exp())).abs() < 1e-15);
+//! assert!(gamma_q(10.0, 2000.0) < f64::MIN_POSITIVE && ln_gamma_q(10.0, 2000.0) < -1900.0);
+//! assert!((norm_ppf(0.975) - 1.959_963_984_540_054).abs() < 1e-14);
+//! assert!((beta_ppf(0.5, 3.0, 3.0) - 0.5).abs() < 1e-15);
+//! ```
 
+mod beta;
+mod cf;
 mod diff;
 mod fits;
+mod gamma;
+mod normal;
 
+pub use beta::{beta_ppf, beta_reg};
 pub use diff::{ei_scaled_diff, ScaledEiDiff};
+pub use gamma::{gamma_p, gamma_q, ln_gamma_p, ln_gamma_p_diff, ln_gamma_q};
+pub use normal::norm_ppf;
 
 /// Ei(x) for x > 0: −∞ at 0, +∞ past its overflow point (x ≈ 716.35), NaN for x < 0 or NaN.
 ///
