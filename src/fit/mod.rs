@@ -43,8 +43,8 @@ use crate::data::Provenance;
 use crate::density::{LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
-    EnsembleSampler, Observer, RunReport, SamplerConfig, SamplerState, Silent, Steps, StopRule,
-    DEFAULT_ENSEMBLES, DEFAULT_SEED,
+    EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerState, Silent, Steps,
+    StopRule, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
 use crate::storage::{ParquetSink, SinkOptions};
 
@@ -66,6 +66,11 @@ pub const DEFAULT_INTERVAL_PROB: f64 = 0.95;
 /// ChaCha8 stream of the seed used to draw the initial walkers; the sampler's streams are
 /// `(ensemble << 32) | walker`, far from this one.
 pub const INIT_STREAM: u64 = u64::MAX;
+
+/// The default mixture of moves of a fit.
+pub fn default_moves() -> Vec<(Move, f64)> {
+    vec![(Move::stretch(), 1.0)]
+}
 
 /// A mean over several columns per draw, reported like a quantity (e.g. the F_d of a material
 /// as the mean of its contacts').
@@ -141,6 +146,8 @@ pub struct FitSettings {
     pub quiet: bool,
     /// Replace the chains and checkpoint of an earlier run in the directory (fresh runs).
     pub overwrite: bool,
+    /// Proposal moves and their weights; one is drawn per step and ensemble.
+    pub moves: Vec<(Move, f64)>,
 }
 
 impl Default for FitSettings {
@@ -157,6 +164,7 @@ impl Default for FitSettings {
             hdi_prob: DEFAULT_INTERVAL_PROB,
             quiet: false,
             overwrite: false,
+            moves: default_moves(),
         }
     }
 }
@@ -192,6 +200,7 @@ impl FitSettings {
     fn sampler_config(&self) -> Result<SamplerConfig, FitError> {
         SamplerConfig::new(self.walkers, self.ensembles, self.seed)
             .and_then(|c| c.with_checkpoint_every(self.checkpoint_every))
+            .and_then(|c| c.with_moves(self.moves.clone()))
             .map_err(FitError::Config)
     }
 }

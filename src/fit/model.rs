@@ -5,13 +5,13 @@ use std::path::Path;
 
 use super::run_dir::{relative_path, RunRecord};
 use super::{
-    kept_draws, run_fit, Aggregate, ComparisonSpec, FitError, FitOutcome, FitSettings, RunDir,
-    SummarySpec,
+    default_moves, kept_draws, run_fit, Aggregate, ComparisonSpec, FitError, FitOutcome,
+    FitSettings, RunDir, SummarySpec,
 };
 use crate::density::LogDensity;
 use crate::law::Scene;
 use crate::model::{ModelSpec, Posterior};
-use crate::sampler::{Observer, Steps, StopRule};
+use crate::sampler::{parse_mixture, Move, Observer, Steps, StopRule};
 
 /// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
 /// to cost seconds.
@@ -23,7 +23,7 @@ const PREDICTIVE_POINTS: usize = 500;
 const COMPARED: [&str; 6] = ["alpha", "a", "a_over_F_d", "F_d", "F_peak", "F_peak_new"];
 
 /// Settings a caller (the command line) may impose over a model file's `[sampler]` table.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct SettingOverrides {
     /// Seed.
     pub seed: Option<u64>,
@@ -37,6 +37,8 @@ pub struct SettingOverrides {
     pub quiet: bool,
     /// Replace an earlier run in the directory.
     pub overwrite: bool,
+    /// Proposal moves and weights.
+    pub moves: Option<Vec<(Move, f64)>>,
 }
 
 impl FitSettings {
@@ -62,6 +64,11 @@ impl FitSettings {
             checkpoint_every: Some(s.checkpoint_every),
             quiet: overrides.quiet,
             overwrite: overrides.overwrite,
+            moves: overrides
+                .moves
+                .clone()
+                .or_else(|| s.moves.as_deref().and_then(|m| parse_mixture(m).ok()))
+                .unwrap_or_else(default_moves),
             ..Self::default()
         }
     }

@@ -265,6 +265,10 @@ pub struct SamplerSpec {
     /// Steps between checkpoints.
     #[serde(default = "default_checkpoint")]
     pub checkpoint_every: u64,
+    /// Proposal moves and their weights, e.g. `"student-t=0.8,stretch=0.2"` (see
+    /// [`crate::sampler::parse_mixture`]); the fit's default mixture when absent.
+    #[serde(default)]
+    pub moves: Option<String>,
 }
 
 fn default_ensembles() -> usize {
@@ -289,6 +293,7 @@ impl Default for SamplerSpec {
             max_steps: default_max_steps(),
             seed: default_seed(),
             checkpoint_every: default_checkpoint(),
+            moves: None,
         }
     }
 }
@@ -577,6 +582,10 @@ impl ModelSpec {
                 "sampler".into(),
                 "steps, max_steps and checkpoint_every must be > 0".into(),
             ));
+        }
+        if let Some(moves) = &s.moves {
+            crate::sampler::parse_mixture(moves)
+                .map_err(|message| invalid("sampler.moves".into(), message))?;
         }
         Ok(Self {
             file,

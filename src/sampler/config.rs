@@ -98,7 +98,8 @@ impl SamplerConfig {
                 ));
             }
             m.validate()?;
-            m.validate_complement(self.walkers / 2)?;
+            // The dimension is checked against the density when the sampler starts.
+            m.validate_complement(self.walkers / 2, 0)?;
         }
         self.moves = moves;
         Ok(self)

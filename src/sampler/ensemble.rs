@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::Move;
+use super::moves::{ComplementFit, Move};
 use crate::density::Eval;
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
@@ -213,6 +213,30 @@ impl Ensemble {
                     if !f.is_normal() {
                         *lf = (ndim as f64 - 1.0) * z.ln();
                     }
+                    *au = rng.random();
+                }
+            }
+            Move::Independence { dof } => {
+                let mut fit = ComplementFit::new(positions, complement, ndim, dof);
+                for ((((&w, out), f), lf), au) in active
+                    .iter()
+                    .zip(out_rows)
+                    .zip(factor.iter_mut())
+                    .zip(log_factor.iter_mut())
+                    .zip(accept_u.iter_mut())
+                {
+                    let rng = &mut s.walker_rngs[w];
+                    let x = &positions[w * ndim..(w + 1) * ndim];
+                    *lf = match fit.as_mut() {
+                        Some(fit) => fit.propose(x, rng, out),
+                        // The complement lies in a subspace: propose the walker itself (a
+                        // step that changes nothing but still consumes its uniform).
+                        None => {
+                            out.copy_from_slice(x);
+                            0.0
+                        }
+                    };
+                    *f = lf.exp();
                     *au = rng.random();
                 }
             }

@@ -46,9 +46,72 @@ pub enum Move {
         /// Subset size `s ≥ 2`; `None` for the whole complement.
         subset: Option<usize>,
     },
+    /// Independence proposal fitted to the complement: a Gaussian (or Student-t) with the
+    /// complement's sample mean and covariance, drawn afresh for every walker of the active
+    /// half. Valid because the complement stays fixed while the active half is updated, and
+    /// affine-invariant because the mean and covariance transform with the walkers. Where the
+    /// posterior is close to Gaussian, however badly conditioned, it decorrelates in a few
+    /// steps; it needs more complement walkers than dimensions.
+    ///
+    /// # Formula
+    /// `Y = μ + L Z / √W`, `L Lᵀ = Ĉ` (the complement's unbiased sample covariance),
+    /// `Z ~ N(0, I)`, `W ~ χ²_ν/ν` (`W = 1` for the Gaussian); the log acceptance ratio gains
+    /// `ln q(X) − ln q(Y)`.
+    Independence {
+        /// Degrees of freedom ν of the Student-t; `None` for the Gaussian.
+        dof: Option<f64>,
+    },
+}
+
+/// The names of the moves in a written mixture, each with its default parameters.
+pub const MOVE_NAMES: [&str; 5] = ["stretch", "de", "walk", "gaussian", "student-t"];
+
+/// A weighted mixture of moves written as `name=weight` pairs separated by commas, e.g.
+/// `student-t=0.8,stretch=0.2` (names in [`MOVE_NAMES`]; a name alone has weight 1).
+///
+/// # Errors
+/// A sentence naming the unknown move or the weight that is not a finite positive number.
+pub fn parse_mixture(text: &str) -> Result<Vec<(Move, f64)>, String> {
+    let mut moves = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (name, weight) = match part.split_once('=') {
+            Some((n, w)) => (n.trim(), w.trim()),
+            None => (part, "1"),
+        };
+        let weight: f64 = weight
+            .parse()
+            .ok()
+            .filter(|w: &f64| w.is_finite() && *w > 0.0)
+            .ok_or_else(|| format!("move `{name}`: weight `{weight}` is not a number > 0"))?;
+        moves.push((Move::named(name)?, weight));
+    }
+    if moves.is_empty() {
+        return Err("give at least one move, e.g. `student-t=0.8,stretch=0.2`".into());
+    }
+    Ok(moves)
 }
 
 impl Move {
+    /// The move called `name` (one of [`MOVE_NAMES`]) with its default parameters.
+    ///
+    /// # Errors
+    /// A sentence listing the known names.
+    pub fn named(name: &str) -> Result<Self, String> {
+        Ok(match name {
+            "stretch" => Self::stretch(),
+            "de" => Self::differential_evolution(),
+            "walk" => Self::walk(),
+            "gaussian" => Self::Independence { dof: None },
+            "student-t" => Self::student_t(),
+            _ => {
+                return Err(format!(
+                    "unknown move `{name}`; the moves are {}",
+                    MOVE_NAMES.join(", ")
+                ))
+            }
+        })
+    }
+
     /// Stretch move with `a = 2`.
     pub fn stretch() -> Self {
         Self::Stretch { a: 2.0 }
@@ -65,6 +128,11 @@ impl Move {
     /// Walk move over the whole complement.
     pub fn walk() -> Self {
         Self::Walk { subset: None }
+    }
+
+    /// Student-t independence proposal with ν = 5, fitted to the complement.
+    pub fn student_t() -> Self {
+        Self::Independence { dof: Some(5.0) }
     }
 
     /// Checks the move's own parameters.
@@ -92,16 +160,26 @@ impl Move {
             Self::Walk { subset: Some(s) } if s < 2 => {
                 bad(format!("walk subset size {s} must be at least 2"))
             }
+            Self::Independence { dof: Some(nu) } if !(nu.is_finite() && nu > 0.0) => bad(format!(
+                "independence degrees of freedom {nu} must be finite and > 0"
+            )),
             _ => Ok(()),
         }
     }
 
-    /// Checks that the complement (half the ensemble) is large enough for this move.
-    pub(crate) fn validate_complement(&self, complement: usize) -> Result<(), SamplerError> {
+    /// Checks that the complement (half the ensemble) is large enough for this move in
+    /// `ndim` dimensions.
+    pub(crate) fn validate_complement(
+        &self,
+        complement: usize,
+        ndim: usize,
+    ) -> Result<(), SamplerError> {
         let need = match *self {
             Self::Stretch { .. } => 1,
             Self::DifferentialEvolution { .. } => 2,
             Self::Walk { subset } => subset.unwrap_or(2).max(2),
+            // A full-rank sample covariance needs ndim + 1 points.
+            Self::Independence { .. } => ndim + 1,
         };
         if complement < need {
             return Err(SamplerError::InvalidMove {
@@ -185,6 +263,118 @@ impl Move {
                 }
                 0.0
             }
+            Self::Independence { .. } => {
+                unreachable!("independence proposals are drawn through `ComplementFit`")
+            }
         }
+    }
+}
+
+/// The Gaussian (or Student-t) fitted to the complementary half for [`Move::Independence`]:
+/// computed once per half-step, then one proposal per active walker.
+#[derive(Debug, Clone)]
+pub(crate) struct ComplementFit {
+    mean: Vec<f64>,
+    /// Lower Cholesky factor of the sample covariance, row-major `ndim × ndim`.
+    chol: Vec<f64>,
+    dof: Option<f64>,
+    /// Scratch for whitened vectors.
+    u: Vec<f64>,
+}
+
+impl ComplementFit {
+    /// Fits the complement's walkers (`positions` of all walkers, `ndim` per row); `None` when
+    /// their covariance is not positive definite (the walkers lie in a subspace).
+    pub fn new(
+        positions: &[f64],
+        complement: &[usize],
+        ndim: usize,
+        dof: Option<f64>,
+    ) -> Option<Self> {
+        let n = complement.len();
+        if n <= ndim {
+            return None;
+        }
+        let row = |i: usize| &positions[i * ndim..(i + 1) * ndim];
+        let mut mean = vec![0.0; ndim];
+        for &i in complement {
+            for (m, &x) in mean.iter_mut().zip(row(i)) {
+                *m += x;
+            }
+        }
+        for m in &mut mean {
+            *m /= n as f64;
+        }
+        let mut cov = nalgebra::DMatrix::<f64>::zeros(ndim, ndim);
+        for &i in complement {
+            let x = row(i);
+            for a in 0..ndim {
+                let da = x[a] - mean[a];
+                for b in 0..=a {
+                    cov[(a, b)] += da * (x[b] - mean[b]);
+                }
+            }
+        }
+        for a in 0..ndim {
+            for b in 0..=a {
+                let v = cov[(a, b)] / (n as f64 - 1.0);
+                cov[(a, b)] = v;
+                cov[(b, a)] = v;
+            }
+        }
+        let l = nalgebra::Cholesky::new(cov)?.unpack();
+        if (0..ndim).any(|a| !(l[(a, a)].is_finite() && l[(a, a)] > 0.0)) {
+            return None;
+        }
+        let mut chol = vec![0.0; ndim * ndim];
+        for a in 0..ndim {
+            for b in 0..=a {
+                chol[a * ndim + b] = l[(a, b)];
+            }
+        }
+        Some(Self {
+            mean,
+            chol,
+            dof,
+            u: vec![0.0; ndim],
+        })
+    }
+
+    /// ln q(x) up to a constant shared by every point.
+    fn log_q(&mut self, x: &[f64]) -> f64 {
+        let ndim = self.mean.len();
+        // Forward substitution L u = x − μ.
+        let mut r2 = 0.0;
+        for a in 0..ndim {
+            let row = &self.chol[a * ndim..a * ndim + a];
+            let s: f64 = row.iter().zip(&self.u[..a]).map(|(l, u)| l * u).sum();
+            let ua = (x[a] - self.mean[a] - s) / self.chol[a * ndim + a];
+            self.u[a] = ua;
+            r2 += ua * ua;
+        }
+        match self.dof {
+            None => -0.5 * r2,
+            Some(nu) => -0.5 * (nu + ndim as f64) * (r2 / nu).ln_1p(),
+        }
+    }
+
+    /// Writes a proposal into `out` and returns ln q(x) − ln q(out).
+    pub fn propose<R: Rng>(&mut self, x: &[f64], rng: &mut R, out: &mut [f64]) -> f64 {
+        let ndim = self.mean.len();
+        let scale = match self.dof {
+            None => 1.0,
+            Some(nu) => {
+                let chi2: f64 = rng.sample(rand_distr::ChiSquared::new(nu).expect("ν > 0"));
+                (nu / chi2).sqrt()
+            }
+        };
+        for z in self.u.iter_mut() {
+            *z = rng.sample::<f64, _>(StandardNormal) * scale;
+        }
+        for a in 0..ndim {
+            let row = &self.chol[a * ndim..=a * ndim + a];
+            out[a] = self.mean[a] + row.iter().zip(&self.u).map(|(l, z)| l * z).sum::<f64>();
+        }
+        self.log_q(x) - self.log_q(out)
     }
 }

@@ -765,6 +765,9 @@ fn check_dims(ndim: usize, config: &SamplerConfig) -> Result<(), SamplerError> {
             requirement: format!("must be at least 2·ndim = {} for this density", 2 * ndim),
         });
     }
+    for (m, _) in config.moves() {
+        m.validate_complement(config.walkers() / 2, ndim)?;
+    }
     Ok(())
 }
 

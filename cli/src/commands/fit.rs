@@ -10,6 +10,7 @@ use clap::Args;
 use slipbayes::density::LogDensity;
 use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::sampler::{parse_mixture, Move};
 
 use super::import::ImportArgs;
 use crate::progress::ProgressBarObserver;
@@ -98,7 +99,15 @@ pub(super) struct RunArgs {
     /// Exit with status 2 when the run has not converged (results are written either way).
     #[arg(long)]
     strict: bool,
+    /// Proposal moves and weights, e.g. `student-t=0.8,stretch=0.2` (moves: stretch, de,
+    /// walk, gaussian, student-t); default: the model file's, else the fit's default mixture.
+    #[arg(long, value_parser = |t: &str| parse_mixture(t).map(Mixture))]
+    moves: Option<Mixture>,
 }
+
+/// A parsed `--moves` (one value, not a list of values).
+#[derive(Debug, Clone)]
+struct Mixture(Vec<(Move, f64)>);
 
 /// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
 /// replacing an earlier demo there (unless --resume).
@@ -158,6 +167,7 @@ impl RunArgs {
             max_steps: self.max_steps,
             quiet: self.quiet,
             overwrite: self.overwrite || overwrite,
+            moves: self.moves.clone().map(|m| m.0),
         }
     }
 }
