@@ -46,6 +46,7 @@ pub use autocorr::{
 pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
 pub use verdict::{
-    quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX, TAU_FACTOR,
+    problem_lines, quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX,
+    TAU_FACTOR,
 };
 pub use walkers::{walker_condition_number, WALKER_CONDITION_LIMIT};

@@ -69,11 +69,11 @@ pub enum Problem {
         ess: f64,
     },
     /// The quantity's autocorrelation time cannot be trusted (fewer than [`TAU_FACTOR`] τ of
-    /// kept draws per walker).
+    /// post-burn-in steps per walker).
     TauUnreliable {
         /// The quantity.
         quantity: String,
-        /// τ in kept draws.
+        /// τ in steps.
         tau: f64,
     },
     /// The quantity's autocorrelation time is undefined: a walker never moved.
@@ -81,7 +81,7 @@ pub enum Problem {
         /// The quantity.
         quantity: String,
     },
-    /// The chains are shorter than [`TAU_FACTOR`] τ_max: τ, and the burn-in and thinning taken
+    /// The chains are shorter than [`TAU_FACTOR`] τ_max: τ, and the burn-in taken
     /// from it, cannot be trusted.
     ChainsTooShort {
         /// Steps in the chains.
@@ -154,7 +154,7 @@ impl std::fmt::Display for Problem {
             ),
             Self::TauUnreliable { quantity, tau } => write!(
                 f,
-                "{quantity}: autocorrelation time {tau:.1} kept draws is unreliable (fewer than {TAU_FACTOR} τ kept draws per walker); run longer"
+                "{quantity}: autocorrelation time {tau:.1} steps is unreliable (fewer than {TAU_FACTOR} τ of post-burn-in steps per walker); run longer"
             ),
             Self::TauUndefined { quantity } => write!(
                 f,
@@ -162,7 +162,7 @@ impl std::fmt::Display for Problem {
             ),
             Self::ChainsTooShort { steps, tau_max } => write!(
                 f,
-                "chains of {steps} steps are shorter than {TAU_FACTOR} τ_max = {:.0} steps: the autocorrelation time, and the burn-in and thinning taken from it, are unreliable; run longer",
+                "chains of {steps} steps are shorter than {TAU_FACTOR} τ_max = {:.0} steps: the autocorrelation time, and the burn-in taken from it, are unreliable; run longer",
                 TAU_FACTOR * tau_max
             ),
             Self::NoAutocorrelationTime { steps } => write!(
@@ -180,6 +180,100 @@ impl std::fmt::Display for Problem {
             ),
         }
     }
+}
+
+/// The problems of a run of `steps` steps (the first `burn_in` discarded) in a few lines: one
+/// per kind of problem, naming the quantities it affects and, where it can be estimated, the
+/// length of run that would fix it (ESS grows in proportion to the post-burn-in draws; τ needs
+/// [`TAU_FACTOR`] τ of them).
+pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<String> {
+    let kept = steps.saturating_sub(burn_in).max(1) as f64;
+    let names = |pick: &dyn Fn(&Problem) -> bool| -> Vec<&str> {
+        let mut v: Vec<&str> = problems
+            .iter()
+            .filter(|p| pick(p))
+            .filter_map(Problem::quantity)
+            .collect();
+        v.dedup();
+        v
+    };
+    let listed = |v: &[&str]| {
+        const SHOWN: usize = 6;
+        let mut text = v[..v.len().min(SHOWN)].join(", ");
+        if v.len() > SHOWN {
+            text.push_str(&format!(" and {} more", v.len() - SHOWN));
+        }
+        text
+    };
+    let mut lines = Vec::new();
+    // Run-level problems as they are.
+    for p in problems.iter().filter(|p| p.quantity().is_none()) {
+        lines.push(p.to_string());
+    }
+    let r_hat = names(&|p| matches!(p, Problem::RHat { .. } | Problem::RHatUndefined { .. }));
+    if !r_hat.is_empty() {
+        let worst = problems
+            .iter()
+            .filter_map(|p| match p {
+                Problem::RHat { r_hat, .. } => Some(*r_hat),
+                _ => None,
+            })
+            .fold(f64::NAN, f64::max);
+        lines.push(format!(
+            "R-hat ≥ {RHAT_MAX} (worst {worst:.3}) for {} quantities: {}; the ensembles disagree, run longer or look for several modes",
+            r_hat.len(),
+            listed(&r_hat)
+        ));
+    }
+    let ess = names(&|p| matches!(p, Problem::Ess { .. }));
+    if !ess.is_empty() {
+        let lowest = problems
+            .iter()
+            .filter_map(|p| match p {
+                Problem::Ess { ess, .. } => Some(*ess),
+                _ => None,
+            })
+            .fold(f64::INFINITY, f64::min);
+        let need = if lowest.is_finite() && lowest > 0.0 {
+            let steps_needed = burn_in as f64 + kept * ESS_MIN / lowest;
+            format!(
+                "; about {:.0} steps would reach ESS {ESS_MIN:.0}",
+                steps_needed.ceil()
+            )
+        } else {
+            String::new()
+        };
+        lines.push(format!(
+            "ESS ≤ {ESS_MIN:.0} (lowest {lowest:.0}) for {} quantities: {}{need}",
+            ess.len(),
+            listed(&ess)
+        ));
+    }
+    let tau = names(&|p| matches!(p, Problem::TauUnreliable { .. }));
+    if !tau.is_empty() {
+        let longest = problems
+            .iter()
+            .filter_map(|p| match p {
+                Problem::TauUnreliable { tau, .. } => Some(*tau),
+                _ => None,
+            })
+            .fold(0.0, f64::max);
+        lines.push(format!(
+            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {TAU_FACTOR} τ of post-burn-in steps) for {} quantities: {}; about {:.0} steps would do",
+            tau.len(),
+            listed(&tau),
+            (burn_in as f64 + TAU_FACTOR * longest).ceil()
+        ));
+    }
+    let undefined = names(&|p| matches!(p, Problem::TauUndefined { .. }));
+    if !undefined.is_empty() {
+        lines.push(format!(
+            "autocorrelation time undefined (a walker never moved) for {} quantities: {}",
+            undefined.len(),
+            listed(&undefined)
+        ));
+    }
+    lines
 }
 
 /// Every convergence problem of one quantity's summary: R̂ (with two or more ensembles), bulk
@@ -296,6 +390,31 @@ mod tests {
                     quantity: "x".into()
                 }
             ]
+        );
+    }
+
+    #[test]
+    fn problems_are_grouped_one_line_per_kind_with_the_steps_that_would_fix_them() {
+        let mut problems = vec![Problem::ChainsTooShort {
+            steps: 1000,
+            tau_max: 96.0,
+        }];
+        for (q, ess, tau) in [("a", 300.0, 40.0), ("b", 200.0, 96.0), ("c", 800.0, 10.0)] {
+            let s = summary(Some(1.001), ess, 900.0, Some(tau));
+            problems.extend(quantity_problems(q, &s, 4));
+        }
+        let lines = problem_lines(&problems, 1000, 200);
+        assert_eq!(lines.len(), 3, "{lines:#?}");
+        assert!(lines[0].starts_with("chains of 1000 steps"), "{lines:#?}");
+        // ESS 200 on 800 kept steps: 1600 kept steps, 1800 in all.
+        assert!(
+            lines[1].contains("for 2 quantities: a, b") && lines[1].contains("about 1800 steps"),
+            "{lines:#?}"
+        );
+        // τ = 96 steps: 4800 kept steps after the 200 of burn-in.
+        assert!(
+            lines[2].contains("for 3 quantities: a, b, c") && lines[2].contains("about 5000 steps"),
+            "{lines:#?}"
         );
     }
 

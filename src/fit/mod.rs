@@ -21,8 +21,8 @@
 //!    Resumed run: reopens the store at its last checkpoint and continues the sampler from the
 //!    saved state, so the chains end identical to an uninterrupted run with the same seed.
 //!    [`Steps::Fixed`] counts the *total* steps of the run, resumed or not.
-//! 3. Reads the chains back, discards the burn-in and thins as the [`RunReport`] suggests
-//!    (burn-in ⌈2 τ_max⌉ clamped to half the run, thin ⌊τ_min/2⌋), summarises every quantity,
+//! 3. Reads the chains back, discards the burn-in the [`RunReport`] suggests (⌈2 τ_max⌉
+//!    clamped to half the run), keeps every later step, summarises every quantity,
 //!    aggregate and comparison ([`crate::diagnostics::summarize`]), and judges convergence
 //!    with [`crate::diagnostics::verdict`]: R̂ between ensembles below
 //!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
@@ -216,7 +216,7 @@ pub struct FitOutcome {
     pub dir: RunDir,
 }
 
-/// Up to `max_draws` kept draws (after burn-in and thinning) of the columns `names`, spread
+/// Up to `max_draws` kept draws (after the burn-in) of the columns `names`, spread
 /// evenly over the chains of a finished fit: one `Vec` per draw, in the order of `names`.
 ///
 /// # Errors
@@ -242,17 +242,16 @@ pub fn kept_draws(
         .collect())
 }
 
-/// Rows of `chains` kept after the burn-in and thinning recorded in `sampler`, at most
+/// Rows of `chains` kept after the burn-in recorded in `sampler`, at most
 /// `max_draws` of them spread evenly over the chains, in row order.
 pub fn kept_rows(
     chains: &crate::storage::Chains,
     sampler: &SamplerSummary,
     max_draws: usize,
 ) -> Vec<usize> {
-    let thin = sampler.thin.max(1);
     let burn_in = sampler.burn_in;
     let kept: Vec<usize> = (0..chains.len())
-        .filter(|&i| chains.step[i] >= burn_in && (chains.step[i] - burn_in) % thin == 0)
+        .filter(|&i| chains.step[i] >= burn_in)
         .collect();
     let every = kept.len().div_ceil(max_draws.max(1)).max(1);
     kept.into_iter().step_by(every).collect()

@@ -1,5 +1,10 @@
-//! From chains to posterior summaries: the burn-in and thinning, one [`Summary`] per
-//! quantity, aggregate and comparison, and the verdict on convergence.
+//! From chains to posterior summaries: the burn-in, one [`Summary`] per quantity, aggregate
+//! and comparison, and the verdict on convergence.
+//!
+//! Every diagnostic sees every post-burn-in draw. Thinning adds no information, and on a
+//! thinned chain Geyer's initial-sequence estimator sees few draws per half-chain and
+//! overstates the ESS; R̂ and ESS here are what ArviZ computes on the same draws (chain =
+//! ensemble for R̂, chain = walker within an ensemble for ESS, see [`EnsembleDraws`]).
 
 use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
@@ -340,7 +345,6 @@ impl Plan {
                 steps: total,
                 ensembles: layout.ensembles,
                 burn_in: selection.burn_in,
-                thin: selection.thin,
                 kept_steps: selection.kept,
                 draws: layout.ensembles * layout.walkers * selection.kept,
                 acceptance: report.mean_acceptance(),
@@ -428,11 +432,10 @@ impl Layout {
     }
 }
 
-/// Which steps are kept: `burn_in, burn_in + thin, …` below the total.
+/// Which steps are kept: every step from `burn_in` to the end.
 #[derive(Debug, Clone, Copy)]
 struct Selection {
     burn_in: u64,
-    thin: u64,
     kept: usize,
 }
 
@@ -440,7 +443,7 @@ impl Selection {
     fn new(report: &RunReport, problems: &mut Vec<Problem>) -> Result<Self, FitError> {
         let total = report.total_steps;
         let half = total / 2;
-        let (mut burn_in, mut thin) = match &report.tau {
+        let mut burn_in = match &report.tau {
             Some(t) => {
                 if !t.reliable {
                     problems.push(Problem::ChainsTooShort {
@@ -448,12 +451,12 @@ impl Selection {
                         tau_max: t.max,
                     });
                 }
-                (t.burn_in, t.thin)
+                t.burn_in
             }
             None => {
-                // Without τ, the first half is discarded and every step kept.
+                // Without τ, the first half is discarded.
                 problems.push(Problem::NoAutocorrelationTime { steps: total });
-                (half, 1)
+                half
             }
         };
         if burn_in > half {
@@ -463,11 +466,7 @@ impl Selection {
             });
             burn_in = half;
         }
-        let count = |thin: u64| ((total - burn_in).div_ceil(thin.max(1))) as usize;
-        if count(thin) < MIN_DRAWS && thin > 1 {
-            thin = 1;
-        }
-        let kept = count(thin);
+        let kept = (total - burn_in) as usize;
         if kept < MIN_DRAWS {
             return Err(FitError::TooFewDraws {
                 kept,
@@ -476,15 +475,11 @@ impl Selection {
                 needed: MIN_DRAWS,
             });
         }
-        Ok(Self {
-            burn_in,
-            thin,
-            kept,
-        })
+        Ok(Self { burn_in, kept })
     }
 
     fn step(&self, t: usize) -> u64 {
-        self.burn_in + t as u64 * self.thin
+        self.burn_in + t as u64
     }
 }
 

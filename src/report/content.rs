@@ -11,7 +11,7 @@ use super::plots::{
 };
 use super::units::{significant, DisplayUnit};
 use super::ReportError;
-use crate::diagnostics::{Summary, ESS_MIN, RHAT_MAX};
+use crate::diagnostics::{problem_lines, Summary, ESS_MIN, RHAT_MAX};
 use crate::fit::{kept_rows, AggregateSummary, QuantitySummary};
 use crate::law::Scene;
 use crate::model::{Band, ModelSpec, Posterior};
@@ -289,9 +289,6 @@ fn material_comparisons(ctx: &Context) -> Vec<MaterialComparison> {
         .collect()
 }
 
-/// How many problems the glance lists before referring to the Diagnostics section.
-const GLANCE_PROBLEMS: usize = 8;
-
 fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
     let sampler = &ctx.inputs.summary.sampler;
     let n = ctx.quantities.len();
@@ -307,17 +304,8 @@ fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
             problems.len()
         )
     };
-    let mut lines: Vec<String> = problems
-        .iter()
-        .take(GLANCE_PROBLEMS)
-        .map(ToString::to_string)
-        .collect();
-    if problems.len() > GLANCE_PROBLEMS {
-        lines.push(format!(
-            "and {} more problem(s), listed under Diagnostics",
-            problems.len() - GLANCE_PROBLEMS
-        ));
-    }
+    // One line per kind of problem; every single one is listed under Diagnostics.
+    let lines = problem_lines(problems, sampler.steps, sampler.burn_in);
     let mut blocks = vec![
         heading(1, "glance", "At a glance"),
         Block::Verdict {
@@ -398,8 +386,8 @@ fn provenance(ctx: &Context) -> Vec<Block> {
             format!("seed: {}", s.seed),
             format!("slipbayes version: {}", record.slipbayes_version),
             format!(
-                "sampler: {} ensembles × {} walkers × {} steps, burn-in {}, thin {}, {} kept draws, {} sampled dimensions",
-                s.ensembles, s.walkers, s.steps, s.burn_in, s.thin, s.draws, record.dimension
+                "sampler: {} ensembles × {} walkers × {} steps, burn-in {}, {} draws kept (every post-burn-in step), {} sampled dimensions",
+                s.ensembles, s.walkers, s.steps, s.burn_in, s.draws, record.dimension
             ),
             format!("wall time: {:.1} s", s.wall_s),
         ]),

@@ -8,6 +8,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use slipbayes::density::LogDensity;
+use slipbayes::diagnostics::problem_lines;
 use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::sampler::{parse_mixture, Move};
@@ -235,11 +236,11 @@ fn print_summary(outcome: &FitOutcome) {
     }
     let m = &s.sampler;
     println!(
-        "sampler: {} ensembles × {} walkers × {} steps (burn-in {}, thin {}), acceptance {:.3}, τ_max {:.1}, {} evaluations, {:.1} s; converged: {}",
-        m.ensembles, m.walkers, m.steps, m.burn_in, m.thin, m.acceptance, m.tau_max.unwrap_or(f64::NAN), m.log_density_evals, m.wall_s, m.converged
+        "sampler: {} ensembles × {} walkers × {} steps (burn-in {}), acceptance {:.3}, τ_max {:.1}, {} evaluations, {:.1} s; converged: {}",
+        m.ensembles, m.walkers, m.steps, m.burn_in, m.acceptance, m.tau_max.unwrap_or(f64::NAN), m.log_density_evals, m.wall_s, m.converged
     );
-    for p in &m.problems {
-        println!("  problem: {p}");
+    for line in problem_lines(&m.problems, m.steps, m.burn_in) {
+        println!("  problem: {line}");
     }
     println!("written to {}", outcome.dir.path().display());
 }

@@ -85,9 +85,8 @@ pub struct SamplerSummary {
     pub ensembles: usize,
     /// Steps discarded at the start.
     pub burn_in: u64,
-    /// One kept step in `thin`.
-    pub thin: u64,
-    /// Steps kept per walker after burn-in and thinning.
+    /// Steps kept per walker after the burn-in: every one (diagnostics never see thinned
+    /// chains).
     pub kept_steps: usize,
     /// Draws per quantity (`ensembles × walkers × kept_steps`).
     pub draws: usize,
