@@ -147,7 +147,7 @@ fn a_fit_writes_a_complete_self_contained_report() {
         "- seed: 1",
         "- slipbayes version: ",
         "## Diagnostics",
-        "| quantity | R̂ | ESS bulk | ESS tail | MCSE mean | τ (kept draws) |",
+        "| quantity | R̂ | ESS bulk | ESS tail | MCSE mean | τ (steps) |",
         "| quantity | unit | mean | sd | hdi_2.5% | hdi_97.5% | mcse_mean | mcse_sd | ess_bulk | ess_tail | r_hat |",
         "μ_s = F_peak/F_N",
     ] {

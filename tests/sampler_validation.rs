@@ -87,6 +87,11 @@ fn every_move_samples_a_correlated_gaussian() {
         ("walk", vec![(Move::walk(), 1.0)]),
         ("walk subset 4", vec![(Move::Walk { subset: Some(4) }, 1.0)]),
         (
+            "gaussian independence",
+            vec![(Move::Independence { dof: None }, 1.0)],
+        ),
+        ("student-t independence", vec![(Move::student_t(), 1.0)]),
+        (
             "mixture",
             vec![
                 (Move::stretch(), 0.6),
@@ -134,9 +139,25 @@ impl LogDensity for Banana {
 
 #[test]
 fn rosenbrock_banana_marginal_moments() {
+    check_banana(vec![(Move::stretch(), 1.0)], "stretch");
+}
+
+/// Far from Gaussian, an independence proposal accepts less but must stay exact.
+#[test]
+fn rosenbrock_banana_with_an_independence_mixture() {
+    check_banana(
+        vec![(Move::student_t(), 0.7), (Move::stretch(), 0.3)],
+        "student-t + stretch",
+    );
+}
+
+fn check_banana(moves: Vec<(Move, f64)>, label: &str) {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
     let start = initial_around_optimum(&Banana, &[0.0, 0.0], 32, 4, &mut rng).unwrap();
-    let config = SamplerConfig::new(32, 4, 21).unwrap();
+    let config = SamplerConfig::new(32, 4, 21)
+        .unwrap()
+        .with_moves(moves)
+        .unwrap();
     let mut sampler = EnsembleSampler::new(&Banana, config, start.walkers).unwrap();
     let mut sink = MemorySink::new();
     let report = sampler
@@ -149,7 +170,7 @@ fn rosenbrock_banana_marginal_moments() {
     assert_eq!(
         report.stopped_by,
         StopReason::Converged,
-        "{:?}",
+        "{label}: {:?}",
         report.problems
     );
     let burn = report.tau.as_ref().unwrap().burn_in as usize;

@@ -205,6 +205,10 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
         }
         text
     };
+    let quantities = |n: usize| match n {
+        1 => "1 quantity".to_owned(),
+        n => format!("{n} quantities"),
+    };
     let mut lines = Vec::new();
     // Run-level problems as they are.
     for p in problems.iter().filter(|p| p.quantity().is_none()) {
@@ -220,8 +224,8 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
             })
             .fold(f64::NAN, f64::max);
         lines.push(format!(
-            "R-hat ≥ {RHAT_MAX} (worst {worst:.3}) for {} quantities: {}; the ensembles disagree, run longer or look for several modes",
-            r_hat.len(),
+            "R-hat ≥ {RHAT_MAX} (worst {worst:.4}) for {}: {}; the ensembles disagree, run longer or look for several modes",
+            quantities(r_hat.len()),
             listed(&r_hat)
         ));
     }
@@ -244,8 +248,8 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
             String::new()
         };
         lines.push(format!(
-            "ESS ≤ {ESS_MIN:.0} (lowest {lowest:.0}) for {} quantities: {}{need}",
-            ess.len(),
+            "ESS ≤ {ESS_MIN:.0} (lowest {lowest:.0}) for {}: {}{need}",
+            quantities(ess.len()),
             listed(&ess)
         ));
     }
@@ -259,8 +263,8 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
             })
             .fold(0.0, f64::max);
         lines.push(format!(
-            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {TAU_FACTOR} τ of post-burn-in steps) for {} quantities: {}; about {:.0} steps would do",
-            tau.len(),
+            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {TAU_FACTOR} τ of post-burn-in steps) for {}: {}; about {:.0} steps would do",
+            quantities(tau.len()),
             listed(&tau),
             (burn_in as f64 + TAU_FACTOR * longest).ceil()
         ));
@@ -268,8 +272,8 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
     let undefined = names(&|p| matches!(p, Problem::TauUndefined { .. }));
     if !undefined.is_empty() {
         lines.push(format!(
-            "autocorrelation time undefined (a walker never moved) for {} quantities: {}",
-            undefined.len(),
+            "autocorrelation time undefined (a walker never moved) for {}: {}",
+            quantities(undefined.len()),
             listed(&undefined)
         ));
     }

@@ -783,7 +783,7 @@ fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         .collect();
     let flagged = ctx.quantities.iter().map(|q| ctx.flagged(q)).collect();
     blocks.push(Block::Paragraph(format!(
-        "Per quantity: R̂ between ensembles (rank-normalised), ESS bulk and tail, MCSE of the mean, and τ in kept draws. Rows of quantities the fit's verdict names (R̂ < {RHAT_MAX}, ESS > {ESS_MIN:.0}, τ trusted) are marked."
+        "Per quantity: R̂ between ensembles (rank-normalised), ESS bulk and tail, MCSE of the mean, and τ in steps, all on every post-burn-in draw. Rows of quantities the fit's verdict names (R̂ < {RHAT_MAX}, ESS > {ESS_MIN:.0}, τ trusted) are marked."
     )));
     blocks.push(table(
         &[
@@ -792,7 +792,7 @@ fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             "ESS bulk",
             "ESS tail",
             "MCSE mean",
-            "τ (kept draws)",
+            "τ (steps)",
         ],
         rows,
         flagged,

@@ -12,7 +12,7 @@ use crate::storage::Chains;
 /// Quantiles drawn as a median with a 95 % band.
 pub const BAND_PROBS: [f64; 3] = [0.025, 0.5, 0.975];
 
-/// The sampler coordinates of up to `max_draws` kept draws (after burn-in and thinning),
+/// The sampler coordinates of up to `max_draws` kept draws (after the burn-in),
 /// spread evenly over the chains, with their row numbers.
 ///
 /// # Errors

@@ -378,3 +378,45 @@ impl ComplementFit {
         self.log_q(x) - self.log_q(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_written_mixture_parses_and_names_what_is_wrong() {
+        assert_eq!(
+            parse_mixture("student-t=0.8, stretch=0.2").unwrap(),
+            vec![(Move::student_t(), 0.8), (Move::stretch(), 0.2)]
+        );
+        assert_eq!(
+            parse_mixture("de").unwrap(),
+            vec![(Move::differential_evolution(), 1.0)]
+        );
+        let err = parse_mixture("stretch=0.5,kde=0.5").unwrap_err();
+        assert!(
+            err.contains("unknown move `kde`") && err.contains("student-t"),
+            "{err}"
+        );
+        let err = parse_mixture("stretch=-1").unwrap_err();
+        assert!(err.contains("weight `-1`"), "{err}");
+        assert!(parse_mixture(" , ").is_err());
+    }
+
+    #[test]
+    fn the_independence_correction_is_the_ratio_of_proposal_densities() {
+        use rand::SeedableRng;
+        // Complement of 4 points in 2-D: mean (0.5, 0.5), covariance 1/3·I.
+        let positions = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+        let mut fit = ComplementFit::new(&positions, &[0, 1, 2, 3], 2, None).unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let x = [2.0, -1.0];
+        let mut y = [0.0; 2];
+        let log_ratio = fit.propose(&x, &mut rng, &mut y);
+        let log_q = |p: &[f64]| -1.5 * ((p[0] - 0.5).powi(2) + (p[1] - 0.5).powi(2));
+        assert!((log_ratio - (log_q(&x) - log_q(&y))).abs() < 1e-12);
+        // Points on a line have no full-rank covariance: no fit.
+        let line = [0.0, 0.0, 1.0, 1.0, 2.0, 2.0];
+        assert!(ComplementFit::new(&line, &[0, 1, 2], 2, None).is_none());
+    }
+}
