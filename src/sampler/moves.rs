@@ -345,10 +345,10 @@ impl ComplementFit {
         let ndim = self.mean.len();
         // Forward substitution L u = x − μ.
         let mut r2 = 0.0;
-        for a in 0..ndim {
+        for (a, (&xa, &ma)) in x.iter().zip(&self.mean).enumerate() {
             let row = &self.chol[a * ndim..a * ndim + a];
             let s: f64 = row.iter().zip(&self.u[..a]).map(|(l, u)| l * u).sum();
-            let ua = (x[a] - self.mean[a] - s) / self.chol[a * ndim + a];
+            let ua = (xa - ma - s) / self.chol[a * ndim + a];
             self.u[a] = ua;
             r2 += ua * ua;
         }
@@ -371,9 +371,9 @@ impl ComplementFit {
         for z in self.u.iter_mut() {
             *z = rng.sample::<f64, _>(StandardNormal) * scale;
         }
-        for a in 0..ndim {
+        for (a, (o, &ma)) in out.iter_mut().zip(&self.mean).enumerate() {
             let row = &self.chol[a * ndim..=a * ndim + a];
-            out[a] = self.mean[a] + row.iter().zip(&self.u).map(|(l, z)| l * z).sum::<f64>();
+            *o = ma + row.iter().zip(&self.u).map(|(l, z)| l * z).sum::<f64>();
         }
         self.log_q(x) - self.log_q(out)
     }

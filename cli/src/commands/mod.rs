@@ -29,7 +29,8 @@ enum Command {
     #[cfg(feature = "parquet")]
     Demo(fit::DemoArgs),
     #[cfg(feature = "parquet")]
-    Fit(fit::FitArgs),
+    // Boxed: the fit flags are many times larger than any other command's.
+    Fit(Box<fit::FitArgs>),
     #[cfg(feature = "report")]
     Report(report::ReportArgs),
     Simulate(simulate::SimulateArgs),
