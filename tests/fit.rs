@@ -504,6 +504,24 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
         "{}",
         errors(&mismatch)
     );
+    // So is resuming with other moves: the chains would not be the ones of an uninterrupted run.
+    let mut other_moves = s.clone();
+    other_moves.moves = vec![(Move::differential_evolution(), 1.0)];
+    let mismatch = run_fit(
+        &Toy { crash: None },
+        &spec,
+        &START,
+        &other_moves,
+        &RunDir::new(&crashed),
+        true,
+        &mut Silent,
+    )
+    .expect_err("moves mismatch");
+    assert!(
+        errors(&mismatch).contains("resume with the original moves"),
+        "{}",
+        errors(&mismatch)
+    );
 
     let resumed = run(&crashed, true).expect("resumed fit");
     assert_eq!(

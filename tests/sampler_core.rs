@@ -422,7 +422,6 @@ fn stopping_rule_stops_a_gaussian_and_suggests_burn_in_and_thinning() {
     assert!(report.total_steps as f64 > 50.0 * tau.max && report.total_steps < 50_000);
     assert!(tau.reliable && report.converged, "{:?}", report.problems);
     assert!(tau.burn_in >= 2 && tau.burn_in as f64 >= 2.0 * tau.max);
-    assert!(tau.thin >= 1 && tau.thin as f64 <= tau.min / 2.0 + 1.0);
     assert!(report.rhat.unwrap().iter().all(|&r| r < 1.01));
 }
 

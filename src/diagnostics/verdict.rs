@@ -188,56 +188,43 @@ impl std::fmt::Display for Problem {
 /// [`TAU_FACTOR`] τ of them).
 pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<String> {
     let kept = steps.saturating_sub(burn_in).max(1) as f64;
-    let names = |pick: &dyn Fn(&Problem) -> bool| -> Vec<&str> {
-        let mut v: Vec<&str> = problems
-            .iter()
-            .filter(|p| pick(p))
-            .filter_map(Problem::quantity)
-            .collect();
-        v.dedup();
-        v
-    };
     let listed = |v: &[&str]| {
         const SHOWN: usize = 6;
         let mut text = v[..v.len().min(SHOWN)].join(", ");
         if v.len() > SHOWN {
             text.push_str(&format!(" and {} more", v.len() - SHOWN));
         }
-        text
+        let n = v.len();
+        let count = if n == 1 {
+            "1 quantity".to_owned()
+        } else {
+            format!("{n} quantities")
+        };
+        format!("{count}: {text}")
     };
-    let quantities = |n: usize| match n {
-        1 => "1 quantity".to_owned(),
-        n => format!("{n} quantities"),
-    };
-    let mut lines = Vec::new();
     // Run-level problems as they are.
-    for p in problems.iter().filter(|p| p.quantity().is_none()) {
-        lines.push(p.to_string());
-    }
-    let r_hat = names(&|p| matches!(p, Problem::RHat { .. } | Problem::RHatUndefined { .. }));
+    let mut lines: Vec<String> = problems
+        .iter()
+        .filter(|p| p.quantity().is_none())
+        .map(ToString::to_string)
+        .collect();
+    let (r_hat, worst) = of_kind(problems, f64::max, |p| match p {
+        Problem::RHat { r_hat, .. } => Some(*r_hat),
+        Problem::RHatUndefined { .. } => Some(f64::NAN),
+        _ => None,
+    });
     if !r_hat.is_empty() {
-        let worst = problems
-            .iter()
-            .filter_map(|p| match p {
-                Problem::RHat { r_hat, .. } => Some(*r_hat),
-                _ => None,
-            })
-            .fold(f64::NAN, f64::max);
         lines.push(format!(
-            "R-hat ≥ {RHAT_MAX} (worst {worst:.4}) for {}: {}; the ensembles disagree, run longer or look for several modes",
-            quantities(r_hat.len()),
+            "R-hat ≥ {RHAT_MAX} (worst {worst:.4}) for {}; the ensembles disagree, run longer or look for several modes",
             listed(&r_hat)
         ));
     }
-    let ess = names(&|p| matches!(p, Problem::Ess { .. }));
+    let (ess, lowest) = of_kind(problems, f64::min, |p| match p {
+        Problem::Ess { ess, .. } => Some(*ess),
+        _ => None,
+    });
     if !ess.is_empty() {
-        let lowest = problems
-            .iter()
-            .filter_map(|p| match p {
-                Problem::Ess { ess, .. } => Some(*ess),
-                _ => None,
-            })
-            .fold(f64::INFINITY, f64::min);
+        // ESS grows in proportion to the post-burn-in draws.
         let need = if lowest.is_finite() && lowest > 0.0 {
             let steps_needed = burn_in as f64 + kept * ESS_MIN / lowest;
             format!(
@@ -248,36 +235,51 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
             String::new()
         };
         lines.push(format!(
-            "ESS ≤ {ESS_MIN:.0} (lowest {lowest:.0}) for {}: {}{need}",
-            quantities(ess.len()),
+            "ESS ≤ {ESS_MIN:.0} (lowest {lowest:.0}) for {}{need}",
             listed(&ess)
         ));
     }
-    let tau = names(&|p| matches!(p, Problem::TauUnreliable { .. }));
+    let (tau, longest) = of_kind(problems, f64::max, |p| match p {
+        Problem::TauUnreliable { tau, .. } => Some(*tau),
+        _ => None,
+    });
     if !tau.is_empty() {
-        let longest = problems
-            .iter()
-            .filter_map(|p| match p {
-                Problem::TauUnreliable { tau, .. } => Some(*tau),
-                _ => None,
-            })
-            .fold(0.0, f64::max);
         lines.push(format!(
-            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {TAU_FACTOR} τ of post-burn-in steps) for {}: {}; about {:.0} steps would do",
-            quantities(tau.len()),
+            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {TAU_FACTOR} τ of post-burn-in steps) for {}; about {:.0} steps would do",
             listed(&tau),
             (burn_in as f64 + TAU_FACTOR * longest).ceil()
         ));
     }
-    let undefined = names(&|p| matches!(p, Problem::TauUndefined { .. }));
+    let (undefined, _) = of_kind(problems, f64::max, |p| {
+        matches!(p, Problem::TauUndefined { .. }).then_some(f64::NAN)
+    });
     if !undefined.is_empty() {
         lines.push(format!(
-            "autocorrelation time undefined (a walker never moved) for {}: {}",
-            quantities(undefined.len()),
+            "autocorrelation time undefined (a walker never moved) for {}",
             listed(&undefined)
         ));
     }
     lines
+}
+
+/// The quantities named by the problems `value` picks (each once, in order), and the
+/// extreme (`f64::max` or `f64::min`, which skip NaN) of the values it picks them with.
+fn of_kind(
+    problems: &[Problem],
+    extreme: fn(f64, f64) -> f64,
+    value: impl Fn(&Problem) -> Option<f64>,
+) -> (Vec<&str>, f64) {
+    let mut names: Vec<&str> = Vec::new();
+    let mut out = f64::NAN;
+    for p in problems {
+        if let (Some(v), Some(q)) = (value(p), p.quantity()) {
+            if !names.contains(&q) {
+                names.push(q);
+            }
+            out = extreme(out, v);
+        }
+    }
+    (names, out)
 }
 
 /// Every convergence problem of one quantity's summary: R̂ (with two or more ensembles), bulk

@@ -11,7 +11,7 @@ use super::{
 use crate::density::LogDensity;
 use crate::law::Scene;
 use crate::model::{ModelSpec, Posterior};
-use crate::sampler::{parse_mixture, Move, Observer, Steps, StopRule};
+use crate::sampler::{Move, Observer, Steps, StopRule};
 
 /// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
 /// to cost seconds.
@@ -67,7 +67,7 @@ impl FitSettings {
             moves: overrides
                 .moves
                 .clone()
-                .or_else(|| s.moves.as_deref().and_then(|m| parse_mixture(m).ok()))
+                .or_else(|| s.moves.as_ref().map(|m| m.moves().to_vec()))
                 .unwrap_or_else(default_moves),
             ..Self::default()
         }

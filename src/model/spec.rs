@@ -11,6 +11,7 @@ use super::prior::Prior;
 use crate::data::units::{parse_unit, KNOWN_UNITS};
 use crate::data::{ColumnMap, Format, ImportOptions, IntervalChoice};
 use crate::law::Scene;
+use crate::sampler::Mixture;
 
 /// Errors loading a model file.
 #[derive(Debug, thiserror::Error)]
@@ -266,9 +267,9 @@ pub struct SamplerSpec {
     #[serde(default = "default_checkpoint")]
     pub checkpoint_every: u64,
     /// Proposal moves and their weights, e.g. `"student-t=0.8,stretch=0.2"` (see
-    /// [`crate::sampler::parse_mixture`]); the fit's default mixture when absent.
+    /// [`Mixture`]); the fit's default mixture when absent.
     #[serde(default)]
-    pub moves: Option<String>,
+    pub moves: Option<Mixture>,
 }
 
 fn default_ensembles() -> usize {
@@ -582,10 +583,6 @@ impl ModelSpec {
                 "sampler".into(),
                 "steps, max_steps and checkpoint_every must be > 0".into(),
             ));
-        }
-        if let Some(moves) = &s.moves {
-            crate::sampler::parse_mixture(moves)
-                .map_err(|message| invalid("sampler.moves".into(), message))?;
         }
         Ok(Self {
             file,

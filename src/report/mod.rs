@@ -26,7 +26,7 @@ use std::path::PathBuf;
 
 use crate::fit::run_dir::{FIGURES_DIR, REPORT_HTML, REPORT_MD};
 use crate::fit::{RunDir, RunDirError};
-use crate::model::{ModelSpec, Posterior};
+use crate::model::Posterior;
 
 pub use document::{render_html, render_markdown, Block};
 pub use inputs::{coverage_95, RunInputs};
@@ -90,7 +90,7 @@ pub struct ReportFiles {
 /// # Errors
 /// As [`write_report`], and [`ReportError::Model`] when the model cannot be loaded again.
 pub fn rebuild_report(dir: &RunDir) -> Result<ReportFiles, ReportError> {
-    let spec: ModelSpec = dir.read_model()?;
+    let spec = dir.read_model()?;
     let posterior = Posterior::new(&spec).map_err(|source| ReportError::Model {
         dir: dir.path().to_path_buf(),
         source,

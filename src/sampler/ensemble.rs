@@ -185,83 +185,31 @@ impl Ensemble {
             ..
         } = self;
         let (active, complement) = Self::halves(perm, h);
-        let nc = complement.len();
         let positions = &s.positions;
-        let out_rows = proposals.chunks_exact_mut(ndim);
-        match *mv {
-            // The common case inlined: no dispatch, and the correction z^(ndim−1) by
-            // multiplication instead of a logarithm.
-            Move::Stretch { a } => {
-                let power = ndim as u64 - 1;
-                for ((((&w, out), f), lf), au) in active
-                    .iter()
-                    .zip(out_rows)
-                    .zip(factor.iter_mut())
-                    .zip(log_factor.iter_mut())
-                    .zip(accept_u.iter_mut())
-                {
-                    let rng = &mut s.walker_rngs[w];
-                    let j = complement[rng.random_range(0..nc)];
-                    let u: f64 = rng.random();
-                    let z = ((a - 1.0) * u + 1.0).powi(2) / a;
-                    let x = &positions[w * ndim..(w + 1) * ndim];
-                    let xj = &positions[j * ndim..(j + 1) * ndim];
-                    for ((o, &xi), &xji) in out.iter_mut().zip(x).zip(xj) {
-                        *o = xji + z * (xi - xji);
-                    }
-                    *f = powi(z, power);
-                    if !f.is_normal() {
-                        *lf = (ndim as f64 - 1.0) * z.ln();
-                    }
-                    *au = rng.random();
-                }
-            }
-            Move::Independence { dof } => {
-                let mut fit = ComplementFit::new(positions, complement, ndim, dof);
-                for ((((&w, out), f), lf), au) in active
-                    .iter()
-                    .zip(out_rows)
-                    .zip(factor.iter_mut())
-                    .zip(log_factor.iter_mut())
-                    .zip(accept_u.iter_mut())
-                {
-                    let rng = &mut s.walker_rngs[w];
-                    let x = &positions[w * ndim..(w + 1) * ndim];
-                    *lf = match fit.as_mut() {
-                        Some(fit) => fit.propose(x, rng, out),
-                        // The complement lies in a subspace: propose the walker itself (a
-                        // step that changes nothing but still consumes its uniform).
-                        None => {
-                            out.copy_from_slice(x);
-                            0.0
-                        }
-                    };
-                    *f = lf.exp();
-                    *au = rng.random();
-                }
-            }
-            _ => {
-                for ((((&w, out), f), lf), au) in active
-                    .iter()
-                    .zip(out_rows)
-                    .zip(factor.iter_mut())
-                    .zip(log_factor.iter_mut())
-                    .zip(accept_u.iter_mut())
-                {
-                    let rng = &mut s.walker_rngs[w];
-                    *lf = mv.propose(
-                        &positions[w * ndim..(w + 1) * ndim],
-                        positions,
-                        complement,
-                        rng,
-                        out,
-                        scratch_idx,
-                        scratch_z,
-                    );
-                    *f = lf.exp();
-                    *au = rng.random();
-                }
-            }
+        let mut fit = match *mv {
+            Move::Independence { dof } => ComplementFit::new(positions, complement, ndim, dof),
+            _ => None,
+        };
+        for ((((&w, out), f), lf), au) in active
+            .iter()
+            .zip(proposals.chunks_exact_mut(ndim))
+            .zip(factor.iter_mut())
+            .zip(log_factor.iter_mut())
+            .zip(accept_u.iter_mut())
+        {
+            let rng = &mut s.walker_rngs[w];
+            let c = mv.propose(
+                &positions[w * ndim..(w + 1) * ndim],
+                positions,
+                complement,
+                fit.as_mut(),
+                rng,
+                out,
+                scratch_idx,
+                scratch_z,
+            );
+            (*f, *lf) = (c.factor, c.log_factor);
+            *au = rng.random();
         }
     }
 
@@ -349,18 +297,4 @@ impl Ensemble {
         }
         Ok(())
     }
-}
-
-/// `x^n` by binary powering, inlined (`f64::powi` with a run-time exponent is a library call).
-#[inline]
-fn powi(mut x: f64, mut n: u64) -> f64 {
-    let mut r = 1.0;
-    while n > 0 {
-        if n & 1 == 1 {
-            r *= x;
-        }
-        x *= x;
-        n >>= 1;
-    }
-    r
 }

@@ -68,7 +68,7 @@ pub use ensemble::EnsembleState;
 pub use error::SamplerError;
 pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
-pub use moves::{parse_mixture, Move, MOVE_NAMES};
+pub use moves::{Mixture, Move, MOVE_NAMES};
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION};

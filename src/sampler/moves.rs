@@ -66,12 +66,61 @@ pub enum Move {
 /// The names of the moves in a written mixture, each with its default parameters.
 pub const MOVE_NAMES: [&str; 5] = ["stretch", "de", "walk", "gaussian", "student-t"];
 
-/// A weighted mixture of moves written as `name=weight` pairs separated by commas, e.g.
-/// `student-t=0.8,stretch=0.2` (names in [`MOVE_NAMES`]; a name alone has weight 1).
+/// A weighted mixture of moves with their default parameters, as a model file
+/// (`[sampler] moves`) or the command line (`--moves`) writes it: `name=weight` pairs
+/// separated by commas, e.g. `student-t=0.8,stretch=0.2` (names in [`MOVE_NAMES`]; a name
+/// alone has weight 1). Parsed once where it is read, so a bad mixture is an error naming the
+/// file, line and key.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mixture(Vec<(Move, f64)>);
+
+impl Mixture {
+    /// The moves and their weights.
+    pub fn moves(&self) -> &[(Move, f64)] {
+        &self.0
+    }
+}
+
+impl std::str::FromStr for Mixture {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        parse_mixture(text).map(Self)
+    }
+}
+
+impl std::fmt::Display for Mixture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, (m, w)) in self.0.iter().enumerate() {
+            // Every move of a parsed mixture has its named defaults.
+            let name = MOVE_NAMES
+                .iter()
+                .find(|n| Move::named(n).as_ref() == Ok(m))
+                .expect("a mixture holds named moves only");
+            let sep = if i == 0 { "" } else { "," };
+            write!(f, "{sep}{name}={w}")?;
+        }
+        Ok(())
+    }
+}
+
+impl Serialize for Mixture {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for Mixture {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// Parses a written mixture (see [`Mixture`]).
 ///
 /// # Errors
 /// A sentence naming the unknown move or the weight that is not a finite positive number.
-pub fn parse_mixture(text: &str) -> Result<Vec<(Move, f64)>, String> {
+fn parse_mixture(text: &str) -> Result<Vec<(Move, f64)>, String> {
     let mut moves = Vec::new();
     for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let (name, weight) = match part.split_once('=') {
@@ -191,22 +240,26 @@ impl Move {
         Ok(())
     }
 
-    /// Writes a proposal for the walker at `x` into `out` and returns the log of the
-    /// proposal's correction factor (added to the log acceptance ratio).
+    /// Writes a proposal for the walker at `x` into `out` and returns the proposal's
+    /// correction to the acceptance ratio.
     ///
     /// `positions` holds all walkers (`walkers × ndim`), `complement` the indices of the
-    /// complementary half; `idx` and `z` are scratch of at least `complement.len()`.
+    /// complementary half; `fit` is the complement's [`ComplementFit`] for
+    /// [`Move::Independence`] (`None` when the complement has none: the walker is proposed
+    /// unchanged); `idx` and `z` are scratch of at least `complement.len()`.
     #[allow(clippy::too_many_arguments)]
+    #[inline]
     pub(crate) fn propose<R: Rng>(
         &self,
         x: &[f64],
         positions: &[f64],
         complement: &[usize],
+        fit: Option<&mut ComplementFit>,
         rng: &mut R,
         out: &mut [f64],
         idx: &mut [usize],
         z: &mut [f64],
-    ) -> f64 {
+    ) -> Correction {
         let ndim = x.len();
         let row = |i: usize| &positions[i * ndim..(i + 1) * ndim];
         let nc = complement.len();
@@ -218,7 +271,8 @@ impl Move {
                 for ((o, &xi), &xj) in out.iter_mut().zip(x).zip(j) {
                     *o = xj + zz * (xi - xj);
                 }
-                (ndim as f64 - 1.0) * zz.ln()
+                // z^(ndim−1) by multiplication: the acceptance test then needs no logarithm.
+                Correction::power(zz, ndim as u64 - 1)
             }
             Self::DifferentialEvolution { gamma, sigma } => {
                 let g0 = gamma.unwrap_or_else(|| 2.38 / (2.0 * ndim as f64).sqrt());
@@ -233,7 +287,7 @@ impl Move {
                 for (((o, &xi), &ai), &bi) in out.iter_mut().zip(x).zip(a).zip(b) {
                     *o = xi + g * (ai - bi);
                 }
-                0.0
+                Correction::NONE
             }
             Self::Walk { subset } => {
                 let s = subset.unwrap_or(nc).min(nc);
@@ -261,12 +315,64 @@ impl Move {
                         *o += c * (xj - xi);
                     }
                 }
-                0.0
+                Correction::NONE
             }
-            Self::Independence { .. } => {
-                unreachable!("independence proposals are drawn through `ComplementFit`")
-            }
+            Self::Independence { .. } => match fit {
+                Some(fit) => Correction::log(fit.propose(x, rng, out)),
+                // The complement lies in a subspace: the walker stays where it is (a step
+                // that changes nothing but still consumes its uniform).
+                None => {
+                    out.copy_from_slice(x);
+                    Correction::NONE
+                }
+            },
         }
+    }
+}
+
+/// A proposal's correction to the Metropolis–Hastings acceptance ratio: the factor itself,
+/// and its logarithm where the factor is not a normal number.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Correction {
+    /// The factor (`z^(ndim−1)` for the stretch move, 1 for a symmetric proposal).
+    pub factor: f64,
+    /// ln factor; only read when `factor` is not normal.
+    pub log_factor: f64,
+}
+
+impl Correction {
+    /// A symmetric proposal.
+    const NONE: Self = Self {
+        factor: 1.0,
+        log_factor: 0.0,
+    };
+
+    /// The factor e^`log_factor`.
+    fn log(log_factor: f64) -> Self {
+        Self {
+            factor: log_factor.exp(),
+            log_factor,
+        }
+    }
+
+    /// The factor `z^n`, by binary powering (`f64::powi` with a run-time exponent is a
+    /// library call); its logarithm only where the power under- or overflows.
+    #[inline]
+    fn power(z: f64, n: u64) -> Self {
+        let (mut x, mut k, mut factor) = (z, n, 1.0);
+        while k > 0 {
+            if k & 1 == 1 {
+                factor *= x;
+            }
+            x *= x;
+            k >>= 1;
+        }
+        let log_factor = if factor.is_normal() {
+            0.0
+        } else {
+            n as f64 * z.ln()
+        };
+        Self { factor, log_factor }
     }
 }
 
@@ -278,6 +384,8 @@ pub(crate) struct ComplementFit {
     /// Lower Cholesky factor of the sample covariance, row-major `ndim × ndim`.
     chol: Vec<f64>,
     dof: Option<f64>,
+    /// χ²_ν of the Student-t's scale, built once per fit.
+    chi2: Option<rand_distr::ChiSquared<f64>>,
     /// Scratch for whitened vectors.
     u: Vec<f64>,
 }
@@ -336,6 +444,9 @@ impl ComplementFit {
             mean,
             chol,
             dof,
+            chi2: dof.map(|nu| {
+                rand_distr::ChiSquared::new(nu).expect("ν > 0, checked by Move::validate")
+            }),
             u: vec![0.0; ndim],
         })
     }
@@ -361,12 +472,9 @@ impl ComplementFit {
     /// Writes a proposal into `out` and returns ln q(x) − ln q(out).
     pub fn propose<R: Rng>(&mut self, x: &[f64], rng: &mut R, out: &mut [f64]) -> f64 {
         let ndim = self.mean.len();
-        let scale = match self.dof {
-            None => 1.0,
-            Some(nu) => {
-                let chi2: f64 = rng.sample(rand_distr::ChiSquared::new(nu).expect("ν > 0"));
-                (nu / chi2).sqrt()
-            }
+        let scale = match (self.dof, &self.chi2) {
+            (Some(nu), Some(chi2)) => (nu / rng.sample(chi2)).sqrt(),
+            _ => 1.0,
         };
         for z in self.u.iter_mut() {
             *z = rng.sample::<f64, _>(StandardNormal) * scale;
@@ -401,6 +509,10 @@ mod tests {
         let err = parse_mixture("stretch=-1").unwrap_err();
         assert!(err.contains("weight `-1`"), "{err}");
         assert!(parse_mixture(" , ").is_err());
+        // Written back as it reads.
+        let m: Mixture = "student-t=0.8, stretch".parse().unwrap();
+        assert_eq!(m.to_string(), "student-t=0.8,stretch=1");
+        assert_eq!(m.to_string().parse::<Mixture>().unwrap(), m);
     }
 
     #[test]

@@ -42,10 +42,9 @@ pub struct TauReport {
     pub min: f64,
     /// Whether the chains are longer than 50 τ_max, so that τ can be trusted.
     pub reliable: bool,
-    /// Suggested burn-in, ⌈2 τ_max⌉ steps.
+    /// Suggested burn-in, ⌈2 τ_max⌉ steps. (No thinning is suggested: thinning adds no
+    /// information, and the diagnostics use every post-burn-in draw.)
     pub burn_in: u64,
-    /// Suggested thinning, max(1, ⌊τ_min / 2⌋) steps.
-    pub thin: u64,
 }
 
 /// Summary of a run.
@@ -132,7 +131,6 @@ pub(crate) fn tau_report(per_ensemble: Vec<Vec<f64>>, steps: u64, tau_factor: f6
     TauReport {
         reliable: steps as f64 > tau_factor * max,
         burn_in: (2.0 * max).ceil() as u64,
-        thin: ((min / 2.0).floor() as u64).max(1),
         per_ensemble,
         max,
         min,

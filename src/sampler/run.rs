@@ -36,6 +36,11 @@ pub struct SamplerState {
     pub nderived: usize,
     /// Walkers per ensemble.
     pub walkers: usize,
+    /// The moves and weights the chains were drawn with; a resumed run must use the same to
+    /// continue the same chains (states written before moves were selectable used the
+    /// stretch move alone).
+    #[serde(default = "stretch_alone")]
+    pub moves: Vec<(Move, f64)>,
     /// Steps completed.
     pub step: u64,
     /// Per-ensemble state.
@@ -44,6 +49,10 @@ pub struct SamplerState {
     pub history: History,
     /// τ per (ensemble, parameter) at the last stopping-rule check.
     pub last_tau: Option<Vec<Vec<f64>>>,
+}
+
+fn stretch_alone() -> Vec<(Move, f64)> {
+    vec![(Move::stretch(), 1.0)]
 }
 
 /// Affine-invariant ensemble sampler over a [`LogDensity`], running several independent
@@ -219,6 +228,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 config.ensembles()
             ));
         }
+        if state.moves.as_slice() != config.moves() {
+            return mismatch(format!(
+                "the chains were drawn with the moves {:?}, the configuration has {:?}; resume with the original moves",
+                state.moves,
+                config.moves()
+            ));
+        }
         if state.history.series.len() != config.ensembles()
             || state
                 .history
@@ -308,6 +324,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             ndim: self.ndim,
             nderived: self.nderived,
             walkers: self.config.walkers(),
+            moves: self.config.moves().to_vec(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
             history: self.history.to_history(),
@@ -450,6 +467,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             ndim: self.ndim,
             nderived: self.nderived,
             walkers: self.config.walkers(),
+            moves: self.config.moves(),
             step: self.step,
             ensembles: &self.ensembles,
             history: &self.history,
@@ -718,6 +736,7 @@ struct StateView<'s> {
     ndim: usize,
     nderived: usize,
     walkers: usize,
+    moves: &'s [(Move, f64)],
     step: u64,
     ensembles: &'s [Ensemble],
     history: &'s RowHistory,
@@ -733,12 +752,13 @@ impl Serialize for StateView<'_> {
                 ser.collect_seq(self.0.iter().map(|e| &e.s))
             }
         }
-        let mut st = ser.serialize_struct("SamplerState", 9)?;
+        let mut st = ser.serialize_struct("SamplerState", 10)?;
         st.serialize_field("version", &STATE_VERSION)?;
         st.serialize_field("seed", &self.seed)?;
         st.serialize_field("ndim", &self.ndim)?;
         st.serialize_field("nderived", &self.nderived)?;
         st.serialize_field("walkers", &self.walkers)?;
+        st.serialize_field("moves", self.moves)?;
         st.serialize_field("step", &self.step)?;
         st.serialize_field("ensembles", &Ensembles(self.ensembles))?;
         st.serialize_field("history", self.history)?;

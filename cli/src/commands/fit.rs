@@ -11,7 +11,7 @@ use slipbayes::density::LogDensity;
 use slipbayes::diagnostics::problem_lines;
 use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
-use slipbayes::sampler::{parse_mixture, Move};
+use slipbayes::sampler::Mixture;
 
 use super::import::ImportArgs;
 use crate::progress::ProgressBarObserver;
@@ -102,13 +102,9 @@ pub(super) struct RunArgs {
     strict: bool,
     /// Proposal moves and weights, e.g. `student-t=0.8,stretch=0.2` (moves: stretch, de,
     /// walk, gaussian, student-t); default: the model file's, else the fit's default mixture.
-    #[arg(long, value_parser = |t: &str| parse_mixture(t).map(Mixture))]
+    #[arg(long)]
     moves: Option<Mixture>,
 }
-
-/// A parsed `--moves` (one value, not a list of values).
-#[derive(Debug, Clone)]
-struct Mixture(Vec<(Move, f64)>);
 
 /// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
 /// replacing an earlier demo there (unless --resume).
@@ -168,7 +164,7 @@ impl RunArgs {
             max_steps: self.max_steps,
             quiet: self.quiet,
             overwrite: self.overwrite || overwrite,
-            moves: self.moves.clone().map(|m| m.0),
+            moves: self.moves.as_ref().map(|m| m.moves().to_vec()),
         }
     }
 }

@@ -16,11 +16,10 @@ use serde::{Deserialize, Serialize};
 use slipbayes::data::write_atomically;
 use slipbayes::density::LogDensity;
 use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
-use slipbayes::fit::{kept_draws, run_fit, FitSettings, RunDir, SummarySpec};
+use slipbayes::fit::{kept_draws, RunDir};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::{Silent, Steps};
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// Contraction below which a quantity counts as not identified by the data.
@@ -305,27 +304,8 @@ fn fit_case(
     at_start.map_err(|e| format!("the posterior at its start point: {e}"))?;
 
     let (walkers, ensembles, steps) = case.fit;
-    let settings = FitSettings {
-        walkers,
-        ensembles,
-        seed,
-        steps: Steps::Fixed(steps),
-        checkpoint_every: None,
-        quiet: true,
-        overwrite: true,
-        ..FitSettings::default()
-    };
     let fit_dir = RunDir::new(dir.join("fit"));
-    let fit = run_fit(
-        &posterior,
-        &SummarySpec::of(posterior.quantities().to_vec()),
-        posterior.start(),
-        &settings,
-        &fit_dir,
-        false,
-        &mut Silent,
-    )
-    .map_err(|e| super::error_chain(&e))?;
+    let fit = super::quiet_fit(&posterior, walkers, ensembles, seed, steps, &fit_dir)?;
     let s = &fit.summary;
     outcome.converged = s.sampler.converged;
     outcome.log_density_evals = s.sampler.log_density_evals;

@@ -499,32 +499,18 @@ fn fit_and_rank(
         .collect::<Option<_>>()
         .ok_or("the SBC model has a run that is neither the first nor the repeat slide")?;
     let posterior = Posterior::from_data(spec, data).map_err(|e| e.to_string())?;
-    let fit_settings = FitSettings {
-        walkers: settings.walkers,
-        ensembles: settings.ensembles,
-        seed: fit_seed,
-        steps: Steps::Fixed(settings.steps),
-        checkpoint_every: None,
-        quiet: true,
-        overwrite: true,
-        ..FitSettings::default()
-    };
     let fit_dir = RunDir::new(dir.join("fit"));
-    let outcome = run_fit(
+    let outcome = quiet_fit(
         &posterior,
-        &SummarySpec::of(posterior.quantities().to_vec()),
-        posterior.start(),
-        &fit_settings,
+        settings.walkers,
+        settings.ensembles,
+        fit_seed,
+        settings.steps,
         &fit_dir,
-        false,
-        &mut Silent,
-    )
-    .map_err(|e| error_chain(&e))?;
+    )?;
     let chains = fit_dir.read_chains().map_err(|e| e.to_string())?;
     let s = &outcome.summary.sampler;
-    let kept: Vec<usize> = (0..chains.len())
-        .filter(|&i| chains.step[i] >= s.burn_in)
-        .collect();
+    let kept = slipbayes::fit::kept_rows(&chains, s, usize::MAX);
     if kept.len() < settings.rank_draws {
         return Err(format!(
             "{} draws after burn-in, fewer than L = {}",
@@ -600,6 +586,38 @@ fn error_chain(e: &dyn std::error::Error) -> String {
         source = s.source();
     }
     text
+}
+
+/// A fixed-length fit of `posterior`'s quantities into `dir`, replacing what is there,
+/// printing nothing: one replication of `validate`. Errors as the full cause chain.
+pub(crate) fn quiet_fit(
+    posterior: &Posterior,
+    walkers: usize,
+    ensembles: usize,
+    seed: u64,
+    steps: u64,
+    dir: &RunDir,
+) -> Result<slipbayes::fit::FitOutcome, String> {
+    let settings = FitSettings {
+        walkers,
+        ensembles,
+        seed,
+        steps: Steps::Fixed(steps),
+        checkpoint_every: None,
+        quiet: true,
+        overwrite: true,
+        ..FitSettings::default()
+    };
+    run_fit(
+        posterior,
+        &SummarySpec::of(posterior.quantities().to_vec()),
+        posterior.start(),
+        &settings,
+        dir,
+        false,
+        &mut Silent,
+    )
+    .map_err(|e| error_chain(&e))
 }
 
 /// Calibration of one quantity over all successful replications.
