@@ -87,6 +87,54 @@ pub trait LogDensity: Sync {
     /// # Errors
     /// [`LogDensityError::Rejected`] outside the support, [`LogDensityError::Fatal`] on faults.
     fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError>;
+
+    /// Blocks of coordinates that a sampler may update one at a time (disjoint, covering every
+    /// coordinate), each cheaper to re-evaluate on its own than the whole density: typically
+    /// the parameters of one group of data given the parameters shared between groups. Empty
+    /// (the default): no such structure, every update re-evaluates everything.
+    fn blocks(&self) -> Vec<Vec<usize>> {
+        Vec::new()
+    }
+
+    /// Length of the per-point cache that [`log_density_cached`](Self::log_density_cached)
+    /// fills and [`log_density_block`](Self::log_density_block) reuses (0 by default).
+    fn cache_len(&self) -> usize {
+        0
+    }
+
+    /// [`log_density`](Self::log_density) that also fills `cache` (length
+    /// [`cache_len`](Self::cache_len)) with the parts of the evaluation a block update reuses.
+    ///
+    /// # Errors
+    /// As [`log_density`](Self::log_density).
+    fn log_density_cached(
+        &self,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let _ = cache;
+        self.log_density(x, derived)
+    }
+
+    /// The log-density at `x`, a point that differs only in the coordinates of
+    /// `blocks()[block]` from the point at which `derived` and `cache` were computed; brings
+    /// both up to date for `x`. Must return exactly what
+    /// [`log_density_cached`](Self::log_density_cached) returns at `x` (the sampler stores the
+    /// value and a resume re-evaluates it in full). By default a full evaluation.
+    ///
+    /// # Errors
+    /// As [`log_density`](Self::log_density).
+    fn log_density_block(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let _ = block;
+        self.log_density_cached(x, derived, cache)
+    }
 }
 
 /// Outcome of one evaluation after the sampler's classification of raw values.
@@ -106,7 +154,12 @@ pub(crate) fn classify<D: LogDensity + ?Sized>(
     x: &[f64],
     derived: &mut [f64],
 ) -> Eval {
-    match density.log_density(x, derived) {
+    sort(density.log_density(x, derived))
+}
+
+/// Sorts the result of an evaluation into finite, rejected or fatal.
+pub(crate) fn sort(result: Result<f64, LogDensityError>) -> Eval {
+    match result {
         Ok(v) if v.is_finite() => Eval::Finite(v),
         Ok(v) if v.is_nan() => Eval::Rejected(REJECT_NAN),
         Ok(v) if v < 0.0 => Eval::Rejected(REJECT_NEG_INFINITY),

@@ -13,7 +13,7 @@ use slipbayes::density::{Quantity, QuantityKind};
 use slipbayes::diagnostics::{Problem, Summary};
 use slipbayes::fit::run_dir::{CSV_COLUMNS, SUMMARY_CSV, SUMMARY_JSON};
 use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, RunDir, SummarySpec};
-use slipbayes::sampler::{Move, Observer, Progress, SamplerError, Silent, Steps};
+use slipbayes::sampler::{Move, Observer, Progress, SamplerError, Silent, Steps, Updates};
 use statrs::function::erf::erfc;
 
 /// Standard normal CDF.
@@ -105,6 +105,7 @@ fn settings(steps: u64) -> FitSettings {
         quiet: true,
         overwrite: false,
         moves: vec![(Move::stretch(), 1.0)],
+        updates: Updates::Joint,
     }
 }
 

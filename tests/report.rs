@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use slipbayes::data::ImportOptions;
-use slipbayes::density::LogDensity;
 use slipbayes::fit::{fit_model, FitSettings, RunDir, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::report::{rebuild_report, write_report};
@@ -42,7 +41,7 @@ fn quick_fit() -> &'static Path {
             quiet: true,
             ..SettingOverrides::default()
         };
-        let settings = FitSettings::for_model(&spec, posterior.dim(), &overrides);
+        let settings = FitSettings::for_model(&posterior, &overrides);
         fs::create_dir_all(&out).unwrap();
         let command = ["slipbayes", "fit", "--quick-path-test"]
             .map(String::from)

@@ -49,4 +49,4 @@ pub use verdict::{
     problem_lines, quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX,
     TAU_FACTOR,
 };
-pub use walkers::{walker_condition_number, WALKER_CONDITION_LIMIT};
+pub use walkers::{blockwise_condition_number, walker_condition_number, WALKER_CONDITION_LIMIT};

@@ -31,3 +31,25 @@ pub fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
         f64::INFINITY
     }
 }
+
+/// The largest [`walker_condition_number`] of the walkers' coordinates in each block
+/// (`blocks` of coordinate indices; the whole space when empty): under blocked updates the
+/// walkers need to span each block's subspace, not the whole space.
+pub fn blockwise_condition_number(positions: &[f64], ndim: usize, blocks: &[Vec<usize>]) -> f64 {
+    if blocks.is_empty() {
+        return walker_condition_number(positions, ndim);
+    }
+    let mut worst: f64 = 0.0;
+    for b in blocks {
+        let sub: Vec<f64> = positions
+            .chunks_exact(ndim)
+            .flat_map(|x| b.iter().map(move |&i| x[i]))
+            .collect();
+        let c = walker_condition_number(&sub, b.len());
+        if c.is_nan() {
+            return c;
+        }
+        worst = worst.max(c);
+    }
+    worst
+}

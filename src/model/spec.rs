@@ -11,7 +11,7 @@ use super::prior::Prior;
 use crate::data::units::{parse_unit, KNOWN_UNITS};
 use crate::data::{ColumnMap, Format, ImportOptions, IntervalChoice};
 use crate::law::Scene;
-use crate::sampler::Mixture;
+use crate::sampler::{Mixture, Updates};
 
 /// Errors loading a model file.
 #[derive(Debug, thiserror::Error)]
@@ -248,7 +248,7 @@ pub struct PoolingSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SamplerSpec {
-    /// Walkers per ensemble (default: max(32, 4·dim) rounded up to even).
+    /// Walkers per ensemble (default: max(32, 4·d + 4), d the coordinates one update moves).
     #[serde(default)]
     pub walkers: Option<usize>,
     /// Independent ensembles (default 4).
@@ -260,6 +260,9 @@ pub struct SamplerSpec {
     /// Step cap of the stopping rule.
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
+    /// Wall-time budget (s) of a run until converged; none by default.
+    #[serde(default)]
+    pub max_time_s: Option<f64>,
     /// Seed.
     #[serde(default = "default_seed")]
     pub seed: u64,
@@ -270,6 +273,27 @@ pub struct SamplerSpec {
     /// [`Mixture`]); the fit's default mixture when absent.
     #[serde(default)]
     pub moves: Option<Mixture>,
+    /// `"joint"` or `"blocked"` updates (see [`Updates`]); the fit's default when absent.
+    #[serde(default)]
+    pub updates: Option<Updates>,
+    /// What a block of blocked updates is: each material's parameters (its contacts' and
+    /// shared ones together), or each contact's own parameters apart from the ones its
+    /// material shares.
+    #[serde(default)]
+    pub blocks: Blocking,
+}
+
+/// The blocks of blocked updates.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Blocking {
+    /// One block per material: materials share no parameter, so their posteriors are
+    /// independent and each block's update evaluates only the material's runs.
+    #[default]
+    Material,
+    /// One block per material for its shared parameters and one per contact for its own
+    /// (Metropolis-within-Gibbs across the hierarchy).
+    Contact,
 }
 
 fn default_ensembles() -> usize {
@@ -292,9 +316,12 @@ impl Default for SamplerSpec {
             ensembles: default_ensembles(),
             steps: None,
             max_steps: default_max_steps(),
+            max_time_s: None,
             seed: default_seed(),
             checkpoint_every: default_checkpoint(),
             moves: None,
+            updates: None,
+            blocks: Blocking::default(),
         }
     }
 }
@@ -576,6 +603,12 @@ impl ModelSpec {
             return Err(invalid(
                 "sampler.ensembles".into(),
                 "need at least 1 ensemble (4 recommended, for R-hat)".into(),
+            ));
+        }
+        if s.max_time_s.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
+            return Err(invalid(
+                "sampler.max_time_s".into(),
+                "must be a finite number of seconds > 0".into(),
             ));
         }
         if s.steps == Some(0) || s.max_steps == 0 || s.checkpoint_every == 0 {

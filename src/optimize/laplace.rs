@@ -14,7 +14,7 @@ use super::lbfgs::{lbfgs, LbfgsOptions};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::OptimizeError;
 use crate::density::{classify, Eval, LogDensity};
-use crate::diagnostics::{walker_condition_number, WALKER_CONDITION_LIMIT};
+use crate::diagnostics::{blockwise_condition_number, WALKER_CONDITION_LIMIT};
 
 /// Covariance of the Laplace approximation at `mode` of the log-density `log_f`, from a
 /// central finite-difference Hessian: `(Σ, positive_definite)`, `Σ` row-major `n × n`.
@@ -224,6 +224,13 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
     let root =
         &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
     let mut z = DVector::<f64>::zeros(n);
+    // Too few walkers to span the whole space is fine for a sampler updating the density's
+    // blocks one at a time: then each block's subspace must be spanned.
+    let span = if walkers > n {
+        Vec::new()
+    } else {
+        density.blocks()
+    };
     let mut all = Vec::with_capacity(ensembles);
     for e in 0..ensembles {
         let mut ens = Vec::with_capacity(walkers);
@@ -253,7 +260,7 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
             ens.push(x);
         }
         let flat: Vec<f64> = ens.iter().flatten().copied().collect();
-        let condition = walker_condition_number(&flat, n);
+        let condition = blockwise_condition_number(&flat, n, &span);
         if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
             return Err(OptimizeError::DegenerateWalkers {
                 mode: mode.clone(),

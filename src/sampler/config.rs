@@ -24,6 +24,45 @@ pub struct SamplerConfig {
     checkpoint_every: Option<u64>,
     parallel: bool,
     history_rows: usize,
+    updates: Updates,
+}
+
+/// Which coordinates one update of a walker moves.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Updates {
+    /// Every coordinate at once, each proposal a full evaluation of the density.
+    #[default]
+    Joint,
+    /// One block of [`LogDensity::blocks`](crate::density::LogDensity::blocks) after the
+    /// other (a Metropolis-within-Gibbs sweep), each by the ensemble move in the block's own
+    /// subspace and evaluated by
+    /// [`log_density_block`](crate::density::LogDensity::log_density_block). A density
+    /// without blocks is updated jointly.
+    Blocked,
+}
+
+impl Updates {
+    /// `"joint"` or `"blocked"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Joint => "joint",
+            Self::Blocked => "blocked",
+        }
+    }
+}
+
+impl std::str::FromStr for Updates {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "joint" => Ok(Self::Joint),
+            "blocked" => Ok(Self::Blocked),
+            other => Err(format!(
+                "unknown updates {other:?}: use \"joint\" or \"blocked\""
+            )),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -35,6 +74,8 @@ struct RawConfig {
     checkpoint_every: Option<u64>,
     parallel: bool,
     history_rows: usize,
+    #[serde(default)]
+    updates: Updates,
 }
 
 impl TryFrom<RawConfig> for SamplerConfig {
@@ -45,6 +86,7 @@ impl TryFrom<RawConfig> for SamplerConfig {
             .with_checkpoint_every(r.checkpoint_every)?
             .with_parallel(r.parallel)
             .with_history_rows(r.history_rows)
+            .map(|c| c.with_updates(r.updates))
     }
 }
 
@@ -78,7 +120,14 @@ impl SamplerConfig {
             checkpoint_every: None,
             parallel: true,
             history_rows: DEFAULT_HISTORY_ROWS,
+            updates: Updates::Joint,
         })
+    }
+
+    /// Joint or blocked updates (see [`Updates`]).
+    pub fn with_updates(mut self, updates: Updates) -> Self {
+        self.updates = updates;
+        self
     }
 
     /// A weighted mixture of moves; one move is drawn per step with probability ∝ weight.
@@ -163,6 +212,11 @@ impl SamplerConfig {
     pub fn checkpoint_every(&self) -> Option<u64> {
         self.checkpoint_every
     }
+    /// Joint or blocked updates.
+    pub fn updates(&self) -> Updates {
+        self.updates
+    }
+
     /// Whether densities are evaluated in parallel.
     pub fn parallel(&self) -> bool {
         self.parallel
@@ -198,6 +252,9 @@ pub struct StopRule {
     pub rhat_max: f64,
     /// Cap on the total step count (counting earlier runs of a resumed sampler).
     pub max_steps: u64,
+    /// Cap on the wall time of one run (seconds); none by default.
+    #[serde(default)]
+    pub max_time_s: Option<f64>,
 }
 
 impl StopRule {
@@ -209,6 +266,7 @@ impl StopRule {
             tau_rel_change: 0.01,
             rhat_max: crate::diagnostics::RHAT_MAX,
             max_steps,
+            max_time_s: None,
         }
     }
 
@@ -232,6 +290,11 @@ impl StopRule {
         }
         if !(self.rhat_max.is_finite() && self.rhat_max > 1.0) {
             return Err(invalid("rhat_max", self.rhat_max, "must be finite and > 1"));
+        }
+        if let Some(t) = self.max_time_s {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(invalid("max_time_s", t, "must be finite and > 0"));
+            }
         }
         Ok(())
     }

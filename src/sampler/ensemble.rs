@@ -67,28 +67,50 @@ pub(crate) struct Work {
     /// Proposed positions, `ensembles × half × ndim`.
     pub proposals: Vec<f64>,
     /// Derived values of the proposals, `ensembles × half × max(nderived, 1)` (stride ≥ 1 so
-    /// that chunking works without derived values).
+    /// that chunking works without derived values). A block update starts from the walker's
+    /// current values.
     pub derived: Vec<f64>,
+    /// The density's cache of each proposal, `ensembles × half × max(cache_len, 1)`; a block
+    /// update starts from the walker's cache.
+    pub cache: Vec<f64>,
     /// Outcome of each evaluation.
     pub evals: Vec<Eval>,
 }
 
 impl Work {
-    pub fn new(ensembles: usize, half: usize, ndim: usize, nderived: usize) -> Self {
+    pub fn new(
+        ensembles: usize,
+        half: usize,
+        ndim: usize,
+        nderived: usize,
+        cache_len: usize,
+    ) -> Self {
         Self {
             proposals: vec![0.0; ensembles * half * ndim],
             derived: vec![0.0; ensembles * half * nderived.max(1)],
+            cache: vec![0.0; ensembles * half * cache_len.max(1)],
             evals: vec![Eval::Finite(0.0); ensembles * half],
         }
     }
+}
+
+/// The buffers of one ensemble's proposals in [`Work`].
+pub(crate) struct ProposalBuffers<'w> {
+    pub proposals: &'w mut [f64],
+    pub derived: &'w mut [f64],
+    pub cache: &'w mut [f64],
 }
 
 /// One ensemble with its work buffers.
 #[derive(Debug)]
 pub(crate) struct Ensemble {
     pub s: EnsembleState,
+    /// The density's cache at each walker, `walkers × cache_len` (rebuilt on resume, not
+    /// stored: a full evaluation fills it).
+    pub cache: Vec<f64>,
     ndim: usize,
     nderived: usize,
+    cache_len: usize,
     /// Walker order of the current step: the first half, then the second.
     perm: Vec<usize>,
     /// Proposal density ratio of each proposal of the active half (`z^(ndim−1)` for the
@@ -99,6 +121,10 @@ pub(crate) struct Ensemble {
     accept_u: Vec<f64>,
     scratch_idx: Vec<usize>,
     scratch_z: Vec<f64>,
+    /// The walkers' coordinates in the current block, `walkers × block dim`.
+    sub: Vec<f64>,
+    /// One proposal in the current block.
+    sub_out: Vec<f64>,
 }
 
 impl Ensemble {
@@ -112,19 +138,30 @@ impl Ensemble {
         )
     }
 
-    pub fn new(s: EnsembleState, ndim: usize, nderived: usize) -> Self {
+    /// An ensemble in `s` whose walkers' density caches are `cache` (`walkers × cache_len`).
+    pub fn new(
+        s: EnsembleState,
+        cache: Vec<f64>,
+        ndim: usize,
+        nderived: usize,
+        cache_len: usize,
+    ) -> Self {
         let walkers = s.log_density.len();
         let half = walkers / 2;
         Self {
             s,
+            cache,
             ndim,
             nderived,
+            cache_len,
             perm: (0..walkers).collect(),
             factor: vec![1.0; half],
             log_factor: vec![0.0; half],
             accept_u: vec![0.0; half],
             scratch_idx: vec![0; half],
             scratch_z: vec![0.0; half],
+            sub: Vec::new(),
+            sub_out: Vec::new(),
         }
     }
 
@@ -170,61 +207,113 @@ impl Ensemble {
         }
     }
 
-    /// Draws the proposals of half `h` into `proposals` (`half × ndim`), each walker from its
-    /// own stream: partner or move randomness first, then the acceptance uniform.
-    pub fn draw(&mut self, mv: &Move, h: usize, proposals: &mut [f64]) {
+    /// Draws the proposals of half `h` into `out.proposals` (`half × ndim`), each walker from
+    /// its own stream: partner or move randomness first, then the acceptance uniform.
+    ///
+    /// With `block` (a set of coordinates) the move acts in the block's subspace: on the
+    /// walkers' coordinates in the block, the others staying where they are; the proposal's
+    /// derived values and cache start as the walker's own, for the block update to bring up
+    /// to date.
+    pub fn draw(&mut self, mv: &Move, h: usize, block: Option<&[usize]>, out: ProposalBuffers) {
         let ndim = self.ndim;
         let Self {
             s,
+            cache,
             perm,
             factor,
             log_factor,
             accept_u,
             scratch_idx,
             scratch_z,
+            sub,
+            sub_out,
+            nderived,
+            cache_len,
             ..
         } = self;
         let (active, complement) = Self::halves(perm, h);
-        let positions = &s.positions;
+        let Some(coords) = block else {
+            let positions = &s.positions;
+            let mut fit = match *mv {
+                Move::Independence { dof } => ComplementFit::new(positions, complement, ndim, dof),
+                _ => None,
+            };
+            for ((((&w, o), f), lf), au) in active
+                .iter()
+                .zip(out.proposals.chunks_exact_mut(ndim))
+                .zip(factor.iter_mut())
+                .zip(log_factor.iter_mut())
+                .zip(accept_u.iter_mut())
+            {
+                let rng = &mut s.walker_rngs[w];
+                let c = mv.propose(
+                    &positions[w * ndim..(w + 1) * ndim],
+                    positions,
+                    complement,
+                    fit.as_mut(),
+                    rng,
+                    o,
+                    scratch_idx,
+                    scratch_z,
+                );
+                (*f, *lf) = (c.factor, c.log_factor);
+                *au = rng.random();
+            }
+            return;
+        };
+        let bdim = coords.len();
+        let walkers = s.log_density.len();
+        sub.clear();
+        for w in 0..walkers {
+            let x = &s.positions[w * ndim..(w + 1) * ndim];
+            sub.extend(coords.iter().map(|&i| x[i]));
+        }
+        sub_out.resize(bdim, 0.0);
         let mut fit = match *mv {
-            Move::Independence { dof } => ComplementFit::new(positions, complement, ndim, dof),
+            Move::Independence { dof } => ComplementFit::new(sub, complement, bdim, dof),
             _ => None,
         };
-        for ((((&w, out), f), lf), au) in active
-            .iter()
-            .zip(proposals.chunks_exact_mut(ndim))
-            .zip(factor.iter_mut())
-            .zip(log_factor.iter_mut())
-            .zip(accept_u.iter_mut())
-        {
+        let (nd, nc) = (*nderived, *cache_len);
+        let (sd, sc) = (nd.max(1), nc.max(1));
+        for (k, &w) in active.iter().enumerate() {
             let rng = &mut s.walker_rngs[w];
             let c = mv.propose(
-                &positions[w * ndim..(w + 1) * ndim],
-                positions,
+                &sub[w * bdim..(w + 1) * bdim],
+                sub,
                 complement,
                 fit.as_mut(),
                 rng,
-                out,
+                sub_out,
                 scratch_idx,
                 scratch_z,
             );
-            (*f, *lf) = (c.factor, c.log_factor);
-            *au = rng.random();
+            (factor[k], log_factor[k]) = (c.factor, c.log_factor);
+            accept_u[k] = rng.random();
+            let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
+            o.copy_from_slice(&s.positions[w * ndim..(w + 1) * ndim]);
+            for (&i, &y) in coords.iter().zip(sub_out.iter()) {
+                o[i] = y;
+            }
+            out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
+            out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
         }
     }
 
     /// Accepts or rejects the evaluated proposals of half `h` (`proposals`, `derived` with
-    /// stride max(nderived, 1), `evals`: this ensemble's blocks of [`Work`]).
+    /// stride max(nderived, 1), `caches` with stride max(cache_len, 1), `evals`: this
+    /// ensemble's blocks of [`Work`]).
     pub fn accept(
         &mut self,
         h: usize,
         proposals: &[f64],
         derived: &[f64],
+        caches: &[f64],
         evals: &[Eval],
     ) -> Result<(), Fatal> {
-        let (ndim, nderived) = (self.ndim, self.nderived);
+        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
         let Self {
             s,
+            cache,
             perm,
             factor,
             log_factor,
@@ -281,6 +370,10 @@ impl Ensemble {
                             .zip(&derived[k * stride..k * stride + nderived])
                         {
                             *d = y;
+                        }
+                        if cache_len > 0 {
+                            let c = &caches[k * cache_len..(k + 1) * cache_len];
+                            cache[w * cache_len..(w + 1) * cache_len].copy_from_slice(c);
                         }
                         s.log_density[w] = lp;
                         s.accepted[w] += 1;

@@ -62,7 +62,7 @@ mod run;
 pub mod sink;
 
 pub use config::{
-    SamplerConfig, Steps, StopRule, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
+    SamplerConfig, Steps, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
 };
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;

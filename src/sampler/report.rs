@@ -18,6 +18,8 @@ pub enum StopReason {
     Converged,
     /// The step cap was reached before the stopping rule was met.
     StepCap,
+    /// The time budget ran out before the stopping rule was met.
+    TimeCap,
 }
 
 /// Counters of one ensemble.

@@ -5,8 +5,8 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::config::{SamplerConfig, Steps};
-use super::ensemble::{Ensemble, EnsembleState, Fatal, Work};
+use super::config::{SamplerConfig, Steps, Updates};
+use super::ensemble::{Ensemble, EnsembleState, Fatal, ProposalBuffers, Work};
 use super::error::SamplerError;
 use super::history::{History, RowHistory};
 use super::moves::Move;
@@ -15,9 +15,10 @@ use super::report::{
     rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
 };
 use super::sink::{ChainSink, StepView};
-use crate::density::{classify, Eval, LogDensity};
+use crate::density::{sort, Eval, LogDensity};
 use crate::diagnostics::{
-    stuck_walkers, walker_condition_number, Problem, RHAT_MAX, TAU_FACTOR, WALKER_CONDITION_LIMIT,
+    blockwise_condition_number, stuck_walkers, Problem, RHAT_MAX, TAU_FACTOR,
+    WALKER_CONDITION_LIMIT,
 };
 
 /// Version of the [`SamplerState`] layout.
@@ -41,6 +42,9 @@ pub struct SamplerState {
     /// stretch move alone).
     #[serde(default = "stretch_alone")]
     pub moves: Vec<(Move, f64)>,
+    /// Joint or blocked updates (states written before blocked updates existed were joint).
+    #[serde(default)]
+    pub updates: Updates,
     /// Steps completed.
     pub step: u64,
     /// Per-ensemble state.
@@ -62,6 +66,9 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     config: SamplerConfig,
     ndim: usize,
     nderived: usize,
+    cache_len: usize,
+    /// The blocks updated one after the other in a step; empty for joint updates.
+    blocks: Vec<Vec<usize>>,
     ensembles: Vec<Ensemble>,
     /// Move of the current step per ensemble.
     step_moves: Vec<Move>,
@@ -70,9 +77,9 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     pending: Vec<Option<Fatal>>,
     step: u64,
     history: RowHistory,
-    /// Estimated cost of one density evaluation (ns), to decide whether a half-step is worth
-    /// parallelising; `None` until measured.
-    eval_ns: Option<f64>,
+    /// Estimated cost of one density evaluation (ns) per block (one entry for joint updates),
+    /// to decide whether a half-step is worth parallelising; `None` until measured.
+    eval_ns: Vec<Option<f64>>,
     /// Half-steps evaluated so far (for occasional re-timing).
     half_steps: u64,
     last_tau: Option<Vec<Vec<f64>>>,
@@ -116,7 +123,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ) -> Result<Self, SamplerError> {
         let ndim = density.dim();
         let nderived = density.derived_names().len();
-        check_dims(ndim, &config)?;
+        let cache_len = density.cache_len();
+        let blocks = blocks_of(density, &config)?;
+        check_dims(ndim, &blocks, &config)?;
         shape(
             "initial ensembles".into(),
             config.ensembles(),
@@ -124,6 +133,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         )?;
         let walkers = config.walkers();
         let mut states = Vec::with_capacity(initial.len());
+        let mut caches = Vec::with_capacity(initial.len());
         for (e, ens) in initial.into_iter().enumerate() {
             shape(format!("walkers of ensemble {e}"), walkers, ens.len())?;
             let mut positions = Vec::with_capacity(walkers * ndim);
@@ -139,7 +149,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 }
                 positions.extend_from_slice(x);
             }
-            let condition = walker_condition_number(&positions, ndim);
+            let condition = blockwise_condition_number(&positions, ndim, &blocks);
             if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
                 return Err(SamplerError::DegenerateEnsemble {
                     ensemble: e,
@@ -151,11 +161,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             // leave every walker unevaluated.
             let stride = nderived.max(1);
             let mut strided = vec![0.0; walkers * stride];
+            // Stride ≥ 1 here too, for the same reason.
+            let mut cache = vec![0.0; walkers * cache_len.max(1)];
             let mut log_density = vec![0.0; walkers];
             let evals: Vec<Eval> = positions
                 .par_chunks(ndim)
                 .zip(strided.par_chunks_mut(stride))
-                .map(|(x, d)| classify(density, x, &mut d[..nderived]))
+                .zip(cache.par_chunks_mut(cache_len.max(1)))
+                .map(|((x, d), c)| {
+                    sort(density.log_density_cached(x, &mut d[..nderived], &mut c[..cache_len]))
+                })
                 .collect();
             let derived: Vec<f64> = strided
                 .chunks(stride)
@@ -188,9 +203,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 rejections: Default::default(),
                 evaluations: walkers as u64,
             });
+            caches.push(cache);
         }
         let history = RowHistory::new(config.ensembles(), walkers * ndim, config.history_rows());
-        Ok(Self::assemble(density, config, states, 0, history, None))
+        Ok(Self::assemble(
+            density, config, blocks, states, caches, 0, history, None,
+        ))
     }
 
     /// A sampler continuing from `state` (as passed to [`ChainSink::checkpoint`]). The
@@ -206,7 +224,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let mismatch = |detail: String| Err(SamplerError::StateMismatch { detail });
         let ndim = density.dim();
         let nderived = density.derived_names().len();
-        check_dims(ndim, &config)?;
+        let cache_len = density.cache_len();
+        if state.updates != config.updates() {
+            return mismatch(format!(
+                "the chains were drawn with {} updates, the configuration has {}; resume with the original updates",
+                state.updates.as_str(),
+                config.updates().as_str()
+            ));
+        }
+        let blocks = blocks_of(density, &config)?;
+        check_dims(ndim, &blocks, &config)?;
         let walkers = config.walkers();
         if state.version != STATE_VERSION {
             return mismatch(format!(
@@ -245,6 +272,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             return mismatch("history does not match the ensembles".into());
         }
         let mut scratch = vec![0.0; nderived];
+        let mut caches = Vec::with_capacity(state.ensembles.len());
         for (e, s) in state.ensembles.iter().enumerate() {
             if s.positions.len() != walkers * ndim
                 || s.log_density.len() != walkers
@@ -254,10 +282,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             {
                 return mismatch(format!("arrays of ensemble {e} have the wrong sizes"));
             }
+            // The caches are not stored: the check's full evaluation rebuilds them.
+            let mut cache = vec![0.0; walkers * cache_len];
             for w in 0..walkers {
                 let x = &s.positions[w * ndim..(w + 1) * ndim];
                 let stored = s.log_density[w];
-                match classify(density, x, &mut scratch) {
+                let c = &mut cache[w * cache_len..(w + 1) * cache_len];
+                match sort(density.log_density_cached(x, &mut scratch, c)) {
                     Eval::Finite(v) if (v - stored).abs() <= RESUME_RTOL * v.abs().max(1.0) => {}
                     other => {
                         return mismatch(format!(
@@ -267,6 +298,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     }
                 }
             }
+            caches.push(cache);
         }
         let SamplerState {
             ensembles,
@@ -279,35 +311,42 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         history.max_rows = config.history_rows().max(history.rows + 1);
         let history = RowHistory::from_history(&history, walkers * ndim);
         Ok(Self::assemble(
-            density, config, ensembles, step, history, last_tau,
+            density, config, blocks, ensembles, caches, step, history, last_tau,
         ))
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn assemble(
         density: &'a D,
         config: SamplerConfig,
+        blocks: Vec<Vec<usize>>,
         states: Vec<EnsembleState>,
+        caches: Vec<Vec<f64>>,
         step: u64,
         history: RowHistory,
         last_tau: Option<Vec<Vec<f64>>>,
     ) -> Self {
         let ndim = density.dim();
         let nderived = density.derived_names().len();
+        let cache_len = density.cache_len();
         let ensembles: Vec<Ensemble> = states
             .into_iter()
-            .map(|s| Ensemble::new(s, ndim, nderived))
+            .zip(caches)
+            .map(|(s, c)| Ensemble::new(s, c, ndim, nderived, cache_len))
             .collect();
         let half = config.walkers() / 2;
         Self {
             pending: (0..ensembles.len()).map(|_| None).collect(),
             step_moves: vec![config.moves()[0].0; ensembles.len()],
-            work: Work::new(ensembles.len(), half, ndim, nderived),
-            eval_ns: None,
+            work: Work::new(ensembles.len(), half, ndim, nderived, cache_len),
+            eval_ns: vec![None; blocks.len().max(1)],
             half_steps: 0,
             density,
             config,
             ndim,
             nderived,
+            cache_len,
+            blocks,
             ensembles,
             step,
             history,
@@ -325,11 +364,17 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             nderived: self.nderived,
             walkers: self.config.walkers(),
             moves: self.config.moves().to_vec(),
+            updates: self.config.updates(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
             history: self.history.to_history(),
             last_tau: self.last_tau.clone(),
         }
+    }
+
+    /// Updates of each walker per step: one per block (one when joint).
+    fn updates_per_step(&self) -> f64 {
+        self.blocks.len().max(1) as f64
     }
 
     /// Steps completed so far.
@@ -425,7 +470,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             }
             let mut stop = false;
             if let Some(rule) = rule {
-                if self.step % rule.check_every == 0 {
+                if rule
+                    .max_time_s
+                    .is_some_and(|t| started.elapsed().as_secs_f64() >= t)
+                {
+                    stop = true;
+                    stopped_by = StopReason::TimeCap;
+                } else if self.step % rule.check_every == 0 {
                     let (met, tmax) = self.check_stop(&rule);
                     tau_max = tmax.or(tau_max);
                     if met {
@@ -468,6 +519,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             nderived: self.nderived,
             walkers: self.config.walkers(),
             moves: self.config.moves(),
+            updates: self.config.updates(),
             step: self.step,
             ensembles: &self.ensembles,
             history: &self.history,
@@ -479,103 +531,143 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         })
     }
 
-    /// One step of every ensemble. All randomness is drawn serially, ensemble by ensemble;
-    /// per half-step the proposals of all ensembles are evaluated in one loop (see
-    /// [`evaluate`](Self::evaluate)).
+    /// One step of every ensemble: one update of every walker (joint), or one update of
+    /// every walker in each block in turn (blocked). All randomness is drawn serially,
+    /// ensemble by ensemble; per half-step the proposals of all ensembles are evaluated in one
+    /// loop (see [`evaluate`](Self::evaluate)).
     fn advance(&mut self, step_no: u64) -> Result<(), SamplerError> {
-        let moves = self.config.moves();
-        let block = self.config.walkers() / 2;
-        let (ndim, stride) = (self.ndim, self.nderived.max(1));
-        for (ens, mv) in self.ensembles.iter_mut().zip(self.step_moves.iter_mut()) {
-            *mv = ens.start_step(moves);
-        }
-        for h in 0..2 {
-            for (((ens, mv), p), props) in self
-                .ensembles
-                .iter_mut()
-                .zip(&self.step_moves)
-                .zip(&self.pending)
-                .zip(self.work.proposals.chunks_exact_mut(block * ndim))
-            {
-                // An ensemble whose first half failed fatally does not go on (as before).
-                if p.is_none() {
-                    ens.draw(mv, h, props);
-                }
-            }
-            self.evaluate();
-            let Work {
-                proposals,
-                derived,
-                evals,
-            } = &self.work;
-            for ((((ens, p), props), der), ev) in self
-                .ensembles
-                .iter_mut()
-                .zip(self.pending.iter_mut())
-                .zip(proposals.chunks_exact(block * ndim))
-                .zip(derived.chunks_exact(block * stride))
-                .zip(evals.chunks_exact(block))
-            {
-                if p.is_none() {
-                    *p = ens.accept(h, props, der, ev).err();
-                }
-            }
-        }
-        if let Some((e, f)) = self
-            .pending
-            .iter_mut()
-            .enumerate()
-            .find_map(|(e, p)| p.take().map(|f| (e, f)))
-        {
+        let blocks = std::mem::take(&mut self.blocks);
+        let result = if blocks.is_empty() {
+            self.update(None)
+        } else {
+            blocks
+                .iter()
+                .enumerate()
+                .try_for_each(|(b, coords)| self.update(Some((b, coords))))
+        };
+        self.blocks = blocks;
+        result.map_err(|(e, f)| {
             self.poisoned = true;
-            return Err(SamplerError::FatalDensity {
+            SamplerError::FatalDensity {
                 ensemble: e,
                 walker: f.walker,
                 step: step_no,
                 position: f.position,
                 message: f.message,
-            });
-        }
-        Ok(())
+            }
+        })
     }
 
-    /// Evaluates the proposals in [`Work`]: on the rayon pool when parallel evaluation is
-    /// allowed and the half-step's estimated serial cost exceeds [`PARALLEL_MIN_WORK_NS`]
-    /// (below it the synchronisation costs more than it saves), serially otherwise. The
-    /// results are the same either way, so the choice (which depends on timing) cannot
-    /// change the chains.
-    fn evaluate(&mut self) {
+    /// Updates every walker of every ensemble once: all coordinates, or those of `block`
+    /// (its index and coordinates). Returns the first fatal evaluation.
+    fn update(&mut self, block: Option<(usize, &[usize])>) -> Result<(), (usize, Fatal)> {
+        let moves = self.config.moves();
+        let half = self.config.walkers() / 2;
+        let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
+        for (ens, mv) in self.ensembles.iter_mut().zip(self.step_moves.iter_mut()) {
+            *mv = ens.start_step(moves);
+        }
+        for h in 0..2 {
+            let Work {
+                proposals,
+                derived,
+                cache,
+                ..
+            } = &mut self.work;
+            for (((((ens, mv), p), props), der), cac) in self
+                .ensembles
+                .iter_mut()
+                .zip(&self.step_moves)
+                .zip(&self.pending)
+                .zip(proposals.chunks_exact_mut(half * ndim))
+                .zip(derived.chunks_exact_mut(half * stride))
+                .zip(cache.chunks_exact_mut(half * cstride))
+            {
+                // An ensemble whose first half failed fatally does not go on (as before).
+                if p.is_none() {
+                    let out = ProposalBuffers {
+                        proposals: props,
+                        derived: der,
+                        cache: cac,
+                    };
+                    ens.draw(mv, h, block.map(|b| b.1), out);
+                }
+            }
+            self.evaluate(block.map(|b| b.0));
+            let Work {
+                proposals,
+                derived,
+                cache,
+                evals,
+            } = &self.work;
+            for (((((ens, p), props), der), cac), ev) in self
+                .ensembles
+                .iter_mut()
+                .zip(self.pending.iter_mut())
+                .zip(proposals.chunks_exact(half * ndim))
+                .zip(derived.chunks_exact(half * stride))
+                .zip(cache.chunks_exact(half * cstride))
+                .zip(evals.chunks_exact(half))
+            {
+                if p.is_none() {
+                    *p = ens.accept(h, props, der, cac, ev).err();
+                }
+            }
+        }
+        match self
+            .pending
+            .iter_mut()
+            .enumerate()
+            .find_map(|(e, p)| p.take().map(|f| (e, f)))
+        {
+            Some(fatal) => Err(fatal),
+            None => Ok(()),
+        }
+    }
+
+    /// Evaluates the proposals in [`Work`] (in full, or as updates of `block`): on the rayon
+    /// pool when parallel evaluation is allowed and the half-step's estimated serial cost
+    /// exceeds [`PARALLEL_MIN_WORK_NS`] (below it the synchronisation costs more than it
+    /// saves), serially otherwise. The results are the same either way, so the choice (which
+    /// depends on timing) cannot change the chains.
+    fn evaluate(&mut self, block: Option<usize>) {
         let density = self.density;
-        let (ndim, nderived) = (self.ndim, self.nderived);
-        let stride = nderived.max(1);
+        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
+        let (stride, cstride) = (nderived.max(1), cache_len.max(1));
         let Work {
             proposals,
             derived,
+            cache,
             evals,
         } = &mut self.work;
         let n = evals.len();
         let threads = rayon::current_num_threads();
+        let cost = &mut self.eval_ns[block.unwrap_or(0)];
         let parallel = self.config.parallel()
             && threads > 1
-            && self
-                .eval_ns
-                .is_some_and(|c| c * n as f64 >= PARALLEL_MIN_WORK_NS);
+            && cost.is_some_and(|c| c * n as f64 >= PARALLEL_MIN_WORK_NS);
         self.half_steps += 1;
-        let timed = parallel || self.eval_ns.is_none() || self.half_steps % RETIME_EVERY == 0;
+        let timed = parallel || cost.is_none() || self.half_steps % RETIME_EVERY == 0;
         let started = timed.then(Instant::now);
-        let eval = |((x, d), e): ((&[f64], &mut [f64]), &mut Eval)| {
-            *e = classify(density, x, &mut d[..nderived]);
+        let eval = |(((x, d), c), e): EvalItem| {
+            let (d, c) = (&mut d[..nderived], &mut c[..cache_len]);
+            *e = sort(match block {
+                None => density.log_density_cached(x, d, c),
+                Some(b) => density.log_density_block(b, x, d, c),
+            });
         };
         if parallel {
             proposals
                 .par_chunks(ndim)
                 .zip(derived.par_chunks_mut(stride))
+                .zip(cache.par_chunks_mut(cstride))
                 .zip(evals.par_iter_mut())
                 .for_each(eval);
         } else {
             proposals
                 .chunks(ndim)
                 .zip(derived.chunks_mut(stride))
+                .zip(cache.chunks_mut(cstride))
                 .zip(evals.iter_mut())
                 .for_each(eval);
         }
@@ -588,7 +680,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             } else {
                 ns / n as f64
             };
-            self.eval_ns = Some(match self.eval_ns {
+            *cost = Some(match *cost {
                 Some(c) => 0.5 * (c + per),
                 None => per,
             });
@@ -638,7 +730,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let (acc, n) = self.ensembles.iter().fold((0u64, 0usize), |(a, n), e| {
             (a + e.s.accepted.iter().sum::<u64>(), n + e.s.accepted.len())
         });
-        let acceptance = acc as f64 / (n as f64 * self.step.max(1) as f64);
+        let acceptance =
+            acc as f64 / (n as f64 * self.updates_per_step() * self.step.max(1) as f64);
         let done = self.step - first;
         let target = match (tau_factor, tau_max) {
             (Some(f), Some(t)) => ((f * t).ceil() as u64).clamp(self.step, last),
@@ -669,7 +762,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     .s
                     .accepted
                     .iter()
-                    .map(|&a| a as f64 / steps.max(1) as f64)
+                    .map(|&a| a as f64 / (self.updates_per_step() * steps.max(1) as f64))
                     .collect(),
                 rejections: e.s.rejections.clone(),
                 evaluations: e.s.evaluations,
@@ -721,6 +814,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 }
 
+/// One proposal's buffers as the evaluation loop zips them: position, derived values, cache,
+/// outcome.
+type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
+
 /// Serial cost (ns) of a half-step's evaluations above which they are spread over the rayon
 /// pool. One parallel loop costs a few to tens of µs of synchronisation on a busy
 /// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only
@@ -737,6 +834,7 @@ struct StateView<'s> {
     nderived: usize,
     walkers: usize,
     moves: &'s [(Move, f64)],
+    updates: Updates,
     step: u64,
     ensembles: &'s [Ensemble],
     history: &'s RowHistory,
@@ -752,13 +850,14 @@ impl Serialize for StateView<'_> {
                 ser.collect_seq(self.0.iter().map(|e| &e.s))
             }
         }
-        let mut st = ser.serialize_struct("SamplerState", 10)?;
+        let mut st = ser.serialize_struct("SamplerState", 11)?;
         st.serialize_field("version", &STATE_VERSION)?;
         st.serialize_field("seed", &self.seed)?;
         st.serialize_field("ndim", &self.ndim)?;
         st.serialize_field("nderived", &self.nderived)?;
         st.serialize_field("walkers", &self.walkers)?;
         st.serialize_field("moves", self.moves)?;
+        st.serialize_field("updates", &self.updates)?;
         st.serialize_field("step", &self.step)?;
         st.serialize_field("ensembles", &Ensembles(self.ensembles))?;
         st.serialize_field("history", self.history)?;
@@ -770,7 +869,56 @@ impl Serialize for StateView<'_> {
 /// Relative tolerance between a stored and a re-evaluated log-density on resume.
 pub const RESUME_RTOL: f64 = 1e-9;
 
-fn check_dims(ndim: usize, config: &SamplerConfig) -> Result<(), SamplerError> {
+/// The blocks a step updates in turn: the density's, validated, when the configuration asks
+/// for blocked updates and the density has two or more; none (joint updates) otherwise.
+fn blocks_of<D: LogDensity + ?Sized>(
+    density: &D,
+    config: &SamplerConfig,
+) -> Result<Vec<Vec<usize>>, SamplerError> {
+    if config.updates() == Updates::Joint {
+        return Ok(Vec::new());
+    }
+    let blocks = density.blocks();
+    let ndim = density.dim();
+    let mut seen = vec![false; ndim];
+    for b in &blocks {
+        for &i in b {
+            if i >= ndim || std::mem::replace(&mut seen[i], true) {
+                return Err(SamplerError::InvalidConfig {
+                    name: "blocks",
+                    value: format!("{blocks:?}"),
+                    requirement: format!(
+                        "the density's blocks must be disjoint sets of coordinates below {ndim}"
+                    ),
+                });
+            }
+        }
+    }
+    if blocks.is_empty() || blocks.iter().any(Vec::is_empty) || seen.contains(&false) {
+        if blocks.len() <= 1 {
+            return Ok(Vec::new());
+        }
+        return Err(SamplerError::InvalidConfig {
+            name: "blocks",
+            value: format!("{blocks:?}"),
+            requirement: format!(
+                "the density's blocks must be non-empty and cover all {ndim} coordinates"
+            ),
+        });
+    }
+    if blocks.len() == 1 {
+        return Ok(Vec::new());
+    }
+    Ok(blocks)
+}
+
+/// The walkers must span the space each move acts in: the whole space, or each block.
+fn check_dims(
+    ndim: usize,
+    blocks: &[Vec<usize>],
+    config: &SamplerConfig,
+) -> Result<(), SamplerError> {
+    let span = blocks.iter().map(Vec::len).max().unwrap_or(ndim);
     if ndim == 0 {
         return Err(SamplerError::InvalidConfig {
             name: "dim",
@@ -778,15 +926,23 @@ fn check_dims(ndim: usize, config: &SamplerConfig) -> Result<(), SamplerError> {
             requirement: "the density must have at least one parameter".into(),
         });
     }
-    if config.walkers() < 2 * ndim {
+    if config.walkers() < 2 * span {
+        let what = if blocks.is_empty() {
+            "ndim"
+        } else {
+            "the largest block"
+        };
         return Err(SamplerError::InvalidConfig {
             name: "walkers",
             value: config.walkers().to_string(),
-            requirement: format!("must be at least 2·ndim = {} for this density", 2 * ndim),
+            requirement: format!(
+                "must be at least 2 × {what} = {} for this density",
+                2 * span
+            ),
         });
     }
     for (m, _) in config.moves() {
-        m.validate_complement(config.walkers() / 2, ndim)?;
+        m.validate_complement(config.walkers() / 2, span)?;
     }
     Ok(())
 }

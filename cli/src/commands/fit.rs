@@ -7,11 +7,10 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use slipbayes::density::LogDensity;
 use slipbayes::diagnostics::problem_lines;
 use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
-use slipbayes::sampler::Mixture;
+use slipbayes::sampler::{Mixture, Updates};
 
 use super::import::ImportArgs;
 use crate::progress::ProgressBarObserver;
@@ -79,7 +78,8 @@ pub(super) struct RunArgs {
     /// Seed (overrides the model file's).
     #[arg(long)]
     seed: Option<u64>,
-    /// Walkers per ensemble (default: the model file's, else max(32, 2·dim + 4)).
+    /// Walkers per ensemble (default: the model file's, else max(32, 4·d + 4), d the
+    /// coordinates one update moves).
     #[arg(long)]
     walkers: Option<usize>,
     /// Fixed number of steps (default: the model file's, else run until converged).
@@ -88,6 +88,10 @@ pub(super) struct RunArgs {
     /// Step cap when running until converged.
     #[arg(long = "max-steps")]
     max_steps: Option<u64>,
+    /// Wall-time budget in seconds when running until converged; a run that hits it writes
+    /// its results and says what it would still need.
+    #[arg(long = "max-time")]
+    max_time: Option<f64>,
     /// Continue a killed fit in the output directory.
     #[arg(long)]
     resume: bool,
@@ -104,6 +108,10 @@ pub(super) struct RunArgs {
     /// walk, gaussian, student-t); default: the model file's, else the fit's default mixture.
     #[arg(long)]
     moves: Option<Mixture>,
+    /// `joint` (every coordinate at once) or `blocked` (one material's shared parameters,
+    /// then each contact's own, in turn); default: the model file's, else the fit's default.
+    #[arg(long)]
+    updates: Option<Updates>,
 }
 
 /// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
@@ -162,9 +170,11 @@ impl RunArgs {
             walkers: self.walkers,
             steps: self.steps,
             max_steps: self.max_steps,
+            max_time_s: self.max_time,
             quiet: self.quiet,
             overwrite: self.overwrite || overwrite,
             moves: self.moves.as_ref().map(|m| m.moves().to_vec()),
+            updates: self.updates,
         }
     }
 }
@@ -176,7 +186,7 @@ fn fit_and_report(
     replace_earlier: bool,
 ) -> anyhow::Result<ExitCode> {
     let posterior = Posterior::new(spec)?;
-    let settings = FitSettings::for_model(spec, posterior.dim(), &run.overrides(replace_earlier));
+    let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut observer = ProgressBarObserver::new(run.quiet);
     let command = std::env::args().collect();

@@ -14,11 +14,24 @@ use crate::law::{Elastic, Law, Peak};
 impl Posterior {
     /// Writes the value of every reported column at `x`, in column order, into `derived`
     /// (of length `quantities().len()`). `sigma_fit[g]` = (sum of squared residuals, points)
-    /// of marginalised σ group g at `x`, for the conditional draw of σ.
-    pub(super) fn derived_values(&self, x: &[f64], sigma_fit: &SigmaFit, derived: &mut [f64]) {
+    /// of marginalised σ group g at `x`, for the conditional draw of σ. With `peaks`, only
+    /// the peaks of the runs it marks are computed (the others keep their values: a block
+    /// update did not change them).
+    pub(super) fn derived_values(
+        &self,
+        x: &[f64],
+        sigma_fit: &SigmaFit,
+        derived: &mut [f64],
+        peaks: Option<&[bool]>,
+    ) {
         // Peaks are computed once per run and read by several columns.
         let mut peak_cache: Option<(usize, Option<Peak>, Option<f64>)> = None;
         for (out, source) in derived.iter_mut().zip(&self.sources) {
+            if let (Source::Peak { run, .. }, Some(marked)) = (source, peaks) {
+                if !marked[*run] {
+                    continue;
+                }
+            }
             *out = match *source {
                 Source::Coord(i) => x[i].exp(),
                 Source::T0(src) => src.value(x),

@@ -127,39 +127,55 @@ impl RunModel {
 /// Per marginalised σ group: (sum of weighted squared residuals, observations).
 pub(super) type SigmaFit = [(f64, usize); MAX_RUNS];
 
+/// A law that cannot be evaluated rejects the point, under the label of the reason.
+fn law_rejection(e: LawError) -> LogDensityError {
+    match e {
+        LawError::StickSlip { .. } => LogDensityError::rejected(REJECT_STICK_SLIP),
+        _ => LogDensityError::rejected(REJECT_LAW),
+    }
+}
+
 impl Posterior {
-    /// The log-likelihood at `x`; fills `sigma_fit` with the residuals of each marginalised σ
-    /// group (for the conditional draw of σ among the derived values).
+    /// Fits run `i` at `x` into `ssr[i]` and `last[i]` (its weighted sum of squared residuals
+    /// and F_end), reading the F_end of the slide it follows from `last`: a repeat slide must
+    /// come after the slide it follows (see `order`).
+    pub(super) fn fit_run(
+        &self,
+        i: usize,
+        x: &[f64],
+        ssr: &mut [f64],
+        last: &mut [f64],
+    ) -> Result<(), LogDensityError> {
+        let r = &self.runs[i];
+        let fit = r
+            .residuals(x, r.follows.map(|j| last[j]))
+            .map_err(law_rejection)?;
+        ssr[i] = fit.ssr;
+        last[i] = fit.last_force;
+        Ok(())
+    }
+
+    /// The log-likelihood given every run's weighted sum of squared residuals `ssr` (indexed
+    /// by run); fills `sigma_fit` with the residuals of each marginalised σ group (for the
+    /// conditional draw of σ among the derived values). Summed in run order, so that a full
+    /// evaluation and a block update give the same bits.
     pub(super) fn log_likelihood(
         &self,
         x: &[f64],
+        ssr: &[f64],
         sigma_fit: &mut SigmaFit,
     ) -> Result<f64, LogDensityError> {
-        let law_error = |e: LawError| match e {
-            LawError::StickSlip { .. } => LogDensityError::rejected(REJECT_STICK_SLIP),
-            _ => LogDensityError::rejected(REJECT_LAW),
-        };
-        // Small fixed scratch on the stack: no allocation on the sampler's hot path.
-        let mut f_end = [None; MAX_RUNS];
         let mut ll = 0.0;
-        for &i in &self.order {
-            let r = &self.runs[i];
-            let fit = r
-                .residuals(x, r.follows.and_then(|j| f_end[j]))
-                .map_err(law_error)?;
+        for (r, &ssr) in self.runs.iter().zip(ssr) {
             ll += r.data.half_log_weights();
-            if r.scene == Scene::First {
-                f_end[i] = Some(fit.last_force);
-            }
             let n = r.data.n_obs;
             match r.sigma {
                 SigmaSource::Coord(s) => {
                     let sigma = x[s].exp();
-                    ll +=
-                        -(n as f64) * (sigma.ln() + LN_SQRT_2PI) - 0.5 * fit.ssr / (sigma * sigma);
+                    ll += -(n as f64) * (sigma.ln() + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma);
                 }
                 SigmaSource::Marginal(g) => {
-                    sigma_fit[g].0 += fit.ssr;
+                    sigma_fit[g].0 += ssr;
                     sigma_fit[g].1 += n;
                 }
             }

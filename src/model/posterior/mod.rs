@@ -15,6 +15,7 @@
 //!
 //! The model itself is described in `docs/model.md`.
 
+mod blocks;
 mod derived;
 mod layout;
 mod likelihood;
@@ -25,11 +26,12 @@ mod start;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
+use blocks::{Block, Cache};
 use layout::{Coord, CoordPrior, Layout, MaterialModel, Population, SigmaGroup, Source};
-use likelihood::{RunModel, SigmaFit, LN_SQRT_2PI};
+use likelihood::RunModel;
 
 use super::data::RunData;
-use super::spec::ModelSpec;
+use super::spec::{Blocking, ModelSpec};
 use crate::density::{LogDensity, LogDensityError, Quantity};
 use crate::law::Scene;
 
@@ -49,6 +51,8 @@ pub struct Posterior {
     runs: Vec<RunModel>,
     /// Run indices in evaluation order: slides that others follow come first.
     order: Vec<usize>,
+    /// Blocks of coordinates for blocked updates (see `blocks`).
+    blocks: Vec<Block>,
     sigma_groups: Vec<SigmaGroup>,
     populations: Vec<Population>,
     materials: Vec<MaterialModel>,
@@ -108,6 +112,11 @@ impl Posterior {
         }
         let layout = Layout::new(spec, data);
         let order = evaluation_order(&layout.runs);
+        let group = |r: &RunModel| match spec.file.sampler.blocks {
+            Blocking::Material => spec.contact_material[r.contact],
+            Blocking::Contact => r.contact,
+        };
+        let blocks = blocks::blocks(layout.coords.len(), &layout.runs, &order, group);
         Ok(Self {
             spec: spec.clone(),
             coords: layout.coords,
@@ -115,6 +124,7 @@ impl Posterior {
             sources: layout.sources,
             runs: layout.runs,
             order,
+            blocks,
             sigma_groups: layout.sigma_groups,
             populations: layout.populations,
             materials: layout.materials,
@@ -172,23 +182,6 @@ impl Posterior {
     pub fn start(&self) -> &[f64] {
         self.start.get_or_init(|| self.heuristic_start())
     }
-
-    fn log_prior(&self, x: &[f64]) -> Result<f64, LogDensityError> {
-        let mut lp = 0.0;
-        for (c, &u) in self.coords.iter().zip(x) {
-            lp += match &c.prior {
-                CoordPrior::Log(prior) => {
-                    let l = prior.ln_density(u.exp());
-                    if l == f64::NEG_INFINITY {
-                        return Err(LogDensityError::rejected(REJECT_PRIOR));
-                    }
-                    l + u
-                }
-                CoordPrior::StdNormal => -0.5 * u * u - LN_SQRT_2PI,
-            };
-        }
-        Ok(lp)
-    }
 }
 
 /// A model may have at most [`MAX_RUNS`] runs.
@@ -225,12 +218,36 @@ impl LogDensity for Posterior {
     }
 
     fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
-        let lp = self.log_prior(x)?;
-        let mut sigma_fit: SigmaFit = [(0.0, 0); MAX_RUNS];
-        let ll = self.log_likelihood(x, &mut sigma_fit)?;
-        if !derived.is_empty() {
-            self.derived_values(x, &sigma_fit, derived);
-        }
-        Ok(lp + ll)
+        let mut cache = vec![0.0; self.cache_size()];
+        self.log_density_cached(x, derived, &mut cache)
+    }
+
+    fn blocks(&self) -> Vec<Vec<usize>> {
+        self.blocks.iter().map(|b| b.coords.clone()).collect()
+    }
+
+    fn cache_len(&self) -> usize {
+        self.cache_size()
+    }
+
+    fn log_density_cached(
+        &self,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
+        self.evaluate_full(x, derived, cache)
+    }
+
+    fn log_density_block(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
+        self.evaluate_block(block, x, derived, cache)
     }
 }

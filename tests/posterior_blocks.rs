@@ -1,0 +1,161 @@
+//! The friction posterior's blocks: one per contact for its own parameters and one per
+//! material for what its contacts share; and a block update, reusing the cache of the point
+//! it starts from, gives exactly (bit for bit) the log-density, derived values and cache of a
+//! full evaluation. Checked on the demo model and on the variants a model file allows: t0
+//! pooling, `aging = "absolute"`, σ sampled rather than integrated out, t0 per contact.
+
+use std::path::{Path, PathBuf};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use slipbayes::density::LogDensity;
+use slipbayes::model::{ModelSpec, Posterior};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The demo model with `extra` (top-level keys, then tables) added and `blocks` in its
+/// `[sampler]` table, its data paths made absolute.
+fn demo_variant(dir: &Path, name: &str, extra: &str, blocks: &str) -> Posterior {
+    let text = std::fs::read_to_string(root().join("models/demo.toml"))
+        .unwrap()
+        .replace("../data/", &format!("{}/", root().join("data").display()))
+        .replace(
+            "[sampler]\n",
+            &format!("[sampler]\nblocks = \"{blocks}\"\n"),
+        );
+    let path = dir.join(name);
+    // Top-level keys must come before the first table.
+    let (top, tables) = match extra.find('[') {
+        Some(i) => extra.split_at(i),
+        None => (extra, ""),
+    };
+    std::fs::write(&path, format!("{top}\n{text}\n{tables}\n")).unwrap();
+    let spec = ModelSpec::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    Posterior::new(&spec).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn same(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
+/// From points near the start, moves one block at a time and compares the block update with
+/// a full evaluation at the new point.
+fn check_block_updates(label: &str, post: &Posterior) {
+    let blocks = post.blocks();
+    let (nd, nc) = (post.derived_names().len(), post.cache_len());
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut x = post.start().to_vec();
+    let mut derived = vec![0.0; nd];
+    let mut cache = vec![0.0; nc];
+    let mut lp = post
+        .log_density_cached(&x, &mut derived, &mut cache)
+        .unwrap_or_else(|e| panic!("{label}: start {e}"));
+    let mut checked = 0;
+    for round in 0..40 {
+        let b = round % blocks.len();
+        let mut y = x.clone();
+        for &i in &blocks[b] {
+            y[i] += 0.01 * rng.random::<f64>() - 0.005;
+        }
+        let (mut d_block, mut c_block) = (derived.clone(), cache.clone());
+        let block = post.log_density_block(b, &y, &mut d_block, &mut c_block);
+        let (mut d_full, mut c_full) = (vec![0.0; nd], vec![0.0; nc]);
+        let full = post.log_density_cached(&y, &mut d_full, &mut c_full);
+        match (block, full) {
+            (Ok(a), Ok(f)) => {
+                assert!(same(a, f), "{label}: block {b}: {a} vs full {f}");
+                for (k, (u, v)) in d_block.iter().zip(&d_full).enumerate() {
+                    assert!(same(*u, *v), "{label}: block {b}: derived {k}: {u} vs {v}");
+                }
+                for (k, (u, v)) in c_block.iter().zip(&c_full).enumerate() {
+                    assert!(same(*u, *v), "{label}: block {b}: cache {k}: {u} vs {v}");
+                }
+                (x, derived, cache, lp) = (y, d_block, c_block, a);
+                checked += 1;
+            }
+            (Err(a), Err(f)) => assert_eq!(a, f, "{label}: block {b}"),
+            (a, f) => panic!("{label}: block {b}: block update {a:?}, full {f:?}"),
+        }
+    }
+    assert!(checked >= 30, "{label}: only {checked} points evaluated");
+    assert!(lp.is_finite());
+    assert_eq!(
+        post.log_density(&x, &mut derived).unwrap().to_bits(),
+        lp.to_bits()
+    );
+}
+
+fn names(post: &Posterior, block: &[usize]) -> Vec<String> {
+    let names = post.param_names();
+    block.iter().map(|&i| names[i].clone()).collect()
+}
+
+#[test]
+fn demo_blocks_follow_materials_and_contacts() {
+    let dir = tempfile::tempdir().unwrap();
+    // By material (the default): one block per material, everything of its contacts in it.
+    let post = demo_variant(dir.path(), "demo.toml", "", "material");
+    let labelled: Vec<Vec<String>> = post.blocks().iter().map(|b| names(&post, b)).collect();
+    assert_eq!(labelled.len(), 2, "{labelled:?}");
+    let ptfe = labelled
+        .iter()
+        .find(|b| b.iter().any(|n| n == "ln_alpha[PTFE]"))
+        .unwrap();
+    for member in [
+        "ln_a_over_F_d[PTFE]",
+        "ln_F_d[ptfe-c2]",
+        "ln_t0[ptfe-c1-fast]",
+    ] {
+        assert!(ptfe.contains(&member.to_string()), "{ptfe:?}");
+    }
+    assert!(!ptfe.iter().any(|n| n.contains("pp-")), "{ptfe:?}");
+    check_block_updates("demo by material", &post);
+
+    let post = demo_variant(dir.path(), "demo-contact.toml", "", "contact");
+    let blocks = post.blocks();
+    // Per material: α and a/F_d shared by its two contacts; then each contact's F_d, k and
+    // its runs' t0.
+    let labelled: Vec<Vec<String>> = blocks.iter().map(|b| names(&post, b)).collect();
+    assert_eq!(blocks.len(), 6, "{labelled:?}");
+    let material = labelled
+        .iter()
+        .find(|b| b.iter().any(|n| n == "ln_alpha[PTFE]"))
+        .unwrap();
+    assert_eq!(material.len(), 2, "{material:?}");
+    assert!(material.contains(&"ln_a_over_F_d[PTFE]".to_string()));
+    let contact = labelled
+        .iter()
+        .find(|b| b.iter().any(|n| n == "ln_F_d[ptfe-c1]"))
+        .unwrap();
+    for member in [
+        "ln_k[ptfe-c1]",
+        "ln_t0[ptfe-c1-first]",
+        "ln_t0[ptfe-c1-fast]",
+    ] {
+        assert!(contact.contains(&member.to_string()), "{contact:?}");
+    }
+    check_block_updates("demo by contact", &post);
+}
+
+#[test]
+fn block_updates_equal_full_evaluations_in_every_variant() {
+    let dir = tempfile::tempdir().unwrap();
+    let variants = [
+        ("pooled.toml", "[pooling]\nt0 = true"),
+        ("absolute.toml", "aging = \"absolute\""),
+        (
+            "sigma.toml",
+            "[levels]\nsigma = \"contact\"\n[priors]\nsigma = { dist = \"half-normal\", sd = 0.01 }",
+        ),
+        ("shared-k.toml", "[levels]\nk = \"material\"\nsigma = \"material\""),
+    ];
+    for (name, extra) in variants {
+        for blocks in ["material", "contact"] {
+            let post = demo_variant(dir.path(), name, extra, blocks);
+            assert!(post.blocks().len() >= 2, "{name}");
+            check_block_updates(&format!("{name} by {blocks}"), &post);
+        }
+    }
+}
