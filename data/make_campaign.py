@@ -2,8 +2,9 @@
 """A simulated one-material campaign: N contacts of a PTFE-like material on glass, each a
 1 nm/s first slide and a repeat slide, with contact-to-contact spread in F_d, k and t0 (the
 paper's point: static friction varies between contacts). Writes the data (by
-`slipbayes simulate`) and a model file `campaign.toml` into OUT, for the scaling benchmark of
-docs/benchmarks and README ("Convergence and scaling").
+`slipbayes simulate`: a 201-point first slide and a 51-point repeat slide per contact) and a
+model file `campaign.toml` into OUT; the "campaign" rows of the README's "Moves and blocks"
+table were measured on it.
 
     python3 data/make_campaign.py --contacts 10 --out /tmp/campaign-10
 

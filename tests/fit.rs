@@ -13,7 +13,9 @@ use slipbayes::density::{Quantity, QuantityKind};
 use slipbayes::diagnostics::{Problem, Summary};
 use slipbayes::fit::run_dir::{CSV_COLUMNS, SUMMARY_CSV, SUMMARY_JSON};
 use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, RunDir, SummarySpec};
-use slipbayes::sampler::{Move, Observer, Progress, SamplerError, Silent, Steps, Updates};
+use slipbayes::sampler::{
+    Move, Observer, Progress, SamplerError, Silent, Steps, StopReason, StopRule, Updates,
+};
 use statrs::function::erf::erfc;
 
 /// Standard normal CDF.
@@ -106,6 +108,7 @@ fn settings(steps: u64) -> FitSettings {
         overwrite: false,
         moves: vec![(Move::stretch(), 1.0)],
         updates: Updates::Joint,
+        max_time_s: None,
     }
 }
 
@@ -487,39 +490,41 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
         errors(&refused)
     );
 
-    // Resuming with another seed is refused before anything changes.
+    // Resuming with another seed, other moves or other updates is refused before anything
+    // changes: the chains would not be the ones of an uninterrupted run.
+    let resume_with = |changed: &FitSettings| {
+        run_fit(
+            &Toy { crash: None },
+            &spec,
+            &START,
+            changed,
+            &RunDir::new(&crashed),
+            true,
+            &mut Silent,
+        )
+        .expect_err("a resume with other settings")
+    };
     let mut other_seed = s.clone();
     other_seed.seed += 1;
-    let mismatch = run_fit(
-        &Toy { crash: None },
-        &spec,
-        &START,
-        &other_seed,
-        &RunDir::new(&crashed),
-        true,
-        &mut Silent,
-    )
-    .expect_err("seed mismatch");
+    let mismatch = resume_with(&other_seed);
     assert!(
         matches!(mismatch, FitError::ResumeMismatch { .. }),
         "{}",
         errors(&mismatch)
     );
-    // So is resuming with other moves: the chains would not be the ones of an uninterrupted run.
     let mut other_moves = s.clone();
     other_moves.moves = vec![(Move::differential_evolution(), 1.0)];
-    let mismatch = run_fit(
-        &Toy { crash: None },
-        &spec,
-        &START,
-        &other_moves,
-        &RunDir::new(&crashed),
-        true,
-        &mut Silent,
-    )
-    .expect_err("moves mismatch");
+    let mismatch = resume_with(&other_moves);
     assert!(
         errors(&mismatch).contains("resume with the original moves"),
+        "{}",
+        errors(&mismatch)
+    );
+    let mut other_updates = s.clone();
+    other_updates.updates = Updates::Blocked;
+    let mismatch = resume_with(&other_updates);
+    assert!(
+        errors(&mismatch).contains("resume with the original updates"),
         "{}",
         errors(&mismatch)
     );
@@ -719,4 +724,83 @@ fn a_single_ensemble_cannot_be_called_converged() {
             "missing R-hat is an empty field"
         );
     }
+}
+
+/// When the sampler's own rule stops too early (here: 1 τ instead of 50), the fit sees that the
+/// summary is not converged and samples on until it is; the chains on disk, the summary and
+/// the report agree on the steps run.
+#[test]
+fn until_converged_samples_on_until_the_summary_passes() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let mut s = settings(1);
+    s.steps = Steps::UntilConverged(StopRule {
+        tau_factor: 1.0,
+        tau_rel_change: 10.0,
+        ..StopRule::new(20_000)
+    });
+    let outcome = run_fit(
+        &Toy { crash: None },
+        &toy_spec(toy_quantities()),
+        &START,
+        &s,
+        &RunDir::new(tmp.path()),
+        false,
+        &mut Silent,
+    )
+    .expect("fit runs");
+    let sampler = &outcome.summary.sampler;
+    assert!(sampler.converged, "{:#?}", sampler.problems);
+    assert_eq!(sampler.stopped_by, StopReason::Converged);
+    // The first stop of the loose rule comes at its first check (100 steps), far short of the
+    // 50 τ the summary asks for.
+    assert!(sampler.steps > 500, "{} steps", sampler.steps);
+    assert_eq!(sampler.steps_run, sampler.steps);
+    assert_eq!(outcome.report.total_steps, sampler.steps);
+    let chains = outcome.dir.read_chains().expect("chains");
+    // One row per walker per step: every step of every segment is on disk, once.
+    assert_eq!(chains.len() as u64, sampler.steps * 16 * 4);
+}
+
+/// A density too slow for the budget: the fit stops at the deadline, keeps and summarises what
+/// it sampled, and says why it stopped.
+#[test]
+fn a_time_budget_stops_the_fit_and_says_so() {
+    struct Slow;
+    impl LogDensity for Slow {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+            std::thread::sleep(std::time::Duration::from_micros(200));
+            Ok(-0.5 * (x[0] * x[0] + x[1] * x[1]))
+        }
+    }
+    let tmp = tempfile::tempdir().expect("tmp");
+    let mut s = settings(1);
+    s.steps = Steps::UntilConverged(StopRule::new(20_000));
+    s.max_time_s = Some(1.0);
+    use QuantityKind::Parameter;
+    let quantities = [
+        quantity("x0", "x0", "", "", Parameter),
+        quantity("x1", "x1", "", "", Parameter),
+    ];
+    let started = std::time::Instant::now();
+    let outcome = run_fit(
+        &Slow,
+        &SummarySpec::of(quantities.to_vec()),
+        &[0.1, 0.1],
+        &s,
+        &RunDir::new(tmp.path()),
+        false,
+        &mut Silent,
+    )
+    .expect("fit runs");
+    let sampler = &outcome.summary.sampler;
+    assert_eq!(sampler.stopped_by, StopReason::TimeCap);
+    assert!(!sampler.converged);
+    assert!(sampler.steps < 20_000 && sampler.steps > 0);
+    // The budget counts from the start of the fit; summarising adds a little.
+    assert!(started.elapsed().as_secs_f64() < 10.0);
+    let json = read_json(&outcome.dir.file(SUMMARY_JSON));
+    assert_eq!(json["sampler"]["stopped_by"], "TimeCap");
 }

@@ -82,13 +82,12 @@ pub fn default_moves() -> Vec<(Move, f64)> {
 
 /// The stopping rule of a fit run until converged: the sampler's rule (longer than 50 τ_max,
 /// R̂ < 1.01 on its history) with τ settled to 10 % between checks rather than emcee's 1 %,
-/// which on short chains waits for the τ estimate's own noise to die down (the one-contact
-/// quick path ran 4,300 steps for τ ≈ 9). The fit then checks the summary itself, on every
-/// post-burn-in draw of every reported quantity, and samples on until that passes too.
-pub fn fit_stop_rule(max_steps: u64, max_time_s: Option<f64>) -> StopRule {
+/// which on short chains waits for the τ estimate's own noise to die down (with 1 %, the
+/// one-contact quick path ran 4,300 steps for τ ≈ 9). The fit then checks the summary itself,
+/// on every post-burn-in draw of every reported quantity, and samples on until that passes.
+pub fn fit_stop_rule(max_steps: u64) -> StopRule {
     StopRule {
         tau_rel_change: 0.1,
-        max_time_s,
         ..StopRule::new(max_steps)
     }
 }
@@ -178,6 +177,10 @@ pub struct FitSettings {
     /// Joint or blocked updates (settings written before blocked updates existed: joint).
     #[serde(default)]
     pub updates: Updates,
+    /// Wall-time budget of the fit (s), from its start; none by default. A run that hits it
+    /// keeps what it sampled and reports `stopped_by: TimeCap`.
+    #[serde(default)]
+    pub max_time_s: Option<f64>,
 }
 
 impl Default for FitSettings {
@@ -188,7 +191,7 @@ impl Default for FitSettings {
             walkers: DEFAULT_WALKERS,
             ensembles: DEFAULT_ENSEMBLES,
             seed: DEFAULT_SEED,
-            steps: Steps::UntilConverged(fit_stop_rule(DEFAULT_MAX_STEPS, None)),
+            steps: Steps::UntilConverged(fit_stop_rule(DEFAULT_MAX_STEPS)),
             checkpoint_every: Some(DEFAULT_CHECKPOINT_EVERY),
             ci_prob: DEFAULT_INTERVAL_PROB,
             hdi_prob: DEFAULT_INTERVAL_PROB,
@@ -196,6 +199,7 @@ impl Default for FitSettings {
             overwrite: false,
             moves: default_moves(),
             updates: default_updates(),
+            max_time_s: None,
         }
     }
 }
@@ -213,6 +217,15 @@ impl FitSettings {
         for (name, p) in [("ci_prob", self.ci_prob), ("hdi_prob", self.hdi_prob)] {
             if !(p > 0.0 && p < 1.0) {
                 return Err(invalid(name, p, "must lie strictly between 0 and 1"));
+            }
+        }
+        if let Some(t) = self.max_time_s {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(invalid(
+                    "max_time_s",
+                    t,
+                    "must be a finite number of seconds > 0",
+                ));
             }
         }
         if resume && self.overwrite {
@@ -401,14 +414,18 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     } else {
         observer
     };
+    sampler.set_deadline(
+        settings
+            .max_time_s
+            .map(|t| started + std::time::Duration::from_secs_f64(t)),
+    );
     let first_step = sampler.step();
     let sampling = |source| FitError::Sampler {
         context: format!("sampling into {shown}"),
         source,
     };
+    // Every run ends with a checkpoint, which makes all its chains durable and readable.
     let mut report = sampler.run(steps, &mut sink, observer).map_err(sampling)?;
-    sink.finish()
-        .map_err(storage(format!("finishing the chains in {shown}")))?;
     let mut summary =
         plan.summarise(&dir.read_chains()?, &report, settings, dir.path(), started)?;
 
@@ -416,50 +433,31 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     // every reported quantity on every post-burn-in draw. Until it agrees, and while the
     // budget lasts, the run goes on by half its length again.
     if let Steps::UntilConverged(rule) = steps {
-        let out_of_time = |rule: &StopRule| {
-            rule.max_time_s
-                .is_some_and(|t| started.elapsed().as_secs_f64() >= t)
-        };
-        let mut timed_out = report.stopped_by == StopReason::TimeCap;
         while !summary.sampler.converged
-            && report.stopped_by != StopReason::StepCap
-            && !timed_out
+            && report.stopped_by != StopReason::TimeCap
             && sampler.step() < rule.max_steps
-            && !out_of_time(&rule)
         {
             let now = sampler.step();
             let more = (now / 2).max(rule.check_every).min(rule.max_steps - now);
-            let mut budget = rule;
-            budget.max_time_s = rule
-                .max_time_s
-                .map(|t| (t - started.elapsed().as_secs_f64()).max(f64::MIN_POSITIVE));
-            budget.max_steps = now + more;
-            let (reopened, _) = ParquetSink::resume::<serde::de::IgnoredAny>(&files)
-                .map_err(storage(format!("continuing the chains in {shown}")))?;
-            sink = reopened;
-            // `more` steps under the time budget: a rule that cannot hold before its cap.
-            budget.tau_factor = f64::MAX;
             report = sampler
-                .run(Steps::UntilConverged(budget), &mut sink, observer)
+                .run(Steps::Fixed(more), &mut sink, observer)
                 .map_err(sampling)?;
-            sink.finish()
-                .map_err(storage(format!("finishing the chains in {shown}")))?;
-            timed_out = report.stopped_by == StopReason::TimeCap;
-            report.stopped_by = StopReason::Converged;
             summary =
                 plan.summarise(&dir.read_chains()?, &report, settings, dir.path(), started)?;
         }
-        report.steps_run = sampler.step() - first_step;
         report.stopped_by = if summary.sampler.converged {
             StopReason::Converged
-        } else if timed_out || out_of_time(&rule) {
+        } else if report.stopped_by == StopReason::TimeCap {
             StopReason::TimeCap
         } else {
             StopReason::StepCap
         };
-        summary.sampler.steps_run = report.steps_run;
-        summary.sampler.stopped_by = report.stopped_by;
     }
+    report.steps_run = sampler.step() - first_step;
+    summary.sampler.steps_run = report.steps_run;
+    summary.sampler.stopped_by = report.stopped_by;
+    sink.finish()
+        .map_err(storage(format!("finishing the chains in {shown}")))?;
     dir.write_summary(&summary)?;
     Ok(FitOutcome {
         report,

@@ -69,10 +69,7 @@ impl FitSettings {
         let max_steps = overrides.max_steps.unwrap_or(s.max_steps);
         let steps = match overrides.steps.or(s.steps) {
             Some(n) => Steps::Fixed(n),
-            None => Steps::UntilConverged(fit_stop_rule(
-                max_steps,
-                overrides.max_time_s.or(s.max_time_s),
-            )),
+            None => Steps::UntilConverged(fit_stop_rule(max_steps)),
         };
         Self {
             walkers,
@@ -88,6 +85,7 @@ impl FitSettings {
                 .or_else(|| s.moves.as_ref().map(|m| m.moves().to_vec()))
                 .unwrap_or_else(default_moves),
             updates,
+            max_time_s: overrides.max_time_s.or(s.max_time_s),
             ..Self::default()
         }
     }

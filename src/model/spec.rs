@@ -260,7 +260,7 @@ pub struct SamplerSpec {
     /// Step cap of the stopping rule.
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
-    /// Wall-time budget (s) of a run until converged; none by default.
+    /// Wall-time budget (s) of a fit; none by default.
     #[serde(default)]
     pub max_time_s: Option<f64>,
     /// Seed.

@@ -252,9 +252,6 @@ pub struct StopRule {
     pub rhat_max: f64,
     /// Cap on the total step count (counting earlier runs of a resumed sampler).
     pub max_steps: u64,
-    /// Cap on the wall time of one run (seconds); none by default.
-    #[serde(default)]
-    pub max_time_s: Option<f64>,
 }
 
 impl StopRule {
@@ -266,7 +263,6 @@ impl StopRule {
             tau_rel_change: 0.01,
             rhat_max: crate::diagnostics::RHAT_MAX,
             max_steps,
-            max_time_s: None,
         }
     }
 
@@ -290,11 +286,6 @@ impl StopRule {
         }
         if !(self.rhat_max.is_finite() && self.rhat_max > 1.0) {
             return Err(invalid("rhat_max", self.rhat_max, "must be finite and > 1"));
-        }
-        if let Some(t) = self.max_time_s {
-            if !(t.is_finite() && t > 0.0) {
-                return Err(invalid("max_time_s", t, "must be finite and > 0"));
-            }
         }
         Ok(())
     }

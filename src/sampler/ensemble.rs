@@ -232,70 +232,53 @@ impl Ensemble {
             ..
         } = self;
         let (active, complement) = Self::halves(perm, h);
-        let Some(coords) = block else {
-            let positions = &s.positions;
-            let mut fit = match *mv {
-                Move::Independence { dof } => ComplementFit::new(positions, complement, ndim, dof),
-                _ => None,
-            };
-            for ((((&w, o), f), lf), au) in active
-                .iter()
-                .zip(out.proposals.chunks_exact_mut(ndim))
-                .zip(factor.iter_mut())
-                .zip(log_factor.iter_mut())
-                .zip(accept_u.iter_mut())
-            {
-                let rng = &mut s.walker_rngs[w];
-                let c = mv.propose(
-                    &positions[w * ndim..(w + 1) * ndim],
-                    positions,
-                    complement,
-                    fit.as_mut(),
-                    rng,
-                    o,
-                    scratch_idx,
-                    scratch_z,
-                );
-                (*f, *lf) = (c.factor, c.log_factor);
-                *au = rng.random();
+        // The move sees the walkers' coordinates in the block (all of them when joint).
+        let (moved, dim): (&[f64], usize) = match block {
+            None => (&s.positions, ndim),
+            Some(coords) => {
+                sub.clear();
+                for x in s.positions.chunks_exact(ndim) {
+                    sub.extend(coords.iter().map(|&i| x[i]));
+                }
+                sub_out.resize(coords.len(), 0.0);
+                (sub, coords.len())
             }
-            return;
         };
-        let bdim = coords.len();
-        let walkers = s.log_density.len();
-        sub.clear();
-        for w in 0..walkers {
-            let x = &s.positions[w * ndim..(w + 1) * ndim];
-            sub.extend(coords.iter().map(|&i| x[i]));
-        }
-        sub_out.resize(bdim, 0.0);
         let mut fit = match *mv {
-            Move::Independence { dof } => ComplementFit::new(sub, complement, bdim, dof),
+            Move::Independence { dof } => ComplementFit::new(moved, complement, dim, dof),
             _ => None,
         };
         let (nd, nc) = (*nderived, *cache_len);
         let (sd, sc) = (nd.max(1), nc.max(1));
         for (k, &w) in active.iter().enumerate() {
             let rng = &mut s.walker_rngs[w];
+            let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
+            // Joint: straight into the proposal; blocked: into the block's scratch.
+            let target = if block.is_some() {
+                &mut sub_out[..]
+            } else {
+                &mut *o
+            };
             let c = mv.propose(
-                &sub[w * bdim..(w + 1) * bdim],
-                sub,
+                &moved[w * dim..(w + 1) * dim],
+                moved,
                 complement,
                 fit.as_mut(),
                 rng,
-                sub_out,
+                target,
                 scratch_idx,
                 scratch_z,
             );
             (factor[k], log_factor[k]) = (c.factor, c.log_factor);
             accept_u[k] = rng.random();
-            let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
-            o.copy_from_slice(&s.positions[w * ndim..(w + 1) * ndim]);
-            for (&i, &y) in coords.iter().zip(sub_out.iter()) {
-                o[i] = y;
+            if let Some(coords) = block {
+                o.copy_from_slice(&s.positions[w * ndim..(w + 1) * ndim]);
+                for (&i, &y) in coords.iter().zip(sub_out.iter()) {
+                    o[i] = y;
+                }
+                out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
+                out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
             }
-            out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
-            out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
         }
     }
 

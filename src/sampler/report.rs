@@ -18,7 +18,8 @@ pub enum StopReason {
     Converged,
     /// The step cap was reached before the stopping rule was met.
     StepCap,
-    /// The time budget ran out before the stopping rule was met.
+    /// The sampler's deadline passed before the run's steps were done or its stopping rule
+    /// was met.
     TimeCap,
 }
 

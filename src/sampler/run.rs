@@ -83,6 +83,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// Half-steps evaluated so far (for occasional re-timing).
     half_steps: u64,
     last_tau: Option<Vec<Vec<f64>>>,
+    /// Any run stops here (a wall-time budget), whatever its [`Steps`].
+    deadline: Option<Instant>,
     poisoned: bool,
 }
 
@@ -351,6 +353,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             step,
             history,
             last_tau,
+            deadline: None,
             poisoned: false,
         }
     }
@@ -370,6 +373,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             history: self.history.to_history(),
             last_tau: self.last_tau.clone(),
         }
+    }
+
+    /// Stops every later run at `deadline` (with [`StopReason::TimeCap`]), or never.
+    pub fn set_deadline(&mut self, deadline: Option<Instant>) {
+        self.deadline = deadline;
     }
 
     /// Updates of each walker per step: one per block (one when joint).
@@ -470,13 +478,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             }
             let mut stop = false;
             if let Some(rule) = rule {
-                if rule
-                    .max_time_s
-                    .is_some_and(|t| started.elapsed().as_secs_f64() >= t)
-                {
-                    stop = true;
-                    stopped_by = StopReason::TimeCap;
-                } else if self.step % rule.check_every == 0 {
+                if self.step % rule.check_every == 0 {
                     let (met, tmax) = self.check_stop(&rule);
                     tau_max = tmax.or(tau_max);
                     if met {
@@ -484,6 +486,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                         stopped_by = StopReason::Converged;
                     }
                 }
+            }
+            if !stop && self.step < last && self.deadline.is_some_and(|d| Instant::now() >= d) {
+                stop = true;
+                stopped_by = StopReason::TimeCap;
             }
             let due = self
                 .config
@@ -875,39 +881,28 @@ fn blocks_of<D: LogDensity + ?Sized>(
     density: &D,
     config: &SamplerConfig,
 ) -> Result<Vec<Vec<usize>>, SamplerError> {
-    if config.updates() == Updates::Joint {
+    let blocks = match config.updates() {
+        Updates::Joint => return Ok(Vec::new()),
+        Updates::Blocked => density.blocks(),
+    };
+    // One block (or none) is the whole space: joint updates.
+    if blocks.len() <= 1 {
         return Ok(Vec::new());
     }
-    let blocks = density.blocks();
     let ndim = density.dim();
     let mut seen = vec![false; ndim];
-    for b in &blocks {
-        for &i in b {
-            if i >= ndim || std::mem::replace(&mut seen[i], true) {
-                return Err(SamplerError::InvalidConfig {
-                    name: "blocks",
-                    value: format!("{blocks:?}"),
-                    requirement: format!(
-                        "the density's blocks must be disjoint sets of coordinates below {ndim}"
-                    ),
-                });
-            }
-        }
-    }
-    if blocks.is_empty() || blocks.iter().any(Vec::is_empty) || seen.contains(&false) {
-        if blocks.len() <= 1 {
-            return Ok(Vec::new());
-        }
+    let disjoint = blocks
+        .iter()
+        .flatten()
+        .all(|&i| i < ndim && !std::mem::replace(&mut seen[i], true));
+    if !disjoint || blocks.iter().any(Vec::is_empty) || seen.contains(&false) {
         return Err(SamplerError::InvalidConfig {
             name: "blocks",
             value: format!("{blocks:?}"),
             requirement: format!(
-                "the density's blocks must be non-empty and cover all {ndim} coordinates"
+                "the density's blocks must be non-empty, disjoint and cover all {ndim} coordinates"
             ),
         });
-    }
-    if blocks.len() == 1 {
-        return Ok(Vec::new());
     }
     Ok(blocks)
 }

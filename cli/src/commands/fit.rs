@@ -88,8 +88,8 @@ pub(super) struct RunArgs {
     /// Step cap when running until converged.
     #[arg(long = "max-steps")]
     max_steps: Option<u64>,
-    /// Wall-time budget in seconds when running until converged; a run that hits it writes
-    /// its results and says what it would still need.
+    /// Wall-time budget of the fit in seconds; a run that hits it writes its results and
+    /// says what it would still need.
     #[arg(long = "max-time")]
     max_time: Option<f64>,
     /// Continue a killed fit in the output directory.

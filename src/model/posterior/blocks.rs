@@ -7,26 +7,29 @@
 //! the parameters its contacts share. A material with a single contact therefore has a single
 //! block (nothing is gained by splitting it).
 //!
-//! A walker's cache holds the prior of each block's coordinates and each run's fit (weighted
-//! sum of squared residuals, F_end), so that an update of one block evaluates only the runs
-//! that read its coordinates (and the repeat slides that follow them). The log-density is
-//! then summed from the cache in a fixed order, exactly as a full evaluation sums it.
+//! A walker's cache holds the prior of each block's coordinates, each run's fit (weighted sum
+//! of squared residuals, F_end) and each marginalised σ group's likelihood, so that an update
+//! of one block evaluates only the runs that read its coordinates (and the repeat slides that
+//! follow them) and the σ groups of those runs. The log-density is then summed from the cache
+//! in a fixed order, exactly as a full evaluation sums it.
 
 use std::collections::BTreeSet;
 
 use super::layout::{CoordPrior, SigmaSource, T0Source};
-use super::likelihood::{RunModel, SigmaFit, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
+use super::likelihood::{RunModel, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
 use super::Posterior;
 use crate::density::LogDensityError;
 
-/// One block: its coordinates, the runs to re-fit when they change (in evaluation order), and
-/// which runs' peaks they change.
+/// One block: its coordinates, the runs to re-fit when they change (in evaluation order),
+/// which runs' peaks and which σ groups they change.
 #[derive(Debug, Clone)]
 pub(super) struct Block {
     pub coords: Vec<usize>,
     pub runs: Vec<usize>,
     /// Per run: whether it reads a coordinate of the block (its peak changes).
     pub reads: Vec<bool>,
+    /// Per marginalised σ group: whether one of `runs` belongs to it.
+    pub groups: Vec<bool>,
 }
 
 impl RunModel {
@@ -48,67 +51,89 @@ impl RunModel {
     }
 }
 
-/// The blocks of `ncoords` coordinates read by `runs` (evaluated in `order`): coordinates
-/// read by the runs of the same set of contacts form one block, in the order of their first
+/// The blocks of `ncoords` coordinates read by `runs` (evaluated in `order`, in `groups`
+/// marginalised σ groups): coordinates read by the runs of the same set of groups (`group` of
+/// a run: its material or its contact) form one block, in the order of their first
 /// coordinate.
 pub(super) fn blocks(
     ncoords: usize,
     runs: &[RunModel],
     order: &[usize],
+    sigma_groups: usize,
     group: impl Fn(&RunModel) -> usize,
 ) -> Vec<Block> {
+    let read: Vec<Vec<usize>> = runs.iter().map(RunModel::coords_read).collect();
     let mut readers: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); ncoords];
-    for r in runs {
-        for i in r.coords_read() {
+    for (r, coords) in runs.iter().zip(&read) {
+        for &i in coords {
             readers[i].insert(group(r));
         }
     }
     let mut keys: Vec<&BTreeSet<usize>> = Vec::new();
-    let mut blocks: Vec<Block> = Vec::new();
+    let mut members: Vec<Vec<usize>> = Vec::new();
     for (i, key) in readers.iter().enumerate() {
         match keys.iter().position(|k| *k == key) {
-            Some(b) => blocks[b].coords.push(i),
+            Some(b) => members[b].push(i),
             None => {
                 keys.push(key);
-                blocks.push(Block {
-                    coords: vec![i],
-                    runs: Vec::new(),
-                    reads: vec![false; runs.len()],
-                });
+                members.push(vec![i]);
             }
         }
     }
-    for b in &mut blocks {
-        for (i, r) in runs.iter().enumerate() {
-            b.reads[i] = r.coords_read().iter().any(|c| b.coords.contains(c));
-        }
-        // A repeat slide starts where the slide it follows stopped: re-fit it with that one.
-        let refit = |i: usize| b.reads[i] || runs[i].follows.is_some_and(|j| b.reads[j]);
-        b.runs = order.iter().copied().filter(|&i| refit(i)).collect();
-    }
-    blocks
+    members
+        .into_iter()
+        .map(|coords| {
+            let reads: Vec<bool> = read
+                .iter()
+                .map(|c| c.iter().any(|i| coords.contains(i)))
+                .collect();
+            // A repeat slide starts where the slide it follows stopped: re-fit it with that one.
+            let refit = |i: usize| reads[i] || runs[i].follows.is_some_and(|j| reads[j]);
+            let block_runs: Vec<usize> = order.iter().copied().filter(|&i| refit(i)).collect();
+            let mut groups = vec![false; sigma_groups];
+            for &i in &block_runs {
+                if let SigmaSource::Marginal(g) = runs[i].sigma {
+                    groups[g] = true;
+                }
+            }
+            Block {
+                coords,
+                runs: block_runs,
+                reads,
+                groups,
+            }
+        })
+        .collect()
 }
 
-/// A walker's cache, `blocks + 2 × runs` values: the prior of each block, then each run's
-/// weighted sum of squared residuals, then each run's F_end.
+/// A walker's cache, `blocks + 2 × runs + σ groups` values: the prior of each block, each
+/// run's weighted sum of squared residuals, each run's F_end, and the likelihood of each
+/// marginalised σ group.
 pub(super) struct Cache<'c> {
     pub prior: &'c mut [f64],
     pub ssr: &'c mut [f64],
     pub last: &'c mut [f64],
+    pub group: &'c mut [f64],
 }
 
 impl<'c> Cache<'c> {
     pub fn split(cache: &'c mut [f64], blocks: usize, runs: usize) -> Self {
         let (prior, rest) = cache.split_at_mut(blocks);
-        let (ssr, last) = rest.split_at_mut(runs);
-        Self { prior, ssr, last }
+        let (ssr, rest) = rest.split_at_mut(runs);
+        let (last, group) = rest.split_at_mut(runs);
+        Self {
+            prior,
+            ssr,
+            last,
+            group,
+        }
     }
 }
 
 impl Posterior {
     /// Length of a walker's cache.
     pub(super) fn cache_size(&self) -> usize {
-        self.blocks.len() + 2 * self.runs.len()
+        self.blocks.len() + 2 * self.runs.len() + self.sigma_groups.len()
     }
 
     /// The log-prior of block `b`'s coordinates at `x`.
@@ -130,24 +155,47 @@ impl Posterior {
         Ok(lp)
     }
 
-    /// The log-density at `x` evaluated in full, filling `cache` and `derived`.
+    /// The log-density at `x` evaluated in full, filling `cache` and `derived`. Without a
+    /// cache (the optimiser's and the predictive's evaluations) the per-run and per-group
+    /// parts live on the stack: nothing is allocated.
     pub(super) fn evaluate_full(
         &self,
         x: &[f64],
         derived: &mut [f64],
-        cache: Cache,
+        cache: Option<Cache>,
     ) -> Result<f64, LogDensityError> {
-        for (b, p) in cache.prior.iter_mut().enumerate() {
-            *p = self.block_prior(b, x)?;
+        let Some(cache) = cache else {
+            let mut stack = [[0.0; MAX_RUNS]; 3];
+            let [ssr, last, group] = &mut stack;
+            let cache = Cache {
+                prior: &mut [],
+                ssr,
+                last,
+                group,
+            };
+            return self.evaluate_full(x, derived, Some(cache));
+        };
+        // The same additions in the same order as `prior_sum` over a cache.
+        let mut lp = 0.0;
+        for b in 0..self.blocks.len() {
+            let p = self.block_prior(b, x)?;
+            if let Some(slot) = cache.prior.get_mut(b) {
+                *slot = p;
+            }
+            lp += p;
         }
         for &i in &self.order {
             self.fit_run(i, x, cache.ssr, cache.last)?;
         }
-        self.finish(x, derived, &cache, None)
+        for g in 0..self.sigma_groups.len() {
+            cache.group[g] = self.group_term(g, cache.ssr)?;
+        }
+        Ok(self.finish(x, derived, lp, &cache, None))
     }
 
     /// The log-density at `x`, which differs from the point of `cache` and `derived` only in
-    /// block `b`: re-evaluates that block's prior and runs, and the peaks it changes.
+    /// block `b`: re-evaluates that block's prior, its runs and their σ groups, and the peaks
+    /// and σ draws it changes.
     pub(super) fn evaluate_block(
         &self,
         b: usize,
@@ -155,31 +203,38 @@ impl Posterior {
         derived: &mut [f64],
         cache: Cache,
     ) -> Result<f64, LogDensityError> {
+        let block = &self.blocks[b];
         cache.prior[b] = self.block_prior(b, x)?;
-        for &i in &self.blocks[b].runs {
-            self.fit_run(i, x, cache.ssr, cache.last)?;
-        }
-        self.finish(x, derived, &cache, Some(&self.blocks[b].reads))
-    }
-
-    /// Sums the cache into the log-density (always in the same order) and writes the derived
-    /// values, the peaks of the runs `peaks` marks only (all when `None`).
-    fn finish(
-        &self,
-        x: &[f64],
-        derived: &mut [f64],
-        cache: &Cache,
-        peaks: Option<&[bool]>,
-    ) -> Result<f64, LogDensityError> {
         let mut lp = 0.0;
         for p in cache.prior.iter() {
             lp += p;
         }
-        let mut sigma_fit: SigmaFit = [(0.0, 0); MAX_RUNS];
-        let ll = self.log_likelihood(x, cache.ssr, &mut sigma_fit)?;
-        if !derived.is_empty() {
-            self.derived_values(x, &sigma_fit, derived, peaks);
+        for &i in &block.runs {
+            self.fit_run(i, x, cache.ssr, cache.last)?;
         }
-        Ok(lp + ll)
+        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
+            cache.group[g] = self.group_term(g, cache.ssr)?;
+        }
+        Ok(self.finish(x, derived, lp, &cache, Some(block)))
+    }
+
+    /// The log-density from the prior `lp` and the cache's likelihood parts (always in the same
+    /// order), after writing the derived values: all, or those `block` changes.
+    fn finish(
+        &self,
+        x: &[f64],
+        derived: &mut [f64],
+        lp: f64,
+        cache: &Cache,
+        block: Option<&Block>,
+    ) -> f64 {
+        let mut ll = self.run_terms(x, cache.ssr);
+        for &g in cache.group[..self.sigma_groups.len()].iter() {
+            ll += g;
+        }
+        if !derived.is_empty() {
+            self.derived_values(x, cache.ssr, derived, block);
+        }
+        lp + ll
     }
 }

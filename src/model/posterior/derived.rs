@@ -6,39 +6,44 @@
 //! random numbers are a deterministic function of the bits of the draw itself, so that the
 //! density stays a pure function of `x` and the sampler stays reproducible.
 
+use super::blocks::Block;
 use super::layout::{PeakField, Population, Source};
-use super::likelihood::SigmaFit;
 use super::Posterior;
 use crate::law::{Elastic, Law, Peak};
 
 impl Posterior {
     /// Writes the value of every reported column at `x`, in column order, into `derived`
-    /// (of length `quantities().len()`). `sigma_fit[g]` = (sum of squared residuals, points)
-    /// of marginalised σ group g at `x`, for the conditional draw of σ. With `peaks`, only
-    /// the peaks of the runs it marks are computed (the others keep their values: a block
-    /// update did not change them).
+    /// (of length `quantities().len()`), from the runs' weighted sums of squared residuals
+    /// `ssr` at `x` (for the conditional draw of σ). With `block`, only the peaks of the runs
+    /// it reads and the σ of the groups it touches are computed (the others keep their
+    /// values: the block update did not change them).
     pub(super) fn derived_values(
         &self,
         x: &[f64],
-        sigma_fit: &SigmaFit,
+        ssr: &[f64],
         derived: &mut [f64],
-        peaks: Option<&[bool]>,
+        block: Option<&Block>,
     ) {
         // Peaks are computed once per run and read by several columns.
         let mut peak_cache: Option<(usize, Option<Peak>, Option<f64>)> = None;
         for (out, source) in derived.iter_mut().zip(&self.sources) {
-            if let (Source::Peak { run, .. }, Some(marked)) = (source, peaks) {
-                if !marked[*run] {
-                    continue;
-                }
+            let unchanged = match (source, block) {
+                (Source::Peak { run, .. }, Some(b)) => !b.reads[*run],
+                (Source::Sigma(g), Some(b)) => !b.groups[*g],
+                _ => false,
+            };
+            if unchanged {
+                continue;
             }
             *out = match *source {
                 Source::Coord(i) => x[i].exp(),
                 Source::T0(src) => src.value(x),
                 Source::Sigma(g) => {
-                    let (ssr, n) = sigma_fit[g];
+                    // Seeded by the group's own residuals, not by all of `x`: the draw then
+                    // changes exactly when a block update changes the group.
+                    let (fit, n) = self.group_fit(g, ssr);
                     let group = &self.sigma_groups[g];
-                    group.conditional_draw(hash_bits(x, group.salt), ssr, n)
+                    group.conditional_draw(hash_bits(&[fit], group.salt), fit, n)
                 }
                 Source::AContact { ratio, f_d } => x[ratio].exp() * x[f_d].exp(),
                 Source::AMaterial(m) => self.materials[m]

@@ -68,6 +68,8 @@ pub(super) struct SigmaGroup {
     pub high: f64,
     /// Salt of the conditional draw reported for σ.
     pub salt: u64,
+    /// Its runs, in run order.
+    pub runs: Vec<usize>,
 }
 
 /// Which value of a run's peak a column reports.
@@ -358,6 +360,7 @@ impl<'a> Builder<'a> {
         };
         let (level, g) = group_of(self.spec, self.spec.level(Param::Sigma), run);
         if let Some(&k) = self.sigma_index.get(&(level, g)) {
+            self.sigma_groups[k].runs.push(run);
             return SigmaSource::Marginal(k);
         }
         let k = self.sigma_groups.len();
@@ -366,6 +369,7 @@ impl<'a> Builder<'a> {
             low,
             high,
             salt: 0x5165_0000 + k as u64,
+            runs: vec![run],
         });
         let group = group_name(self.spec, level, g);
         self.column(

@@ -124,9 +124,6 @@ impl RunModel {
     }
 }
 
-/// Per marginalised σ group: (sum of weighted squared residuals, observations).
-pub(super) type SigmaFit = [(f64, usize); MAX_RUNS];
-
 /// A law that cannot be evaluated rejects the point, under the label of the reason.
 fn law_rejection(e: LawError) -> LogDensityError {
     match e {
@@ -155,36 +152,41 @@ impl Posterior {
         Ok(())
     }
 
-    /// The log-likelihood given every run's weighted sum of squared residuals `ssr` (indexed
-    /// by run); fills `sigma_fit` with the residuals of each marginalised σ group (for the
-    /// conditional draw of σ among the derived values). Summed in run order, so that a full
-    /// evaluation and a block update give the same bits.
-    pub(super) fn log_likelihood(
-        &self,
-        x: &[f64],
-        ssr: &[f64],
-        sigma_fit: &mut SigmaFit,
-    ) -> Result<f64, LogDensityError> {
+    /// The likelihood's terms that need no σ integrated out, given every run's weighted sum
+    /// of squared residuals `ssr` (indexed by run): ½ Σ ln w of binned runs and the Gaussian
+    /// term of runs with a sampled σ. Summed in run order, so that a full evaluation and a
+    /// block update give the same bits.
+    pub(super) fn run_terms(&self, x: &[f64], ssr: &[f64]) -> f64 {
         let mut ll = 0.0;
         for (r, &ssr) in self.runs.iter().zip(ssr) {
             ll += r.data.half_log_weights();
-            let n = r.data.n_obs;
-            match r.sigma {
-                SigmaSource::Coord(s) => {
-                    let sigma = x[s].exp();
-                    ll += -(n as f64) * (sigma.ln() + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma);
-                }
-                SigmaSource::Marginal(g) => {
-                    sigma_fit[g].0 += ssr;
-                    sigma_fit[g].1 += n;
-                }
+            if let SigmaSource::Coord(s) = r.sigma {
+                // x[s] is ln σ already.
+                let sigma = x[s].exp();
+                let n = r.data.n_obs as f64;
+                ll += -n * (x[s] + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma);
             }
         }
-        for (group, &(ssr, n)) in self.sigma_groups.iter().zip(sigma_fit.iter()) {
-            ll += marginal_sigma_log_likelihood(ssr, n, group.low, group.high)
-                .ok_or(LogDensityError::rejected(REJECT_PRIOR))?;
+        ll
+    }
+
+    /// (weighted sum of squared residuals, observations) of marginalised σ group `g`, over
+    /// its runs in run order.
+    pub(super) fn group_fit(&self, g: usize, ssr: &[f64]) -> (f64, usize) {
+        let mut fit = (0.0, 0);
+        for &i in &self.sigma_groups[g].runs {
+            fit.0 += ssr[i];
+            fit.1 += self.runs[i].data.n_obs;
         }
-        Ok(ll)
+        fit
+    }
+
+    /// The log-likelihood of σ group `g`'s runs with σ integrated out over its prior.
+    pub(super) fn group_term(&self, g: usize, ssr: &[f64]) -> Result<f64, LogDensityError> {
+        let (fit, n) = self.group_fit(g, ssr);
+        let group = &self.sigma_groups[g];
+        marginal_sigma_log_likelihood(fit, n, group.low, group.high)
+            .ok_or(LogDensityError::rejected(REJECT_PRIOR))
     }
 
     /// The F_end of every first slide at `x` (indexed by run), for curves of single runs.

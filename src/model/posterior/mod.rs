@@ -116,7 +116,13 @@ impl Posterior {
             Blocking::Material => spec.contact_material[r.contact],
             Blocking::Contact => r.contact,
         };
-        let blocks = blocks::blocks(layout.coords.len(), &layout.runs, &order, group);
+        let blocks = blocks::blocks(
+            layout.coords.len(),
+            &layout.runs,
+            &order,
+            layout.sigma_groups.len(),
+            group,
+        );
         Ok(Self {
             spec: spec.clone(),
             coords: layout.coords,
@@ -218,8 +224,7 @@ impl LogDensity for Posterior {
     }
 
     fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
-        let mut cache = vec![0.0; self.cache_size()];
-        self.log_density_cached(x, derived, &mut cache)
+        self.evaluate_full(x, derived, None)
     }
 
     fn blocks(&self) -> Vec<Vec<usize>> {
@@ -237,7 +242,7 @@ impl LogDensity for Posterior {
         cache: &mut [f64],
     ) -> Result<f64, LogDensityError> {
         let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
-        self.evaluate_full(x, derived, cache)
+        self.evaluate_full(x, derived, Some(cache))
     }
 
     fn log_density_block(

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# The README's before/after timings, alternated in one run so that the machine's state is
+# shared: the demo with its default settings (blocked updates, student-t=0.5,de=0.5, run until
+# converged) against the settings the demo had before issue 13 (joint updates, stretch move,
+# 38 walkers, 1,000 fixed steps); and the one-contact quick path run until converged with the
+# default moves against the stretch move.
+#
+#   bash benches/demo_side_by_side.sh OUT_DIR    # from the repository root, ~15 min on 2 cores
+set -euo pipefail
+out=${1:?usage: bash benches/demo_side_by_side.sh OUT_DIR}
+bin=$(pwd)/target/release/slipbayes
+mkdir -p "$out"
+one_contact=(--first data/ptfe-c1-first.csv --repeat data/ptfe-c1-repeat.csv --velocity 1e-9)
+report() { # label, run dir, total seconds
+  python3 - "$@" <<'PY'
+import json, sys
+label, d, total = sys.argv[1:]
+s = json.load(open(d + "/summary.json"))
+q = s["parameters"] + s["derived"]
+ok = lambda v: v is not None and v == v
+sm = s["sampler"]
+print(f"{label}: {sm['steps']} steps ({sm['stopped_by']}), converged {sm['converged']}, "
+      f"τ_max {sm['tau_max']:.1f}, min ESS bulk {min(x['ess_bulk'] for x in q if ok(x['ess_bulk'])):.0f}, "
+      f"tail {min(x['ess_tail'] for x in q if ok(x['ess_tail'])):.0f}, "
+      f"max R̂ {max(x['r_hat'] for x in q if ok(x['r_hat'])):.4f}, "
+      f"{sum(1 for x in q if ok(x['ess_bulk']) and x['ess_bulk'] <= 400)} of {len(q)} with ESS bulk ≤ 400, "
+      f"fit {sm['wall_s']:.1f} s, command {float(total):.1f} s")
+PY
+}
+timed() { # label, run dir, command...
+  local label=$1 dir=$2; shift 2
+  local t0=$(date +%s.%N)
+  "$@" > "$dir.log" 2>&1 || true
+  local t1=$(date +%s.%N)
+  report "$label" "$dir" "$(echo "$t1 - $t0" | bc)"
+}
+for round in 1 2; do
+  timed "demo, defaults (round $round)" "$out/demo-new-$round" \
+    "$bin" demo --quiet --out "$out/demo-new-$round"
+  timed "demo, settings before issue 13 (round $round)" "$out/demo-old-$round" \
+    "$bin" fit models/demo.toml --updates joint --moves stretch=1 --walkers 38 --steps 1000 \
+    --quiet --out "$out/demo-old-$round" --overwrite
+  timed "one contact until converged, defaults (round $round)" "$out/one-new-$round" \
+    "$bin" fit "${one_contact[@]}" --quiet --out "$out/one-new-$round" --overwrite
+  timed "one contact until converged, stretch (round $round)" "$out/one-old-$round" \
+    "$bin" fit "${one_contact[@]}" --moves stretch=1 --quiet --out "$out/one-old-$round" --overwrite
+done

@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# The README's "Moves and blocks" table: τ, ESS, R̂ and wall time of fixed-length fits of
+# five posteriors under several moves and updates, all on this machine in one sequential run
+# (so the wall times are comparable; nothing else should run meanwhile).
+#
+#   bash benches/moves_and_blocks.sh OUT_DIR     # from the repository root, ~45 min on 2 cores
+#
+# Needs target/release/slipbayes (cargo build --release) and python3. Writes OUT_DIR/table.md.
+# ESS and R̂ are read from each fit's summary.json: every post-burn-in draw, every reported
+# quantity (parameters and derived), as ArviZ computes them (README, "The two commands").
+set -euo pipefail
+out=${1:?usage: bash benches/moves_and_blocks.sh OUT_DIR}
+root=$(pwd)
+bin=$root/target/release/slipbayes
+mkdir -p "$out/models" "$out/runs"
+# The demo and its variants, with absolute data paths.
+demo() { sed "s#\.\./data/#$root/data/#" models/demo.toml; }
+demo > "$out/models/demo.toml"
+demo | sed 's/^\[sampler\]$/[sampler]\nblocks = "contact"/' > "$out/models/demo-contact.toml"
+{ echo 'aging = "absolute"'; demo; } > "$out/models/absolute.toml"
+{ demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/pooled.toml"
+python3 data/make_campaign.py --contacts 10 --out "$out/campaign" > /dev/null
+cp "$out/campaign/campaign.toml" "$out/campaign/campaign-contact.toml"
+printf '\n[sampler]\nblocks = "contact"\n' >> "$out/campaign/campaign-contact.toml"
+one_contact=(--first data/ptfe-c1-first.csv --repeat data/ptfe-c1-repeat.csv --velocity 1e-9)
+
+echo "| posterior | updates, moves | walkers | steps | τ_max | min ESS bulk | min ESS tail | max R̂ | evaluations | wall (s) |" > "$out/table.md"
+echo "|---|---|---|---|---|---|---|---|---|---|" >> "$out/table.md"
+row() { # label, description, steps, then fit arguments
+  local label=$1 what=$2 steps=$3; shift 3
+  local dir="$out/runs/$label-$(echo "$what" | tr ' ,=/' '____')"
+  "$bin" fit "$@" --steps "$steps" --quiet --out "$dir" --overwrite > "$dir.log" 2>&1 || true
+  python3 - "$dir" "$label" "$what" >> "$out/table.md" <<'PY'
+import json, sys
+d, label, what = sys.argv[1:]
+s = json.load(open(d + "/summary.json"))
+q = s["parameters"] + s["derived"]
+ok = lambda v: v is not None and v == v
+sm = s["sampler"]
+print(f"| {label} | {what} | {sm['walkers']} | {sm['steps']} | {sm['tau_max']:.1f} "
+      f"| {min(x['ess_bulk'] for x in q if ok(x['ess_bulk'])):,.0f} "
+      f"| {min(x['ess_tail'] for x in q if ok(x['ess_tail'])):,.0f} "
+      f"| {max(x['r_hat'] for x in q if ok(x['r_hat'])):.4f} "
+      f"| {sm['log_density_evals']:,} | {sm['wall_s']:.1f} |")
+PY
+  tail -1 "$out/table.md"
+}
+m="$out/models"
+row "one contact" "joint, stretch" 2000 "${one_contact[@]}" --moves stretch=1
+row "one contact" "joint, student-t=0.9,stretch=0.1" 2000 "${one_contact[@]}" --moves student-t=0.9,stretch=0.1
+row "one contact" "joint, de" 2000 "${one_contact[@]}" --moves de=1
+row "one contact" "joint, student-t=0.5,de=0.5 (default)" 2000 "${one_contact[@]}"
+row demo "joint, stretch" 1000 "$m/demo.toml" --updates joint --moves stretch=1 --walkers 38
+row demo "contact blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-contact.toml" --moves student-t=0.9,stretch=0.1 --walkers 40
+row demo "material blocks, stretch" 1000 "$m/demo.toml" --moves stretch=1 --walkers 40
+row demo "material blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo.toml" --moves student-t=0.9,stretch=0.1 --walkers 40
+row demo "material blocks, student-t=0.5,de=0.5 (default)" 1000 "$m/demo.toml"
+row absolute "joint, stretch" 1000 "$m/absolute.toml" --updates joint --moves stretch=1 --walkers 38
+row absolute "material blocks, student-t=0.5,de=0.5 (default)" 1000 "$m/absolute.toml"
+row pooled "joint, stretch" 1000 "$m/pooled.toml" --updates joint --moves stretch=1 --walkers 46
+row pooled "material blocks, student-t=0.5,de=0.5 (default)" 1000 "$m/pooled.toml"
+row campaign "joint, stretch" 1000 "$out/campaign/campaign.toml" --moves stretch=1 --walkers 68
+row campaign "joint, student-t=0.9,stretch=0.1" 1000 "$out/campaign/campaign.toml" --moves student-t=0.9,stretch=0.1 --walkers 68
+row campaign "contact blocks, student-t=0.5,de=0.5" 1000 "$out/campaign/campaign-contact.toml" --walkers 68
+row campaign "joint, de" 1000 "$out/campaign/campaign.toml" --moves de=1 --walkers 68
+row campaign "joint, student-t=0.5,de=0.5 (default)" 1000 "$out/campaign/campaign.toml" --walkers 68
+row campaign "joint, student-t=0.5,de=0.5 (default, default walkers)" 1000 "$out/campaign/campaign.toml"
