@@ -139,8 +139,12 @@ fn resumed_run_equals_uninterrupted_run() {
     s.run(Steps::Fixed(40), &mut part, &mut Silent).unwrap();
     let json = part.last_checkpoint.clone().unwrap();
     drop(s);
-    let state: SamplerState = serde_json::from_str(&json).unwrap();
+    let mut state: SamplerState = serde_json::from_str(&json).unwrap();
     assert_eq!(state.step, 40);
+    assert!(state.history.is_none(), "checkpoints leave the history out");
+    state
+        .rebuild_history::<SamplerError>(&config(), |p| Ok(part.position_column(p)))
+        .unwrap();
     let mut s = EnsembleSampler::from_state(&g, config(), state).unwrap();
     let report_resumed = s.run(Steps::Fixed(60), &mut part, &mut Silent).unwrap();
 
@@ -452,7 +456,12 @@ fn resumed_stopping_rule_run_stops_at_the_same_step() {
     let mut part = MemorySink::new();
     let mut s = EnsembleSampler::new(&g, config(), init).unwrap();
     s.run(Steps::Fixed(700), &mut part, &mut Silent).unwrap();
-    let state: SamplerState = serde_json::from_str(part.last_checkpoint.as_ref().unwrap()).unwrap();
+    let mut state: SamplerState =
+        serde_json::from_str(part.last_checkpoint.as_ref().unwrap()).unwrap();
+    // The history, thinned several times by step 700, is restored from the chains.
+    state
+        .rebuild_history::<SamplerError>(&config(), |p| Ok(part.position_column(p)))
+        .unwrap();
     let mut s = EnsembleSampler::from_state(&g, config(), state).unwrap();
     let b = s
         .run(Steps::UntilConverged(rule), &mut part, &mut Silent)

@@ -506,3 +506,66 @@ fn write_atomically_is_public_and_replaces_files() {
     assert_eq!(fs::read(&path).expect("read"), b"# two");
     assert_eq!(names_in(tmp.path()), vec!["report.md"]);
 }
+
+/// The column-at-a-time reader gives exactly what the whole-table reader gives, reads only the
+/// parts it needs from a step on, and refuses rows that are not a complete grid.
+#[test]
+fn chain_reader_reads_one_column_like_the_whole_table() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let whole = uninterrupted(dir);
+    let reader = slipbayes::storage::ChainReader::open(&files(dir).chains).expect("open");
+    assert_eq!(
+        (reader.ensembles(), reader.walkers(), reader.steps()),
+        (ENSEMBLES, WALKERS, TOTAL_STEPS)
+    );
+    assert_eq!(reader.param_names(), whole.param_names.as_slice());
+    assert_eq!(reader.derived_names(), whole.derived_names.as_slice());
+    for name in whole.column_names() {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let expected = whole.column(name).expect("column");
+        assert_eq!(bits(&reader.column(name).expect("column")), bits(expected));
+        // From step 37 on (parts hold 20 steps: the first is skipped, the second cut).
+        let from = reader.column_from(name, 37).expect("column_from");
+        assert_eq!(bits(&from), bits(&expected[reader.row(37, 0, 0)..]));
+        assert_eq!(
+            reader.series(name).expect("series"),
+            whole.series(name).expect("series")
+        );
+    }
+    for row in [0, 1, WALKERS, ENSEMBLES * WALKERS + 3, reader.rows() - 1] {
+        let (step, e, w) = reader.locate(row);
+        assert_eq!(reader.row(step, e, w), row);
+        assert_eq!(
+            (step, e as u32, w as u32),
+            (whole.step[row], whole.ensemble[row], whole.walker[row])
+        );
+    }
+    assert!(matches!(
+        reader.column("gamma"),
+        Err(StorageError::ColumnMissing { column, .. }) if column == "gamma"
+    ));
+
+    // A run that skipped a walker is not a grid: the reader names the part and the row.
+    let gap = tempfile::tempdir().expect("tmp");
+    let mut sink =
+        ParquetSink::create(&files(gap.path()), &params(), &derived(), options(7)).expect("create");
+    for step in 0..3u64 {
+        let s = fake_step(0, step);
+        let walkers = if step == 2 { WALKERS - 1 } else { WALKERS };
+        let np = params().len();
+        sink.record(&StepView {
+            ensemble: 0,
+            step,
+            ndim: np,
+            positions: &s.positions[..walkers * np],
+            log_density: &s.log_density[..walkers],
+            derived: &s.derived[..walkers],
+        })
+        .expect("record");
+    }
+    sink.finish().expect("finish");
+    let err = slipbayes::storage::ChainReader::open(&files(gap.path()).chains).unwrap_err();
+    assert!(matches!(err, StorageError::Inconsistent { .. }), "{err}");
+    assert!(err.to_string().contains("whole steps"), "{err}");
+}

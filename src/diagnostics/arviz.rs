@@ -105,21 +105,24 @@ pub(crate) fn median_of_sorted(s: &[f64]) -> f64 {
 
 /// Average ranks (1-based, ties share the mean rank), as `scipy.stats.rankdata`.
 fn average_ranks(x: &[f64]) -> Vec<f64> {
-    let mut idx: Vec<usize> = (0..x.len()).collect();
-    idx.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+    // u32 indices halve the working memory of the largest copy (chains of 2^32 draws of one
+    // quantity are beyond any run).
+    let mut idx: Vec<u32> = (0..x.len() as u32).collect();
+    idx.sort_by(|&a, &b| x[a as usize].total_cmp(&x[b as usize]));
     let mut ranks = vec![0.0; x.len()];
     let mut start = 0;
     while start < idx.len() {
         let mut end = start + 1;
         // partial_cmp treats -0.0 and 0.0 as tied, as numpy does.
         while end < idx.len()
-            && x[idx[end]].partial_cmp(&x[idx[start]]) == Some(std::cmp::Ordering::Equal)
+            && x[idx[end] as usize].partial_cmp(&x[idx[start] as usize])
+                == Some(std::cmp::Ordering::Equal)
         {
             end += 1;
         }
         let r = 0.5 * ((start + 1) as f64 + end as f64);
         for &i in &idx[start..end] {
-            ranks[i] = r;
+            ranks[i as usize] = r;
         }
         start = end;
     }

@@ -43,10 +43,10 @@ use crate::data::Provenance;
 use crate::density::{LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
-    EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerState, Silent, Steps,
-    StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
+    EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError, SamplerState, Silent,
+    Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
-use crate::storage::{ParquetSink, SinkOptions};
+use crate::storage::{ChainReader, ParquetSink, SinkOptions};
 
 pub use error::FitError;
 pub use model::{fit_model, summary_spec, SettingOverrides};
@@ -272,34 +272,33 @@ pub fn kept_draws(
     names: &[String],
     max_draws: usize,
 ) -> Result<Vec<Vec<f64>>, FitError> {
-    let chains = outcome.dir.read_chains()?;
-    let columns: Vec<&[f64]> = names
-        .iter()
-        .map(|n| chains.column(n))
-        .collect::<Result<_, _>>()
-        .map_err(|source| FitError::Storage {
+    let chains = outcome.dir.chain_reader()?;
+    let rows = kept_rows(&chains, &outcome.summary.sampler, max_draws);
+    let mut draws = vec![Vec::with_capacity(names.len()); rows.len()];
+    // One column in memory at a time.
+    for name in names {
+        let column = chains.column(name).map_err(|source| FitError::Storage {
             context: format!("reading kept draws from {}", outcome.dir.path().display()),
             source,
         })?;
-    Ok(kept_rows(&chains, &outcome.summary.sampler, max_draws)
-        .into_iter()
-        .map(|i| columns.iter().map(|c| c[i]).collect())
-        .collect())
+        for (draw, &i) in draws.iter_mut().zip(&rows) {
+            draw.push(column[i]);
+        }
+    }
+    Ok(draws)
 }
 
 /// Rows of `chains` kept after the burn-in recorded in `sampler`, at most
 /// `max_draws` of them spread evenly over the chains, in row order.
 pub fn kept_rows(
-    chains: &crate::storage::Chains,
+    chains: &crate::storage::ChainReader,
     sampler: &SamplerSummary,
     max_draws: usize,
 ) -> Vec<usize> {
-    let burn_in = sampler.burn_in;
-    let kept: Vec<usize> = (0..chains.len())
-        .filter(|&i| chains.step[i] >= burn_in)
-        .collect();
-    let every = kept.len().div_ceil(max_draws.max(1)).max(1);
-    kept.into_iter().step_by(every).collect()
+    let first = chains.row(sampler.burn_in.min(chains.steps()), 0, 0);
+    let kept = chains.rows() - first;
+    let every = kept.div_ceil(max_draws.max(1)).max(1);
+    (first..chains.rows()).step_by(every).collect()
 }
 
 /// Runs (or resumes) a fit of `density` into `dir` and writes its summaries; see the
@@ -359,6 +358,25 @@ pub fn run_fit<D: LogDensity + ?Sized>(
                 ),
             });
         }
+        // The checkpoint leaves out the sampler's thinned history; the chains hold it.
+        let mut state = state;
+        let chains = ChainReader::open(&files.chains)
+            .map_err(storage(format!("reading the chains of {shown}")))?;
+        let step = state.step;
+        state
+            .rebuild_history(&config, |p| {
+                chains
+                    .column(&param_names[p])
+                    .map_err(|e| SamplerError::Sink {
+                        step,
+                        source: Box::new(e),
+                    })
+            })
+            .map_err(|source| FitError::Sampler {
+                context: format!("restoring the sampler's history from the chains of {shown}"),
+                source,
+            })?;
+        drop(chains);
         let steps = match settings.steps {
             Steps::Fixed(total) if total < state.step => {
                 return Err(mismatch(format!(
@@ -427,7 +445,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     // Every run ends with a checkpoint, which makes all its chains durable and readable.
     let mut report = sampler.run(steps, &mut sink, observer).map_err(sampling)?;
     let mut summary =
-        plan.summarise(&dir.read_chains()?, &report, settings, dir.path(), started)?;
+        plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
 
     // The sampler's own rule sees only the parameters' thinned history; the summary judges
     // every reported quantity on every post-burn-in draw. Until it agrees, and while the
@@ -443,7 +461,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
                 .run(Steps::Fixed(more), &mut sink, observer)
                 .map_err(sampling)?;
             summary =
-                plan.summarise(&dir.read_chains()?, &report, settings, dir.path(), started)?;
+                plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
         }
         report.stopped_by = if summary.sampler.converged {
             StopReason::Converged

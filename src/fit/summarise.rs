@@ -20,7 +20,7 @@ use crate::diagnostics::{
     MIN_DRAWS,
 };
 use crate::sampler::RunReport;
-use crate::storage::Chains;
+use crate::storage::ChainReader;
 
 /// One side of a comparison: a reported quantity or an aggregate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -179,7 +179,7 @@ impl Plan {
     /// Summaries of the chains of a finished run.
     pub(crate) fn summarise(
         &self,
-        chains: &Chains,
+        chains: &ChainReader,
         report: &RunReport,
         settings: &FitSettings,
         dir: &Path,
@@ -189,37 +189,40 @@ impl Plan {
         let layout = Layout::check(chains, settings.ensembles, settings.walkers, total, dir)?;
         let mut problems = Vec::new();
         let selection = Selection::new(report, &mut problems)?;
-        let column = |name: &str| {
-            chains.column(name).map_err(|source| FitError::Storage {
-                context: format!("reading column {name:?} of {}", dir.display()),
-                source,
-            })
-        };
         let quantities = &self.spec.quantities;
-        let columns: Vec<&[f64]> = quantities
-            .iter()
-            .map(|q| column(&q.column))
-            .collect::<Result<_, _>>()?;
-        let members: Vec<Vec<&[f64]>> = self
-            .spec
-            .aggregates
-            .iter()
-            .map(|a| a.of.iter().map(|c| column(c)).collect())
-            .collect::<Result<_, _>>()?;
-        // The value of an operand at a row: a column, or the mean of an aggregate's columns.
-        let value = |o: Operand, row: usize| match o {
-            Operand::Quantity(i) => columns[i][row],
-            Operand::Aggregate(i) => {
-                let m = &members[i];
-                m.iter().map(|c| c[row]).sum::<f64>() / m.len() as f64
+        // The kept draws of an operand, read from disk when asked for, so that memory holds
+        // the columns of the quantities being summarised, never the whole table.
+        let column = |name: &str| {
+            chains
+                .column_from(name, selection.burn_in)
+                .map_err(|source| FitError::Storage {
+                    context: format!("reading column {name:?} of {}", dir.display()),
+                    source,
+                })
+        };
+        let values = |o: Operand| -> Result<Vec<f64>, FitError> {
+            match o {
+                Operand::Quantity(i) => column(&quantities[i].column),
+                Operand::Aggregate(i) => {
+                    let of = &self.spec.aggregates[i].of;
+                    let mut sum = vec![0.0; selection.kept * layout.ensembles * layout.walkers];
+                    for c in of {
+                        for (s, v) in sum.iter_mut().zip(column(c)?) {
+                            *s += v;
+                        }
+                    }
+                    sum.iter_mut().for_each(|s| *s /= of.len() as f64);
+                    Ok(sum)
+                }
             }
         };
+        // Rows of the kept draws are in recording order: step, then ensemble, then walker.
         let kept = |f: &(dyn Fn(usize) -> f64 + Sync)| {
             EnsembleDraws::from_fn(
                 layout.ensembles,
                 layout.walkers,
                 selection.kept,
-                |e, w, t| f(layout.row(selection.step(t), e, w)),
+                |e, w, t| f((t * layout.ensembles + e) * layout.walkers + w),
             )
         };
         let probs = (settings.ci_prob, settings.hdi_prob);
@@ -230,14 +233,21 @@ impl Plan {
             };
             summarize(&kept(f).map_err(diag)?, probs.0, probs.1).map_err(diag)
         };
+        // A quantity's column is dropped once its draws are laid out per walker, before the
+        // diagnostics make their working copies.
+        let summary_of_values = |label: String, v: Vec<f64>| {
+            let diag = |source| FitError::Diagnostics {
+                quantity: label.clone(),
+                source,
+            };
+            let draws = kept(&|row| v[row]).map_err(diag)?;
+            drop(v);
+            summarize(&draws, probs.0, probs.1).map_err(diag)
+        };
 
         let stats: Vec<Summary> = (0..quantities.len())
             .into_par_iter()
-            .map(|i| {
-                summary_of(quantities[i].label(), &|row| {
-                    value(Operand::Quantity(i), row)
-                })
-            })
+            .map(|i| summary_of_values(quantities[i].label(), values(Operand::Quantity(i))?))
             .collect::<Result<_, _>>()?;
         let aggregates: Vec<AggregateSummary> = (0..self.spec.aggregates.len())
             .into_par_iter()
@@ -250,7 +260,7 @@ impl Plan {
                     unit: a.unit.clone(),
                     of: a.of.clone(),
                     note: a.note.clone(),
-                    stats: summary_of(label, &|row| value(Operand::Aggregate(i), row))?,
+                    stats: summary_of_values(label, values(Operand::Aggregate(i))?)?,
                 })
             })
             .collect::<Result<_, FitError>>()?;
@@ -265,42 +275,38 @@ impl Plan {
             Operand::Quantity(i) => quantities[i].group.clone(),
             Operand::Aggregate(i) => self.spec.aggregates[i].group.clone(),
         };
-        let comparisons: Vec<Comparison> = self
-            .pairs
-            .par_iter()
-            .map(|(name, unit, note, a, b)| {
-                let what = format!("{} − {}", label_of(*a), label_of(*b));
-                let (a, b) = (*a, *b);
-                let difference = summary_of(what.clone(), &|row| value(a, row) - value(b, row))?;
-                // A zero or non-finite ratio draw leaves the ratio undefined, not the fit.
-                let ratio = kept(&|row| value(a, row) / value(b, row))
-                    .ok()
-                    .and_then(|r| summarize(&r, probs.0, probs.1).ok());
-                let above = kept(&|row| {
-                    if value(a, row) > value(b, row) {
-                        1.0
-                    } else {
-                        0.0
-                    }
+        let comparisons: Vec<Comparison> =
+            self.pairs
+                .par_iter()
+                .map(|(name, unit, note, a, b)| {
+                    let what = format!("{} − {}", label_of(*a), label_of(*b));
+                    let (a, b) = (*a, *b);
+                    let (va, vb) = (values(a)?, values(b)?);
+                    let difference = summary_of(what.clone(), &|row| va[row] - vb[row])?;
+                    // A zero or non-finite ratio draw leaves the ratio undefined, not the fit.
+                    let ratio = kept(&|row| va[row] / vb[row])
+                        .ok()
+                        .and_then(|r| summarize(&r, probs.0, probs.1).ok());
+                    let above = kept(&|row| if va[row] > vb[row] { 1.0 } else { 0.0 }).map_err(
+                        |source| FitError::Diagnostics {
+                            quantity: what,
+                            source,
+                        },
+                    )?;
+                    let (p, p_mcse) = probability(&above);
+                    Ok(Comparison {
+                        name: name.clone(),
+                        unit: unit.clone(),
+                        group_a: group_of(a),
+                        group_b: group_of(b),
+                        note: note.clone(),
+                        difference,
+                        ratio,
+                        p_a_greater: p,
+                        p_a_greater_mcse: p_mcse,
+                    })
                 })
-                .map_err(|source| FitError::Diagnostics {
-                    quantity: what,
-                    source,
-                })?;
-                let (p, p_mcse) = probability(&above);
-                Ok(Comparison {
-                    name: name.clone(),
-                    unit: unit.clone(),
-                    group_a: group_of(a),
-                    group_b: group_of(b),
-                    note: note.clone(),
-                    difference,
-                    ratio,
-                    p_a_greater: p,
-                    p_a_greater_mcse: p_mcse,
-                })
-            })
-            .collect::<Result<_, FitError>>()?;
+                .collect::<Result<_, FitError>>()?;
 
         if settings.ensembles < 2 {
             problems.push(Problem::SingleEnsemble);
@@ -381,7 +387,7 @@ fn probability(indicator: &EnsembleDraws) -> (f64, Option<f64>) {
     (p, mcse)
 }
 
-/// Rows of a complete run are in recording order: step, then ensemble, then walker.
+/// The shape of the chains, checked against the settings and the sampler's report.
 #[derive(Debug, Clone, Copy)]
 struct Layout {
     ensembles: usize,
@@ -390,45 +396,23 @@ struct Layout {
 
 impl Layout {
     fn check(
-        chains: &Chains,
+        chains: &ChainReader,
         ensembles: usize,
         walkers: usize,
         steps: u64,
         dir: &Path,
     ) -> Result<Self, FitError> {
-        let inconsistent = |problem: String| FitError::Inconsistent {
-            dir: dir.to_path_buf(),
-            problem,
-        };
-        let expected = ensembles as u64 * walkers as u64 * steps;
-        if chains.len() as u64 != expected {
-            return Err(inconsistent(format!(
-                "{} rows, but {ensembles} ensembles × {walkers} walkers × {steps} steps make {expected}",
-                chains.len()
-            )));
+        let found = (chains.ensembles(), chains.walkers(), chains.steps());
+        if found != (ensembles, walkers, steps) {
+            return Err(FitError::Inconsistent {
+                dir: dir.to_path_buf(),
+                problem: format!(
+                    "the chains hold {} ensembles × {} walkers × {} steps where {ensembles} × {walkers} × {steps} were expected",
+                    found.0, found.1, found.2
+                ),
+            });
         }
-        let layout = Self { ensembles, walkers };
-        for step in 0..steps {
-            for e in 0..ensembles {
-                for w in 0..walkers {
-                    let row = layout.row(step, e, w);
-                    if chains.step[row] != step
-                        || chains.ensemble[row] as usize != e
-                        || chains.walker[row] as usize != w
-                    {
-                        return Err(inconsistent(format!(
-                            "row {row} holds step {}, ensemble {}, walker {} where step {step}, ensemble {e}, walker {w} was expected",
-                            chains.step[row], chains.ensemble[row], chains.walker[row]
-                        )));
-                    }
-                }
-            }
-        }
-        Ok(layout)
-    }
-
-    fn row(&self, step: u64, e: usize, w: usize) -> usize {
-        (step as usize * self.ensembles + e) * self.walkers + w
+        Ok(Self { ensembles, walkers })
     }
 }
 
@@ -476,10 +460,6 @@ impl Selection {
             });
         }
         Ok(Self { burn_in, kept })
-    }
-
-    fn step(&self, t: usize) -> u64 {
-        self.burn_in + t as u64
     }
 }
 

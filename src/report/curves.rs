@@ -7,7 +7,7 @@ use crate::diagnostics::quantile;
 use crate::fit::SamplerSummary;
 use crate::law::{Elastic, Law};
 use crate::model::Posterior;
-use crate::storage::Chains;
+use crate::storage::ChainReader;
 
 /// Quantiles drawn as a median with a 95 % band.
 pub const BAND_PROBS: [f64; 3] = [0.025, 0.5, 0.975];
@@ -18,23 +18,26 @@ pub const BAND_PROBS: [f64; 3] = [0.025, 0.5, 0.975];
 /// # Errors
 /// [`ReportError::Chains`] when a coordinate column is missing.
 pub fn coordinate_draws(
-    chains: &Chains,
+    chains: &ChainReader,
     sampler: &SamplerSummary,
     max_draws: usize,
 ) -> Result<Vec<(usize, Vec<f64>)>, ReportError> {
-    let columns: Vec<&[f64]> = chains
-        .param_names
+    let rows = crate::fit::kept_rows(chains, sampler, max_draws);
+    let mut draws: Vec<(usize, Vec<f64>)> = rows
         .iter()
-        .map(|n| chains.column(n))
-        .collect::<Result<_, _>>()
-        .map_err(|source| ReportError::Chains {
-            dir: chains.dir.clone(),
+        .map(|&i| (i, Vec::with_capacity(chains.param_names().len())))
+        .collect();
+    // One column in memory at a time.
+    for name in chains.param_names() {
+        let column = chains.column(name).map_err(|source| ReportError::Chains {
+            dir: chains.dir().to_path_buf(),
             source,
         })?;
-    Ok(crate::fit::kept_rows(chains, sampler, max_draws)
-        .into_iter()
-        .map(|i| (i, columns.iter().map(|c| c[i]).collect()))
-        .collect())
+        for (i, draw) in &mut draws {
+            draw.push(column[*i]);
+        }
+    }
+    Ok(draws)
 }
 
 /// Per grid point, the `probs` quantiles over the rows of `values[draw][point]`:

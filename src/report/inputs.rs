@@ -4,7 +4,7 @@
 use super::ReportError;
 use crate::fit::{FitSummary, RunDir, RunRecord};
 use crate::model::Band;
-use crate::storage::Chains;
+use crate::storage::ChainReader;
 
 /// Fraction of a run's observations inside its 95 % predictive band.
 pub fn coverage_95(run: &Band) -> f64 {
@@ -28,8 +28,8 @@ pub struct RunInputs {
     pub record: RunRecord,
     /// `predictive.csv`, per run in file order.
     pub predictive: Vec<Band>,
-    /// The chains.
-    pub chains: Chains,
+    /// The chains, read one column at a time.
+    pub chains: ChainReader,
 }
 
 impl RunInputs {
@@ -43,7 +43,7 @@ impl RunInputs {
             summary: dir.read_summary()?,
             record: dir.read_record()?,
             predictive: dir.read_predictive()?,
-            chains: dir.read_chains()?,
+            chains: dir.chain_reader()?,
         })
     }
 }

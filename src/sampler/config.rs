@@ -11,6 +11,13 @@ pub const DEFAULT_ENSEMBLES: usize = 4;
 pub const DEFAULT_SEED: u64 = 20_240_517;
 /// Default maximum number of thinned rows kept per walker for the τ and R̂ estimates.
 pub const DEFAULT_HISTORY_ROWS: usize = 2048;
+/// Memory the thinned history may take before it keeps fewer rows than `history_rows`: a
+/// campaign of many contacts (hundreds of walkers × tens of parameters) would otherwise hold
+/// hundreds of MB for it.
+pub const HISTORY_BUDGET_BYTES: usize = 64 << 20;
+/// Fewest rows the budget leaves: rows between 64 and 128 still cover the run finer than τ/2
+/// before it is 50 τ long, which overstates τ by a few per cent at most.
+pub const MIN_BUDGET_ROWS: usize = 128;
 
 /// Settings of an [`EnsembleSampler`](super::EnsembleSampler), validated once by
 /// [`SamplerConfig::new`] and the `with_*` methods (also when deserialised).
@@ -224,6 +231,16 @@ impl SamplerConfig {
     /// Maximum history rows per walker.
     pub fn history_rows(&self) -> usize {
         self.history_rows
+    }
+
+    /// Rows the history keeps for a density of `ndim` parameters:
+    /// [`history_rows`](Self::history_rows), fewer when a row of every walker of every ensemble would take the
+    /// history beyond [`HISTORY_BUDGET_BYTES`], never fewer than [`MIN_BUDGET_ROWS`] for that
+    /// reason.
+    pub fn history_rows_for(&self, ndim: usize) -> usize {
+        let row_bytes = self.ensembles * self.walkers * ndim.max(1) * std::mem::size_of::<f64>();
+        self.history_rows
+            .min((HISTORY_BUDGET_BYTES / row_bytes).max(MIN_BUDGET_ROWS))
     }
 }
 

@@ -3,8 +3,13 @@
 //! The stopping rule needs the whole chain, but keeping every step would cost memory in
 //! proportion to the run length. Rows are kept every `thin` steps; when `max_rows` is
 //! reached every other row is dropped and `thin` doubles, so between `max_rows/2` and
-//! `max_rows` rows cover the run. Before convergence (run < 50 τ) this thinning is finer
-//! than τ/12, so τ measured on the kept rows (times `thin`) stays accurate.
+//! `max_rows` rows cover the run. With the default 2,048 rows, before convergence (run < 50 τ)
+//! this thinning is finer than τ/20, so τ measured on the kept rows (times `thin`) stays
+//! accurate; a large model keeps fewer rows ([`SamplerConfig::history_rows_for`]
+//! (super::SamplerConfig::history_rows_for)), never fewer than 128, still finer than τ/2.
+//!
+//! Checkpoints do not store the history: the rows it keeps follow from the step count and
+//! `max_rows`, and their values are in the chains ([`Rebuild`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -160,6 +165,56 @@ impl RowHistory {
     /// Step number of kept row `r`.
     pub(crate) fn step_of(&self, r: usize) -> u64 {
         r as u64 * self.thin
+    }
+}
+
+/// A [`History`] restored from recorded chains: the steps it keeps are found by running the
+/// thinning rule of [`RowHistory`] itself over the step numbers, so they are the steps an
+/// uninterrupted run keeps.
+pub(crate) struct Rebuild {
+    kept: Vec<u64>,
+    history: History,
+}
+
+impl Rebuild {
+    /// The rows a run of `steps` steps keeps with `max_rows` rows, for `ensembles` ensembles of
+    /// `width` values (walkers × parameters) per row, still empty.
+    pub(crate) fn new(steps: u64, max_rows: usize, ensembles: usize, width: usize) -> Self {
+        let mut rule = RowHistory::new(1, 1, max_rows);
+        for step in 0..steps {
+            if rule.wants(step) {
+                rule.push(0, &[step as f64]);
+                rule.finish_row();
+            }
+        }
+        let kept: Vec<u64> = rule.data[0].iter().map(|&s| s as u64).collect();
+        let history = History {
+            thin: rule.thin,
+            rows: rule.rows,
+            max_rows,
+            series: vec![vec![Vec::with_capacity(kept.len()); width]; ensembles],
+        };
+        Self { kept, history }
+    }
+
+    /// Fills parameter `p` from its recorded values, one per row (step, then ensemble, then
+    /// walker; `values.len()` = steps × ensembles × walkers).
+    pub(crate) fn fill(&mut self, p: usize, ndim: usize, walkers: usize, values: &[f64]) {
+        let ensembles = self.history.series.len();
+        for (e, columns) in self.history.series.iter_mut().enumerate() {
+            for w in 0..walkers {
+                columns[w * ndim + p].extend(
+                    self.kept
+                        .iter()
+                        .map(|&s| values[(s as usize * ensembles + e) * walkers + w]),
+                );
+            }
+        }
+    }
+
+    /// The restored history.
+    pub(crate) fn done(self) -> History {
+        self.history
     }
 }
 

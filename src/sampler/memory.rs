@@ -53,6 +53,21 @@ impl MemorySink {
     pub fn new() -> Self {
         Self::default()
     }
+
+    /// Parameter `p` of every recorded row in recording order (step, then ensemble, then
+    /// walker): the column [`SamplerState::rebuild_history`](super::SamplerState::rebuild_history)
+    /// takes.
+    pub fn position_column(&self, p: usize) -> Vec<f64> {
+        let steps = self.chains.first().map_or(0, |c| c.steps.len());
+        let mut column = Vec::new();
+        for t in 0..steps {
+            for c in &self.chains {
+                let row = &c.positions[t * c.walkers * c.ndim..(t + 1) * c.walkers * c.ndim];
+                column.extend(row.iter().skip(p).step_by(c.ndim));
+            }
+        }
+        column
+    }
 }
 
 impl ChainSink for MemorySink {

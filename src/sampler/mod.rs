@@ -63,6 +63,7 @@ pub mod sink;
 
 pub use config::{
     SamplerConfig, Steps, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
+    HISTORY_BUDGET_BYTES, MIN_BUDGET_ROWS,
 };
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;

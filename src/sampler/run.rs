@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::config::{SamplerConfig, Steps, Updates};
 use super::ensemble::{Ensemble, EnsembleState, Fatal, ProposalBuffers, Work};
 use super::error::SamplerError;
-use super::history::{History, RowHistory};
+use super::history::{History, Rebuild, RowHistory};
 use super::moves::Move;
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
@@ -49,10 +49,52 @@ pub struct SamplerState {
     pub step: u64,
     /// Per-ensemble state.
     pub ensembles: Vec<EnsembleState>,
-    /// Thinned history used by τ and R̂.
-    pub history: History,
+    /// Thinned history used by τ and R̂. Checkpoints leave it out (`None`): which rows it keeps
+    /// follows from the step count and the configured history rows, and their values are in
+    /// the chains, so [`SamplerState::rebuild_history`] restores it from them and a checkpoint
+    /// stays as small as one step of the ensembles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub history: Option<History>,
     /// τ per (ensemble, parameter) at the last stopping-rule check.
     pub last_tau: Option<Vec<Vec<f64>>>,
+}
+
+impl SamplerState {
+    /// Restores the history a checkpoint leaves out, from the chains: `column(p)` gives
+    /// parameter `p` of every recorded row (step, then ensemble, then walker, steps `0..step`).
+    /// `config` is the run's; the rows kept are those an uninterrupted run with it would have
+    /// kept, so a resumed run stops where it would have.
+    ///
+    /// # Errors
+    /// What `column` returns, or [`SamplerError::Shape`] when a column has the wrong length.
+    pub fn rebuild_history<E: From<SamplerError>>(
+        &mut self,
+        config: &SamplerConfig,
+        mut column: impl FnMut(usize) -> Result<Vec<f64>, E>,
+    ) -> Result<(), E> {
+        let ensembles = self.ensembles.len();
+        let rows = self.step as usize * ensembles * self.walkers;
+        let mut history = Rebuild::new(
+            self.step,
+            config.history_rows_for(self.ndim),
+            ensembles,
+            self.walkers * self.ndim,
+        );
+        for p in 0..self.ndim {
+            let values = column(p)?;
+            if values.len() != rows {
+                return Err(SamplerError::Shape {
+                    what: format!("chains of parameter {p} for the history"),
+                    expected: rows,
+                    got: values.len(),
+                }
+                .into());
+            }
+            history.fill(p, self.ndim, self.walkers, &values);
+        }
+        self.history = Some(history.done());
+        Ok(())
+    }
 }
 
 fn stretch_alone() -> Vec<(Move, f64)> {
@@ -207,7 +249,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             });
             caches.push(cache);
         }
-        let history = RowHistory::new(config.ensembles(), walkers * ndim, config.history_rows());
+        let history = RowHistory::new(
+            config.ensembles(),
+            walkers * ndim,
+            config.history_rows_for(ndim),
+        );
         Ok(Self::assemble(
             density, config, blocks, states, caches, 0, history, None,
         ))
@@ -264,12 +310,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 config.moves()
             ));
         }
-        if state.history.series.len() != config.ensembles()
-            || state
-                .history
-                .series
-                .iter()
-                .any(|c| c.len() != walkers * ndim)
+        let mut state = state;
+        let Some(mut history) = state.history.take() else {
+            return mismatch(
+                "the state holds no history (checkpoints leave it out): rebuild it from the \
+                 chains with SamplerState::rebuild_history"
+                    .into(),
+            );
+        };
+        if history.series.len() != config.ensembles()
+            || history.series.iter().any(|c| c.len() != walkers * ndim)
         {
             return mismatch("history does not match the ensembles".into());
         }
@@ -305,12 +355,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let SamplerState {
             ensembles,
             step,
-            history,
             last_tau,
             ..
         } = state;
-        let mut history = history;
-        history.max_rows = config.history_rows().max(history.rows + 1);
+        history.max_rows = config.history_rows_for(ndim).max(history.rows + 1);
         let history = RowHistory::from_history(&history, walkers * ndim);
         Ok(Self::assemble(
             density, config, blocks, ensembles, caches, step, history, last_tau,
@@ -370,7 +418,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             updates: self.config.updates(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
-            history: self.history.to_history(),
+            history: Some(self.history.to_history()),
             last_tau: self.last_tau.clone(),
         }
     }
@@ -528,7 +576,6 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             updates: self.config.updates(),
             step: self.step,
             ensembles: &self.ensembles,
-            history: &self.history,
             last_tau: &self.last_tau,
         })
         .map_err(|err| SamplerError::Sink {
@@ -833,7 +880,8 @@ const PARALLEL_MIN_WORK_NS: f64 = 100_000.0;
 /// Half-steps between re-timings of serial evaluations (each timing costs two clock reads).
 const RETIME_EVERY: u64 = 64;
 
-/// Borrowed form of [`SamplerState`] for checkpoints; serialises to exactly the same fields.
+/// Borrowed form of [`SamplerState`] for checkpoints; serialises to the same fields but the
+/// history, which [`SamplerState::rebuild_history`] restores from the chains.
 struct StateView<'s> {
     seed: u64,
     ndim: usize,
@@ -843,7 +891,6 @@ struct StateView<'s> {
     updates: Updates,
     step: u64,
     ensembles: &'s [Ensemble],
-    history: &'s RowHistory,
     last_tau: &'s Option<Vec<Vec<f64>>>,
 }
 
@@ -856,7 +903,7 @@ impl Serialize for StateView<'_> {
                 ser.collect_seq(self.0.iter().map(|e| &e.s))
             }
         }
-        let mut st = ser.serialize_struct("SamplerState", 11)?;
+        let mut st = ser.serialize_struct("SamplerState", 10)?;
         st.serialize_field("version", &STATE_VERSION)?;
         st.serialize_field("seed", &self.seed)?;
         st.serialize_field("ndim", &self.ndim)?;
@@ -866,7 +913,6 @@ impl Serialize for StateView<'_> {
         st.serialize_field("updates", &self.updates)?;
         st.serialize_field("step", &self.step)?;
         st.serialize_field("ensembles", &Ensembles(self.ensembles))?;
-        st.serialize_field("history", self.history)?;
         st.serialize_field("last_tau", self.last_tau)?;
         st.end()
     }
@@ -1018,9 +1064,18 @@ mod tests {
         let mut s = sampler(2);
         let mut sink = MemorySink::new();
         s.run(Steps::Fixed(30), &mut sink, &mut Silent).unwrap();
+        let mut state = s.state();
+        let history = state.history.take();
         assert_eq!(
             sink.last_checkpoint.as_deref(),
-            Some(serde_json::to_string(&s.state()).unwrap().as_str())
+            Some(serde_json::to_string(&state).unwrap().as_str())
         );
+        // What the checkpoint leaves out, the chains restore bit for bit.
+        let mut restored: SamplerState =
+            serde_json::from_str(sink.last_checkpoint.as_deref().unwrap()).unwrap();
+        restored
+            .rebuild_history::<SamplerError>(&s.config, |p| Ok(sink.position_column(p)))
+            .unwrap();
+        assert_eq!(restored.history, history);
     }
 }

@@ -1,7 +1,7 @@
 //! Chains streamed to Parquet, checkpoints for resuming, and atomic output files.
 //!
 //! The sampler hands draws to a [`ParquetSink`] through the [`ChainSink`] contract; the
-//! diagnostics read them back with [`read_chains`]. This part knows nothing of friction or of
+//! summaries read them back one column at a time with [`ChainReader`]. This part knows nothing of friction or of
 //! how draws are made: it stores rows and an opaque, serialisable sampler state, in the files
 //! its caller names ([`ChainFiles`]; a fit's run directory names them, see
 //! [`crate::fit::RunDir`]).
@@ -40,8 +40,8 @@ use crate::data::atomic as io;
 use std::path::{Path, PathBuf};
 
 pub use crate::sampler::sink::{ChainSink, StepView};
-pub use read::{read_chains, Chains};
-pub use sink::{ParquetSink, SinkOptions};
+pub use read::{read_chains, ChainReader, Chains};
+pub use sink::{ParquetSink, SinkOptions, ROW_GROUP_BYTES};
 
 /// Name of the index column holding the ensemble number.
 pub const ENSEMBLE_COLUMN: &str = "ensemble";

@@ -1,13 +1,15 @@
-//! Reading the chains of a run directory back into memory.
+//! Reading the chains of a run directory back: whole ([`read_chains`]) or one column at a
+//! time ([`ChainReader`]).
 
-use std::fs::{self, File};
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 use polars_arrow::array::{Array, PrimitiveArray};
 use polars_arrow::datatypes::{ArrowDataType, ArrowSchema, Field};
 use polars_arrow::types::NativeType;
 use polars_parquet::read::{
-    column_iter_to_arrays, infer_schema, read_metadata, BasicDecompressor, PageReader,
+    column_iter_to_arrays, infer_schema, read_metadata, BasicDecompressor, FileMetadata, PageReader,
 };
 use polars_utils::mmap::{MemReader, MemSlice};
 
@@ -118,8 +120,9 @@ impl Chains {
 }
 
 /// Reads every complete part in the chains directory `chains_dir` (in part order) into
-/// memory. Parts written after the last checkpoint of a killed run are complete files and are included; `.partial` files
-/// never are.
+/// memory. Parts written after the last checkpoint of a killed run are complete files and are
+/// included; `.partial` files never are. For a finished run, [`ChainReader`] reads the same
+/// values one column at a time instead.
 ///
 /// # Errors
 /// [`StorageError::NoChains`] when there is no part; [`StorageError::Inconsistent`] when a part
@@ -127,64 +130,352 @@ impl Chains {
 /// a part lacks an index or log-density column or differs from the first part;
 /// [`StorageError::Parquet`] or [`StorageError::Io`] when a part cannot be read.
 pub fn read_chains(chains_dir: &Path) -> Result<Chains, StorageError> {
-    let parts = list_parts(chains_dir)?;
-    if parts.is_empty() {
-        return Err(StorageError::NoChains {
-            dir: chains_dir.to_path_buf(),
-        });
+    let store = PartSet::open(chains_dir)?;
+    let mut chains = Chains {
+        dir: chains_dir.to_path_buf(),
+        columns: Vec::new(),
+        param_names: store.param_names.clone(),
+        derived_names: store.derived_names.clone(),
+        ensemble: Vec::new(),
+        walker: Vec::new(),
+        step: Vec::new(),
+    };
+    for part in &store.parts {
+        chains.ensemble.extend(part.column::<u32>(ENSEMBLE_COLUMN)?);
+        chains.walker.extend(part.column::<u32>(WALKER_COLUMN)?);
+        chains.step.extend(part.column::<u64>(STEP_COLUMN)?);
     }
-    if let Some((expected, (found, _))) = parts
+    let names: Vec<String> = chains
+        .column_names()
+        .into_iter()
+        .map(str::to_owned)
+        .collect();
+    chains.columns = names
         .iter()
-        .enumerate()
-        .find(|(i, (index, _))| *i as u64 != *index)
-    {
-        return Err(StorageError::Inconsistent {
-            dir: chains_dir.to_path_buf(),
-            problem: format!(
-                "{} is missing (found part {found} next)",
-                super::part_name(expected as u64)
-            ),
-        });
+        .map(|name| store.column(name, 0))
+        .collect::<Result<_, _>>()?;
+    Ok(chains)
+}
+
+/// The complete parts of a chains directory with their footers, checked to share one schema.
+#[derive(Debug, Clone)]
+struct PartSet {
+    parts: Vec<Part>,
+    param_names: Vec<String>,
+    derived_names: Vec<String>,
+}
+
+impl PartSet {
+    fn open(chains_dir: &Path) -> Result<Self, StorageError> {
+        let listed = list_parts(chains_dir)?;
+        if listed.is_empty() {
+            return Err(StorageError::NoChains {
+                dir: chains_dir.to_path_buf(),
+            });
+        }
+        if let Some((expected, (found, _))) = listed
+            .iter()
+            .enumerate()
+            .find(|(i, (index, _))| *i as u64 != *index)
+        {
+            return Err(StorageError::Inconsistent {
+                dir: chains_dir.to_path_buf(),
+                problem: format!(
+                    "{} is missing (found part {found} next)",
+                    super::part_name(expected as u64)
+                ),
+            });
+        }
+        let mut parts = Vec::with_capacity(listed.len());
+        let mut names = None;
+        for (_, path) in listed {
+            let part = Part::open(path)?;
+            let (params, derived) = match &names {
+                Some(n) => n,
+                None => names.insert(split_names(&part.path, &part.schema)?),
+            };
+            check_schema(&part.path, &part.schema, &chains_schema(params, derived))?;
+            parts.push(part);
+        }
+        let (param_names, derived_names) = names.unwrap_or_default();
+        Ok(Self {
+            parts,
+            param_names,
+            derived_names,
+        })
     }
 
-    let mut chains: Option<(ArrowSchema, Chains)> = None;
-    for (_, path) in &parts {
-        let (schema, columns) = read_part(path)?;
-        let chains = match &mut chains {
-            Some((expected, chains)) => {
-                check_schema(path, &schema, expected)?;
-                chains
+    /// The f64 column `name` from row `first_row` (counted over all parts) to the end.
+    fn column(&self, name: &str, first_row: usize) -> Result<Vec<f64>, StorageError> {
+        let mut values = Vec::new();
+        let mut start = 0;
+        for part in &self.parts {
+            let end = start + part.rows;
+            if end > first_row {
+                let column = part.column::<f64>(name)?;
+                values.extend_from_slice(&column[first_row.saturating_sub(start)..]);
             }
-            None => {
-                let (params, derived) = split_names(path, &schema)?;
-                let expected = chains_schema(&params, &derived);
-                check_schema(path, &schema, &expected)?;
-                let empty = Chains {
-                    dir: chains_dir.to_path_buf(),
-                    columns: vec![Vec::new(); params.len() + 1 + derived.len()],
-                    param_names: params,
-                    derived_names: derived,
-                    ensemble: Vec::new(),
-                    walker: Vec::new(),
-                    step: Vec::new(),
-                };
-                &mut chains.insert((expected, empty)).1
-            }
-        };
-        let mut columns = columns.into_iter();
-        let mut next = || columns.next().unwrap_or_default();
-        chains.ensemble.extend(as_values::<u32>(path, next())?);
-        chains.walker.extend(as_values::<u32>(path, next())?);
-        chains.step.extend(as_values::<u64>(path, next())?);
-        for column in &mut chains.columns {
-            column.extend(as_values::<f64>(path, next())?);
+            start = end;
         }
+        Ok(values)
     }
-    chains
-        .map(|(_, c)| c)
-        .ok_or_else(|| StorageError::NoChains {
-            dir: chains_dir.to_path_buf(),
+}
+
+/// One complete part: its path, footer and schema. Columns are read from the file one at a
+/// time, so that reading one column never holds the others in memory.
+#[derive(Debug, Clone)]
+struct Part {
+    path: PathBuf,
+    metadata: FileMetadata,
+    schema: ArrowSchema,
+    rows: usize,
+}
+
+impl Part {
+    fn open(path: PathBuf) -> Result<Self, StorageError> {
+        let mut file = File::open(&path).map_err(|e| StorageError::io("open", &path, e))?;
+        let metadata = read_metadata(&mut file).map_err(|e| StorageError::parquet(&path, e))?;
+        let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(&path, e))?;
+        let rows = metadata.num_rows;
+        Ok(Self {
+            path,
+            metadata,
+            schema,
+            rows,
         })
+    }
+
+    /// The column `name`, read chunk by chunk from the file, as values of `T` without nulls.
+    fn column<T: NativeType>(&self, name: &str) -> Result<Vec<T>, StorageError> {
+        let path = &self.path;
+        let missing = || StorageError::ColumnMissing {
+            column: name.to_owned(),
+            path: path.clone(),
+        };
+        let field = self.schema.get(name).ok_or_else(missing)?;
+        let mut file = File::open(path).map_err(|e| StorageError::io("open", path, e))?;
+        let mut values = Vec::with_capacity(self.rows);
+        for group in &self.metadata.row_groups {
+            let (pages, types): (Vec<_>, Vec<_>) = group
+                .columns_under_root_iter(name)
+                .ok_or_else(missing)?
+                .map(|chunk| {
+                    let range = chunk.byte_range();
+                    let mut bytes = vec![0; (range.end - range.start) as usize];
+                    file.seek(SeekFrom::Start(range.start))
+                        .and_then(|_| file.read_exact(&mut bytes))
+                        .map_err(|e| StorageError::io("read", path, e))?;
+                    let pages = PageReader::new(
+                        MemReader::new(MemSlice::from_vec(bytes)),
+                        chunk,
+                        vec![],
+                        usize::MAX,
+                    );
+                    Ok((
+                        BasicDecompressor::new(pages, vec![]),
+                        &chunk.descriptor().descriptor.primitive_type,
+                    ))
+                })
+                .collect::<Result<Vec<_>, StorageError>>()?
+                .into_iter()
+                .unzip();
+            let array = column_iter_to_arrays(pages, types, field.clone(), None)
+                .map_err(|e| StorageError::parquet(path, e))?;
+            let typed = array
+                .as_any()
+                .downcast_ref::<PrimitiveArray<T>>()
+                .ok_or_else(|| StorageError::parquet(path, "column of unexpected type"))?;
+            if typed.null_count() > 0 {
+                return Err(StorageError::parquet(path, "column holds nulls"));
+            }
+            values.extend_from_slice(typed.values());
+        }
+        Ok(values)
+    }
+}
+
+/// The chains of a complete run, read one column at a time: what summaries and reports use,
+/// so that their memory is one column's draws, never the whole table.
+///
+/// Opening checks that the rows form the grid a sampler writes (every step from 0, in each
+/// step every ensemble, in each ensemble every walker, in that order), so a row number alone
+/// says which step, ensemble and walker it holds.
+#[derive(Debug, Clone)]
+pub struct ChainReader {
+    dir: PathBuf,
+    store: PartSet,
+    ensembles: usize,
+    walkers: usize,
+    steps: u64,
+}
+
+impl ChainReader {
+    /// Opens the chains directory `chains_dir`, reading the footers and index columns only.
+    ///
+    /// # Errors
+    /// As [`read_chains`], and [`StorageError::Inconsistent`] naming the part and row when the
+    /// rows are not a complete grid of steps × ensembles × walkers.
+    pub fn open(chains_dir: &Path) -> Result<Self, StorageError> {
+        let store = PartSet::open(chains_dir)?;
+        let inconsistent = |problem: String| StorageError::Inconsistent {
+            dir: chains_dir.to_path_buf(),
+            problem,
+        };
+        // The shape is learnt from step 0 (its rows come first), then every row is checked.
+        let mut shape: Option<(usize, usize)> = None;
+        let mut first_step = Vec::new();
+        let mut row = 0usize;
+        for part in &store.parts {
+            let ensemble = part.column::<u32>(ENSEMBLE_COLUMN)?;
+            let walker = part.column::<u32>(WALKER_COLUMN)?;
+            let step = part.column::<u64>(STEP_COLUMN)?;
+            for i in 0..step.len() {
+                let found = (step[i], ensemble[i] as usize, walker[i] as usize);
+                let (ne, nw) = match shape {
+                    Some(s) => s,
+                    None if found.0 == 0 => {
+                        first_step.push((found.1, found.2));
+                        row += 1;
+                        continue;
+                    }
+                    None => *shape.insert(grid_of(&first_step).ok_or_else(|| {
+                        inconsistent(
+                            "the rows of step 0 are not every walker of every ensemble in order"
+                                .into(),
+                        )
+                    })?),
+                };
+                let expected = ((row / (ne * nw)) as u64, (row / nw) % ne, row % nw);
+                if found != expected {
+                    return Err(inconsistent(format!(
+                        "row {i} of {} holds step {}, ensemble {}, walker {} where step {}, ensemble {}, walker {} was expected",
+                        part.path.display(),
+                        found.0, found.1, found.2, expected.0, expected.1, expected.2
+                    )));
+                }
+                row += 1;
+            }
+        }
+        let (ensembles, walkers) = match shape {
+            Some(s) => s,
+            None => grid_of(&first_step).ok_or_else(|| {
+                inconsistent(
+                    "the rows of step 0 are not every walker of every ensemble in order".into(),
+                )
+            })?,
+        };
+        if row % (ensembles * walkers) != 0 {
+            return Err(inconsistent(format!(
+                "{row} rows are not whole steps of {ensembles} ensembles × {walkers} walkers"
+            )));
+        }
+        Ok(Self {
+            dir: chains_dir.to_path_buf(),
+            steps: (row / (ensembles * walkers)) as u64,
+            store,
+            ensembles,
+            walkers,
+        })
+    }
+
+    /// The directory the parts are read from.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Names of the parameter columns, in file order.
+    pub fn param_names(&self) -> &[String] {
+        &self.store.param_names
+    }
+
+    /// Names of the derived columns, in file order.
+    pub fn derived_names(&self) -> &[String] {
+        &self.store.derived_names
+    }
+
+    /// Number of ensembles.
+    pub fn ensembles(&self) -> usize {
+        self.ensembles
+    }
+
+    /// Walkers per ensemble.
+    pub fn walkers(&self) -> usize {
+        self.walkers
+    }
+
+    /// Steps recorded.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Number of rows (steps × ensembles × walkers).
+    pub fn rows(&self) -> usize {
+        self.steps as usize * self.ensembles * self.walkers
+    }
+
+    /// The row holding walker `w` of ensemble `e` at `step`.
+    pub fn row(&self, step: u64, e: usize, w: usize) -> usize {
+        (step as usize * self.ensembles + e) * self.walkers + w
+    }
+
+    /// Step, ensemble and walker of `row`.
+    pub fn locate(&self, row: usize) -> (u64, usize, usize) {
+        let per_step = self.ensembles * self.walkers;
+        (
+            (row / per_step) as u64,
+            (row / self.walkers) % self.ensembles,
+            row % self.walkers,
+        )
+    }
+
+    /// The value column `name` (a parameter, `log_density` or a derived value), every row.
+    ///
+    /// # Errors
+    /// [`StorageError::ColumnMissing`] when there is no such column; [`StorageError::Parquet`]
+    /// or [`StorageError::Io`] when a part cannot be read.
+    pub fn column(&self, name: &str) -> Result<Vec<f64>, StorageError> {
+        self.column_from(name, 0)
+    }
+
+    /// The rows of column `name` from `first_step` on, in row order; parts wholly before it
+    /// are not read.
+    ///
+    /// # Errors
+    /// As [`ChainReader::column`].
+    pub fn column_from(&self, name: &str, first_step: u64) -> Result<Vec<f64>, StorageError> {
+        self.store
+            .column(name, self.row(first_step.min(self.steps), 0, 0))
+    }
+
+    /// The column `name` split into chains: `series[ensemble][walker]` holds that walker's
+    /// values in step order.
+    ///
+    /// # Errors
+    /// As [`ChainReader::column`].
+    pub fn series(&self, name: &str) -> Result<Vec<Vec<Vec<f64>>>, StorageError> {
+        let values = self.column(name)?;
+        Ok((0..self.ensembles)
+            .map(|e| {
+                (0..self.walkers)
+                    .map(|w| (0..self.steps).map(|s| values[self.row(s, e, w)]).collect())
+                    .collect()
+            })
+            .collect())
+    }
+}
+
+/// Ensembles and walkers of step 0's rows when they are (0, 0), (0, 1), …, (E−1, W−1).
+fn grid_of(first_step: &[(usize, usize)]) -> Option<(usize, usize)> {
+    let walkers = first_step.iter().take_while(|&&(e, _)| e == 0).count();
+    if walkers == 0 || first_step.len() % walkers != 0 {
+        return None;
+    }
+    let ensembles = first_step.len() / walkers;
+    let in_order = first_step
+        .iter()
+        .enumerate()
+        .all(|(i, &(e, w))| e == i / walkers && w == i % walkers);
+    in_order.then_some((ensembles, walkers))
 }
 
 /// The schema every part of a run with these names has.
@@ -273,58 +564,4 @@ pub(super) fn read_part_footer(path: &Path) -> Result<(ArrowSchema, u64), Storag
     let metadata = read_metadata(&mut file).map_err(|e| StorageError::parquet(path, e))?;
     let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(path, e))?;
     Ok((schema, metadata.num_rows as u64))
-}
-
-/// One column of a part: one array per row group.
-type ColumnArrays = Vec<Box<dyn Array>>;
-
-/// Reads a whole part: its schema and each column as row-group arrays.
-fn read_part(path: &Path) -> Result<(ArrowSchema, Vec<ColumnArrays>), StorageError> {
-    let bytes = fs::read(path).map_err(|e| StorageError::io("read", path, e))?;
-    let data = MemSlice::from_vec(bytes);
-    let metadata = read_metadata(&mut MemReader::new(data.clone()))
-        .map_err(|e| StorageError::parquet(path, e))?;
-    let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(path, e))?;
-    let mut columns: Vec<ColumnArrays> = vec![Vec::new(); schema.len()];
-    for group in &metadata.row_groups {
-        for (field, arrays) in schema.iter_values().zip(&mut columns) {
-            let chunks = group.columns_under_root_iter(&field.name).ok_or_else(|| {
-                StorageError::ColumnMissing {
-                    column: field.name.to_string(),
-                    path: path.to_path_buf(),
-                }
-            })?;
-            let (pages, types): (Vec<_>, Vec<_>) = chunks
-                .map(|chunk| {
-                    let range = chunk.byte_range();
-                    let slice = data.slice(range.start as usize..range.end as usize);
-                    let pages = PageReader::new(MemReader::new(slice), chunk, vec![], usize::MAX);
-                    (
-                        BasicDecompressor::new(pages, vec![]),
-                        &chunk.descriptor().descriptor.primitive_type,
-                    )
-                })
-                .unzip();
-            let array = column_iter_to_arrays(pages, types, field.clone(), None)
-                .map_err(|e| StorageError::parquet(path, e))?;
-            arrays.push(array);
-        }
-    }
-    Ok((schema, columns))
-}
-
-/// The values of a column read as row-group arrays of `T` without nulls.
-fn as_values<T: NativeType>(path: &Path, arrays: ColumnArrays) -> Result<Vec<T>, StorageError> {
-    let mut values = Vec::with_capacity(arrays.iter().map(|a| a.len()).sum());
-    for array in &arrays {
-        let typed = array
-            .as_any()
-            .downcast_ref::<PrimitiveArray<T>>()
-            .ok_or_else(|| StorageError::parquet(path, "column of unexpected type"))?;
-        if typed.null_count() > 0 {
-            return Err(StorageError::parquet(path, "column holds nulls"));
-        }
-        values.extend_from_slice(typed.values());
-    }
-    Ok(values)
 }

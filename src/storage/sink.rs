@@ -30,12 +30,19 @@ const CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
 pub struct SinkOptions {
     /// Rows buffered in memory before they are written as one Parquet row group; bounds the
     /// memory of the sink. At least 1. The default (65 536 rows, 4 MiB for 8 value columns)
-    /// keeps row groups large enough for fast reading.
+    /// keeps row groups large enough for fast reading; a table so wide that this many rows
+    /// would exceed [`ROW_GROUP_BYTES`] buffers fewer (never fewer than 1,024).
     pub row_group_rows: usize,
     /// Whether [`ParquetSink::create`] may delete the chains and checkpoint of an earlier run
     /// in the same directory (other files there are left alone).
     pub overwrite: bool,
 }
+
+/// Bytes a row group may buffer before [`SinkOptions::row_group_rows`] is lowered for a wide
+/// table.
+pub const ROW_GROUP_BYTES: usize = 8 << 20;
+/// Fewest rows a row group is lowered to for that reason.
+const MIN_ROW_GROUP_ROWS: usize = 1024;
 
 impl Default for SinkOptions {
     fn default() -> Self {
@@ -308,6 +315,11 @@ impl ParquetSink {
     ) -> Self {
         let schema = Arc::new(chains_schema(&param_names, &derived_names));
         let value_columns = param_names.len() + 1 + derived_names.len();
+        // A wide table (a campaign has hundreds of columns) gets shorter row groups, so the
+        // buffer stays near ROW_GROUP_BYTES whatever the model.
+        let row_bytes = 16 + 8 * value_columns;
+        let row_group_rows =
+            row_group_rows.min((ROW_GROUP_BYTES / row_bytes).max(MIN_ROW_GROUP_ROWS));
         Self {
             files: files.clone(),
             buffer: RowBuffer::with_capacity(row_group_rows, value_columns),

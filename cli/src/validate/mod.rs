@@ -508,7 +508,7 @@ fn fit_and_rank(
         settings.steps,
         &fit_dir,
     )?;
-    let chains = fit_dir.read_chains().map_err(|e| e.to_string())?;
+    let chains = fit_dir.chain_reader().map_err(|e| e.to_string())?;
     let s = &outcome.summary.sampler;
     let kept = slipbayes::fit::kept_rows(&chains, s, usize::MAX);
     if kept.len() < settings.rank_draws {
@@ -523,12 +523,12 @@ fn fit_and_rank(
     let chosen: Vec<usize> = (0..settings.rank_draws)
         .map(|j| kept[((2 * j + 1) * kept.len()) / (2 * settings.rank_draws)])
         .collect();
-    let mut last_of_walker: BTreeMap<(u32, u32), u64> = BTreeMap::new();
+    let mut last_of_walker: BTreeMap<(usize, usize), u64> = BTreeMap::new();
     let mut min_gap: Option<u64> = None;
     for &i in &chosen {
-        let key = (chains.ensemble[i], chains.walker[i]);
-        if let Some(prev) = last_of_walker.insert(key, chains.step[i]) {
-            let gap = chains.step[i] - prev;
+        let (step, e, w) = chains.locate(i);
+        if let Some(prev) = last_of_walker.insert((e, w), step) {
+            let gap = step - prev;
             min_gap = Some(min_gap.map_or(gap, |g| g.min(gap)));
         }
     }

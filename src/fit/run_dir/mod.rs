@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 
 use crate::data::write_atomically;
 use crate::model::{Band, ModelFile, ModelSpec};
-use crate::storage::{read_chains, ChainFiles, Chains, StorageError};
+use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
 
 pub use csv::{summary_csv, CSV_COLUMNS};
 pub use predictive::PREDICTIVE_HEADER;
@@ -138,6 +138,18 @@ impl RunDir {
     /// [`RunDirError::Chains`] when they cannot be read.
     pub fn read_chains(&self) -> Result<Chains, RunDirError> {
         read_chains(&self.file(CHAINS_DIR)).map_err(|source| RunDirError::Chains {
+            dir: self.path.clone(),
+            source,
+        })
+    }
+
+    /// The chains of a complete run, to be read one column at a time.
+    ///
+    /// # Errors
+    /// [`RunDirError::Chains`] when they cannot be opened or are not a complete grid of steps,
+    /// ensembles and walkers.
+    pub fn chain_reader(&self) -> Result<ChainReader, RunDirError> {
+        ChainReader::open(&self.file(CHAINS_DIR)).map_err(|source| RunDirError::Chains {
             dir: self.path.clone(),
             source,
         })
