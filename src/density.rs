@@ -88,6 +88,12 @@ pub trait LogDensity: Sync {
     /// [`LogDensityError::Rejected`] outside the support, [`LogDensityError::Fatal`] on faults.
     fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError>;
 
+    /// Why the density is not finite at `x`, in the density's own terms (which part of the
+    /// model fails and how), for error messages; `None` (the default) when it cannot say.
+    fn explain(&self, _x: &[f64]) -> Option<String> {
+        None
+    }
+
     /// Blocks of coordinates that a sampler may update one at a time (disjoint, covering every
     /// coordinate), each cheaper to re-evaluate on its own than the whole density: typically
     /// the parameters of one group of data given the parameters shared between groups. Empty

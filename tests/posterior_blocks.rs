@@ -159,3 +159,41 @@ fn block_updates_equal_full_evaluations_in_every_variant() {
         }
     }
 }
+
+/// Where the density is not finite, it says which coordinate leaves its prior and which run
+/// of which contact cannot be evaluated; at the start it says nothing.
+#[test]
+fn the_posterior_names_what_fails_at_a_point() {
+    let tmp = tempfile::tempdir().unwrap();
+    let post = demo_variant(tmp.path(), "demo.toml", "", "material");
+    let names = post.param_names();
+    let start = post.start().to_vec();
+    assert_eq!(post.explain(&start), None);
+
+    // t0 of PTFE contact 1 far below its prior's support.
+    let t0 = names
+        .iter()
+        .position(|n| n.contains("t0[ptfe-c1-first]"))
+        .unwrap();
+    let mut x = start.clone();
+    x[t0] = -80.0;
+    let why = post.explain(&x).expect("a reason");
+    assert!(
+        why.contains(&names[t0]) && why.contains("outside its prior"),
+        "{why}"
+    );
+
+    // A machine soft enough (1,000 N/m, inside the prior) that PTFE contact 1's first slide
+    // drops faster after its peak than the spring can follow (stick-slip): the run is named
+    // with its contact.
+    let k = names.iter().position(|n| n.contains("k[ptfe-c1]")).unwrap();
+    let mut x = start;
+    x[k] = 1000f64.ln();
+    let why = post.explain(&x).expect("a reason");
+    assert!(
+        why.contains("run ptfe-c1-first of contact ptfe-c1"),
+        "{why}"
+    );
+    let mut derived = vec![0.0; post.derived_names().len()];
+    assert!(post.log_density(&x, &mut derived).is_err());
+}

@@ -7,6 +7,8 @@
 //! use Blom's offset 3/8. Where ArviZ returns NaN for too little input these functions return a
 //! [`DiagnosticsError`]; R-hat of draws that are all equal is NaN, as in ArviZ (it is undefined).
 
+use std::borrow::Cow;
+
 use rustfft::{num_complex::Complex, FftPlanner};
 
 use super::error::{check_prob, validate_chains, DiagnosticsError};
@@ -28,20 +30,22 @@ const MCSE_QUANTILE_PROBS: [f64; 2] = [0.158_655_3, 0.841_344_7];
 
 /// Rows of equal length stored flat, row-major: chains (or split half-chains) by draws.
 #[derive(Debug, Clone)]
-pub(crate) struct Mat {
+pub(crate) struct Mat<'a> {
     pub(crate) rows: usize,
     pub(crate) cols: usize,
-    pub(crate) data: Vec<f64>,
+    /// Borrowed when the draws are already laid out row by row, so that the diagnostics of a
+    /// long run make no copy of them.
+    pub(crate) data: Cow<'a, [f64]>,
 }
 
-impl Mat {
+impl Mat<'_> {
     pub(crate) fn from_chains(chains: &[&[f64]]) -> Self {
         let cols = chains.first().map_or(0, |c| c.len());
-        let data = chains.iter().flat_map(|c| c.iter().copied()).collect();
+        let data: Vec<f64> = chains.iter().flat_map(|c| c.iter().copied()).collect();
         Mat {
             rows: chains.len(),
             cols,
-            data,
+            data: data.into(),
         }
     }
 
@@ -49,16 +53,16 @@ impl Mat {
         &self.data[r * self.cols..(r + 1) * self.cols]
     }
 
-    fn map(&self, f: impl Fn(f64) -> f64) -> Mat {
+    fn map(&self, f: impl Fn(f64) -> f64) -> Mat<'static> {
         Mat {
             rows: self.rows,
             cols: self.cols,
-            data: self.data.iter().map(|&v| f(v)).collect(),
+            data: self.data.iter().map(|&v| f(v)).collect::<Vec<_>>().into(),
         }
     }
 
     /// ArviZ `_split_chains`: the first `n/2` draws of every chain, then the last `n/2`.
-    pub(crate) fn split(&self) -> Mat {
+    pub(crate) fn split(&self) -> Mat<'static> {
         let half = self.cols / 2;
         let mut data = Vec::with_capacity(2 * self.rows * half);
         for r in 0..self.rows {
@@ -70,7 +74,7 @@ impl Mat {
         Mat {
             rows: 2 * self.rows,
             cols: half,
-            data,
+            data: data.into(),
         }
     }
 }
@@ -130,16 +134,16 @@ fn average_ranks(x: &[f64]) -> Vec<f64> {
 }
 
 /// ArviZ `_z_scale`: normal scores of the pooled average ranks.
-pub(crate) fn z_scale(m: &Mat) -> Mat {
+pub(crate) fn z_scale(m: &Mat) -> Mat<'static> {
     let size = m.data.len() as f64;
-    let data = average_ranks(&m.data)
+    let data: Vec<f64> = average_ranks(&m.data)
         .into_iter()
         .map(|r| norm_ppf((r - BLOM_C) / (size - 2.0 * BLOM_C + 1.0)))
         .collect();
     Mat {
         rows: m.rows,
         cols: m.cols,
-        data,
+        data: data.into(),
     }
 }
 
@@ -334,7 +338,7 @@ pub(crate) fn mcse_quantile_mat(m: &Mat, prob: f64) -> f64 {
     (th2 - th1) / 2.0
 }
 
-fn checked(chains: &[&[f64]], what: &'static str) -> Result<Mat, DiagnosticsError> {
+fn checked(chains: &[&[f64]], what: &'static str) -> Result<Mat<'static>, DiagnosticsError> {
     validate_chains(chains, MIN_DRAWS, what)?;
     Ok(Mat::from_chains(chains))
 }

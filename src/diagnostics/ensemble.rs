@@ -26,6 +26,8 @@
 //! Point estimates and intervals (mean, sd, median, equal-tailed interval, HDI) pool all
 //! draws of all walkers of all ensembles.
 
+use std::borrow::Cow;
+
 use serde::{Deserialize, Deserializer, Serialize};
 
 use super::arviz::{
@@ -175,17 +177,17 @@ impl EnsembleDraws {
     }
 
     /// Every walker of every ensemble as one chain.
-    fn walker_mat(&self) -> Mat {
+    fn walker_mat(&self) -> Mat<'_> {
         Mat {
             rows: self.ensembles * self.walkers,
             cols: self.steps,
-            data: self.data.clone(),
+            data: Cow::Borrowed(&self.data),
         }
     }
 
     /// Split half-ensembles as chains: first halves of all ensembles, then last halves (ArviZ
     /// order); a half-ensemble's row holds all its walkers' draws of that half.
-    fn split_ensemble_mat(&self) -> Mat {
+    fn split_ensemble_mat(&self) -> Mat<'static> {
         let half = self.steps / 2;
         let mut data = Vec::with_capacity(2 * self.ensembles * self.walkers * half);
         for second in [false, true] {
@@ -203,7 +205,7 @@ impl EnsembleDraws {
         Mat {
             rows: 2 * self.ensembles,
             cols: self.walkers * half,
-            data,
+            data: data.into(),
         }
     }
 }
@@ -297,26 +299,33 @@ pub fn summarize(
 ) -> Result<Summary, DiagnosticsError> {
     check_prob("ci_prob", ci_prob, false)?;
     check_prob("hdi_prob", hdi_prob, false)?;
-    let walkers = x.walker_mat();
     let all = &x.data;
-    let s = sorted(all);
-    let (ci_low, ci_high) = eti_sorted(&s, ci_prob);
-    let (hdi_low, hdi_high) = hdi_sorted(&s, hdi_prob)?;
+    // One working copy at a time: the sorted draws serve the intervals and the median, then go
+    // before the rank-normalised diagnostics make theirs.
+    let (median, ci, hdi) = {
+        let s = sorted(all);
+        (
+            median_of_sorted(&s),
+            eti_sorted(&s, ci_prob),
+            hdi_sorted(&s, hdi_prob)?,
+        )
+    };
     let r_hat = if x.ensembles >= 2 {
         Some(rhat_rank_of_split(&x.split_ensemble_mat())).filter(|r| !r.is_nan())
     } else {
         None
     };
+    let walkers = x.walker_mat();
     let autocorr = integrated_time(&x.walker_series(), DEFAULT_WINDOW_FACTOR).ok();
     Ok(Summary {
         mean: mean(all),
         sd: var(all, 1).sqrt(),
-        median: median_of_sorted(&s),
-        ci_low,
-        ci_high,
+        median,
+        ci_low: ci.0,
+        ci_high: ci.1,
         ci_prob,
-        hdi_low,
-        hdi_high,
+        hdi_low: hdi.0,
+        hdi_high: hdi.1,
         hdi_prob,
         ess_bulk: ess_bulk_mat(&walkers),
         ess_tail: ess_tail_mat(&walkers),

@@ -35,10 +35,16 @@ pub enum FitError {
     #[error("invalid sampler settings")]
     Config(#[source] SamplerError),
     /// No starting walkers could be found around the optimum.
-    #[error("cannot find starting walkers from the start point {start:?}")]
+    #[error(
+        "cannot find starting walkers{}",
+        why.as_ref().map(|w| format!(": at the start, {w}")).unwrap_or_default()
+    )]
     Start {
         /// The start point given.
         start: Vec<f64>,
+        /// What the density says fails at the start
+        /// ([`LogDensity::explain`](crate::density::LogDensity::explain)), when it can say.
+        why: Option<String>,
         /// Why.
         #[source]
         source: crate::optimize::OptimizeError,

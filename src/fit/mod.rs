@@ -414,6 +414,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         )
         .map_err(|source| FitError::Start {
             start: start.to_vec(),
+            why: density.explain(start),
             source,
         })?;
         let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {

@@ -33,7 +33,10 @@ pub enum OptimizeError {
         got: usize,
     },
     /// The density refuses the start.
-    #[error("the log-density at the start {start:?} is not finite; start inside the support")]
+    #[error(
+        "the log-density at the start {} is not finite; start inside the support",
+        shown(start)
+    )]
     StartNotFinite {
         /// The start.
         start: Vec<f64>,
@@ -71,4 +74,14 @@ pub enum OptimizeError {
         /// Condition number of the centred walker matrix.
         condition: f64,
     },
+}
+
+/// A point for a message: every coordinate of a small one, the first few of a large one.
+fn shown(x: &[f64]) -> String {
+    const SHOWN: usize = 8;
+    if x.len() <= SHOWN {
+        format!("{x:?}")
+    } else {
+        format!("{:?} … ({} coordinates)", &x[..SHOWN], x.len())
+    }
 }

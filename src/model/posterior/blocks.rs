@@ -34,7 +34,7 @@ pub(super) struct Block {
 
 impl RunModel {
     /// Every coordinate this run's term reads.
-    fn coords_read(&self) -> Vec<usize> {
+    pub(super) fn coords_read(&self) -> Vec<usize> {
         let mut out: Vec<usize> = [self.alpha, self.a, Some(self.f_d), self.k]
             .into_iter()
             .flatten()

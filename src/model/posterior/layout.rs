@@ -33,6 +33,16 @@ pub(super) struct Coord {
     pub prior: CoordPrior,
 }
 
+impl Coord {
+    /// Whether the coordinate's prior has density at `u`.
+    pub fn prior_contains(&self, u: f64) -> bool {
+        match &self.prior {
+            CoordPrior::Log(prior) => prior.ln_density(u.exp()) > f64::NEG_INFINITY,
+            CoordPrior::StdNormal => u.is_finite(),
+        }
+    }
+}
+
 /// Where a run's t0 comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum T0Source {

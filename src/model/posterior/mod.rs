@@ -227,6 +227,10 @@ impl LogDensity for Posterior {
         self.evaluate_full(x, derived, None)
     }
 
+    fn explain(&self, x: &[f64]) -> Option<String> {
+        self.failures_at(x)
+    }
+
     fn blocks(&self) -> Vec<Vec<usize>> {
         self.blocks.iter().map(|b| b.coords.clone()).collect()
     }

@@ -5,6 +5,7 @@
 use super::layout::{CoordPrior, SigmaSource, T0Source};
 use super::likelihood::RunModel;
 use super::Posterior;
+use crate::density::LogDensity;
 use crate::law::{Elastic, Law, ObservedSlide, Scene};
 use crate::optimize::{nelder_mead, NelderMeadOptions};
 
@@ -77,11 +78,42 @@ impl Posterior {
                 None => {}
             }
         }
+        let mean_natural = natural.clone();
         for (i, v) in votes.iter().enumerate() {
             if !v.is_empty() {
                 natural[i] = (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp();
             }
         }
+        let start = self.coordinates(natural, &t0_votes);
+        if self.finite_at(&start) {
+            return start;
+        }
+        // A slide fitted alone can end far off (a ratio of e^13, a t0 of e^-20 in a campaign
+        // of 50 contacts), and a geometric mean takes such an outlier in: the median of the
+        // runs' estimates does not.
+        let mut robust = mean_natural;
+        for (i, v) in votes.iter().enumerate() {
+            if !v.is_empty() {
+                robust[i] = median_of_logs(v).exp();
+            }
+        }
+        let mut start = self.coordinates(robust, &t0_votes);
+        if !self.finite_at(&start) {
+            self.repair_contacts(&mut start);
+        }
+        start
+    }
+
+    /// Whether the density is finite at `x`.
+    fn finite_at(&self, x: &[f64]) -> bool {
+        let mut derived = vec![0.0; self.quantities.len()];
+        self.log_density(x, &mut derived)
+            .is_ok_and(|v| v.is_finite())
+    }
+
+    /// The sampler coordinates of natural-scale estimates, with pooled t0 placed from the
+    /// runs' own estimates, kept strictly inside each prior.
+    fn coordinates(&self, mut natural: Vec<f64>, t0_votes: &[(usize, f64)]) -> Vec<f64> {
         // Pooled t0: the population median from its runs, a moderate spread, and each run's
         // standardised offset.
         for p in &self.populations {
@@ -119,6 +151,117 @@ impl Posterior {
                 }
             })
             .collect()
+    }
+
+    /// Re-fits the own coordinates of every contact whose runs cannot be evaluated at `x`
+    /// (those no other contact's runs read: its t0, F_d, k, σ), with the shared coordinates
+    /// held: the contact-level values from a slide fitted alone need not suit the shared
+    /// values the other contacts voted for.
+    fn repair_contacts(&self, x: &mut [f64]) {
+        let contacts = self.spec.file.contacts.len();
+        let mut readers = vec![Vec::new(); self.coords.len()];
+        for r in &self.runs {
+            for c in r.coords_read() {
+                if !readers[c].contains(&r.contact) {
+                    readers[c].push(r.contact);
+                }
+            }
+        }
+        for contact in 0..contacts {
+            let runs: Vec<usize> = self
+                .order
+                .iter()
+                .copied()
+                .filter(|&i| self.runs[i].contact == contact)
+                .collect();
+            let own: Vec<usize> = (0..self.coords.len())
+                .filter(|&c| readers[c] == [contact])
+                .collect();
+            if own.is_empty() || self.contact_ln_ssr(&runs, x).is_finite() {
+                continue;
+            }
+            let mut trial = x.to_vec();
+            let objective = |p: &[f64]| {
+                let mut y = trial.clone();
+                for (&c, &v) in own.iter().zip(p) {
+                    y[c] = v;
+                }
+                self.contact_ln_ssr(&runs, &y)
+            };
+            let p0: Vec<f64> = own.iter().map(|&c| x[c]).collect();
+            let options = NelderMeadOptions {
+                initial_step: 1.0,
+                max_evals: 400 * own.len(),
+                restarts: 2,
+                ..NelderMeadOptions::default()
+            };
+            let (p, f, _) = nelder_mead(&objective, &p0, &options);
+            if f.is_finite() {
+                for (&c, &v) in own.iter().zip(&p) {
+                    trial[c] = v;
+                }
+                x.copy_from_slice(&trial);
+            }
+        }
+    }
+
+    /// What fails at `x`: coordinates outside their prior, then runs whose model cannot be
+    /// evaluated, each named with its contact and the law's reason (at most five, then a
+    /// count).
+    pub(super) fn failures_at(&self, x: &[f64]) -> Option<String> {
+        let mut failures: Vec<String> = self
+            .coords
+            .iter()
+            .zip(x)
+            .filter(|(c, &v)| !c.prior_contains(v))
+            .map(|(c, v)| format!("{} = {v:.4} is outside its prior", c.name))
+            .collect();
+        let mut last = vec![f64::NAN; self.runs.len()];
+        for &i in &self.order {
+            let r = &self.runs[i];
+            let f_end = r.follows.map(|j| last[j]).filter(|v| v.is_finite());
+            match r.residuals(x, f_end) {
+                Ok(fit) => last[i] = fit.last_force,
+                Err(e) => failures.push(format!(
+                    "run {} of contact {}: {e}",
+                    r.name, self.spec.file.contacts[r.contact].name
+                )),
+            }
+        }
+        const SHOWN: usize = 5;
+        let more = failures.len().saturating_sub(SHOWN);
+        failures.truncate(SHOWN);
+        if more > 0 {
+            failures.push(format!("and {more} more"));
+        }
+        (!failures.is_empty()).then(|| failures.join("; "))
+    }
+
+    /// Σ ln SSR of `runs` (in evaluation order) at `x`: infinite where a run cannot be
+    /// evaluated or a coordinate leaves its prior.
+    fn contact_ln_ssr(&self, runs: &[usize], x: &[f64]) -> f64 {
+        if self
+            .coords
+            .iter()
+            .zip(x)
+            .any(|(c, &v)| !c.prior_contains(v))
+        {
+            return f64::INFINITY;
+        }
+        let mut last = vec![f64::NAN; self.runs.len()];
+        let mut total = 0.0;
+        for &i in runs {
+            let r = &self.runs[i];
+            let f_end = r.follows.map(|j| last[j]).filter(|v| v.is_finite());
+            match r.residuals(x, f_end) {
+                Ok(fit) if fit.ssr.is_finite() => {
+                    last[i] = fit.last_force;
+                    total += fit.ssr.max(f64::MIN_POSITIVE).ln();
+                }
+                _ => return f64::INFINITY,
+            }
+        }
+        total
     }
 
     /// The population (its μ coordinate) a pooled z belongs to.
@@ -197,4 +340,12 @@ impl Posterior {
             k: if free_k { Some(get(4)) } else { None },
         }
     }
+}
+
+/// Median of the logarithms of positive estimates (the lower middle of an even count, so that
+/// it is one of the runs' own values).
+fn median_of_logs(v: &[f64]) -> f64 {
+    let mut logs: Vec<f64> = v.iter().map(|x| x.ln()).collect();
+    logs.sort_by(f64::total_cmp);
+    logs[(logs.len() - 1) / 2]
 }
