@@ -12,20 +12,10 @@ bin=$(pwd)/target/release/slipbayes
 mkdir -p "$out"
 one_contact=(--first data/ptfe-c1-first.csv --repeat data/ptfe-c1-repeat.csv --velocity 1e-9)
 report() { # label, run dir, total seconds
-  python3 - "$@" <<'PY'
-import json, sys
-label, d, total = sys.argv[1:]
-s = json.load(open(d + "/summary.json"))
-q = s["parameters"] + s["derived"]
-ok = lambda v: v is not None and v == v
-sm = s["sampler"]
-print(f"{label}: {sm['steps']} steps ({sm['stopped_by']}), converged {sm['converged']}, "
-      f"τ_max {sm['tau_max']:.1f}, min ESS bulk {min(x['ess_bulk'] for x in q if ok(x['ess_bulk'])):.0f}, "
-      f"tail {min(x['ess_tail'] for x in q if ok(x['ess_tail'])):.0f}, "
-      f"max R̂ {max(x['r_hat'] for x in q if ok(x['r_hat'])):.4f}, "
-      f"{sum(1 for x in q if ok(x['ess_bulk']) and x['ess_bulk'] <= 400)} of {len(q)} with ESS bulk ≤ 400, "
-      f"fit {sm['wall_s']:.1f} s, command {float(total):.1f} s")
-PY
+  python3 benches/run_stats.py "$2" "$1: {steps} steps ({stopped_by}), converged {converged}, \
+τ_max {tau_max:.1f}, min ESS bulk {ess_bulk_min:.0f}, tail {ess_tail_min:.0f}, \
+max R̂ {r_hat_max:.4f}, {low_ess} of {quantities} with ESS bulk ≤ 400, fit {wall_s:.1f} s, \
+command $(printf %.1f "$3") s"
 }
 timed() { # label, run dir, command...
   local label=$1 dir=$2; shift 2

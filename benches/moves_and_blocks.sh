@@ -6,8 +6,8 @@
 #   bash benches/moves_and_blocks.sh OUT_DIR     # from the repository root, ~45 min on 2 cores
 #
 # Needs target/release/slipbayes (cargo build --release) and python3. Writes OUT_DIR/table.md.
-# ESS and R̂ are read from each fit's summary.json: every post-burn-in draw, every reported
-# quantity (parameters and derived), as ArviZ computes them (README, "The two commands").
+# ESS and R̂ are read from each fit's summary.json by benches/run_stats.py: every post-burn-in
+# draw, every reported quantity (parameters and derived), as ArviZ computes them.
 set -euo pipefail
 out=${1:?usage: bash benches/moves_and_blocks.sh OUT_DIR}
 root=$(pwd)
@@ -30,19 +30,9 @@ row() { # label, description, steps, then fit arguments
   local label=$1 what=$2 steps=$3; shift 3
   local dir="$out/runs/$label-$(echo "$what" | tr ' ,=/' '____')"
   "$bin" fit "$@" --steps "$steps" --quiet --out "$dir" --overwrite > "$dir.log" 2>&1 || true
-  python3 - "$dir" "$label" "$what" >> "$out/table.md" <<'PY'
-import json, sys
-d, label, what = sys.argv[1:]
-s = json.load(open(d + "/summary.json"))
-q = s["parameters"] + s["derived"]
-ok = lambda v: v is not None and v == v
-sm = s["sampler"]
-print(f"| {label} | {what} | {sm['walkers']} | {sm['steps']} | {sm['tau_max']:.1f} "
-      f"| {min(x['ess_bulk'] for x in q if ok(x['ess_bulk'])):,.0f} "
-      f"| {min(x['ess_tail'] for x in q if ok(x['ess_tail'])):,.0f} "
-      f"| {max(x['r_hat'] for x in q if ok(x['r_hat'])):.4f} "
-      f"| {sm['log_density_evals']:,} | {sm['wall_s']:.1f} |")
-PY
+  python3 benches/run_stats.py "$dir" "| $label | $what | {walkers} | {steps} | {tau_max:.1f} \
+| {ess_bulk_min:,.0f} | {ess_tail_min:,.0f} | {r_hat_max:.4f} | {evals:,} | {wall_s:.1f} |" \
+    >> "$out/table.md"
   tail -1 "$out/table.md"
 }
 m="$out/models"

@@ -12,7 +12,9 @@ use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::density::{Quantity, QuantityKind};
 use slipbayes::diagnostics::{Problem, Summary};
 use slipbayes::fit::run_dir::{CSV_COLUMNS, SUMMARY_CSV, SUMMARY_JSON};
-use slipbayes::fit::{run_fit, ComparisonSpec, FitError, FitSettings, RunDir, SummarySpec};
+use slipbayes::fit::{
+    run_fit, ComparisonSpec, FitError, FitOutcome, FitSettings, RunDir, SummarySpec,
+};
 use slipbayes::sampler::{
     Move, Observer, Progress, SamplerError, Silent, Steps, StopReason, StopRule, Updates,
 };
@@ -175,21 +177,26 @@ fn lognormal(m: f64, s: f64) -> (f64, f64) {
     (mean, mean * ((s * s).exp() - 1.0).sqrt())
 }
 
+/// A fresh fit of the Gaussian toy, reporting its two quantities, into `dir`.
+fn fit_toy(s: &FitSettings, dir: &Path) -> FitOutcome {
+    run_fit(
+        &Toy { crash: None },
+        &toy_spec(toy_quantities()),
+        &START,
+        s,
+        &RunDir::new(dir),
+        false,
+        &mut Silent,
+    )
+    .expect("fit runs")
+}
+
 #[test]
 fn gaussian_toy_summary_has_the_shape_and_the_truth() {
     let tmp = tempfile::tempdir().expect("tmp");
     let dir = tmp.path().join("run");
     let s = settings(3000);
-    let outcome = run_fit(
-        &Toy { crash: None },
-        &toy_spec(toy_quantities()),
-        &START,
-        &s,
-        &RunDir::new(&dir),
-        false,
-        &mut Silent,
-    )
-    .expect("fit runs");
+    let outcome = fit_toy(&s, &dir);
     let sum = &outcome.summary;
 
     // --- summary.json: exact top-level shape, stats keys, sampler keys.
@@ -690,16 +697,7 @@ fn a_single_ensemble_cannot_be_called_converged() {
     let tmp = tempfile::tempdir().expect("tmp");
     let mut s = settings(3000);
     s.ensembles = 1;
-    let outcome = run_fit(
-        &Toy { crash: None },
-        &toy_spec(toy_quantities()),
-        &START,
-        &s,
-        &RunDir::new(tmp.path()),
-        false,
-        &mut Silent,
-    )
-    .expect("fit runs");
+    let outcome = fit_toy(&s, tmp.path());
     let sampler = &outcome.summary.sampler;
     assert!(!sampler.converged);
     assert!(
@@ -738,16 +736,7 @@ fn until_converged_samples_on_until_the_summary_passes() {
         tau_rel_change: 10.0,
         ..StopRule::new(20_000)
     });
-    let outcome = run_fit(
-        &Toy { crash: None },
-        &toy_spec(toy_quantities()),
-        &START,
-        &s,
-        &RunDir::new(tmp.path()),
-        false,
-        &mut Silent,
-    )
-    .expect("fit runs");
+    let outcome = fit_toy(&s, tmp.path());
     let sampler = &outcome.summary.sampler;
     assert!(sampler.converged, "{:#?}", sampler.problems);
     assert_eq!(sampler.stopped_by, StopReason::Converged);

@@ -186,7 +186,8 @@ impl Plan {
         started: Instant,
     ) -> Result<FitSummary, FitError> {
         let total = report.total_steps;
-        let layout = Layout::check(chains, settings.ensembles, settings.walkers, total, dir)?;
+        check_shape(chains, settings.ensembles, settings.walkers, total, dir)?;
+        let (ensembles, walkers) = (chains.ensembles(), chains.walkers());
         let mut problems = Vec::new();
         let selection = Selection::new(report, &mut problems)?;
         let quantities = &self.spec.quantities;
@@ -205,7 +206,7 @@ impl Plan {
                 Operand::Quantity(i) => column(&quantities[i].column),
                 Operand::Aggregate(i) => {
                     let of = &self.spec.aggregates[i].of;
-                    let mut sum = vec![0.0; selection.kept * layout.ensembles * layout.walkers];
+                    let mut sum = vec![0.0; selection.kept * ensembles * walkers];
                     for c in of {
                         for (s, v) in sum.iter_mut().zip(column(c)?) {
                             *s += v;
@@ -216,26 +217,16 @@ impl Plan {
                 }
             }
         };
-        // Rows of the kept draws are in recording order: step, then ensemble, then walker.
+        // Kept draws are read from the burn-in on, so kept step t is the chains' step t.
         let kept = |f: &(dyn Fn(usize) -> f64 + Sync)| {
-            EnsembleDraws::from_fn(
-                layout.ensembles,
-                layout.walkers,
-                selection.kept,
-                |e, w, t| f((t * layout.ensembles + e) * layout.walkers + w),
-            )
+            EnsembleDraws::from_fn(ensembles, walkers, selection.kept, |e, w, t| {
+                f(chains.row(t as u64, e, w))
+            })
         };
         let probs = (settings.ci_prob, settings.hdi_prob);
-        let summary_of = |label: String, f: &(dyn Fn(usize) -> f64 + Sync)| {
-            let diag = |source| FitError::Diagnostics {
-                quantity: label.clone(),
-                source,
-            };
-            summarize(&kept(f).map_err(diag)?, probs.0, probs.1).map_err(diag)
-        };
         // A quantity's column is dropped once its draws are laid out per walker, before the
         // diagnostics make their working copies.
-        let summary_of_values = |label: String, v: Vec<f64>| {
+        let summary_of = |label: String, v: Vec<f64>| {
             let diag = |source| FitError::Diagnostics {
                 quantity: label.clone(),
                 source,
@@ -247,7 +238,7 @@ impl Plan {
 
         let stats: Vec<Summary> = (0..quantities.len())
             .into_par_iter()
-            .map(|i| summary_of_values(quantities[i].label(), values(Operand::Quantity(i))?))
+            .map(|i| summary_of(quantities[i].label(), values(Operand::Quantity(i))?))
             .collect::<Result<_, _>>()?;
         let aggregates: Vec<AggregateSummary> = (0..self.spec.aggregates.len())
             .into_par_iter()
@@ -260,7 +251,7 @@ impl Plan {
                     unit: a.unit.clone(),
                     of: a.of.clone(),
                     note: a.note.clone(),
-                    stats: summary_of_values(label, values(Operand::Aggregate(i))?)?,
+                    stats: summary_of(label, values(Operand::Aggregate(i))?)?,
                 })
             })
             .collect::<Result<_, FitError>>()?;
@@ -275,38 +266,43 @@ impl Plan {
             Operand::Quantity(i) => quantities[i].group.clone(),
             Operand::Aggregate(i) => self.spec.aggregates[i].group.clone(),
         };
-        let comparisons: Vec<Comparison> =
-            self.pairs
-                .par_iter()
-                .map(|(name, unit, note, a, b)| {
-                    let what = format!("{} − {}", label_of(*a), label_of(*b));
-                    let (a, b) = (*a, *b);
-                    let (va, vb) = (values(a)?, values(b)?);
-                    let difference = summary_of(what.clone(), &|row| va[row] - vb[row])?;
-                    // A zero or non-finite ratio draw leaves the ratio undefined, not the fit.
-                    let ratio = kept(&|row| va[row] / vb[row])
-                        .ok()
-                        .and_then(|r| summarize(&r, probs.0, probs.1).ok());
-                    let above = kept(&|row| if va[row] > vb[row] { 1.0 } else { 0.0 }).map_err(
-                        |source| FitError::Diagnostics {
-                            quantity: what,
-                            source,
-                        },
-                    )?;
-                    let (p, p_mcse) = probability(&above);
-                    Ok(Comparison {
-                        name: name.clone(),
-                        unit: unit.clone(),
-                        group_a: group_of(a),
-                        group_b: group_of(b),
-                        note: note.clone(),
-                        difference,
-                        ratio,
-                        p_a_greater: p,
-                        p_a_greater_mcse: p_mcse,
-                    })
-                })
-                .collect::<Result<_, FitError>>()?;
+        let compare = |(name, unit, note, a, b): &(String, String, String, Operand, Operand)| {
+            let what = format!("{} − {}", label_of(*a), label_of(*b));
+            let (a, b) = (*a, *b);
+            let (va, vb) = (values(a)?, values(b)?);
+            let difference = summary_of(
+                what.clone(),
+                va.iter().zip(&vb).map(|(a, b)| a - b).collect(),
+            )?;
+            // A zero or non-finite ratio draw leaves the ratio undefined, not the fit.
+            let ratio = kept(&|row| va[row] / vb[row])
+                .ok()
+                .and_then(|r| summarize(&r, probs.0, probs.1).ok());
+            let above =
+                kept(&|row| if va[row] > vb[row] { 1.0 } else { 0.0 }).map_err(|source| {
+                    FitError::Diagnostics {
+                        quantity: what,
+                        source,
+                    }
+                })?;
+            let (p, p_mcse) = probability(&above);
+            Ok(Comparison {
+                name: name.clone(),
+                unit: unit.clone(),
+                group_a: group_of(a),
+                group_b: group_of(b),
+                note: note.clone(),
+                difference,
+                ratio,
+                p_a_greater: p,
+                p_a_greater_mcse: p_mcse,
+            })
+        };
+        let comparisons: Vec<Comparison> = self
+            .pairs
+            .par_iter()
+            .map(compare)
+            .collect::<Result<_, FitError>>()?;
 
         if settings.ensembles < 2 {
             problems.push(Problem::SingleEnsemble);
@@ -347,12 +343,12 @@ impl Plan {
             aggregates,
             comparisons,
             sampler: SamplerSummary {
-                walkers: layout.walkers,
+                walkers,
                 steps: total,
-                ensembles: layout.ensembles,
+                ensembles,
                 burn_in: selection.burn_in,
                 kept_steps: selection.kept,
-                draws: layout.ensembles * layout.walkers * selection.kept,
+                draws: ensembles * walkers * selection.kept,
                 acceptance: report.mean_acceptance(),
                 tau_max: tau.map(|t| t.max),
                 tau_min: tau.map(|t| t.min),
@@ -387,33 +383,25 @@ fn probability(indicator: &EnsembleDraws) -> (f64, Option<f64>) {
     (p, mcse)
 }
 
-/// The shape of the chains, checked against the settings and the sampler's report.
-#[derive(Debug, Clone, Copy)]
-struct Layout {
+/// Checks the shape of the chains against the settings and the sampler's report.
+fn check_shape(
+    chains: &ChainReader,
     ensembles: usize,
     walkers: usize,
-}
-
-impl Layout {
-    fn check(
-        chains: &ChainReader,
-        ensembles: usize,
-        walkers: usize,
-        steps: u64,
-        dir: &Path,
-    ) -> Result<Self, FitError> {
-        let found = (chains.ensembles(), chains.walkers(), chains.steps());
-        if found != (ensembles, walkers, steps) {
-            return Err(FitError::Inconsistent {
-                dir: dir.to_path_buf(),
-                problem: format!(
-                    "the chains hold {} ensembles × {} walkers × {} steps where {ensembles} × {walkers} × {steps} were expected",
-                    found.0, found.1, found.2
-                ),
-            });
-        }
-        Ok(Self { ensembles, walkers })
+    steps: u64,
+    dir: &Path,
+) -> Result<(), FitError> {
+    let found = (chains.ensembles(), chains.walkers(), chains.steps());
+    if found == (ensembles, walkers, steps) {
+        return Ok(());
     }
+    Err(FitError::Inconsistent {
+        dir: dir.to_path_buf(),
+        problem: format!(
+            "the chains hold {} ensembles × {} walkers × {} steps where {ensembles} × {walkers} × {steps} were expected",
+            found.0, found.1, found.2
+        ),
+    })
 }
 
 /// Which steps are kept: every step from `burn_in` to the end.

@@ -234,9 +234,9 @@ impl SamplerConfig {
     }
 
     /// Rows the history keeps for a density of `ndim` parameters:
-    /// [`history_rows`](Self::history_rows), fewer when a row of every walker of every ensemble would take the
-    /// history beyond [`HISTORY_BUDGET_BYTES`], never fewer than [`MIN_BUDGET_ROWS`] for that
-    /// reason.
+    /// [`history_rows`](Self::history_rows), fewer when rows of every walker of every
+    /// ensemble would take the history beyond [`HISTORY_BUDGET_BYTES`], never fewer than
+    /// [`MIN_BUDGET_ROWS`] for that reason.
     pub fn history_rows_for(&self, ndim: usize) -> usize {
         let row_bytes = self.ensembles * self.walkers * ndim.max(1) * std::mem::size_of::<f64>();
         self.history_rows

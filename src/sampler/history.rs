@@ -5,13 +5,16 @@
 //! reached every other row is dropped and `thin` doubles, so between `max_rows/2` and
 //! `max_rows` rows cover the run. With the default 2,048 rows, before convergence (run < 50 τ)
 //! this thinning is finer than τ/20, so τ measured on the kept rows (times `thin`) stays
-//! accurate; a large model keeps fewer rows ([`SamplerConfig::history_rows_for`]
-//! (super::SamplerConfig::history_rows_for)), never fewer than 128, still finer than τ/2.
+//! accurate; a large model keeps fewer rows
+//! ([`SamplerConfig::history_rows_for`](super::SamplerConfig::history_rows_for)), never fewer
+//! than 128, still finer than τ/2.
 //!
 //! Checkpoints do not store the history: the rows it keeps follow from the step count and
-//! `max_rows`, and their values are in the chains ([`Rebuild`]).
+//! `max_rows`, and their values are in the chains ([`rebuild`]).
 
 use serde::{Deserialize, Serialize};
+
+use super::error::SamplerError;
 
 /// Thinned history of all ensembles.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -168,54 +171,52 @@ impl RowHistory {
     }
 }
 
-/// A [`History`] restored from recorded chains: the steps it keeps are found by running the
-/// thinning rule of [`RowHistory`] itself over the step numbers, so they are the steps an
-/// uninterrupted run keeps.
-pub(crate) struct Rebuild {
-    kept: Vec<u64>,
-    history: History,
-}
-
-impl Rebuild {
-    /// The rows a run of `steps` steps keeps with `max_rows` rows, for `ensembles` ensembles of
-    /// `width` values (walkers × parameters) per row, still empty.
-    pub(crate) fn new(steps: u64, max_rows: usize, ensembles: usize, width: usize) -> Self {
-        let mut rule = RowHistory::new(1, 1, max_rows);
-        for step in 0..steps {
-            if rule.wants(step) {
-                rule.push(0, &[step as f64]);
-                rule.finish_row();
-            }
+/// The [`History`] an uninterrupted run of `steps` steps holds with `max_rows` rows, restored
+/// from the recorded chains: `column(p)` gives parameter `p` of every row (step, then
+/// ensemble, then walker). Which steps are kept follows from running the thinning rule of
+/// [`RowHistory`] itself over the step count: kept row `r` is step `r · thin`.
+///
+/// # Errors
+/// What `column` returns, or [`SamplerError::Shape`] when a column has the wrong length.
+pub(crate) fn rebuild<E: From<SamplerError>>(
+    steps: u64,
+    max_rows: usize,
+    (ensembles, walkers, ndim): (usize, usize, usize),
+    mut column: impl FnMut(usize) -> Result<Vec<f64>, E>,
+) -> Result<History, E> {
+    let mut rule = RowHistory::new(1, 0, max_rows);
+    for step in 0..steps {
+        if rule.wants(step) {
+            rule.finish_row();
         }
-        let kept: Vec<u64> = rule.data[0].iter().map(|&s| s as u64).collect();
-        let history = History {
-            thin: rule.thin,
-            rows: rule.rows,
-            max_rows,
-            series: vec![vec![Vec::with_capacity(kept.len()); width]; ensembles],
-        };
-        Self { kept, history }
     }
-
-    /// Fills parameter `p` from its recorded values, one per row (step, then ensemble, then
-    /// walker; `values.len()` = steps × ensembles × walkers).
-    pub(crate) fn fill(&mut self, p: usize, ndim: usize, walkers: usize, values: &[f64]) {
-        let ensembles = self.history.series.len();
-        for (e, columns) in self.history.series.iter_mut().enumerate() {
+    let mut series = vec![vec![Vec::with_capacity(rule.rows); walkers * ndim]; ensembles];
+    let rows = steps as usize * ensembles * walkers;
+    for p in 0..ndim {
+        let values = column(p)?;
+        if values.len() != rows {
+            return Err(SamplerError::Shape {
+                what: format!("chains of parameter {p} for the history"),
+                expected: rows,
+                got: values.len(),
+            }
+            .into());
+        }
+        for (e, columns) in series.iter_mut().enumerate() {
             for w in 0..walkers {
                 columns[w * ndim + p].extend(
-                    self.kept
-                        .iter()
-                        .map(|&s| values[(s as usize * ensembles + e) * walkers + w]),
+                    (0..rule.rows)
+                        .map(|r| values[(rule.step_of(r) as usize * ensembles + e) * walkers + w]),
                 );
             }
         }
     }
-
-    /// The restored history.
-    pub(crate) fn done(self) -> History {
-        self.history
-    }
+    Ok(History {
+        thin: rule.thin,
+        rows: rule.rows,
+        max_rows,
+        series,
+    })
 }
 
 /// Serialises exactly like [`RowHistory::to_history`] (checkpoints without a copy).

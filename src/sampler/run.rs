@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::config::{SamplerConfig, Steps, Updates};
 use super::ensemble::{Ensemble, EnsembleState, Fatal, ProposalBuffers, Work};
 use super::error::SamplerError;
-use super::history::{History, Rebuild, RowHistory};
+use super::history::{rebuild, History, RowHistory};
 use super::moves::Move;
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
@@ -70,29 +70,11 @@ impl SamplerState {
     pub fn rebuild_history<E: From<SamplerError>>(
         &mut self,
         config: &SamplerConfig,
-        mut column: impl FnMut(usize) -> Result<Vec<f64>, E>,
+        column: impl FnMut(usize) -> Result<Vec<f64>, E>,
     ) -> Result<(), E> {
-        let ensembles = self.ensembles.len();
-        let rows = self.step as usize * ensembles * self.walkers;
-        let mut history = Rebuild::new(
-            self.step,
-            config.history_rows_for(self.ndim),
-            ensembles,
-            self.walkers * self.ndim,
-        );
-        for p in 0..self.ndim {
-            let values = column(p)?;
-            if values.len() != rows {
-                return Err(SamplerError::Shape {
-                    what: format!("chains of parameter {p} for the history"),
-                    expected: rows,
-                    got: values.len(),
-                }
-                .into());
-            }
-            history.fill(p, self.ndim, self.walkers, &values);
-        }
-        self.history = Some(history.done());
+        let shape = (self.ensembles.len(), self.walkers, self.ndim);
+        let max_rows = config.history_rows_for(self.ndim);
+        self.history = Some(rebuild(self.step, max_rows, shape, column)?);
         Ok(())
     }
 }

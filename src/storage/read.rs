@@ -207,10 +207,11 @@ impl PartSet {
 
     /// The f64 column `name` from row `first_row` (counted over all parts) to the end.
     fn column(&self, name: &str, first_row: usize) -> Result<Vec<f64>, StorageError> {
-        let mut values = Vec::new();
+        let total: usize = self.parts.iter().map(Part::rows).sum();
+        let mut values = Vec::with_capacity(total.saturating_sub(first_row));
         let mut start = 0;
         for part in &self.parts {
-            let end = start + part.rows;
+            let end = start + part.rows();
             if end > first_row {
                 let column = part.column::<f64>(name)?;
                 values.extend_from_slice(&column[first_row.saturating_sub(start)..]);
@@ -224,25 +225,28 @@ impl PartSet {
 /// One complete part: its path, footer and schema. Columns are read from the file one at a
 /// time, so that reading one column never holds the others in memory.
 #[derive(Debug, Clone)]
-struct Part {
+pub(super) struct Part {
     path: PathBuf,
     metadata: FileMetadata,
-    schema: ArrowSchema,
-    rows: usize,
+    pub(super) schema: ArrowSchema,
 }
 
 impl Part {
-    fn open(path: PathBuf) -> Result<Self, StorageError> {
+    /// Reads the footer of the part at `path`.
+    pub(super) fn open(path: PathBuf) -> Result<Self, StorageError> {
         let mut file = File::open(&path).map_err(|e| StorageError::io("open", &path, e))?;
         let metadata = read_metadata(&mut file).map_err(|e| StorageError::parquet(&path, e))?;
         let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(&path, e))?;
-        let rows = metadata.num_rows;
         Ok(Self {
             path,
             metadata,
             schema,
-            rows,
         })
+    }
+
+    /// Rows in the part.
+    pub(super) fn rows(&self) -> usize {
+        self.metadata.num_rows
     }
 
     /// The column `name`, read chunk by chunk from the file, as values of `T` without nulls.
@@ -254,7 +258,7 @@ impl Part {
         };
         let field = self.schema.get(name).ok_or_else(missing)?;
         let mut file = File::open(path).map_err(|e| StorageError::io("open", path, e))?;
-        let mut values = Vec::with_capacity(self.rows);
+        let mut values = Vec::with_capacity(self.rows());
         for group in &self.metadata.row_groups {
             let (pages, types): (Vec<_>, Vec<_>) = group
                 .columns_under_root_iter(name)
@@ -321,31 +325,40 @@ impl ChainReader {
             dir: chains_dir.to_path_buf(),
             problem,
         };
-        // The shape is learnt from step 0 (its rows come first), then every row is checked.
-        let mut shape: Option<(usize, usize)> = None;
-        let mut first_step = Vec::new();
-        let mut row = 0usize;
-        for part in &store.parts {
+        let index = |part: &Part| -> Result<Vec<(u64, usize, usize)>, StorageError> {
             let ensemble = part.column::<u32>(ENSEMBLE_COLUMN)?;
             let walker = part.column::<u32>(WALKER_COLUMN)?;
             let step = part.column::<u64>(STEP_COLUMN)?;
-            for i in 0..step.len() {
-                let found = (step[i], ensemble[i] as usize, walker[i] as usize);
-                let (ne, nw) = match shape {
-                    Some(s) => s,
-                    None if found.0 == 0 => {
-                        first_step.push((found.1, found.2));
-                        row += 1;
-                        continue;
-                    }
-                    None => *shape.insert(grid_of(&first_step).ok_or_else(|| {
-                        inconsistent(
-                            "the rows of step 0 are not every walker of every ensemble in order"
-                                .into(),
-                        )
-                    })?),
-                };
-                let expected = ((row / (ne * nw)) as u64, (row / nw) % ne, row % nw);
+            Ok((0..step.len())
+                .map(|i| (step[i], ensemble[i] as usize, walker[i] as usize))
+                .collect())
+        };
+        // The shape from step 0, whose rows open the first part; then every row is checked
+        // against it (a first part cut inside step 0 fails that check).
+        let first = index(&store.parts[0])?;
+        let step0: Vec<(usize, usize)> = first
+            .iter()
+            .take_while(|r| r.0 == 0)
+            .map(|r| (r.1, r.2))
+            .collect();
+        let (ensembles, walkers) = grid_of(&step0).ok_or_else(|| {
+            inconsistent(
+                "the rows of step 0 are not every walker of every ensemble in order".into(),
+            )
+        })?;
+        let mut row = 0usize;
+        let mut read = Some(first);
+        for part in &store.parts {
+            let rows = match read.take() {
+                Some(rows) => rows,
+                None => index(part)?,
+            };
+            for (i, found) in rows.into_iter().enumerate() {
+                let expected = (
+                    (row / (ensembles * walkers)) as u64,
+                    (row / walkers) % ensembles,
+                    row % walkers,
+                );
                 if found != expected {
                     return Err(inconsistent(format!(
                         "row {i} of {} holds step {}, ensemble {}, walker {} where step {}, ensemble {}, walker {} was expected",
@@ -356,14 +369,6 @@ impl ChainReader {
                 row += 1;
             }
         }
-        let (ensembles, walkers) = match shape {
-            Some(s) => s,
-            None => grid_of(&first_step).ok_or_else(|| {
-                inconsistent(
-                    "the rows of step 0 are not every walker of every ensemble in order".into(),
-                )
-            })?,
-        };
         if row % (ensembles * walkers) != 0 {
             return Err(inconsistent(format!(
                 "{row} rows are not whole steps of {ensembles} ensembles × {walkers} walkers"
@@ -556,12 +561,4 @@ fn split_names(
     let mut params = names;
     params.truncate(split);
     Ok((params, derived))
-}
-
-/// The Arrow schema and row count of a part, from its footer only.
-pub(super) fn read_part_footer(path: &Path) -> Result<(ArrowSchema, u64), StorageError> {
-    let mut file = File::open(path).map_err(|e| StorageError::io("open", path, e))?;
-    let metadata = read_metadata(&mut file).map_err(|e| StorageError::parquet(path, e))?;
-    let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(path, e))?;
-    Ok((schema, metadata.num_rows as u64))
 }

@@ -15,7 +15,7 @@ use polars_parquet::write::{
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use super::read::{chains_schema, check_schema, read_part_footer};
+use super::read::{chains_schema, check_schema, Part};
 use super::{
     is_leftover_name, parse_part_name, part_name, partial_name, ChainFiles, ChainSink, StepView,
     StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
@@ -279,9 +279,9 @@ impl ParquetSink {
         let mut rows = 0u64;
         for index in 0..checkpoint.parts {
             let path = chains_dir.join(part_name(index));
-            let (schema, part_rows) = read_part_footer(&path)?;
-            check_schema(&path, &schema, &expected)?;
-            rows += part_rows;
+            let part = Part::open(path.clone())?;
+            check_schema(&path, &part.schema, &expected)?;
+            rows += part.rows() as u64;
         }
         if rows != checkpoint.rows {
             return Err(inconsistent(format!(

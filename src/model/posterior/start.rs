@@ -3,10 +3,10 @@
 //! its own by least squares, the results combined over the runs that share a parameter.
 
 use super::layout::{CoordPrior, SigmaSource, T0Source};
-use super::likelihood::RunModel;
+use super::likelihood::{RunModel, RunResiduals};
 use super::Posterior;
 use crate::density::LogDensity;
-use crate::law::{Elastic, Law, ObservedSlide, Scene};
+use crate::law::{Elastic, Law, LawError, ObservedSlide, Scene};
 use crate::optimize::{nelder_mead, NelderMeadOptions};
 
 /// Estimates from one slide fitted alone (a start for the joint fit).
@@ -28,7 +28,6 @@ impl Posterior {
     /// from a few values of α spanning the record, and the results combined by level
     /// (geometric means for shared parameters).
     pub(super) fn heuristic_start(&self) -> Vec<f64> {
-        let mut natural = vec![f64::NAN; self.coords.len()];
         // Shared parameters collect one estimate per run and take the geometric mean.
         let mut votes: Vec<Vec<f64>> = vec![Vec::new(); self.coords.len()];
         let mut k_known = vec![None; self.spec.file.contacts.len()];
@@ -78,26 +77,27 @@ impl Posterior {
                 None => {}
             }
         }
-        let mean_natural = natural.clone();
-        for (i, v) in votes.iter().enumerate() {
-            if !v.is_empty() {
-                natural[i] = (v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64).exp();
-            }
-        }
-        let start = self.coordinates(natural, &t0_votes);
+        // Natural-scale values from the centre of each coordinate's log estimates.
+        let by_level = |log_centre: fn(&[f64]) -> f64| -> Vec<f64> {
+            votes
+                .iter()
+                .map(|v| {
+                    if v.is_empty() {
+                        f64::NAN
+                    } else {
+                        log_centre(v).exp()
+                    }
+                })
+                .collect()
+        };
+        let start = self.coordinates(by_level(mean_of_logs), &t0_votes);
         if self.finite_at(&start) {
             return start;
         }
         // A slide fitted alone can end far off (a ratio of e^13, a t0 of e^-20 in a campaign
         // of 50 contacts), and a geometric mean takes such an outlier in: the median of the
         // runs' estimates does not.
-        let mut robust = mean_natural;
-        for (i, v) in votes.iter().enumerate() {
-            if !v.is_empty() {
-                robust[i] = median_of_logs(v).exp();
-            }
-        }
-        let mut start = self.coordinates(robust, &t0_votes);
+        let mut start = self.coordinates(by_level(median_of_logs), &t0_votes);
         if !self.finite_at(&start) {
             self.repair_contacts(&mut start);
         }
@@ -180,9 +180,10 @@ impl Posterior {
             if own.is_empty() || self.contact_ln_ssr(&runs, x).is_finite() {
                 continue;
             }
-            let mut trial = x.to_vec();
+            // Every evaluation sets all of the contact's own coordinates, so one scratch point
+            // serves them all.
+            let mut y = x.to_vec();
             let objective = |p: &[f64]| {
-                let mut y = trial.clone();
                 for (&c, &v) in own.iter().zip(p) {
                     y[c] = v;
                 }
@@ -195,12 +196,11 @@ impl Posterior {
                 restarts: 2,
                 ..NelderMeadOptions::default()
             };
-            let (p, f, _) = nelder_mead(&objective, &p0, &options);
+            let (p, f, _) = nelder_mead(objective, &p0, &options);
             if f.is_finite() {
                 for (&c, &v) in own.iter().zip(&p) {
-                    trial[c] = v;
+                    x[c] = v;
                 }
-                x.copy_from_slice(&trial);
             }
         }
     }
@@ -216,16 +216,13 @@ impl Posterior {
             .filter(|(c, &v)| !c.prior_contains(v))
             .map(|(c, v)| format!("{} = {v:.4} is outside its prior", c.name))
             .collect();
-        let mut last = vec![f64::NAN; self.runs.len()];
-        for &i in &self.order {
-            let r = &self.runs[i];
-            let f_end = r.follows.map(|j| last[j]).filter(|v| v.is_finite());
-            match r.residuals(x, f_end) {
-                Ok(fit) => last[i] = fit.last_force,
-                Err(e) => failures.push(format!(
+        for (i, fit) in self.fits_at(&self.order, x) {
+            if let Err(e) = fit {
+                let r = &self.runs[i];
+                failures.push(format!(
                     "run {} of contact {}: {e}",
                     r.name, self.spec.file.contacts[r.contact].name
-                )),
+                ));
             }
         }
         const SHOWN: usize = 5;
@@ -248,20 +245,30 @@ impl Posterior {
         {
             return f64::INFINITY;
         }
+        self.fits_at(runs, x)
+            .try_fold(0.0, |total, (_, fit)| match fit {
+                Ok(fit) if fit.ssr.is_finite() => Some(total + fit.ssr.max(f64::MIN_POSITIVE).ln()),
+                _ => None,
+            })
+            .unwrap_or(f64::INFINITY)
+    }
+
+    /// Each of `runs` (in evaluation order) fitted at `x`; a repeat slide loads from where
+    /// the slide it follows stopped, or from F_d when that slide is not among `runs` or failed.
+    fn fits_at<'s>(
+        &'s self,
+        runs: &'s [usize],
+        x: &'s [f64],
+    ) -> impl Iterator<Item = (usize, Result<RunResiduals, LawError>)> + 's {
         let mut last = vec![f64::NAN; self.runs.len()];
-        let mut total = 0.0;
-        for &i in runs {
+        runs.iter().map(move |&i| {
             let r = &self.runs[i];
-            let f_end = r.follows.map(|j| last[j]).filter(|v| v.is_finite());
-            match r.residuals(x, f_end) {
-                Ok(fit) if fit.ssr.is_finite() => {
-                    last[i] = fit.last_force;
-                    total += fit.ssr.max(f64::MIN_POSITIVE).ln();
-                }
-                _ => return f64::INFINITY,
+            let fit = r.residuals(x, r.follows.map(|j| last[j]).filter(|v| v.is_finite()));
+            if let Ok(f) = &fit {
+                last[i] = f.last_force;
             }
-        }
-        total
+            (i, fit)
+        })
     }
 
     /// The population (its μ coordinate) a pooled z belongs to.
@@ -340,6 +347,11 @@ impl Posterior {
             k: if free_k { Some(get(4)) } else { None },
         }
     }
+}
+
+/// Mean of the logarithms of positive estimates (the log of their geometric mean).
+fn mean_of_logs(v: &[f64]) -> f64 {
+    v.iter().map(|x| x.ln()).sum::<f64>() / v.len() as f64
 }
 
 /// Median of the logarithms of positive estimates (the lower middle of an even count, so that
