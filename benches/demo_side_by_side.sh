@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The README's before/after timings, alternated in one run so that the machine's state is
-# shared: the demo with its default settings (blocked updates, student-t=0.5,de=0.5, run until
-# converged) against the settings the demo had before issue 13 (joint updates, stretch move,
+# shared: the demo with its default settings (hierarchical updates, student-t=0.5,de=0.5, run
+# until converged) against the settings the demo had before issue 13 (joint updates, stretch move,
 # 38 walkers, 1,000 fixed steps); and the one-contact quick path run until converged with the
 # default moves against the stretch move.
 #

@@ -3,22 +3,30 @@
 # five posteriors under several moves and updates, all on this machine in one sequential run
 # (so the wall times are comparable; nothing else should run meanwhile).
 #
-#   bash benches/moves_and_blocks.sh OUT_DIR     # from the repository root, ~45 min on 2 cores
+#   bash benches/moves_and_blocks.sh OUT_DIR [PATTERN]   # from the repository root, ~55 min
 #
+# With PATTERN (an extended regular expression) only the rows whose "posterior | updates,
+# moves" label matches are run, e.g. `hierarchical`.
 # Needs target/release/slipbayes (cargo build --release) and python3. Writes OUT_DIR/table.md.
 # ESS and R̂ are read from each fit's summary.json by benches/run_stats.py: every post-burn-in
 # draw, every reported quantity (parameters and derived), as ArviZ computes them.
 set -euo pipefail
-out=${1:?usage: bash benches/moves_and_blocks.sh OUT_DIR}
+out=${1:?usage: bash benches/moves_and_blocks.sh OUT_DIR [PATTERN]}
+only=${2:-}
 root=$(pwd)
 bin=$root/target/release/slipbayes
 mkdir -p "$out/models" "$out/runs"
 # The demo and its variants, with absolute data paths.
 demo() { sed "s#\.\./data/#$root/data/#" models/demo.toml; }
+# Each model also with one block per material (the default before hierarchical updates).
+blocks() { sed "s/^\[sampler\]$/[sampler]\nblocks = \"$1\"/"; }
 demo > "$out/models/demo.toml"
-demo | sed 's/^\[sampler\]$/[sampler]\nblocks = "contact"/' > "$out/models/demo-contact.toml"
+demo | blocks material > "$out/models/demo-material.toml"
+demo | blocks contact > "$out/models/demo-contact.toml"
 { echo 'aging = "absolute"'; demo; } > "$out/models/absolute.toml"
+{ echo 'aging = "absolute"'; demo | blocks material; } > "$out/models/absolute-material.toml"
 { demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/pooled.toml"
+{ demo | blocks material; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/pooled-material.toml"
 python3 data/make_campaign.py --contacts 10 --out "$out/campaign" > /dev/null
 cp "$out/campaign/campaign.toml" "$out/campaign/campaign-contact.toml"
 printf '\n[sampler]\nblocks = "contact"\n' >> "$out/campaign/campaign-contact.toml"
@@ -28,6 +36,7 @@ echo "| posterior | updates, moves | walkers | steps | τ_max | min ESS bulk | m
 echo "|---|---|---|---|---|---|---|---|---|---|" >> "$out/table.md"
 row() { # label, description, steps, then fit arguments
   local label=$1 what=$2 steps=$3; shift 3
+  if [ -n "$only" ] && ! echo "$label | $what" | grep -Eq "$only"; then return; fi
   local dir="$out/runs/$label-$(echo "$what" | tr ' ,=/' '____')"
   "$bin" fit "$@" --steps "$steps" --quiet --out "$dir" --overwrite > "$dir.log" 2>&1 || true
   python3 benches/run_stats.py "$dir" "| $label | $what | {walkers} | {steps} | {tau_max:.1f} \
@@ -36,22 +45,28 @@ row() { # label, description, steps, then fit arguments
   tail -1 "$out/table.md"
 }
 m="$out/models"
+c="$out/campaign"
 row "one contact" "joint, stretch" 2000 "${one_contact[@]}" --moves stretch=1
 row "one contact" "joint, student-t=0.9,stretch=0.1" 2000 "${one_contact[@]}" --moves student-t=0.9,stretch=0.1
 row "one contact" "joint, de" 2000 "${one_contact[@]}" --moves de=1
 row "one contact" "joint, student-t=0.5,de=0.5 (default)" 2000 "${one_contact[@]}"
 row demo "joint, stretch" 1000 "$m/demo.toml" --updates joint --moves stretch=1 --walkers 38
-row demo "contact blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-contact.toml" --moves student-t=0.9,stretch=0.1 --walkers 40
-row demo "material blocks, stretch" 1000 "$m/demo.toml" --moves stretch=1 --walkers 40
-row demo "material blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo.toml" --moves student-t=0.9,stretch=0.1 --walkers 40
-row demo "material blocks, student-t=0.5,de=0.5 (default)" 1000 "$m/demo.toml"
+row demo "contact blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-contact.toml" --updates blocked --moves student-t=0.9,stretch=0.1 --walkers 40
+row demo "material blocks, stretch" 1000 "$m/demo-material.toml" --updates blocked --moves stretch=1 --walkers 40
+row demo "material blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-material.toml" --updates blocked --moves student-t=0.9,stretch=0.1 --walkers 40
+row demo "material blocks, student-t=0.5,de=0.5" 1000 "$m/demo-material.toml" --updates blocked
+row demo "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$m/demo.toml"
 row absolute "joint, stretch" 1000 "$m/absolute.toml" --updates joint --moves stretch=1 --walkers 38
-row absolute "material blocks, student-t=0.5,de=0.5 (default)" 1000 "$m/absolute.toml"
+row absolute "material blocks, student-t=0.5,de=0.5" 1000 "$m/absolute-material.toml" --updates blocked
+row absolute "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$m/absolute.toml"
 row pooled "joint, stretch" 1000 "$m/pooled.toml" --updates joint --moves stretch=1 --walkers 46
-row pooled "material blocks, student-t=0.5,de=0.5 (default)" 1000 "$m/pooled.toml"
-row campaign "joint, stretch" 1000 "$out/campaign/campaign.toml" --moves stretch=1 --walkers 68
-row campaign "joint, student-t=0.9,stretch=0.1" 1000 "$out/campaign/campaign.toml" --moves student-t=0.9,stretch=0.1 --walkers 68
-row campaign "contact blocks, student-t=0.5,de=0.5" 1000 "$out/campaign/campaign-contact.toml" --walkers 68
-row campaign "joint, de" 1000 "$out/campaign/campaign.toml" --moves de=1 --walkers 68
-row campaign "joint, student-t=0.5,de=0.5 (default)" 1000 "$out/campaign/campaign.toml" --walkers 68
-row campaign "joint, student-t=0.5,de=0.5 (default, default walkers)" 1000 "$out/campaign/campaign.toml"
+row pooled "material blocks, student-t=0.5,de=0.5" 1000 "$m/pooled-material.toml" --updates blocked
+row pooled "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$m/pooled.toml"
+row campaign "joint, stretch" 1000 "$c/campaign.toml" --updates joint --moves stretch=1 --walkers 68
+row campaign "joint, student-t=0.9,stretch=0.1" 1000 "$c/campaign.toml" --updates joint --moves student-t=0.9,stretch=0.1 --walkers 68
+row campaign "contact blocks, student-t=0.5,de=0.5" 1000 "$c/campaign-contact.toml" --updates blocked --walkers 68
+row campaign "joint, de" 1000 "$c/campaign.toml" --updates joint --moves de=1 --walkers 68
+row campaign "joint, student-t=0.5,de=0.5" 1000 "$c/campaign.toml" --updates joint --walkers 68
+row campaign "joint, student-t=0.5,de=0.5 (132 walkers)" 1000 "$c/campaign.toml" --updates joint --walkers 132
+row campaign "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$c/campaign.toml"
+row campaign "hierarchical, student-t=0.5,de=0.5, 64 walkers" 1000 "$c/campaign.toml" --walkers 64

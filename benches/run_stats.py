@@ -3,8 +3,9 @@
     python3 benches/run_stats.py RUN_DIR FORMAT
 
 FORMAT is a Python format string over the fields below, read from RUN_DIR/summary.json: every
-reported quantity (parameters and derived), every post-burn-in draw, as ArviZ computes them.
-  walkers, steps, stopped_by, converged, tau_max, evals, wall_s,
+reported quantity (parameters and derived), every post-burn-in draw, as ArviZ computes them
+(dimension from RUN_DIR/settings.json).
+  dimension, walkers, steps, stopped_by, converged, tau_max, evals, wall_s,
   ess_bulk_min, ess_tail_min, r_hat_max, quantities, low_ess (quantities with ESS bulk <= 400)
 """
 import json
@@ -14,6 +15,7 @@ run_dir, fmt = sys.argv[1:]
 summary = json.load(open(run_dir + "/summary.json"))
 quantities = summary["parameters"] + summary["derived"]
 sampler = summary["sampler"]
+dimension = json.load(open(run_dir + "/settings.json"))["dimension"]
 
 
 def values(key):
@@ -22,6 +24,7 @@ def values(key):
 
 
 print(fmt.format(
+    dimension=dimension,
     walkers=sampler["walkers"],
     steps=sampler["steps"],
     stopped_by=sampler["stopped_by"],

@@ -102,6 +102,14 @@ pub trait LogDensity: Sync {
         Vec::new()
     }
 
+    /// How the blocks depend on one another, one entry per block of [`blocks`](Self::blocks)
+    /// (empty, the default: nothing declared). A sampler may use it to propose a block from
+    /// its conditional given the coordinates it depends on, and to carry the coordinates that
+    /// depend on a block along when that block moves.
+    fn block_links(&self) -> Vec<BlockLinks> {
+        Vec::new()
+    }
+
     /// Length of the per-point cache that [`log_density_cached`](Self::log_density_cached)
     /// fills and [`log_density_block`](Self::log_density_block) reuses (0 by default).
     fn cache_len(&self) -> usize {
@@ -124,7 +132,9 @@ pub trait LogDensity: Sync {
     }
 
     /// The log-density at `x`, a point that differs only in the coordinates of
-    /// `blocks()[block]` from the point at which `derived` and `cache` were computed; brings
+    /// `blocks()[block]` and of its [`followers`](BlockLinks::followers) (when
+    /// [`block_links`](Self::block_links) declares any) from the point at which `derived` and
+    /// `cache` were computed; brings
     /// both up to date for `x`. Must return exactly what
     /// [`log_density_cached`](Self::log_density_cached) returns at `x` (the sampler stores the
     /// value and a resume re-evaluates it in full). By default a full evaluation.
@@ -141,6 +151,19 @@ pub trait LogDensity: Sync {
         let _ = block;
         self.log_density_cached(x, derived, cache)
     }
+}
+
+/// How one block of a hierarchical density depends on the others: typically a group's own
+/// parameters depend on the parameters shared between groups (its `given`), and the shared
+/// parameters have every group's parameters as `followers`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct BlockLinks {
+    /// Coordinates of other blocks through which alone this block's conditional depends on
+    /// the rest: given them, the block is independent of every other coordinate.
+    pub given: Vec<usize>,
+    /// Coordinates of the blocks whose conditionals depend on this block (those that list
+    /// it in their `given`).
+    pub followers: Vec<usize>,
 }
 
 /// Outcome of one evaluation after the sampler's classification of raw values.

@@ -10,7 +10,7 @@ use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sampler_util::{assert_within, mean_and_mcse};
-use slipbayes::density::{LogDensity, LogDensityError};
+use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, Silent, Steps, Updates,
@@ -125,6 +125,20 @@ impl LogDensity for Hierarchy {
         blocks
     }
 
+    /// μ is given to every group; every θ_j follows μ.
+    fn block_links(&self) -> Vec<BlockLinks> {
+        let mu = vec![0, 1];
+        let mut links = vec![BlockLinks {
+            given: Vec::new(),
+            followers: (2..self.dim()).collect(),
+        }];
+        links.extend((0..self.groups()).map(|_| BlockLinks {
+            given: mu.clone(),
+            followers: Vec::new(),
+        }));
+        links
+    }
+
     fn cache_len(&self) -> usize {
         1 + self.groups()
     }
@@ -153,10 +167,14 @@ impl LogDensity for Hierarchy {
         cache: &mut [f64],
     ) -> Result<f64, LogDensityError> {
         if block == 0 {
-            // μ enters its prior and every group's term.
+            // μ enters its prior and every group's term; its followers (every θ_j) may have
+            // moved with it.
             cache[0] = Self::mu_prior(x);
             for j in 0..self.groups() {
                 cache[1 + j] = self.group_term(j, x);
+                if !derived.is_empty() {
+                    derived[j] = x[2 + 2 * j] + x[3 + 2 * j];
+                }
             }
         } else {
             let j = block - 1;
@@ -174,6 +192,7 @@ fn blocked_sampler(
     moves: Vec<(Move, f64)>,
     walkers: usize,
     seed: u64,
+    updates: Updates,
 ) -> EnsembleSampler<'_, Hierarchy> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let start = initial_around_optimum(h, &vec![0.3; h.dim()], walkers, 4, &mut rng).unwrap();
@@ -181,27 +200,44 @@ fn blocked_sampler(
         .unwrap()
         .with_moves(moves)
         .unwrap()
-        .with_updates(Updates::Blocked);
+        .with_updates(updates);
     EnsembleSampler::new(h, config, start.walkers).unwrap()
 }
 
+/// A labelled sampler setting: its moves and updates.
+type Case = (&'static str, Vec<(Move, f64)>, Updates);
+
 /// Means, variances and the μ–θ covariance of the blocked chains match the exact posterior,
-/// for the stretch move and for the Student-t independence mixture.
+/// for the stretch move and for the Student-t independence mixture, with plain blocked
+/// updates and with hierarchical ones (μ carrying the θ_j along, each θ_j proposed from its
+/// conditional given μ), for every move of the default mixture.
 #[test]
 fn blocked_updates_sample_a_hierarchical_gaussian() {
     let h = Hierarchy::new(6);
     let (mean, cov) = h.exact();
-    let cases: Vec<(&str, Vec<(Move, f64)>)> = vec![
-        ("stretch", vec![(Move::stretch(), 1.0)]),
+    let t_and = |m: Move| vec![(Move::student_t(), 0.5), (m, 0.5)];
+    let cases: Vec<Case> = vec![
+        ("stretch", vec![(Move::stretch(), 1.0)], Updates::Blocked),
         (
             "student-t=0.9,stretch=0.1",
             vec![(Move::student_t(), 0.9), (Move::stretch(), 0.1)],
+            Updates::Blocked,
+        ),
+        (
+            "hierarchical student-t=0.5,de=0.5",
+            t_and(Move::differential_evolution()),
+            Updates::Hierarchical,
+        ),
+        (
+            "hierarchical student-t=0.5,stretch=0.5",
+            t_and(Move::stretch()),
+            Updates::Hierarchical,
         ),
     ];
-    for (label, moves) in cases {
+    for (label, moves, updates) in cases {
         // Fewer walkers than 2 × 14 dimensions: blocked updates need only 2 × the largest
         // block.
-        let mut sampler = blocked_sampler(&h, moves, 12, 11);
+        let mut sampler = blocked_sampler(&h, moves, 12, 11, updates);
         let mut sink = MemorySink::new();
         sampler
             .run(Steps::Fixed(3000), &mut sink, &mut Silent)
@@ -235,12 +271,18 @@ fn blocked_updates_sample_a_hierarchical_gaussian() {
 
 /// After blocked steps every walker's stored log-density and derived values are exactly a
 /// full evaluation at its position; the state resumes bit-identically, and refuses joint
-/// updates.
+/// updates. Hierarchical updates too.
 #[test]
 fn blocked_state_is_a_full_evaluation_and_resumes() {
+    for updates in [Updates::Blocked, Updates::Hierarchical] {
+        blocked_state_check(updates);
+    }
+}
+
+fn blocked_state_check(updates: Updates) {
     let h = Hierarchy::new(4);
     let moves = vec![(Move::student_t(), 0.5), (Move::stretch(), 0.5)];
-    let mut whole = blocked_sampler(&h, moves.clone(), 12, 5);
+    let mut whole = blocked_sampler(&h, moves.clone(), 12, 5, updates);
     whole
         .run(Steps::Fixed(60), &mut MemorySink::new(), &mut Silent)
         .unwrap();
@@ -254,7 +296,7 @@ fn blocked_state_is_a_full_evaluation_and_resumes() {
         }
     }
 
-    let mut first = blocked_sampler(&h, moves.clone(), 12, 5);
+    let mut first = blocked_sampler(&h, moves.clone(), 12, 5, updates);
     first
         .run(Steps::Fixed(25), &mut MemorySink::new(), &mut Silent)
         .unwrap();
@@ -267,7 +309,9 @@ fn blocked_state_is_a_full_evaluation_and_resumes() {
 
     let joint = config.with_updates(Updates::Joint);
     match EnsembleSampler::from_state(&h, joint, first.state()) {
-        Err(SamplerError::StateMismatch { detail }) => assert!(detail.contains("blocked")),
+        Err(SamplerError::StateMismatch { detail }) => {
+            assert!(detail.contains(updates.as_str()), "{detail}")
+        }
         other => panic!("expected a state mismatch, got {other:?}"),
     }
 }

@@ -40,10 +40,11 @@ fn same(a: f64, b: f64) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
 }
 
-/// From points near the start, moves one block at a time and compares the block update with
-/// a full evaluation at the new point.
+/// From points near the start, moves one block at a time (with its followers) and compares
+/// the block update with a full evaluation at the new point.
 fn check_block_updates(label: &str, post: &Posterior) {
     let blocks = post.blocks();
+    let links = post.block_links();
     let (nd, nc) = (post.derived_names().len(), post.cache_len());
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let mut x = post.start().to_vec();
@@ -56,7 +57,7 @@ fn check_block_updates(label: &str, post: &Posterior) {
     for round in 0..40 {
         let b = round % blocks.len();
         let mut y = x.clone();
-        for &i in &blocks[b] {
+        for &i in blocks[b].iter().chain(&links[b].followers) {
             y[i] += 0.01 * rng.random::<f64>() - 0.005;
         }
         let (mut d_block, mut c_block) = (derived.clone(), cache.clone());
@@ -136,6 +137,28 @@ fn demo_blocks_follow_materials_and_contacts() {
     ] {
         assert!(contact.contains(&member.to_string()), "{contact:?}");
     }
+    // The shared block has the contacts' coordinates as followers; each contact is given
+    // the shared ones.
+    let links = post.block_links();
+    let m = blocks
+        .iter()
+        .position(|b| names(&post, b) == *material)
+        .unwrap();
+    let c = blocks
+        .iter()
+        .position(|b| names(&post, b) == *contact)
+        .unwrap();
+    assert_eq!(links[c].given, blocks[m]);
+    assert!(links[c].followers.is_empty());
+    assert!(links[m].given.is_empty());
+    let followers = names(&post, &links[m].followers);
+    // F_d, k and the first (and fast) slides' t0 of both PTFE contacts.
+    assert_eq!(followers.len(), 7, "{followers:?}");
+    assert!(followers.contains(&"ln_t0[ptfe-c2-first]".to_string()));
+    assert!(
+        !followers.iter().any(|n| n.contains("pp-")),
+        "{followers:?}"
+    );
     check_block_updates("demo by contact", &post);
 }
 

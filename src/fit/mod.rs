@@ -92,10 +92,12 @@ pub fn fit_stop_rule(max_steps: u64) -> StopRule {
     }
 }
 
-/// The default updates of a fit: blocked, so that each material (whose posterior is
-/// independent of the others') is updated in its own subspace at the cost of its own runs.
+/// The default updates of a fit: hierarchical, over the default blocks (a material's shared
+/// parameters, each contact's own), so that a sweep costs two evaluations of the runs and τ
+/// (in sweeps) stays near 10 steps from one contact to a campaign (README, "Moves and
+/// blocks").
 pub fn default_updates() -> Updates {
-    Updates::Blocked
+    Updates::Hierarchical
 }
 
 /// A mean over several columns per draw, reported like a quantity (e.g. the F_d of a material

@@ -60,7 +60,9 @@ impl FitSettings {
             .unwrap_or_else(default_updates);
         let span = match updates {
             Updates::Joint => posterior.dim(),
-            Updates::Blocked => posterior.blocks().iter().map(Vec::len).max().unwrap_or(0),
+            Updates::Blocked | Updates::Hierarchical => {
+                posterior.blocks().iter().map(Vec::len).max().unwrap_or(0)
+            }
         };
         let walkers = overrides
             .walkers

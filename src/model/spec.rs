@@ -273,12 +273,13 @@ pub struct SamplerSpec {
     /// [`Mixture`]); the fit's default mixture when absent.
     #[serde(default)]
     pub moves: Option<Mixture>,
-    /// `"joint"` or `"blocked"` updates (see [`Updates`]); the fit's default when absent.
+    /// `"joint"`, `"blocked"` or `"hierarchical"` updates (see [`Updates`]); the fit's default
+    /// (hierarchical) when absent.
     #[serde(default)]
     pub updates: Option<Updates>,
-    /// What a block of blocked updates is: each material's parameters (its contacts' and
-    /// shared ones together), or each contact's own parameters apart from the ones its
-    /// material shares.
+    /// What a block of blocked or hierarchical updates is: each contact's own parameters apart
+    /// from the ones its material shares (the default), or each material's parameters (its
+    /// contacts' and shared ones together).
     #[serde(default)]
     pub blocks: Blocking,
 }
@@ -289,10 +290,12 @@ pub struct SamplerSpec {
 pub enum Blocking {
     /// One block per material: materials share no parameter, so their posteriors are
     /// independent and each block's update evaluates only the material's runs.
-    #[default]
     Material,
     /// One block per material for its shared parameters and one per contact for its own
-    /// (Metropolis-within-Gibbs across the hierarchy).
+    /// (the default): with hierarchical updates the shared block carries its contacts along
+    /// and each contact is proposed from its conditional given the shared parameters; with
+    /// plain blocked updates, Metropolis-within-Gibbs across the hierarchy.
+    #[default]
     Contact,
 }
 

@@ -47,14 +47,22 @@ pub enum Updates {
     /// [`log_density_block`](crate::density::LogDensity::log_density_block). A density
     /// without blocks is updated jointly.
     Blocked,
+    /// Blocked updates that follow the density's
+    /// [`block_links`](crate::density::LogDensity::block_links): a block that others depend
+    /// on carries them along by regression when it moves, and a block that
+    /// depends on others draws its independence proposals from its conditional given them.
+    /// For hierarchical models, where the shared parameters and each group's own are strongly
+    /// correlated, which plain Metropolis-within-Gibbs crosses slowly.
+    Hierarchical,
 }
 
 impl Updates {
-    /// `"joint"` or `"blocked"`.
+    /// `"joint"`, `"blocked"` or `"hierarchical"`.
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Joint => "joint",
             Self::Blocked => "blocked",
+            Self::Hierarchical => "hierarchical",
         }
     }
 }
@@ -65,8 +73,9 @@ impl std::str::FromStr for Updates {
         match s {
             "joint" => Ok(Self::Joint),
             "blocked" => Ok(Self::Blocked),
+            "hierarchical" => Ok(Self::Hierarchical),
             other => Err(format!(
-                "unknown updates {other:?}: use \"joint\" or \"blocked\""
+                "unknown updates {other:?}: use \"joint\", \"blocked\" or \"hierarchical\""
             )),
         }
     }
@@ -254,7 +263,8 @@ pub enum Steps {
 }
 
 /// emcee-style stopping rule, checked every `check_every` steps: the chains are longer than
-/// `tau_factor · τ_max`, every τ changed by less than `tau_rel_change` since the last check,
+/// `tau_factor · τ_max`, every coordinate's τ (averaged over the ensembles) changed by less
+/// than `tau_rel_change` since the last check,
 /// and (with two or more ensembles) R̂ between ensembles is below `rhat_max` for every
 /// parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -305,5 +315,22 @@ impl StopRule {
             return Err(invalid("rhat_max", self.rhat_max, "must be finite and > 1"));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn updates_are_written_as_they_are_read() {
+        for u in [Updates::Joint, Updates::Blocked, Updates::Hierarchical] {
+            assert_eq!(u.as_str().parse::<Updates>(), Ok(u));
+        }
+        let err = "gibbs".parse::<Updates>().unwrap_err();
+        assert!(
+            err.contains("\"gibbs\"") && err.contains("hierarchical"),
+            "{err}"
+        );
     }
 }

@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{ComplementFit, Move};
+use super::moves::{ComplementFit, ConditionalFit, Followers, Move};
 use crate::density::Eval;
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
@@ -27,6 +27,19 @@ pub(crate) fn stream_rng(seed: u64, stream: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(stream);
     rng
+}
+
+/// The coordinates one blocked update moves, and how the moves may use the block's links
+/// (see [`BlockLinks`](crate::density::BlockLinks); both empty unless the updates are
+/// hierarchical).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct UpdateBlock {
+    pub coords: Vec<usize>,
+    /// Independence proposals are conditional on these coordinates of the walker.
+    pub given: Vec<usize>,
+    /// Carried along by every move of the block (and evaluated with it, see
+    /// [`log_density_block`](crate::density::LogDensity::log_density_block)).
+    pub followers: Vec<usize>,
 }
 
 /// Serialisable state of one ensemble.
@@ -210,11 +223,11 @@ impl Ensemble {
     /// Draws the proposals of half `h` into `out.proposals` (`half × ndim`), each walker from
     /// its own stream: partner or move randomness first, then the acceptance uniform.
     ///
-    /// With `block` (a set of coordinates) the move acts in the block's subspace: on the
-    /// walkers' coordinates in the block, the others staying where they are; the proposal's
-    /// derived values and cache start as the walker's own, for the block update to bring up
-    /// to date.
-    pub fn draw(&mut self, mv: &Move, h: usize, block: Option<&[usize]>, out: ProposalBuffers) {
+    /// With `block` the move acts in the block's subspace: on the walkers' coordinates in the
+    /// block, the others staying where they are (but for the block's followers, carried along
+    /// by regression); the proposal's derived values and cache start as the walker's own, for
+    /// the block update to bring up to date.
+    pub fn draw(&mut self, mv: &Move, h: usize, block: Option<&UpdateBlock>, out: ProposalBuffers) {
         let ndim = self.ndim;
         let Self {
             s,
@@ -235,23 +248,37 @@ impl Ensemble {
         // The move sees the walkers' coordinates in the block (all of them when joint).
         let (moved, dim): (&[f64], usize) = match block {
             None => (&s.positions, ndim),
-            Some(coords) => {
+            Some(b) => {
                 sub.clear();
                 for x in s.positions.chunks_exact(ndim) {
-                    sub.extend(coords.iter().map(|&i| x[i]));
+                    sub.extend(b.coords.iter().map(|&i| x[i]));
                 }
-                sub_out.resize(coords.len(), 0.0);
-                (sub, coords.len())
+                sub_out.resize(b.coords.len(), 0.0);
+                (sub, b.coords.len())
             }
         };
-        let mut fit = match *mv {
-            Move::Independence { dof } => ComplementFit::new(moved, complement, dim, dof),
-            _ => None,
+        let given = block.map_or(&[][..], |b| &b.given[..]);
+        let (mut fit, mut conditional) = match *mv {
+            Move::Independence { dof } if !given.is_empty() => {
+                let coords = &block.expect("given only with a block").coords;
+                let cond = ConditionalFit::new(&s.positions, ndim, complement, coords, given, dof);
+                // Too few complement walkers for the conditional: the block's own marginal.
+                match cond {
+                    Some(c) => (None, Some(c)),
+                    None => (ComplementFit::new(moved, complement, dim, dof), None),
+                }
+            }
+            Move::Independence { dof } => (ComplementFit::new(moved, complement, dim, dof), None),
+            _ => (None, None),
         };
+        let followers = block
+            .filter(|b| !b.followers.is_empty())
+            .and_then(|b| Followers::new(&s.positions, ndim, complement, &b.coords, &b.followers));
         let (nd, nc) = (*nderived, *cache_len);
         let (sd, sc) = (nd.max(1), nc.max(1));
         for (k, &w) in active.iter().enumerate() {
             let rng = &mut s.walker_rngs[w];
+            let x = &s.positions[w * ndim..(w + 1) * ndim];
             let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
             // Joint: straight into the proposal; blocked: into the block's scratch.
             let target = if block.is_some() {
@@ -259,11 +286,15 @@ impl Ensemble {
             } else {
                 &mut *o
             };
+            let walker_fit = match conditional.as_mut() {
+                Some(c) => Some(c.given(x, given)),
+                None => fit.as_mut(),
+            };
             let c = mv.propose(
                 &moved[w * dim..(w + 1) * dim],
                 moved,
                 complement,
-                fit.as_mut(),
+                walker_fit,
                 rng,
                 target,
                 scratch_idx,
@@ -271,10 +302,13 @@ impl Ensemble {
             );
             (factor[k], log_factor[k]) = (c.factor, c.log_factor);
             accept_u[k] = rng.random();
-            if let Some(coords) = block {
-                o.copy_from_slice(&s.positions[w * ndim..(w + 1) * ndim]);
-                for (&i, &y) in coords.iter().zip(sub_out.iter()) {
+            if let Some(b) = block {
+                o.copy_from_slice(x);
+                for (&i, &y) in b.coords.iter().zip(sub_out.iter()) {
                     o[i] = y;
+                }
+                if let Some(f) = &followers {
+                    f.carry(x, &b.coords, &b.followers, o);
                 }
                 out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
                 out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);

@@ -376,6 +376,54 @@ impl Correction {
     }
 }
 
+/// The complement's sample mean of coordinates `coords` (`positions` of all walkers, `ndim`
+/// per row).
+fn complement_mean(
+    positions: &[f64],
+    ndim: usize,
+    complement: &[usize],
+    coords: &[usize],
+) -> Vec<f64> {
+    let mut mean = vec![0.0; coords.len()];
+    for &w in complement {
+        let x = &positions[w * ndim..(w + 1) * ndim];
+        for (m, &i) in mean.iter_mut().zip(coords) {
+            *m += x[i];
+        }
+    }
+    let n = complement.len() as f64;
+    for m in &mut mean {
+        *m /= n;
+    }
+    mean
+}
+
+/// The complement's unbiased sample covariance of coordinates `rows` (mean `row_mean`) with
+/// coordinates `cols` (mean `col_mean`).
+fn complement_cov(
+    positions: &[f64],
+    ndim: usize,
+    complement: &[usize],
+    (rows, row_mean): (&[usize], &[f64]),
+    (cols, col_mean): (&[usize], &[f64]),
+) -> nalgebra::DMatrix<f64> {
+    let mut cov = nalgebra::DMatrix::<f64>::zeros(rows.len(), cols.len());
+    let mut dc = vec![0.0; cols.len()];
+    for &w in complement {
+        let x = &positions[w * ndim..(w + 1) * ndim];
+        for ((d, &j), &m) in dc.iter_mut().zip(cols).zip(col_mean) {
+            *d = x[j] - m;
+        }
+        for (a, (&i, &m)) in rows.iter().zip(row_mean).enumerate() {
+            let da = x[i] - m;
+            for (b, &d) in dc.iter().enumerate() {
+                cov[(a, b)] += da * d;
+            }
+        }
+    }
+    cov / (complement.len() as f64 - 1.0)
+}
+
 /// The Gaussian (or Student-t) fitted to the complementary half for [`Move::Independence`]:
 /// computed once per half-step, then one proposal per active walker.
 #[derive(Debug, Clone)]
@@ -399,37 +447,19 @@ impl ComplementFit {
         ndim: usize,
         dof: Option<f64>,
     ) -> Option<Self> {
-        let n = complement.len();
-        if n <= ndim {
+        if complement.len() <= ndim {
             return None;
         }
-        let row = |i: usize| &positions[i * ndim..(i + 1) * ndim];
-        let mut mean = vec![0.0; ndim];
-        for &i in complement {
-            for (m, &x) in mean.iter_mut().zip(row(i)) {
-                *m += x;
-            }
-        }
-        for m in &mut mean {
-            *m /= n as f64;
-        }
-        let mut cov = nalgebra::DMatrix::<f64>::zeros(ndim, ndim);
-        for &i in complement {
-            let x = row(i);
-            for a in 0..ndim {
-                let da = x[a] - mean[a];
-                for b in 0..=a {
-                    cov[(a, b)] += da * (x[b] - mean[b]);
-                }
-            }
-        }
-        for a in 0..ndim {
-            for b in 0..=a {
-                let v = cov[(a, b)] / (n as f64 - 1.0);
-                cov[(a, b)] = v;
-                cov[(b, a)] = v;
-            }
-        }
+        let all: Vec<usize> = (0..ndim).collect();
+        let mean = complement_mean(positions, ndim, complement, &all);
+        let cov = complement_cov(positions, ndim, complement, (&all, &mean), (&all, &mean));
+        Self::from_moments(mean, cov, dof)
+    }
+
+    /// The Gaussian (or Student-t) with this mean and covariance; `None` when the covariance
+    /// is not positive definite.
+    fn from_moments(mean: Vec<f64>, cov: nalgebra::DMatrix<f64>, dof: Option<f64>) -> Option<Self> {
+        let ndim = mean.len();
         let l = nalgebra::Cholesky::new(cov)?.unpack();
         if (0..ndim).any(|a| !(l[(a, a)].is_finite() && l[(a, a)] > 0.0)) {
             return None;
@@ -484,6 +514,120 @@ impl ComplementFit {
             *o = ma + row.iter().zip(&self.u).map(|(l, z)| l * z).sum::<f64>();
         }
         self.log_q(x) - self.log_q(out)
+    }
+}
+
+/// [`Move::Independence`] for a block whose conditional depends on other coordinates only
+/// through `given`: the Gaussian (or Student-t) conditional of the block given the walker's
+/// own `given` coordinates, from the complement's joint sample mean and covariance of both.
+/// Valid because the proposal depends only on the complement and on coordinates the update
+/// does not move.
+///
+/// # Formula
+/// `Y_b = μ_b + B (x_g − μ_g) + L Z / √W`, `B = C_bg C_gg⁻¹`, `L Lᵀ = C_bb − B C_gb`.
+#[derive(Debug, Clone)]
+pub(crate) struct ConditionalFit {
+    fit: ComplementFit,
+    mean_b: Vec<f64>,
+    mean_g: Vec<f64>,
+    /// `B`, `block × given`.
+    coef: nalgebra::DMatrix<f64>,
+}
+
+impl ConditionalFit {
+    /// Fits block `coords` given `given` (`positions` of all walkers, `ndim` per row); `None`
+    /// when the complement is too small or its covariance not positive definite.
+    pub fn new(
+        positions: &[f64],
+        ndim: usize,
+        complement: &[usize],
+        coords: &[usize],
+        given: &[usize],
+        dof: Option<f64>,
+    ) -> Option<Self> {
+        if complement.len() <= coords.len() + given.len() {
+            return None;
+        }
+        let mean_b = complement_mean(positions, ndim, complement, coords);
+        let mean_g = complement_mean(positions, ndim, complement, given);
+        let b = (coords, &mean_b[..]);
+        let g = (given, &mean_g[..]);
+        let c_gg = complement_cov(positions, ndim, complement, g, g);
+        let c_gb = complement_cov(positions, ndim, complement, g, b);
+        let c_bb = complement_cov(positions, ndim, complement, b, b);
+        let coef = nalgebra::Cholesky::new(c_gg)?.solve(&c_gb).transpose();
+        let cond = c_bb - &coef * c_gb;
+        let fit = ComplementFit::from_moments(mean_b.clone(), cond, dof)?;
+        Some(Self {
+            fit,
+            mean_b,
+            mean_g,
+            coef,
+        })
+    }
+
+    /// Centres the proposal on the conditional mean given the walker's own coordinates `x`
+    /// (all of them) at `given`; then [`ComplementFit::propose`] as usual.
+    pub fn given<'f>(&'f mut self, x: &[f64], given: &[usize]) -> &'f mut ComplementFit {
+        for (a, m) in self.fit.mean.iter_mut().enumerate() {
+            *m = self.mean_b[a];
+            for (j, &i) in given.iter().enumerate() {
+                *m += self.coef[(a, j)] * (x[i] - self.mean_g[j]);
+            }
+        }
+        &mut self.fit
+    }
+}
+
+/// The followers of a block carried along when it moves: each follower shifted by its
+/// regression on the block's coordinates, fitted to the complement, times the block's step.
+/// The map `(x_b, x_f) → (y_b, x_f + B (y_b − x_b))` has unit Jacobian and is undone by the
+/// reverse step, so every move keeps its acceptance ratio; it leaves a Gaussian target's
+/// conditional of the followers given the block unchanged, so a block that many others
+/// depend on moves as if it were alone.
+///
+/// # Formula
+/// `B = C_fb C_bb⁻¹` from the complement's sample covariances.
+#[derive(Debug, Clone)]
+pub(crate) struct Followers {
+    /// `B`, `followers × block`.
+    coef: nalgebra::DMatrix<f64>,
+}
+
+impl Followers {
+    /// The regression of `followers` on block `coords` (`positions` of all walkers, `ndim`
+    /// per row); `None` when the complement's covariance of the block is not positive
+    /// definite.
+    pub fn new(
+        positions: &[f64],
+        ndim: usize,
+        complement: &[usize],
+        coords: &[usize],
+        followers: &[usize],
+    ) -> Option<Self> {
+        if complement.len() <= coords.len() {
+            return None;
+        }
+        let mean_b = complement_mean(positions, ndim, complement, coords);
+        let mean_f = complement_mean(positions, ndim, complement, followers);
+        let b = (coords, &mean_b[..]);
+        let c_bb = complement_cov(positions, ndim, complement, b, b);
+        let c_bf = complement_cov(positions, ndim, complement, b, (followers, &mean_f));
+        let coef = nalgebra::Cholesky::new(c_bb)?.solve(&c_bf).transpose();
+        Some(Self { coef })
+    }
+
+    /// Shifts the followers of proposal `out` (a copy of `x` apart from the block) by the
+    /// block's step from `x`.
+    pub fn carry(&self, x: &[f64], coords: &[usize], followers: &[usize], out: &mut [f64]) {
+        for (f, &i) in followers.iter().enumerate() {
+            let shift: f64 = coords
+                .iter()
+                .enumerate()
+                .map(|(j, &c)| self.coef[(f, j)] * (out[c] - x[c]))
+                .sum();
+            out[i] = x[i] + shift;
+        }
     }
 }
 

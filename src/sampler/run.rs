@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::config::{SamplerConfig, Steps, Updates};
-use super::ensemble::{Ensemble, EnsembleState, Fatal, ProposalBuffers, Work};
+use super::ensemble::{Ensemble, EnsembleState, Fatal, ProposalBuffers, UpdateBlock, Work};
 use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
 use super::moves::Move;
@@ -92,7 +92,7 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     nderived: usize,
     cache_len: usize,
     /// The blocks updated one after the other in a step; empty for joint updates.
-    blocks: Vec<Vec<usize>>,
+    blocks: Vec<UpdateBlock>,
     ensembles: Vec<Ensemble>,
     /// Move of the current step per ensemble.
     step_moves: Vec<Move>,
@@ -175,7 +175,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 }
                 positions.extend_from_slice(x);
             }
-            let condition = blockwise_condition_number(&positions, ndim, &blocks);
+            let coords: Vec<Vec<usize>> = blocks.iter().map(|b| b.coords.clone()).collect();
+            let condition = blockwise_condition_number(&positions, ndim, &coords);
             if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
                 return Err(SamplerError::DegenerateEnsemble {
                     ensemble: e,
@@ -351,7 +352,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     fn assemble(
         density: &'a D,
         config: SamplerConfig,
-        blocks: Vec<Vec<usize>>,
+        blocks: Vec<UpdateBlock>,
         states: Vec<EnsembleState>,
         caches: Vec<Vec<f64>>,
         step: u64,
@@ -578,7 +579,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             blocks
                 .iter()
                 .enumerate()
-                .try_for_each(|(b, coords)| self.update(Some((b, coords))))
+                .try_for_each(|(b, block)| self.update(Some((b, block))))
         };
         self.blocks = blocks;
         result.map_err(|(e, f)| {
@@ -595,7 +596,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 
     /// Updates every walker of every ensemble once: all coordinates, or those of `block`
     /// (its index and coordinates). Returns the first fatal evaluation.
-    fn update(&mut self, block: Option<(usize, &[usize])>) -> Result<(), (usize, Fatal)> {
+    fn update(&mut self, block: Option<(usize, &UpdateBlock)>) -> Result<(), (usize, Fatal)> {
         let moves = self.config.moves();
         let half = self.config.walkers() / 2;
         let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
@@ -736,10 +737,22 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             .copied()
             .fold(f64::NEG_INFINITY, f64::max);
         let long_enough = self.step as f64 > rule.tau_factor * tmax;
+        // Every coordinate's τ, averaged over the ensembles (each estimates the same τ, and
+        // the maximum change over ensembles × coordinates single estimates would mostly
+        // measure their noise), changed by less than the rule allows.
+        let mean_tau = |t: &[Vec<f64>]| -> Vec<f64> {
+            let mut m = vec![0.0; self.ndim];
+            for e in t {
+                for (a, v) in m.iter_mut().zip(e) {
+                    *a += v / t.len() as f64;
+                }
+            }
+            m
+        };
         let settled = previous.is_some_and(|prev| {
-            prev.iter()
-                .flatten()
-                .zip(tau.iter().flatten())
+            mean_tau(&prev)
+                .iter()
+                .zip(mean_tau(&tau))
                 .all(|(p, t)| ((t - p) / t).abs() < rule.tau_rel_change)
         });
         if !(long_enough && settled) {
@@ -904,14 +917,15 @@ impl Serialize for StateView<'_> {
 pub const RESUME_RTOL: f64 = 1e-9;
 
 /// The blocks a step updates in turn: the density's, validated, when the configuration asks
-/// for blocked updates and the density has two or more; none (joint updates) otherwise.
+/// for blocked updates and the density has two or more, with their links when it asks for
+/// hierarchical ones; none (joint updates) otherwise.
 fn blocks_of<D: LogDensity + ?Sized>(
     density: &D,
     config: &SamplerConfig,
-) -> Result<Vec<Vec<usize>>, SamplerError> {
+) -> Result<Vec<UpdateBlock>, SamplerError> {
     let blocks = match config.updates() {
         Updates::Joint => return Ok(Vec::new()),
-        Updates::Blocked => density.blocks(),
+        Updates::Blocked | Updates::Hierarchical => density.blocks(),
     };
     // One block (or none) is the whole space: joint updates.
     if blocks.len() <= 1 {
@@ -932,16 +946,51 @@ fn blocks_of<D: LogDensity + ?Sized>(
             ),
         });
     }
-    Ok(blocks)
+    let links = match config.updates() {
+        Updates::Hierarchical => density.block_links(),
+        _ => Vec::new(),
+    };
+    if !links.is_empty() {
+        let in_range = links
+            .iter()
+            .flat_map(|l| l.given.iter().chain(&l.followers))
+            .all(|&i| i < ndim);
+        let outside = links
+            .iter()
+            .zip(&blocks)
+            .all(|(l, b)| !l.given.iter().chain(&l.followers).any(|i| b.contains(i)));
+        if links.len() != blocks.len() || !in_range || !outside {
+            return Err(SamplerError::InvalidConfig {
+                name: "block_links",
+                value: format!("{links:?}"),
+                requirement: format!(
+                    "one entry per block ({}), each naming coordinates below {ndim} outside its block",
+                    blocks.len()
+                ),
+            });
+        }
+    }
+    let mut links = links.into_iter();
+    Ok(blocks
+        .into_iter()
+        .map(|coords| {
+            let l = links.next().unwrap_or_default();
+            UpdateBlock {
+                coords,
+                given: l.given,
+                followers: l.followers,
+            }
+        })
+        .collect())
 }
 
 /// The walkers must span the space each move acts in: the whole space, or each block.
 fn check_dims(
     ndim: usize,
-    blocks: &[Vec<usize>],
+    blocks: &[UpdateBlock],
     config: &SamplerConfig,
 ) -> Result<(), SamplerError> {
-    let span = blocks.iter().map(Vec::len).max().unwrap_or(ndim);
+    let span = blocks.iter().map(|b| b.coords.len()).max().unwrap_or(ndim);
     if ndim == 0 {
         return Err(SamplerError::InvalidConfig {
             name: "dim",

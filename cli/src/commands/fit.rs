@@ -108,8 +108,10 @@ pub(super) struct RunArgs {
     /// walk, gaussian, student-t); default: the model file's, else the fit's default mixture.
     #[arg(long)]
     moves: Option<Mixture>,
-    /// `joint` (every coordinate at once) or `blocked` (one material's shared parameters,
-    /// then each contact's own, in turn); default: the model file's, else the fit's default.
+    /// `joint` (every coordinate at once), `blocked` (one block after the other: a material's
+    /// shared parameters, then each contact's own) or `hierarchical` (blocked, the shared
+    /// parameters carrying their contacts along, each contact proposed given them); default:
+    /// the model file's, else hierarchical.
     #[arg(long)]
     updates: Option<Updates>,
 }

@@ -41,6 +41,13 @@ pub fn relative_path(base: &Path, target: &Path) -> std::io::Result<PathBuf> {
     use std::path::Component;
     let normal = |p: &Path| -> std::io::Result<Vec<std::ffi::OsString>> {
         let mut parts: Vec<std::ffi::OsString> = Vec::new();
+        // The parent of a bare file name (`model.toml`) is the empty path: the working
+        // directory.
+        let p = if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        };
         for c in std::path::absolute(p)?.components() {
             match c {
                 Component::ParentDir => {
@@ -79,5 +86,9 @@ mod tests {
         assert_eq!(rel, PathBuf::from("."));
         let rel = relative_path(Path::new("/a/b/../c"), Path::new("/a/c/d")).unwrap();
         assert_eq!(rel, PathBuf::from("d"));
+        // A model given as a bare file name has the empty path as its directory.
+        let here = std::env::current_dir().unwrap();
+        let rel = relative_path(&here.join("runs/r1"), Path::new("")).unwrap();
+        assert_eq!(rel, PathBuf::from("../.."));
     }
 }

@@ -18,10 +18,10 @@ use std::collections::BTreeSet;
 use super::layout::{CoordPrior, SigmaSource, T0Source};
 use super::likelihood::{RunModel, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
 use super::Posterior;
-use crate::density::LogDensityError;
+use crate::density::{BlockLinks, LogDensityError};
 
-/// One block: its coordinates, the runs to re-fit when they change (in evaluation order),
-/// which runs' peaks and which σ groups they change.
+/// One block: its coordinates, the runs to re-fit when they change or its followers move
+/// with them (in evaluation order), which runs' peaks and which σ groups they change.
 #[derive(Debug, Clone)]
 pub(super) struct Block {
     pub coords: Vec<usize>,
@@ -30,6 +30,11 @@ pub(super) struct Block {
     pub reads: Vec<bool>,
     /// Per marginalised σ group: whether one of `runs` belongs to it.
     pub groups: Vec<bool>,
+    /// How the block depends on the others: the coordinates read by a strict superset of its
+    /// groups (given) and by a strict subset (followers).
+    pub links: BlockLinks,
+    /// This block and the blocks of its followers: the priors an update re-evaluates.
+    pub priors: Vec<usize>,
 }
 
 impl RunModel {
@@ -54,7 +59,8 @@ impl RunModel {
 /// The blocks of `ncoords` coordinates read by `runs` (evaluated in `order`, in `groups`
 /// marginalised σ groups): coordinates read by the runs of the same set of groups (`group` of
 /// a run: its material or its contact) form one block, in the order of their first
-/// coordinate.
+/// coordinate. A block read by a strict superset of another's groups (a material's shared
+/// parameters, read by all its contacts) is given to that block, which follows it.
 pub(super) fn blocks(
     ncoords: usize,
     runs: &[RunModel],
@@ -80,13 +86,29 @@ pub(super) fn blocks(
             }
         }
     }
+    let links: Vec<(BlockLinks, Vec<usize>)> = keys
+        .iter()
+        .enumerate()
+        .map(|(b, key)| {
+            let (mut l, mut priors) = (BlockLinks::default(), vec![b]);
+            for (o, (other, coords)) in keys.iter().zip(&members).enumerate() {
+                if other.is_superset(key) && other != key {
+                    l.given.extend(coords);
+                } else if other.is_subset(key) && other != key {
+                    l.followers.extend(coords);
+                    priors.push(o);
+                }
+            }
+            (l, priors)
+        })
+        .collect();
     members
         .into_iter()
-        .map(|coords| {
-            let reads: Vec<bool> = read
-                .iter()
-                .map(|c| c.iter().any(|i| coords.contains(i)))
-                .collect();
+        .zip(links)
+        .map(|(coords, (links, priors))| {
+            // An update moves the block's coordinates and may carry its followers along.
+            let moved = |i: &usize| coords.contains(i) || links.followers.contains(i);
+            let reads: Vec<bool> = read.iter().map(|c| c.iter().any(moved)).collect();
             // A repeat slide starts where the slide it follows stopped: re-fit it with that one.
             let refit = |i: usize| reads[i] || runs[i].follows.is_some_and(|j| reads[j]);
             let block_runs: Vec<usize> = order.iter().copied().filter(|&i| refit(i)).collect();
@@ -101,6 +123,8 @@ pub(super) fn blocks(
                 runs: block_runs,
                 reads,
                 groups,
+                links,
+                priors,
             }
         })
         .collect()
@@ -194,8 +218,8 @@ impl Posterior {
     }
 
     /// The log-density at `x`, which differs from the point of `cache` and `derived` only in
-    /// block `b`: re-evaluates that block's prior, its runs and their σ groups, and the peaks
-    /// and σ draws it changes.
+    /// block `b` and its followers: re-evaluates their priors, the block's runs and their σ
+    /// groups, and the peaks and σ draws it changes.
     pub(super) fn evaluate_block(
         &self,
         b: usize,
@@ -204,7 +228,9 @@ impl Posterior {
         cache: Cache,
     ) -> Result<f64, LogDensityError> {
         let block = &self.blocks[b];
-        cache.prior[b] = self.block_prior(b, x)?;
+        for &p in &block.priors {
+            cache.prior[p] = self.block_prior(p, x)?;
+        }
         let mut lp = 0.0;
         for p in cache.prior.iter() {
             lp += p;

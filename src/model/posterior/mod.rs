@@ -32,7 +32,7 @@ use likelihood::RunModel;
 
 use super::data::RunData;
 use super::spec::{Blocking, ModelSpec};
-use crate::density::{LogDensity, LogDensityError, Quantity};
+use crate::density::{BlockLinks, LogDensity, LogDensityError, Quantity};
 use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
@@ -233,6 +233,10 @@ impl LogDensity for Posterior {
 
     fn blocks(&self) -> Vec<Vec<usize>> {
         self.blocks.iter().map(|b| b.coords.clone()).collect()
+    }
+
+    fn block_links(&self) -> Vec<BlockLinks> {
+        self.blocks.iter().map(|b| b.links.clone()).collect()
     }
 
     fn cache_len(&self) -> usize {

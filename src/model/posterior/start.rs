@@ -2,6 +2,8 @@
 //! (the loading slope and plateau of repeat slides), then every first or fast slide fitted on
 //! its own by least squares, the results combined over the runs that share a parameter.
 
+use rayon::prelude::*;
+
 use super::layout::{CoordPrior, SigmaSource, T0Source};
 use super::likelihood::{RunModel, RunResiduals};
 use super::Posterior;
@@ -52,8 +54,18 @@ impl Posterior {
             vote_sigma(&mut votes, r, r.data.noise_estimate());
         }
         let mut t0_votes: Vec<(usize, f64)> = Vec::new();
-        for r in self.runs.iter().filter(|r| r.scene != Scene::Repeat) {
-            let fitted = self.fit_run_alone(r, k_known[r.contact]);
+        // Each slide's fit is independent of the others': on every core, then voted in the
+        // runs' order, so that the start does not depend on the number of threads.
+        let slides: Vec<&RunModel> = self
+            .runs
+            .iter()
+            .filter(|r| r.scene != Scene::Repeat)
+            .collect();
+        let fits: Vec<RunAlone> = slides
+            .par_iter()
+            .map(|r| self.fit_run_alone(r, k_known[r.contact]))
+            .collect();
+        for (r, fitted) in slides.into_iter().zip(fits) {
             vote_sigma(&mut votes, r, fitted.sigma);
             if let Some(i) = r.alpha {
                 votes[i].push(fitted.alpha);
@@ -167,40 +179,47 @@ impl Posterior {
                 }
             }
         }
-        for contact in 0..contacts {
-            let runs: Vec<usize> = self
-                .order
-                .iter()
-                .copied()
-                .filter(|&i| self.runs[i].contact == contact)
-                .collect();
-            let own: Vec<usize> = (0..self.coords.len())
-                .filter(|&c| readers[c] == [contact])
-                .collect();
-            if own.is_empty() || self.contact_ln_ssr(&runs, x).is_finite() {
-                continue;
-            }
-            // Every evaluation sets all of the contact's own coordinates, so one scratch point
-            // serves them all.
-            let mut y = x.to_vec();
-            let objective = |p: &[f64]| {
-                for (&c, &v) in own.iter().zip(p) {
-                    y[c] = v;
+        // A contact's runs read only its own coordinates and shared ones that no repair
+        // moves, so the contacts are repaired independently, on every core, from the same x.
+        let x_in: &[f64] = x;
+        let repairs: Vec<(Vec<usize>, Vec<f64>)> = (0..contacts)
+            .into_par_iter()
+            .filter_map(|contact| {
+                let runs: Vec<usize> = self
+                    .order
+                    .iter()
+                    .copied()
+                    .filter(|&i| self.runs[i].contact == contact)
+                    .collect();
+                let own: Vec<usize> = (0..self.coords.len())
+                    .filter(|&c| readers[c] == [contact])
+                    .collect();
+                if own.is_empty() || self.contact_ln_ssr(&runs, x_in).is_finite() {
+                    return None;
                 }
-                self.contact_ln_ssr(&runs, &y)
-            };
-            let p0: Vec<f64> = own.iter().map(|&c| x[c]).collect();
-            let options = NelderMeadOptions {
-                initial_step: 1.0,
-                max_evals: 400 * own.len(),
-                restarts: 2,
-                ..NelderMeadOptions::default()
-            };
-            let (p, f, _) = nelder_mead(objective, &p0, &options);
-            if f.is_finite() {
-                for (&c, &v) in own.iter().zip(&p) {
-                    x[c] = v;
-                }
+                // Every evaluation sets all of the contact's own coordinates, so one scratch
+                // point serves them all.
+                let mut y = x_in.to_vec();
+                let objective = |p: &[f64]| {
+                    for (&c, &v) in own.iter().zip(p) {
+                        y[c] = v;
+                    }
+                    self.contact_ln_ssr(&runs, &y)
+                };
+                let p0: Vec<f64> = own.iter().map(|&c| x_in[c]).collect();
+                let options = NelderMeadOptions {
+                    initial_step: 1.0,
+                    max_evals: 400 * own.len(),
+                    restarts: 2,
+                    ..NelderMeadOptions::default()
+                };
+                let (p, f, _) = nelder_mead(objective, &p0, &options);
+                f.is_finite().then_some((own, p))
+            })
+            .collect();
+        for (own, p) in repairs {
+            for (&c, &v) in own.iter().zip(&p) {
+                x[c] = v;
             }
         }
     }
