@@ -54,19 +54,19 @@ row demo "joint, stretch" 1000 "$m/demo.toml" --updates joint --moves stretch=1 
 row demo "contact blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-contact.toml" --updates blocked --moves student-t=0.9,stretch=0.1 --walkers 40
 row demo "material blocks, stretch" 1000 "$m/demo-material.toml" --updates blocked --moves stretch=1 --walkers 40
 row demo "material blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-material.toml" --updates blocked --moves student-t=0.9,stretch=0.1 --walkers 40
-row demo "material blocks, student-t=0.5,de=0.5" 1000 "$m/demo-material.toml" --updates blocked
+row demo "material blocks, student-t=0.5,de=0.5 (previous default)" 1000 "$m/demo-material.toml" --updates blocked
 row demo "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$m/demo.toml"
 row absolute "joint, stretch" 1000 "$m/absolute.toml" --updates joint --moves stretch=1 --walkers 38
-row absolute "material blocks, student-t=0.5,de=0.5" 1000 "$m/absolute-material.toml" --updates blocked
+row absolute "material blocks, student-t=0.5,de=0.5 (previous default)" 1000 "$m/absolute-material.toml" --updates blocked
 row absolute "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$m/absolute.toml"
 row pooled "joint, stretch" 1000 "$m/pooled.toml" --updates joint --moves stretch=1 --walkers 46
-row pooled "material blocks, student-t=0.5,de=0.5" 1000 "$m/pooled-material.toml" --updates blocked
+row pooled "material blocks, student-t=0.5,de=0.5 (previous default)" 1000 "$m/pooled-material.toml" --updates blocked
 row pooled "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$m/pooled.toml"
 row campaign "joint, stretch" 1000 "$c/campaign.toml" --updates joint --moves stretch=1 --walkers 68
 row campaign "joint, student-t=0.9,stretch=0.1" 1000 "$c/campaign.toml" --updates joint --moves student-t=0.9,stretch=0.1 --walkers 68
 row campaign "contact blocks, student-t=0.5,de=0.5" 1000 "$c/campaign-contact.toml" --updates blocked --walkers 68
 row campaign "joint, de" 1000 "$c/campaign.toml" --updates joint --moves de=1 --walkers 68
 row campaign "joint, student-t=0.5,de=0.5" 1000 "$c/campaign.toml" --updates joint --walkers 68
-row campaign "joint, student-t=0.5,de=0.5 (132 walkers)" 1000 "$c/campaign.toml" --updates joint --walkers 132
+row campaign "joint, student-t=0.5,de=0.5 (previous default, 132 walkers)" 1000 "$c/campaign.toml" --updates joint --walkers 132
 row campaign "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$c/campaign.toml"
 row campaign "hierarchical, student-t=0.5,de=0.5, 64 walkers" 1000 "$c/campaign.toml" --walkers 64

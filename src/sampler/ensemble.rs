@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::moves::{ComplementFit, ConditionalFit, Followers, Move};
-use crate::density::Eval;
+use crate::density::{BlockLinks, Eval};
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
 fn ensemble_stream(e: usize) -> u64 {
@@ -29,17 +29,14 @@ pub(crate) fn stream_rng(seed: u64, stream: u64) -> ChaCha8Rng {
     rng
 }
 
-/// The coordinates one blocked update moves, and how the moves may use the block's links
-/// (see [`BlockLinks`](crate::density::BlockLinks); both empty unless the updates are
-/// hierarchical).
+/// The coordinates one blocked update moves, and its links (empty unless the updates are
+/// hierarchical): independence proposals are conditional on the walker's `given`
+/// coordinates, and every move carries the `followers` along (evaluated with the block, see
+/// [`log_density_block`](crate::density::LogDensity::log_density_block)).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct UpdateBlock {
     pub coords: Vec<usize>,
-    /// Independence proposals are conditional on these coordinates of the walker.
-    pub given: Vec<usize>,
-    /// Carried along by every move of the block (and evaluated with it, see
-    /// [`log_density_block`](crate::density::LogDensity::log_density_block)).
-    pub followers: Vec<usize>,
+    pub links: BlockLinks,
 }
 
 /// Serialisable state of one ensemble.
@@ -257,23 +254,33 @@ impl Ensemble {
                 (sub, b.coords.len())
             }
         };
-        let given = block.map_or(&[][..], |b| &b.given[..]);
-        let (mut fit, mut conditional) = match *mv {
-            Move::Independence { dof } if !given.is_empty() => {
-                let coords = &block.expect("given only with a block").coords;
-                let cond = ConditionalFit::new(&s.positions, ndim, complement, coords, given, dof);
-                // Too few complement walkers for the conditional: the block's own marginal.
-                match cond {
-                    Some(c) => (None, Some(c)),
-                    None => (ComplementFit::new(moved, complement, dim, dof), None),
-                }
+        let links = block.map(|b| &b.links);
+        let given = links.map_or(&[][..], |l| &l.given[..]);
+        let mut conditional = match (*mv, block) {
+            (Move::Independence { dof }, Some(b)) if !given.is_empty() => {
+                ConditionalFit::new(&s.positions, ndim, complement, &b.coords, given, dof)
             }
-            Move::Independence { dof } => (ComplementFit::new(moved, complement, dim, dof), None),
-            _ => (None, None),
+            _ => None,
+        };
+        // Without a conditional (none asked for, or too few complement walkers for one): the
+        // block's own marginal.
+        let mut fit = match *mv {
+            Move::Independence { dof } if conditional.is_none() => {
+                ComplementFit::new(moved, complement, dim, dof)
+            }
+            _ => None,
         };
         let followers = block
-            .filter(|b| !b.followers.is_empty())
-            .and_then(|b| Followers::new(&s.positions, ndim, complement, &b.coords, &b.followers));
+            .filter(|b| !b.links.followers.is_empty())
+            .and_then(|b| {
+                Followers::new(
+                    &s.positions,
+                    ndim,
+                    complement,
+                    &b.coords,
+                    &b.links.followers,
+                )
+            });
         let (nd, nc) = (*nderived, *cache_len);
         let (sd, sc) = (nd.max(1), nc.max(1));
         for (k, &w) in active.iter().enumerate() {
@@ -308,7 +315,7 @@ impl Ensemble {
                     o[i] = y;
                 }
                 if let Some(f) = &followers {
-                    f.carry(x, &b.coords, &b.followers, o);
+                    f.carry(x, &b.coords, &b.links.followers, o);
                 }
                 out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
                 out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);

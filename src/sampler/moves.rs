@@ -517,6 +517,46 @@ impl ComplementFit {
     }
 }
 
+/// The least-squares regression of coordinates `responses` on coordinates `predictors`,
+/// fitted to the complement's walkers: what [`ConditionalFit`] and [`Followers`] are built on.
+#[derive(Debug, Clone)]
+struct Regression {
+    /// `C_rp C_pp⁻¹`, `responses × predictors`.
+    coef: nalgebra::DMatrix<f64>,
+    mean_r: Vec<f64>,
+    mean_p: Vec<f64>,
+    /// `C_pr`, the covariance of the predictors with the responses.
+    c_pr: nalgebra::DMatrix<f64>,
+}
+
+impl Regression {
+    /// `None` when the complement has no more walkers than predictors or their covariance
+    /// is not positive definite.
+    fn fit(
+        positions: &[f64],
+        ndim: usize,
+        complement: &[usize],
+        responses: &[usize],
+        predictors: &[usize],
+    ) -> Option<Self> {
+        if complement.len() <= predictors.len() {
+            return None;
+        }
+        let mean_r = complement_mean(positions, ndim, complement, responses);
+        let mean_p = complement_mean(positions, ndim, complement, predictors);
+        let (r, p) = ((responses, &mean_r[..]), (predictors, &mean_p[..]));
+        let c_pp = complement_cov(positions, ndim, complement, p, p);
+        let c_pr = complement_cov(positions, ndim, complement, p, r);
+        let coef = nalgebra::Cholesky::new(c_pp)?.solve(&c_pr).transpose();
+        Some(Self {
+            coef,
+            mean_r,
+            mean_p,
+            c_pr,
+        })
+    }
+}
+
 /// [`Move::Independence`] for a block whose conditional depends on other coordinates only
 /// through `given`: the Gaussian (or Student-t) conditional of the block given the walker's
 /// own `given` coordinates, from the complement's joint sample mean and covariance of both.
@@ -528,10 +568,8 @@ impl ComplementFit {
 #[derive(Debug, Clone)]
 pub(crate) struct ConditionalFit {
     fit: ComplementFit,
-    mean_b: Vec<f64>,
-    mean_g: Vec<f64>,
-    /// `B`, `block × given`.
-    coef: nalgebra::DMatrix<f64>,
+    /// The block regressed on `given`.
+    reg: Regression,
 }
 
 impl ConditionalFit {
@@ -548,31 +586,22 @@ impl ConditionalFit {
         if complement.len() <= coords.len() + given.len() {
             return None;
         }
-        let mean_b = complement_mean(positions, ndim, complement, coords);
-        let mean_g = complement_mean(positions, ndim, complement, given);
-        let b = (coords, &mean_b[..]);
-        let g = (given, &mean_g[..]);
-        let c_gg = complement_cov(positions, ndim, complement, g, g);
-        let c_gb = complement_cov(positions, ndim, complement, g, b);
+        let reg = Regression::fit(positions, ndim, complement, coords, given)?;
+        let b = (coords, &reg.mean_r[..]);
         let c_bb = complement_cov(positions, ndim, complement, b, b);
-        let coef = nalgebra::Cholesky::new(c_gg)?.solve(&c_gb).transpose();
-        let cond = c_bb - &coef * c_gb;
-        let fit = ComplementFit::from_moments(mean_b.clone(), cond, dof)?;
-        Some(Self {
-            fit,
-            mean_b,
-            mean_g,
-            coef,
-        })
+        let cond = c_bb - &reg.coef * &reg.c_pr;
+        let fit = ComplementFit::from_moments(reg.mean_r.clone(), cond, dof)?;
+        Some(Self { fit, reg })
     }
 
     /// Centres the proposal on the conditional mean given the walker's own coordinates `x`
     /// (all of them) at `given`; then [`ComplementFit::propose`] as usual.
     pub fn given<'f>(&'f mut self, x: &[f64], given: &[usize]) -> &'f mut ComplementFit {
+        let reg = &self.reg;
         for (a, m) in self.fit.mean.iter_mut().enumerate() {
-            *m = self.mean_b[a];
+            *m = reg.mean_r[a];
             for (j, &i) in given.iter().enumerate() {
-                *m += self.coef[(a, j)] * (x[i] - self.mean_g[j]);
+                *m += reg.coef[(a, j)] * (x[i] - reg.mean_p[j]);
             }
         }
         &mut self.fit
@@ -590,8 +619,8 @@ impl ConditionalFit {
 /// `B = C_fb C_bb⁻¹` from the complement's sample covariances.
 #[derive(Debug, Clone)]
 pub(crate) struct Followers {
-    /// `B`, `followers × block`.
-    coef: nalgebra::DMatrix<f64>,
+    /// The followers regressed on the block (only the coefficients are used).
+    reg: Regression,
 }
 
 impl Followers {
@@ -605,16 +634,7 @@ impl Followers {
         coords: &[usize],
         followers: &[usize],
     ) -> Option<Self> {
-        if complement.len() <= coords.len() {
-            return None;
-        }
-        let mean_b = complement_mean(positions, ndim, complement, coords);
-        let mean_f = complement_mean(positions, ndim, complement, followers);
-        let b = (coords, &mean_b[..]);
-        let c_bb = complement_cov(positions, ndim, complement, b, b);
-        let c_bf = complement_cov(positions, ndim, complement, b, (followers, &mean_f));
-        let coef = nalgebra::Cholesky::new(c_bb)?.solve(&c_bf).transpose();
-        Some(Self { coef })
+        Regression::fit(positions, ndim, complement, followers, coords).map(|reg| Self { reg })
     }
 
     /// Shifts the followers of proposal `out` (a copy of `x` apart from the block) by the
@@ -624,7 +644,7 @@ impl Followers {
             let shift: f64 = coords
                 .iter()
                 .enumerate()
-                .map(|(j, &c)| self.coef[(f, j)] * (out[c] - x[c]))
+                .map(|(j, &c)| self.reg.coef[(f, j)] * (out[c] - x[c]))
                 .sum();
             out[i] = x[i] + shift;
         }
@@ -674,5 +694,49 @@ mod tests {
         // Points on a line have no full-rank covariance: no fit.
         let line = [0.0, 0.0, 1.0, 1.0, 2.0, 2.0];
         assert!(ComplementFit::new(&line, &[0, 1, 2], 2, None).is_none());
+    }
+
+    /// Six walkers in 3-D with x1 = 2 x0 + 1 exactly and x2 = −x0/2 + e, where e has mean 0,
+    /// variance 0.8 and is uncorrelated with x0: every regression on x0 is known exactly.
+    fn linear_complement() -> Vec<f64> {
+        let x0 = [-2.5, -1.5, -0.5, 0.5, 1.5, 2.5];
+        let e = [1.0, -1.0, 0.0, 0.0, -1.0, 1.0];
+        x0.iter()
+            .zip(e)
+            .flat_map(|(&a, e)| [a, 2.0 * a + 1.0, -0.5 * a + e])
+            .collect()
+    }
+
+    #[test]
+    fn followers_move_by_their_regression_on_the_block() {
+        let positions = linear_complement();
+        let all: Vec<usize> = (0..6).collect();
+        let f = Followers::new(&positions, 3, &all, &[0], &[1, 2]).unwrap();
+        let x = [0.0, 5.0, 7.0];
+        let mut out = [1.0, 5.0, 7.0];
+        f.carry(&x, &[0], &[1, 2], &mut out);
+        assert!((out[1] - 7.0).abs() < 1e-12, "{out:?}");
+        assert!((out[2] - 6.5).abs() < 1e-12, "{out:?}");
+        // One walker is no regression.
+        assert!(Followers::new(&positions, 3, &[0], &[0], &[1, 2]).is_none());
+    }
+
+    #[test]
+    fn the_conditional_proposal_is_centred_on_the_walkers_given_coordinates() {
+        use rand::SeedableRng;
+        let positions = linear_complement();
+        let all: Vec<usize> = (0..6).collect();
+        let mut c = ConditionalFit::new(&positions, 3, &all, &[2], &[0], None).unwrap();
+        // Given x0 = 2: mean −1, variance 0.8 (the residual e's).
+        let x = [2.0, 0.0, 0.3];
+        let fit = c.given(&x, &[0]);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let mut y = [0.0];
+        let log_ratio = fit.propose(&[x[2]], &mut rng, &mut y);
+        let log_q = |v: f64| -0.5 * (v + 1.0) * (v + 1.0) / 0.8;
+        assert!((log_ratio - (log_q(x[2]) - log_q(y[0]))).abs() < 1e-12);
+        // x1 is exactly linear in x0: no conditional spread, no fit; nor from too few walkers.
+        assert!(ConditionalFit::new(&positions, 3, &all, &[1], &[0], None).is_none());
+        assert!(ConditionalFit::new(&positions, 3, &[0, 1], &[2], &[0], None).is_none());
     }
 }

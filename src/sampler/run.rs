@@ -152,6 +152,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let cache_len = density.cache_len();
         let blocks = blocks_of(density, &config)?;
         check_dims(ndim, &blocks, &config)?;
+        let block_coords: Vec<Vec<usize>> = blocks.iter().map(|b| b.coords.clone()).collect();
         shape(
             "initial ensembles".into(),
             config.ensembles(),
@@ -175,8 +176,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 }
                 positions.extend_from_slice(x);
             }
-            let coords: Vec<Vec<usize>> = blocks.iter().map(|b| b.coords.clone()).collect();
-            let condition = blockwise_condition_number(&positions, ndim, &coords);
+            let condition = blockwise_condition_number(&positions, ndim, &block_coords);
             if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
                 return Err(SamplerError::DegenerateEnsemble {
                     ensemble: e,
@@ -973,13 +973,9 @@ fn blocks_of<D: LogDensity + ?Sized>(
     let mut links = links.into_iter();
     Ok(blocks
         .into_iter()
-        .map(|coords| {
-            let l = links.next().unwrap_or_default();
-            UpdateBlock {
-                coords,
-                given: l.given,
-                followers: l.followers,
-            }
+        .map(|coords| UpdateBlock {
+            coords,
+            links: links.next().unwrap_or_default(),
         })
         .collect())
 }
@@ -1022,7 +1018,7 @@ fn check_dims(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::density::LogDensityError;
+    use crate::density::{BlockLinks, LogDensityError};
     use crate::sampler::{MemorySink, Move, NullSink, Silent};
 
     /// A 3-D standard normal without derived values.
@@ -1033,6 +1029,46 @@ mod tests {
         }
         fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
             Ok(-0.5 * x.iter().map(|v| v * v).sum::<f64>())
+        }
+    }
+
+    /// Normal3 in two blocks with links as given.
+    struct Linked(Vec<BlockLinks>);
+    impl LogDensity for Linked {
+        fn dim(&self) -> usize {
+            3
+        }
+        fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
+            Normal3.log_density(x, d)
+        }
+        fn blocks(&self) -> Vec<Vec<usize>> {
+            vec![vec![0], vec![1, 2]]
+        }
+        fn block_links(&self) -> Vec<BlockLinks> {
+            self.0.clone()
+        }
+    }
+
+    #[test]
+    fn hierarchical_updates_take_the_links_and_refuse_bad_ones() {
+        let link = |given: Vec<usize>, followers: Vec<usize>| BlockLinks { given, followers };
+        let config = |u| SamplerConfig::new(8, 1, 5).unwrap().with_updates(u);
+        let good = Linked(vec![link(vec![], vec![1, 2]), link(vec![0], vec![])]);
+        let blocks = blocks_of(&good, &config(Updates::Hierarchical)).unwrap();
+        assert_eq!(blocks[0].links.followers, [1, 2]);
+        assert_eq!(blocks[1].links.given, [0]);
+        // Plain blocked updates ignore them.
+        let blocks = blocks_of(&good, &config(Updates::Blocked)).unwrap();
+        assert!(blocks.iter().all(|b| b.links == BlockLinks::default()));
+        for bad in [
+            vec![link(vec![], vec![1, 2])],
+            vec![link(vec![], vec![0]), link(vec![0], vec![])],
+            vec![link(vec![], vec![3]), link(vec![0], vec![])],
+        ] {
+            match blocks_of(&Linked(bad), &config(Updates::Hierarchical)) {
+                Err(SamplerError::InvalidConfig { name, .. }) => assert_eq!(name, "block_links"),
+                other => panic!("expected bad block_links, got {other:?}"),
+            }
         }
     }
 
