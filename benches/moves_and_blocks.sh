@@ -7,14 +7,14 @@
 #
 # With PATTERN (an extended regular expression) only the rows whose "posterior | updates,
 # moves" label matches are run, e.g. `hierarchical`.
-# Needs target/release/slipbayes (cargo build --release) and python3. Writes OUT_DIR/table.md.
+# Needs target/release/slipbayes (cargo build --release; or the binary in $SLIPBAYES) and python3. Writes OUT_DIR/table.md.
 # ESS and R̂ are read from each fit's summary.json by benches/run_stats.py: every post-burn-in
 # draw, every reported quantity (parameters and derived), as ArviZ computes them.
 set -euo pipefail
 out=${1:?usage: bash benches/moves_and_blocks.sh OUT_DIR [PATTERN]}
 only=${2:-}
 root=$(pwd)
-bin=$root/target/release/slipbayes
+bin=${SLIPBAYES:-$root/target/release/slipbayes}
 mkdir -p "$out/models" "$out/runs"
 # The demo and its variants, with absolute data paths.
 demo() { sed "s#\.\./data/#$root/data/#" models/demo.toml; }
@@ -46,9 +46,9 @@ row() { # label, description, steps, then fit arguments
 }
 m="$out/models"
 c="$out/campaign"
-row "one contact" "joint, stretch" 2000 "${one_contact[@]}" --moves stretch=1
-row "one contact" "joint, student-t=0.9,stretch=0.1" 2000 "${one_contact[@]}" --moves student-t=0.9,stretch=0.1
-row "one contact" "joint, de" 2000 "${one_contact[@]}" --moves de=1
+row "one contact" "joint, stretch" 2000 "${one_contact[@]}" --updates joint --moves stretch=1
+row "one contact" "joint, student-t=0.9,stretch=0.1" 2000 "${one_contact[@]}" --updates joint --moves student-t=0.9,stretch=0.1
+row "one contact" "joint, de" 2000 "${one_contact[@]}" --updates joint --moves de=1
 row "one contact" "joint, student-t=0.5,de=0.5 (default)" 2000 "${one_contact[@]}"
 row demo "joint, stretch" 1000 "$m/demo.toml" --updates joint --moves stretch=1 --walkers 38
 row demo "contact blocks, student-t=0.9,stretch=0.1" 1000 "$m/demo-contact.toml" --updates blocked --moves student-t=0.9,stretch=0.1 --walkers 40
@@ -70,3 +70,14 @@ row campaign "joint, student-t=0.5,de=0.5" 1000 "$c/campaign.toml" --updates joi
 row campaign "joint, student-t=0.5,de=0.5 (previous default, 132 walkers)" 1000 "$c/campaign.toml" --updates joint --walkers 132
 row campaign "hierarchical, student-t=0.5,de=0.5 (default)" 1000 "$c/campaign.toml"
 row campaign "hierarchical, student-t=0.5,de=0.5, 64 walkers" 1000 "$c/campaign.toml" --walkers 64
+# The KDE and DE-snooker moves against the default on every posterior (run alone with
+# PATTERN "kde|snooker|\(default\)").
+row "one contact" "joint, kde" 2000 "${one_contact[@]}" --moves kde=1
+row "one contact" "joint, snooker" 2000 "${one_contact[@]}" --moves snooker=1
+row demo "hierarchical, kde=0.5,de=0.5" 1000 "$m/demo.toml" --moves kde=0.5,de=0.5
+row demo "hierarchical, student-t=0.5,snooker=0.5" 1000 "$m/demo.toml" --moves student-t=0.5,snooker=0.5
+row absolute "hierarchical, kde=0.5,de=0.5" 1000 "$m/absolute.toml" --moves kde=0.5,de=0.5
+row pooled "hierarchical, kde=0.5,de=0.5" 1000 "$m/pooled.toml" --moves kde=0.5,de=0.5
+row pooled "hierarchical, student-t=0.5,snooker=0.5" 1000 "$m/pooled.toml" --moves student-t=0.5,snooker=0.5
+row campaign "hierarchical, kde=0.5,de=0.5" 1000 "$c/campaign.toml" --moves kde=0.5,de=0.5
+row campaign "hierarchical, student-t=0.5,snooker=0.5" 1000 "$c/campaign.toml" --moves student-t=0.5,snooker=0.5

@@ -84,6 +84,8 @@ fn one_contact_posterior_covers_the_truth() {
         &model(&(run("first", "first.csv", "first") + &run("repeat", "repeat.csv", "repeat"))),
         1500,
     );
+    // The record reaches well past the peak: nothing to say about it.
+    assert!(s.notes.is_empty(), "{:?}", s.notes);
     // The 95 % posterior predictive band holds about 95 % of the observations.
     let draws = kept_draws(&outcome, &post.param_names(), 200).unwrap();
     let bands = post.predictive_bands(&draws, 1, 3).unwrap();
@@ -157,6 +159,16 @@ fn short_first_slide_alone_leaves_k_wide() {
         &model(&(run("first", "first.csv", "first") + &run("repeat", "repeat.csv", "repeat"))),
         1500,
     );
+    // Both records end before the peak: each fit says so, once, for the first slide.
+    for s in [&alone, &with_repeat] {
+        assert_eq!(s.notes.len(), 1, "{:?}", s.notes);
+        assert!(
+            s.notes[0].contains("run `first` lies after the end of its record")
+                && s.notes[0].contains("8.0000e2 s"),
+            "{}",
+            s.notes[0]
+        );
+    }
     let kr = get(&with_repeat, "k", "c");
     assert!(
         kr.ci_low <= TRUTH.4 && TRUTH.4 <= kr.ci_high,

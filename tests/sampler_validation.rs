@@ -91,6 +91,8 @@ fn every_move_samples_a_correlated_gaussian() {
             vec![(Move::Independence { dof: None }, 1.0)],
         ),
         ("student-t independence", vec![(Move::student_t(), 1.0)]),
+        ("snooker", vec![(Move::snooker(), 1.0)]),
+        ("kde", vec![(Move::Kde { bandwidth: None }, 1.0)]),
         (
             "mixture",
             vec![
@@ -148,6 +150,15 @@ fn rosenbrock_banana_with_an_independence_mixture() {
     check_banana(
         vec![(Move::student_t(), 0.7), (Move::stretch(), 0.3)],
         "student-t + stretch",
+    );
+}
+
+/// The snooker and KDE moves are built for curved shapes; they must stay exact on one.
+#[test]
+fn rosenbrock_banana_with_snooker_and_kde() {
+    check_banana(
+        vec![(Move::Kde { bandwidth: None }, 0.5), (Move::snooker(), 0.5)],
+        "kde + snooker",
     );
 }
 

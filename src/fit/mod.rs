@@ -49,7 +49,7 @@ use crate::sampler::{
 use crate::storage::{ChainReader, ParquetSink, SinkOptions};
 
 pub use error::FitError;
-pub use model::{fit_model, summary_spec, SettingOverrides};
+pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{
     AggregateSummary, Comparison, FitSummary, QuantitySummary, RunDir, RunDirError, RunRecord,
     SamplerSummary,

@@ -6,7 +6,7 @@ use std::path::Path;
 use super::run_dir::{relative_path, RunRecord};
 use super::{
     default_moves, default_updates, fit_stop_rule, kept_draws, run_fit, Aggregate, ComparisonSpec,
-    FitError, FitOutcome, FitSettings, RunDir, SummarySpec,
+    FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
 };
 use crate::density::LogDensity;
 use crate::law::Scene;
@@ -174,6 +174,34 @@ pub fn summary_spec(posterior: &Posterior) -> SummarySpec {
     }
 }
 
+/// A sentence for every slide whose peak the posterior places after the end of its record,
+/// wholly (the lower end of t_peak's interval) or in part (its upper end): there the height
+/// of the peak, and the law's parameters that set it, are extrapolated by the law rather than
+/// observed, and they rest on the priors as much as on the data.
+pub fn peak_notes(posterior: &Posterior, summary: &FitSummary) -> Vec<String> {
+    let mut notes = Vec::new();
+    for (run, end) in posterior.record_ends() {
+        let Some(t) = summary.find("t_peak", run) else {
+            continue;
+        };
+        let (low, high) = (t.stats.ci_low, t.stats.ci_high);
+        let whole = if low > end {
+            "lies after"
+        } else if high > end {
+            "may lie after"
+        } else {
+            continue;
+        };
+        notes.push(format!(
+            "the peak of run `{run}` {whole} the end of its record: t_peak's interval is \
+             [{low:.4e}, {high:.4e}] s, the last point at {end:.4e} s; its F_peak, and α, a/F_d \
+             and F_d that set it, are extrapolated by the law, not observed (only a record that \
+             reaches past the peak measures them)"
+        ));
+    }
+    notes
+}
+
 /// Fits `posterior` into the run directory `out` and writes all of it: the chains and
 /// checkpoint, `summary.json` and `summary.csv` ([`run_fit`] with [`summary_spec`]), then
 /// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`.
@@ -191,7 +219,7 @@ pub fn fit_model(
 ) -> Result<FitOutcome, FitError> {
     let dir = RunDir::new(out);
     let spec = posterior.spec();
-    let outcome = run_fit(
+    let mut outcome = run_fit(
         posterior,
         &summary_spec(posterior),
         posterior.start(),
@@ -200,6 +228,10 @@ pub fn fit_model(
         resume,
         observer,
     )?;
+    outcome.summary.notes = peak_notes(posterior, &outcome.summary);
+    if !outcome.summary.notes.is_empty() {
+        dir.write_summary(&outcome.summary)?;
+    }
     dir.write_model(spec)?;
     let data_dir = relative_path(out, &spec.base_dir).map_err(|source| {
         FitError::RunDir(super::RunDirError::Write {

@@ -363,6 +363,7 @@ impl Plan {
                 steps_run: report.steps_run,
             },
             data: self.spec.data.clone(),
+            notes: Vec::new(),
         })
     }
 }

@@ -349,6 +349,11 @@ fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
         blocks.push(Block::Paragraph("Peak static friction:".into()));
         blocks.push(Block::List(peaks));
     }
+    let notes = &ctx.inputs.summary.notes;
+    if !notes.is_empty() {
+        blocks.push(Block::Paragraph("What the data do not show:".into()));
+        blocks.push(Block::List(notes.clone()));
+    }
     if !comparisons.is_empty() {
         blocks.push(Block::Paragraph("Do the materials differ?".into()));
         blocks.push(Block::List(

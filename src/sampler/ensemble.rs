@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{ComplementFit, ConditionalFit, Followers, Move};
+use super::moves::{ComplementFit, ConditionalFit, Fitted, Followers, KdeFit, Move};
 use crate::density::{BlockLinks, Eval};
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
@@ -270,6 +270,10 @@ impl Ensemble {
             }
             _ => None,
         };
+        let mut kde = match *mv {
+            Move::Kde { bandwidth } => KdeFit::new(moved, complement, dim, bandwidth),
+            _ => None,
+        };
         let followers = block
             .filter(|b| !b.links.followers.is_empty())
             .and_then(|b| {
@@ -293,9 +297,11 @@ impl Ensemble {
             } else {
                 &mut *o
             };
-            let walker_fit = match conditional.as_mut() {
-                Some(c) => Some(c.given(x, given)),
-                None => fit.as_mut(),
+            let walker_fit = match (conditional.as_mut(), fit.as_mut(), kde.as_mut()) {
+                (Some(c), _, _) => Fitted::Gaussian(c.given(x, given)),
+                (None, Some(f), _) => Fitted::Gaussian(f),
+                (None, None, Some(k)) => Fitted::Kde(k),
+                (None, None, None) => Fitted::Nothing,
             };
             let c = mv.propose(
                 &moved[w * dim..(w + 1) * dim],

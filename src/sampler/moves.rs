@@ -61,10 +61,49 @@ pub enum Move {
         /// Degrees of freedom ν of the Student-t; `None` for the Gaussian.
         dof: Option<f64>,
     },
+    /// Differential-evolution snooker update (ter Braak & Vrugt 2008; emcee's
+    /// `DESnookerMove`): a step along the line from a complement walker `Z` through the walker,
+    /// as long as the difference of two more complement walkers projected on that line. It
+    /// reaches along curved and elongated regions where a straight difference move stalls.
+    /// Not affine-invariant (the projection is Euclidean); it needs three complement walkers.
+    ///
+    /// # Formula
+    /// `Y = Z + (1 + γ p)(X − Z)`, `p = (X − Z)·(Z₁ − Z₂) / |X − Z|²` with `Z, Z₁, Z₂` distinct
+    /// complement walkers (so the step along the line is `γ e·(Z₁ − Z₂)`, `e` the line's unit
+    /// vector, symmetric in `Z₁ ↔ Z₂`); the log acceptance ratio gains
+    /// `(ndim − 1) ln |1 + γ p|`, the Jacobian of a move along a line through `Z`.
+    Snooker {
+        /// `γ`; 1.7 as in emcee (ter Braak & Vrugt draw it from U(1.2, 2.2)).
+        gamma: f64,
+    },
+    /// Independence proposal from a Gaussian kernel density estimate of the complement (emcee's
+    /// `KDEMove`): pick a complement walker, add a Gaussian step with the complement's sample
+    /// covariance scaled by `h²`. Follows non-Gaussian shapes (skewed, curved, several modes)
+    /// that a single Gaussian fitted to the complement misses; affine-invariant, valid because
+    /// the complement stays fixed during a half-step; needs more complement walkers than
+    /// dimensions.
+    ///
+    /// # Formula
+    /// `Y = X_j + h L Z`, `X_j` uniform over the complement, `L Lᵀ = Ĉ`, `Z ~ N(0, I)`;
+    /// `q(y) ∝ Σ_j exp(−|L⁻¹(y − X_j)|² / 2h²)`; the log acceptance ratio gains
+    /// `ln q(X) − ln q(Y)`.
+    Kde {
+        /// `h`; `None` for Scott's factor `n^(−1/(ndim+4))`, `n` the complement's size (scipy's
+        /// `gaussian_kde` default, which emcee uses).
+        bandwidth: Option<f64>,
+    },
 }
 
 /// The names of the moves in a written mixture, each with its default parameters.
-pub const MOVE_NAMES: [&str; 5] = ["stretch", "de", "walk", "gaussian", "student-t"];
+pub const MOVE_NAMES: [&str; 7] = [
+    "stretch",
+    "de",
+    "walk",
+    "gaussian",
+    "student-t",
+    "snooker",
+    "kde",
+];
 
 /// A weighted mixture of moves with their default parameters, as a model file
 /// (`[sampler] moves`) or the command line (`--moves`) writes it: `name=weight` pairs
@@ -152,6 +191,8 @@ impl Move {
             "walk" => Self::walk(),
             "gaussian" => Self::Independence { dof: None },
             "student-t" => Self::student_t(),
+            "snooker" => Self::snooker(),
+            "kde" => Self::Kde { bandwidth: None },
             _ => {
                 return Err(format!(
                     "unknown move `{name}`; the moves are {}",
@@ -184,6 +225,11 @@ impl Move {
         Self::Independence { dof: Some(5.0) }
     }
 
+    /// DE-snooker with emcee's `γ = 1.7`.
+    pub fn snooker() -> Self {
+        Self::Snooker { gamma: 1.7 }
+    }
+
     /// Checks the move's own parameters.
     pub(crate) fn validate(&self) -> Result<(), SamplerError> {
         let bad = |what: String| Err(SamplerError::InvalidMove { detail: what });
@@ -212,6 +258,12 @@ impl Move {
             Self::Independence { dof: Some(nu) } if !(nu.is_finite() && nu > 0.0) => bad(format!(
                 "independence degrees of freedom {nu} must be finite and > 0"
             )),
+            Self::Snooker { gamma } if !(gamma.is_finite() && gamma > 0.0) => {
+                bad(format!("snooker gamma = {gamma} must be finite and > 0"))
+            }
+            Self::Kde { bandwidth: Some(h) } if !(h.is_finite() && h > 0.0) => {
+                bad(format!("KDE bandwidth {h} must be finite and > 0"))
+            }
             _ => Ok(()),
         }
     }
@@ -227,8 +279,9 @@ impl Move {
             Self::Stretch { .. } => 1,
             Self::DifferentialEvolution { .. } => 2,
             Self::Walk { subset } => subset.unwrap_or(2).max(2),
+            Self::Snooker { .. } => 3,
             // A full-rank sample covariance needs ndim + 1 points.
-            Self::Independence { .. } => ndim + 1,
+            Self::Independence { .. } | Self::Kde { .. } => ndim + 1,
         };
         if complement < need {
             return Err(SamplerError::InvalidMove {
@@ -244,9 +297,10 @@ impl Move {
     /// correction to the acceptance ratio.
     ///
     /// `positions` holds all walkers (`walkers × ndim`), `complement` the indices of the
-    /// complementary half; `fit` is the complement's [`ComplementFit`] for
-    /// [`Move::Independence`] (`None` when the complement has none: the walker is proposed
-    /// unchanged); `idx` and `z` are scratch of at least `complement.len()`.
+    /// complementary half; `fit` is what was fitted to the complement for [`Move::Independence`]
+    /// or [`Move::Kde`] ([`Fitted::Nothing`] when the complement has no full-rank covariance:
+    /// the walker is proposed unchanged); `idx` and `z` are scratch of at least
+    /// `complement.len()`.
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub(crate) fn propose<R: Rng>(
@@ -254,7 +308,7 @@ impl Move {
         x: &[f64],
         positions: &[f64],
         complement: &[usize],
-        fit: Option<&mut ComplementFit>,
+        fit: Fitted<'_>,
         rng: &mut R,
         out: &mut [f64],
         idx: &mut [usize],
@@ -317,11 +371,43 @@ impl Move {
                 }
                 Correction::NONE
             }
-            Self::Independence { .. } => match fit {
-                Some(fit) => Correction::log(fit.propose(x, rng, out)),
+            Self::Snooker { gamma } => {
+                // Three distinct complement walkers by a partial Fisher–Yates over positions.
+                let idx = &mut idx[..nc];
+                for (k, i) in idx.iter_mut().enumerate() {
+                    *i = k;
+                }
+                for k in 0..3 {
+                    let r = rng.random_range(k..nc);
+                    idx.swap(k, r);
+                }
+                let (z, z1, z2) = (
+                    row(complement[idx[0]]),
+                    row(complement[idx[1]]),
+                    row(complement[idx[2]]),
+                );
+                let (mut dot, mut norm2) = (0.0, 0.0);
+                for ((&xi, &zi), (&ai, &bi)) in x.iter().zip(z).zip(z1.iter().zip(z2)) {
+                    dot += (xi - zi) * (ai - bi);
+                    norm2 += (xi - zi) * (xi - zi);
+                }
+                if norm2 == 0.0 {
+                    // The walker sits on Z: no line to move along.
+                    out.copy_from_slice(x);
+                    return Correction::NONE;
+                }
+                let stretch = 1.0 + gamma * dot / norm2;
+                for ((o, &xi), &zi) in out.iter_mut().zip(x).zip(z) {
+                    *o = zi + stretch * (xi - zi);
+                }
+                Correction::power(stretch.abs(), ndim as u64 - 1)
+            }
+            Self::Independence { .. } | Self::Kde { .. } => match fit {
+                Fitted::Gaussian(fit) => Correction::log(fit.propose(x, rng, out)),
+                Fitted::Kde(fit) => Correction::log(fit.propose(x, rng, out)),
                 // The complement lies in a subspace: the walker stays where it is (a step
                 // that changes nothing but still consumes its uniform).
-                None => {
+                Fitted::Nothing => {
                     out.copy_from_slice(x);
                     Correction::NONE
                 }
@@ -481,10 +567,9 @@ impl ComplementFit {
         })
     }
 
-    /// ln q(x) up to a constant shared by every point.
-    fn log_q(&mut self, x: &[f64]) -> f64 {
+    /// Solves `L u = x − μ` into `self.u` by forward substitution and returns `|u|²`.
+    fn whiten(&mut self, x: &[f64]) -> f64 {
         let ndim = self.mean.len();
-        // Forward substitution L u = x − μ.
         let mut r2 = 0.0;
         for (a, (&xa, &ma)) in x.iter().zip(&self.mean).enumerate() {
             let row = &self.chol[a * ndim..a * ndim + a];
@@ -493,6 +578,13 @@ impl ComplementFit {
             self.u[a] = ua;
             r2 += ua * ua;
         }
+        r2
+    }
+
+    /// ln q(x) up to a constant shared by every point.
+    fn log_q(&mut self, x: &[f64]) -> f64 {
+        let ndim = self.mean.len();
+        let r2 = self.whiten(x);
         match self.dof {
             None => -0.5 * r2,
             Some(nu) => -0.5 * (nu + ndim as f64) * (r2 / nu).ln_1p(),
@@ -501,6 +593,12 @@ impl ComplementFit {
 
     /// Writes a proposal into `out` and returns ln q(x) − ln q(out).
     pub fn propose<R: Rng>(&mut self, x: &[f64], rng: &mut R, out: &mut [f64]) -> f64 {
+        self.draw(rng, out);
+        self.log_q(x) - self.log_q(out)
+    }
+
+    /// Writes a draw from q into `out`.
+    fn draw<R: Rng>(&mut self, rng: &mut R, out: &mut [f64]) {
         let ndim = self.mean.len();
         let scale = match (self.dof, &self.chi2) {
             (Some(nu), Some(chi2)) => (nu / rng.sample(chi2)).sqrt(),
@@ -512,6 +610,88 @@ impl ComplementFit {
         for (a, (o, &ma)) in out.iter_mut().zip(&self.mean).enumerate() {
             let row = &self.chol[a * ndim..=a * ndim + a];
             *o = ma + row.iter().zip(&self.u).map(|(l, z)| l * z).sum::<f64>();
+        }
+    }
+}
+
+/// What a move proposes from that was fitted to the complement once per half-step.
+pub(crate) enum Fitted<'f> {
+    /// Nothing fitted: a move that needs no fit, or a complement without a full-rank covariance.
+    Nothing,
+    /// The Gaussian or Student-t of [`Move::Independence`].
+    Gaussian(&'f mut ComplementFit),
+    /// The kernel density estimate of [`Move::Kde`].
+    Kde(&'f mut KdeFit),
+}
+
+/// The Gaussian kernel density estimate of the complement for [`Move::Kde`].
+#[derive(Debug, Clone)]
+pub(crate) struct KdeFit {
+    /// The kernel: zero mean, covariance `h² Ĉ`.
+    kernel: ComplementFit,
+    /// The complement's walkers (the kernels' centres), `ndim` per row.
+    centres: Vec<f64>,
+    /// The centres whitened by the kernel's Cholesky factor, `ndim` per row.
+    white: Vec<f64>,
+    /// Scratch for a whitened point's squared distances to the centres.
+    r2: Vec<f64>,
+}
+
+impl KdeFit {
+    /// Fits the complement's walkers (`positions` of all walkers, `ndim` per row) with
+    /// bandwidth `h` (`None`: Scott's factor); `None` when their covariance is not positive
+    /// definite.
+    pub fn new(
+        positions: &[f64],
+        complement: &[usize],
+        ndim: usize,
+        bandwidth: Option<f64>,
+    ) -> Option<Self> {
+        let n = complement.len();
+        if n <= ndim {
+            return None;
+        }
+        let h = bandwidth.unwrap_or_else(|| (n as f64).powf(-1.0 / (ndim as f64 + 4.0)));
+        let all: Vec<usize> = (0..ndim).collect();
+        let mean = complement_mean(positions, ndim, complement, &all);
+        let cov = complement_cov(positions, ndim, complement, (&all, &mean), (&all, &mean));
+        let mut kernel = ComplementFit::from_moments(vec![0.0; ndim], cov * (h * h), None)?;
+        let mut centres = Vec::with_capacity(n * ndim);
+        let mut white = Vec::with_capacity(n * ndim);
+        for &w in complement {
+            let c = &positions[w * ndim..(w + 1) * ndim];
+            centres.extend_from_slice(c);
+            kernel.whiten(c);
+            white.extend_from_slice(&kernel.u);
+        }
+        Some(Self {
+            kernel,
+            centres,
+            white,
+            r2: vec![0.0; n],
+        })
+    }
+
+    /// ln q(x) up to a constant shared by every point.
+    fn log_q(&mut self, x: &[f64]) -> f64 {
+        self.kernel.whiten(x);
+        let u = &self.kernel.u;
+        for (r, w) in self.r2.iter_mut().zip(self.white.chunks_exact(u.len())) {
+            *r = u.iter().zip(w).map(|(a, b)| (a - b) * (a - b)).sum();
+        }
+        // log-sum-exp of −r²/2 about the nearest centre.
+        let nearest = self.r2.iter().copied().fold(f64::INFINITY, f64::min);
+        let sum: f64 = self.r2.iter().map(|r| (-0.5 * (r - nearest)).exp()).sum();
+        -0.5 * nearest + sum.ln()
+    }
+
+    /// Writes a proposal into `out` and returns ln q(x) − ln q(out).
+    pub fn propose<R: Rng>(&mut self, x: &[f64], rng: &mut R, out: &mut [f64]) -> f64 {
+        let ndim = x.len();
+        let j = rng.random_range(0..self.r2.len());
+        self.kernel.draw(rng, out);
+        for (o, &c) in out.iter_mut().zip(&self.centres[j * ndim..(j + 1) * ndim]) {
+            *o += c;
         }
         self.log_q(x) - self.log_q(out)
     }
@@ -665,9 +845,9 @@ mod tests {
             parse_mixture("de").unwrap(),
             vec![(Move::differential_evolution(), 1.0)]
         );
-        let err = parse_mixture("stretch=0.5,kde=0.5").unwrap_err();
+        let err = parse_mixture("stretch=0.5,slice=0.5").unwrap_err();
         assert!(
-            err.contains("unknown move `kde`") && err.contains("student-t"),
+            err.contains("unknown move `slice`") && err.contains("student-t"),
             "{err}"
         );
         let err = parse_mixture("stretch=-1").unwrap_err();
@@ -694,6 +874,90 @@ mod tests {
         // Points on a line have no full-rank covariance: no fit.
         let line = [0.0, 0.0, 1.0, 1.0, 2.0, 2.0];
         assert!(ComplementFit::new(&line, &[0, 1, 2], 2, None).is_none());
+    }
+
+    #[test]
+    fn the_kde_correction_is_the_ratio_of_mixture_densities() {
+        use rand::SeedableRng;
+        // The same complement, covariance 1/3·I; bandwidth 0.5 gives kernels of variance 1/12.
+        let positions = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+        let mut fit = KdeFit::new(&positions, &[0, 1, 2, 3], 2, Some(0.5)).unwrap();
+        // ln Σ_j exp(e_j) written out about the largest exponent, in the original coordinates.
+        let log_q = |p: &[f64]| {
+            let e: Vec<f64> = positions
+                .chunks(2)
+                .map(|c| -6.0 * ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2)))
+                .collect();
+            let top = e.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            top + e.iter().map(|v| (v - top).exp()).sum::<f64>().ln()
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let x = [0.3, 0.9];
+        let mut y = [0.0; 2];
+        for _ in 0..20 {
+            let log_ratio = fit.propose(&x, &mut rng, &mut y);
+            assert!((log_ratio - (log_q(&x) - log_q(&y))).abs() < 1e-12);
+        }
+        // Far from every centre the log-sum-exp must not underflow.
+        let far = [40.0, -30.0];
+        assert!(fit.log_q(&far).is_finite());
+        assert!((fit.log_q(&far) - log_q(&far)).abs() < 1e-9 * log_q(&far).abs());
+        // Scott's factor by default: n^(−1/(d+4)) = 4^(−1/6).
+        let scott = KdeFit::new(&positions, &[0, 1, 2, 3], 2, None).unwrap();
+        let h2 = 4f64.powf(-1.0 / 3.0);
+        assert!((scott.kernel.chol[0] - (h2 / 3.0).sqrt()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn the_snooker_step_moves_along_the_line_through_z_with_its_jacobian() {
+        use rand::SeedableRng;
+        // Complement of three walkers in 3-D: every draw uses all three, in some order.
+        let positions = [0.0, 0.0, 0.0, 1.0, 2.0, 0.5, -1.0, 0.5, 2.0];
+        let complement = [0, 1, 2];
+        let x = [0.4, -0.7, 1.1];
+        let mv = Move::snooker();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let (mut idx, mut z) = ([0; 3], [0.0; 3]);
+        let mut seen = std::collections::BTreeSet::new();
+        for _ in 0..60 {
+            let mut y = [0.0; 3];
+            let c = mv.propose(
+                &x,
+                &positions,
+                &complement,
+                Fitted::Nothing,
+                &mut rng,
+                &mut y,
+                &mut idx,
+                &mut z,
+            );
+            // Which walker was Z: the one for which Y − Z is parallel to X − Z with the
+            // snooker's stretch for one of the other two orderings.
+            let row = |i: usize| &positions[3 * i..3 * i + 3];
+            let found = (0..3).find_map(|k| {
+                let (zk, a, b) = (row(k), row((k + 1) % 3), row((k + 2) % 3));
+                let d: Vec<f64> = (0..3).map(|i| x[i] - zk[i]).collect();
+                let n2: f64 = d.iter().map(|v| v * v).sum();
+                [1.0, -1.0].into_iter().find_map(|sign| {
+                    let dot: f64 = (0..3).map(|i| d[i] * sign * (a[i] - b[i])).sum();
+                    let s = 1.0 + 1.7 * dot / n2;
+                    let expect: Vec<f64> = (0..3).map(|i| zk[i] + s * d[i]).collect();
+                    (0..3)
+                        .all(|i| (expect[i] - y[i]).abs() < 1e-12)
+                        .then_some((k, s))
+                })
+            });
+            let (k, s) = found.expect("the proposal lies on a snooker line");
+            seen.insert(k);
+            // (ndim − 1) ln |1 + γ p| with ndim = 3.
+            assert!((c.factor - s * s).abs() < 1e-12 * (s * s).max(1.0));
+        }
+        assert_eq!(seen.len(), 3, "every complement walker serves as Z");
+        assert!(mv
+            .validate_complement(2, 3)
+            .unwrap_err()
+            .to_string()
+            .contains("at least 3"));
     }
 
     /// Six walkers in 3-D with x1 = 2 x0 + 1 exactly and x2 = −x0/2 + e, where e has mean 0,

@@ -16,10 +16,11 @@ use serde::{Deserialize, Serialize};
 use slipbayes::data::write_atomically;
 use slipbayes::density::LogDensity;
 use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
-use slipbayes::fit::{kept_draws, RunDir};
+use slipbayes::fit::{fit_stop_rule, kept_draws, peak_notes, RunDir, DEFAULT_MAX_STEPS};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::Steps;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// Contraction below which a quantity counts as not identified by the data.
@@ -50,8 +51,12 @@ pub struct HardCase {
     pub first: (f64, f64),
     /// Repeat slide, if any: (duration, interval) in s.
     pub repeat: Option<(f64, f64)>,
-    /// Fit: walkers per ensemble, ensembles, steps.
+    /// Fit: walkers per ensemble, ensembles, steps (the cap when `until_converged`).
     pub fit: (usize, usize, u64),
+    /// Whether the fit runs until converged (the fit's default), `fit.2` steps at most;
+    /// otherwise exactly `fit.2` steps.
+    #[serde(default)]
+    pub until_converged: bool,
     /// Bins the first slide is averaged into before fitting (`bins` of the model file), if any.
     #[serde(default)]
     pub first_bins: Option<usize>,
@@ -101,7 +106,8 @@ pub fn cases(million_steps: u64) -> Vec<HardCase> {
         sigma_n: sigma,
         first: (20_000.0, 50.0),
         repeat: Some((2_000.0, 10.0)),
-        fit: (32, 4, 2_000),
+        fit: (32, 4, DEFAULT_MAX_STEPS),
+        until_converged: true,
         first_bins: None,
     };
     let near = stick_slip_stiffness(&p, 20_000.0).unwrap_or(k);
@@ -145,6 +151,7 @@ pub fn cases(million_steps: u64) -> Vec<HardCase> {
         HardCase {
             first: (20_000.0, 0.02),
             fit: (16, 4, million_steps),
+            until_converged: false,
             ..standard(
                 "million-points",
                 "first slide of 1 000 001 points (every 0.02 s) and a 201-point repeat slide",
@@ -201,6 +208,9 @@ pub struct HardOutcome {
     pub r_hat_max: Option<f64>,
     /// Log-density evaluations (optimisation excluded).
     pub log_density_evals: u64,
+    /// Steps the fit ran.
+    #[serde(default)]
+    pub steps_run: u64,
     /// Seconds of sampling.
     pub sampling_s: f64,
     /// Seconds in all (simulation, start, sampling, summary).
@@ -209,6 +219,9 @@ pub struct HardOutcome {
     pub eval_s: f64,
     /// Whether the case passed (see the module documentation).
     pub passed: bool,
+    /// What the fit says the data do not show (`summary.json`'s notes).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 fn run_toml(
@@ -236,10 +249,12 @@ pub fn run_case(case: &HardCase, dir: &Path, seed: u64) -> HardOutcome {
         converged: false,
         r_hat_max: None,
         log_density_evals: 0,
+        steps_run: 0,
         sampling_s: 0.0,
         wall_s: 0.0,
         eval_s: f64::NAN,
         passed: false,
+        notes: Vec::new(),
     };
     if let Err(e) = fit_case(case, dir, seed, &mut outcome) {
         outcome.error = Some(e);
@@ -304,11 +319,18 @@ fn fit_case(
     at_start.map_err(|e| format!("the posterior at its start point: {e}"))?;
 
     let (walkers, ensembles, steps) = case.fit;
+    let steps = if case.until_converged {
+        Steps::UntilConverged(fit_stop_rule(steps))
+    } else {
+        Steps::Fixed(steps)
+    };
     let fit_dir = RunDir::new(dir.join("fit"));
     let fit = super::quiet_fit(&posterior, walkers, ensembles, seed, steps, &fit_dir)?;
     let s = &fit.summary;
+    outcome.notes = peak_notes(&posterior, s);
     outcome.converged = s.sampler.converged;
     outcome.log_density_evals = s.sampler.log_density_evals;
+    outcome.steps_run = s.sampler.steps_run;
     outcome.sampling_s = s.sampler.wall_s;
     outcome.r_hat_max = s
         .quantities()
@@ -402,14 +424,19 @@ pub fn markdown(outcomes: &[HardOutcome], command: &str) -> String {
         let c = &o.case;
         let _ = writeln!(
             md,
-            "### `{}`: {}\n\n{} first-slide points{}; fit {} ensembles × {} walkers × {} steps; {} evaluations, {:.1} s sampling, {:.1} s in all, {:.2e} s per evaluation at the start; largest R̂ {}; converged by every check: {}; **{}**.\n",
+            "### `{}`: {}\n\n{} first-slide points{}; fit {} ensembles × {} walkers × {} steps{}; {} evaluations, {:.1} s sampling, {:.1} s in all, {:.2e} s per evaluation at the start; largest R̂ {}; converged by every check: {}; **{}**.\n",
             c.name,
             c.description,
             o.first_points,
             c.repeat.map_or(", no repeat slide".to_string(), |(d, i)| format!(", repeat slide {d} s every {i} s")),
             c.fit.1,
             c.fit.0,
-            c.fit.2,
+            o.steps_run,
+            if c.until_converged {
+                format!(" (until converged, at most {})", c.fit.2)
+            } else {
+                String::new()
+            },
             o.log_density_evals,
             o.sampling_s,
             o.wall_s,
@@ -440,6 +467,9 @@ pub fn markdown(outcomes: &[HardOutcome], command: &str) -> String {
             );
         }
         let _ = writeln!(md);
+        for note in &o.notes {
+            let _ = writeln!(md, "The fit notes: {note}.\n");
+        }
     }
     md
 }

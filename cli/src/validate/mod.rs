@@ -505,7 +505,7 @@ fn fit_and_rank(
         settings.walkers,
         settings.ensembles,
         fit_seed,
-        settings.steps,
+        Steps::Fixed(settings.steps),
         &fit_dir,
     )?;
     let chains = fit_dir.chain_reader().map_err(|e| e.to_string())?;
@@ -588,21 +588,22 @@ fn error_chain(e: &dyn std::error::Error) -> String {
     text
 }
 
-/// A fixed-length fit of `posterior`'s quantities into `dir`, replacing what is there,
-/// printing nothing: one replication of `validate`. Errors as the full cause chain.
+/// A fit of `posterior`'s quantities into `dir` for `steps`, replacing what is there,
+/// printing nothing: one replication of `validate`, or one hard case. Errors as the full cause
+/// chain.
 pub(crate) fn quiet_fit(
     posterior: &Posterior,
     walkers: usize,
     ensembles: usize,
     seed: u64,
-    steps: u64,
+    steps: Steps,
     dir: &RunDir,
 ) -> Result<slipbayes::fit::FitOutcome, String> {
     let settings = FitSettings {
         walkers,
         ensembles,
         seed,
-        steps: Steps::Fixed(steps),
+        steps,
         checkpoint_every: None,
         quiet: true,
         overwrite: true,

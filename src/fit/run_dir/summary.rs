@@ -139,6 +139,10 @@ pub struct FitSummary {
     /// not a friction model).
     #[serde(default)]
     pub data: Vec<Provenance>,
+    /// What the data do not show, in sentences: a peak beyond the end of its record, whose
+    /// height is then extrapolated by the law rather than observed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 impl FitSummary {

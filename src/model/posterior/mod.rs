@@ -173,6 +173,14 @@ impl Posterior {
             .collect()
     }
 
+    /// Each run's name with the instrument time of its last observation (s).
+    pub fn record_ends(&self) -> Vec<(&str, f64)> {
+        self.runs
+            .iter()
+            .map(|r| (r.name.as_str(), r.data.model_times[r.data.n_obs - 1]))
+            .collect()
+    }
+
     /// Observations in the longest run.
     pub fn max_points(&self) -> usize {
         self.runs.iter().map(|r| r.data.n_obs).max().unwrap_or(0)
