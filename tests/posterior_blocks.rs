@@ -220,3 +220,48 @@ fn the_posterior_names_what_fails_at_a_point() {
     let mut derived = vec![0.0; post.derived_names().len()];
     assert!(post.log_density(&x, &mut derived).is_err());
 }
+
+/// Default walkers: max(32, 4·d + 4, 2·f + 4). The demo's largest block has 3 coordinates and
+/// its shared blocks carry 7 and 6 followers: 32. A material of 15 contacts (first + repeat
+/// slide each) carries 45 followers under hierarchical updates, so its regressions get 94
+/// walkers; blocked updates carry none and keep 32.
+#[test]
+fn default_walkers_grow_with_the_followers_of_a_shared_block() {
+    use slipbayes::fit::{FitSettings, SettingOverrides};
+    use slipbayes::sampler::Updates;
+    let dir = tempfile::tempdir().unwrap();
+    let demo = demo_variant(dir.path(), "demo.toml", "", "contact");
+    let walkers = |post: &Posterior, updates: Option<Updates>| {
+        let overrides = SettingOverrides {
+            updates,
+            ..SettingOverrides::default()
+        };
+        FitSettings::for_model(post, &overrides).walkers
+    };
+    assert_eq!(walkers(&demo, None), 32);
+
+    let data = root().join("data");
+    let mut text = String::from("[[material]]\nname = \"PTFE\"\n");
+    for c in 0..15 {
+        text += &format!(
+            "[[contact]]\nname = \"c{c}\"\nmaterial = \"PTFE\"\n\
+             [[run]]\nname = \"c{c}-first\"\ncontact = \"c{c}\"\ndata = \"{d}/ptfe-c1-first.csv\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"first\"\n\
+             [[run]]\nname = \"c{c}-repeat\"\ncontact = \"c{c}\"\ndata = \"{d}/ptfe-c1-repeat.csv\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"repeat\"\nfollows = \"c{c}-first\"\n",
+            d = data.display()
+        );
+    }
+    let path = dir.path().join("campaign.toml");
+    std::fs::write(&path, text).unwrap();
+    let campaign = Posterior::new(&ModelSpec::load(&path).unwrap()).unwrap();
+    let followers = campaign
+        .block_links()
+        .iter()
+        .map(|l| l.followers.len())
+        .max()
+        .unwrap();
+    assert_eq!(followers, 45);
+    assert_eq!(walkers(&campaign, None), 94);
+    assert_eq!(walkers(&campaign, Some(Updates::Blocked)), 32);
+}

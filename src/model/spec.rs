@@ -248,7 +248,8 @@ pub struct PoolingSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SamplerSpec {
-    /// Walkers per ensemble (default: max(32, 4·d + 4), d the coordinates one update moves).
+    /// Walkers per ensemble (default: max(32, 4·d + 4, 2·f + 4), d the coordinates one update
+    /// moves, f the most followers a hierarchical update carries).
     #[serde(default)]
     pub walkers: Option<usize>,
     /// Independent ensembles (default 4).

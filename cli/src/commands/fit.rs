@@ -78,8 +78,8 @@ pub(super) struct RunArgs {
     /// Seed (overrides the model file's).
     #[arg(long)]
     seed: Option<u64>,
-    /// Walkers per ensemble (default: the model file's, else max(32, 4·d + 4), d the
-    /// coordinates one update moves).
+    /// Walkers per ensemble (default: the model file's, else max(32, 4·d + 4, 2·f + 4), d the
+    /// coordinates one update moves, f the most followers a hierarchical update carries).
     #[arg(long)]
     walkers: Option<usize>,
     /// Fixed number of steps (default: the model file's, else run until converged).
