@@ -370,3 +370,54 @@ fn pooled_t0_predicts_a_new_contact() {
     );
     assert!(get(&s, "F_peak_new", "m").median.is_finite());
 }
+
+/// Default walkers: max(32, 4·d + 4, 2·f + 4). The demo's largest block has 3 coordinates and
+/// its shared blocks carry 7 and 6 followers: 32. A material of 15 contacts (first + repeat
+/// slide each) carries 45 followers under hierarchical updates, so its regressions get 94
+/// walkers; blocked updates carry none and keep 32.
+#[test]
+fn default_walkers_grow_with_the_followers_of_a_shared_block() {
+    use slipbayes::fit::SettingOverrides;
+    use slipbayes::sampler::Updates;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let demo_text = std::fs::read_to_string(root.join("models/demo.toml"))
+        .unwrap()
+        .replace("../data/", &format!("{}/", root.join("data").display()));
+    let demo_path = dir.path().join("demo.toml");
+    std::fs::write(&demo_path, demo_text).unwrap();
+    let demo = Posterior::new(&ModelSpec::load(&demo_path).unwrap()).unwrap();
+    let walkers = |post: &Posterior, updates: Option<Updates>| {
+        let overrides = SettingOverrides {
+            updates,
+            ..SettingOverrides::default()
+        };
+        FitSettings::for_model(post, &overrides).walkers
+    };
+    assert_eq!(walkers(&demo, None), 32);
+
+    let data = root.join("data");
+    let mut text = String::from("[[material]]\nname = \"PTFE\"\n");
+    for c in 0..15 {
+        text += &format!(
+            "[[contact]]\nname = \"c{c}\"\nmaterial = \"PTFE\"\n\
+             [[run]]\nname = \"c{c}-first\"\ncontact = \"c{c}\"\ndata = \"{d}/ptfe-c1-first.csv\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"first\"\n\
+             [[run]]\nname = \"c{c}-repeat\"\ncontact = \"c{c}\"\ndata = \"{d}/ptfe-c1-repeat.csv\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"repeat\"\nfollows = \"c{c}-first\"\n",
+            d = data.display()
+        );
+    }
+    let path = dir.path().join("campaign.toml");
+    std::fs::write(&path, text).unwrap();
+    let campaign = Posterior::new(&ModelSpec::load(&path).unwrap()).unwrap();
+    let followers = campaign
+        .block_links()
+        .iter()
+        .map(|l| l.followers.len())
+        .max()
+        .unwrap();
+    assert_eq!(followers, 45);
+    assert_eq!(walkers(&campaign, None), 94);
+    assert_eq!(walkers(&campaign, Some(Updates::Blocked)), 32);
+}
