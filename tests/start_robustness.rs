@@ -1,7 +1,9 @@
-//! The start of a fit must reach the posterior's mode on data where it once did not: two
-//! prior draws of the SBC in `reports/validation.md` (replications 6 and 154 of seed 1, with
-//! other noise), whose fits began thousands of log-density units below the mode and stayed
-//! unconverged at 1,000 steps (R̂ 1.34 and 3.43).
+//! The start of a fit must reach the posterior's mode on data where it once did not: three
+//! prior draws of the SBC in `reports/validation.md` (replications 6, 14 and 154 of seed 1,
+//! with other noise), whose fits began thousands of log-density units below the mode and stayed
+//! unconverged at 1,000 steps (R̂ 1.34, 1.62 and 3.43). Each of the start's three repairs has a
+//! test that fails without it: the loading slope, the simplex width (replication 14's start)
+//! and the repeated mode search (replication 6).
 
 use std::path::Path;
 
@@ -55,10 +57,9 @@ fn posterior(dir: &Path, d: &Draw) -> Posterior {
     Posterior::new(&ModelSpec::load(&model).unwrap()).unwrap()
 }
 
-/// The mode found from the fit's start is at least as high as the density at the truth.
-fn check(label: &str, d: &Draw) {
-    let dir = tempfile::tempdir().unwrap();
-    let post = posterior(dir.path(), d);
+/// The posterior of draw `d` (its files in `dir`) and its log-density at the truth.
+fn at_truth(dir: &Path, label: &str, d: &Draw) -> (Posterior, f64) {
+    let post = posterior(dir, d);
     let truth: Vec<f64> = post
         .param_names()
         .iter()
@@ -71,16 +72,29 @@ fn check(label: &str, d: &Draw) {
             other => panic!("{label}: unexpected coordinate {other}"),
         })
         .collect();
-    let at_truth = post.log_density(&truth, &mut vec![0.0; post.derived_names().len()]);
-    let at_truth = at_truth.unwrap();
+    let value = log_density(&post, &truth);
+    (post, value)
+}
+
+fn log_density(post: &Posterior, x: &[f64]) -> f64 {
+    post.log_density(x, &mut vec![0.0; post.derived_names().len()])
+        .unwrap()
+}
+
+/// The mode found from the fit's start is at least as high as the density at the truth.
+fn check(label: &str, d: &Draw) {
+    let dir = tempfile::tempdir().unwrap();
+    let (post, truth) = at_truth(dir.path(), label, d);
     let mode = find_mode(&post, post.start()).unwrap();
     assert!(
-        mode.log_density >= at_truth,
-        "{label}: the search from the start ends at log-density {} below the truth's {at_truth}",
+        mode.log_density >= truth,
+        "{label}: the search from the start ends at log-density {} below the truth's {truth}",
         mode.log_density
     );
 }
 
+/// End to end: the loading slope and the repeated mode search each rescue this draw alone
+/// (the search began at −22,506 against +2,005 at the truth before either).
 #[test]
 fn a_stiff_contact_sampled_coarsely_starts_at_its_mode() {
     // k = 5.8e4 N/m: the repeat slide reaches half its plateau within one 40 s sample.
@@ -142,3 +156,28 @@ fn a_narrow_ridge_is_climbed_to_its_mode() {
         },
     );
 }
+
+/// α = 1.4e6 1/m (replication 14): each slide's first Nelder–Mead simplex, 0.5·|ln θ| wide,
+/// wandered to a/F_d = 1e28 and F_d = 1e-33, and the start lay at −5,311 against +1,766 at the
+/// truth (the mode search then recovered). With simplexes 0.05·|ln θ| wide the start itself is
+/// in the mode's basin.
+#[test]
+fn a_large_alpha_draw_starts_in_the_basin_of_its_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let (post, truth) = at_truth(dir.path(), "replication 14", &REPLICATION_14);
+    let start = log_density(&post, post.start());
+    assert!(
+        start > truth - 200.0,
+        "the start's log-density {start} is far below the truth's {truth}"
+    );
+    check("replication 14", &REPLICATION_14);
+}
+
+const REPLICATION_14: Draw = Draw {
+    alpha: 1_418_366.299_421_231,
+    ratio: 0.642_457_140_001_231_3,
+    f_d: 0.007_356_591_286_601_5,
+    t0: 2.859_498_762_788_34,
+    k: 16_383.139_459_510_81,
+    sigma: [2.198_917_744_093_462_5e-4, 1.909_071_806_205_529_7e-4],
+};

@@ -374,15 +374,13 @@ impl RunData {
                 .take_while(|&i| self.force[i] < fraction * late)
                 .collect()
         };
-        let idx = below(0.5);
-        let idx = if idx.len() >= 3 {
-            idx
-        } else {
-            match below(0.9) {
-                near if near.len() >= 2 => near,
-                _ => (0..self.n_obs.min(10)).collect(),
-            }
-        };
+        let mut idx = below(0.5);
+        if idx.len() < 3 {
+            idx = below(0.9);
+        }
+        if idx.len() < 2 {
+            idx = (0..self.n_obs.min(10)).collect();
+        }
         let n = idx.len() as f64;
         let mt = idx.iter().map(|&i| t[i]).sum::<f64>() / n;
         let mf = idx.iter().map(|&i| self.force[i]).sum::<f64>() / n;

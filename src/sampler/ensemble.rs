@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{ComplementFit, ConditionalFit, Fitted, Followers, KdeFit, Move};
+use super::moves::{Followers, HalfStepFit, Move};
 use crate::density::{BlockLinks, Eval};
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
@@ -256,24 +256,13 @@ impl Ensemble {
         };
         let links = block.map(|b| &b.links);
         let given = links.map_or(&[][..], |l| &l.given[..]);
-        let mut conditional = match (*mv, block) {
-            (Move::Independence { dof }, Some(b)) if !given.is_empty() => {
-                ConditionalFit::new(&s.positions, ndim, complement, &b.coords, given, dof)
-            }
-            _ => None,
-        };
-        // Without a conditional (none asked for, or too few complement walkers for one): the
-        // block's own marginal.
-        let mut fit = match *mv {
-            Move::Independence { dof } if conditional.is_none() => {
-                ComplementFit::new(moved, complement, dim, dof)
-            }
-            _ => None,
-        };
-        let mut kde = match *mv {
-            Move::Kde { bandwidth } => KdeFit::new(moved, complement, dim, bandwidth),
-            _ => None,
-        };
+        let mut fit = HalfStepFit::new(
+            mv,
+            (&s.positions, ndim),
+            (moved, dim),
+            complement,
+            block.map(|b| (&b.coords[..], given)),
+        );
         let followers = block
             .filter(|b| !b.links.followers.is_empty())
             .and_then(|b| {
@@ -297,17 +286,11 @@ impl Ensemble {
             } else {
                 &mut *o
             };
-            let walker_fit = match (conditional.as_mut(), fit.as_mut(), kde.as_mut()) {
-                (Some(c), _, _) => Fitted::Gaussian(c.given(x, given)),
-                (None, Some(f), _) => Fitted::Gaussian(f),
-                (None, None, Some(k)) => Fitted::Kde(k),
-                (None, None, None) => Fitted::Nothing,
-            };
             let c = mv.propose(
                 &moved[w * dim..(w + 1) * dim],
                 moved,
                 complement,
-                walker_fit,
+                fit.for_walker(x, given),
                 rng,
                 target,
                 scratch_idx,

@@ -510,6 +510,18 @@ fn complement_cov(
     cov / (complement.len() as f64 - 1.0)
 }
 
+/// The complement's sample mean and unbiased covariance of all `ndim` coordinates.
+fn complement_moments(
+    positions: &[f64],
+    ndim: usize,
+    complement: &[usize],
+) -> (Vec<f64>, nalgebra::DMatrix<f64>) {
+    let all: Vec<usize> = (0..ndim).collect();
+    let mean = complement_mean(positions, ndim, complement, &all);
+    let cov = complement_cov(positions, ndim, complement, (&all, &mean), (&all, &mean));
+    (mean, cov)
+}
+
 /// The Gaussian (or Student-t) fitted to the complementary half for [`Move::Independence`]:
 /// computed once per half-step, then one proposal per active walker.
 #[derive(Debug, Clone)]
@@ -536,9 +548,7 @@ impl ComplementFit {
         if complement.len() <= ndim {
             return None;
         }
-        let all: Vec<usize> = (0..ndim).collect();
-        let mean = complement_mean(positions, ndim, complement, &all);
-        let cov = complement_cov(positions, ndim, complement, (&all, &mean), (&all, &mean));
+        let (mean, cov) = complement_moments(positions, ndim, complement);
         Self::from_moments(mean, cov, dof)
     }
 
@@ -614,7 +624,66 @@ impl ComplementFit {
     }
 }
 
-/// What a move proposes from that was fitted to the complement once per half-step.
+/// What a move fits to the complement once per half-step, before proposing for every walker
+/// of the active half.
+pub(crate) enum HalfStepFit {
+    /// Nothing to fit, or the complement cannot be fitted (too few walkers, or a covariance
+    /// that is not positive definite).
+    Nothing,
+    /// [`Move::Independence`] in a block with coordinates it is given: each walker is proposed
+    /// from the block's conditional given its own values of them.
+    Conditional(ConditionalFit),
+    /// [`Move::Independence`] otherwise: the marginal of the coordinates moved.
+    Marginal(ComplementFit),
+    /// [`Move::Kde`].
+    Kde(KdeFit),
+}
+
+impl HalfStepFit {
+    /// The fit `mv` needs. `positions` holds all walkers (`ndim` per row) and `moved` their
+    /// coordinates the move acts on (`dim` per row; the same as `positions` for joint
+    /// updates); `block` is the block's coordinates and those it is given, when blocked. A
+    /// conditional the complement is too small for falls back to the marginal.
+    pub fn new(
+        mv: &Move,
+        (positions, ndim): (&[f64], usize),
+        (moved, dim): (&[f64], usize),
+        complement: &[usize],
+        block: Option<(&[usize], &[usize])>,
+    ) -> Self {
+        let fitted = match (*mv, block) {
+            (Move::Independence { dof }, Some((coords, given))) if !given.is_empty() => {
+                ConditionalFit::new(positions, ndim, complement, coords, given, dof)
+                    .map(Self::Conditional)
+            }
+            _ => None,
+        };
+        fitted
+            .or_else(|| match *mv {
+                Move::Independence { dof } => {
+                    ComplementFit::new(moved, complement, dim, dof).map(Self::Marginal)
+                }
+                Move::Kde { bandwidth } => {
+                    KdeFit::new(moved, complement, dim, bandwidth).map(Self::Kde)
+                }
+                _ => None,
+            })
+            .unwrap_or(Self::Nothing)
+    }
+
+    /// What to propose from for the walker at `x` (all its coordinates), given coordinates
+    /// `given`.
+    pub fn for_walker(&mut self, x: &[f64], given: &[usize]) -> Fitted<'_> {
+        match self {
+            Self::Nothing => Fitted::Nothing,
+            Self::Conditional(c) => Fitted::Gaussian(c.given(x, given)),
+            Self::Marginal(f) => Fitted::Gaussian(f),
+            Self::Kde(k) => Fitted::Kde(k),
+        }
+    }
+}
+
+/// What a move proposes from for one walker (see [`HalfStepFit`]).
 pub(crate) enum Fitted<'f> {
     /// Nothing fitted: a move that needs no fit, or a complement without a full-rank covariance.
     Nothing,
@@ -652,9 +721,7 @@ impl KdeFit {
             return None;
         }
         let h = bandwidth.unwrap_or_else(|| (n as f64).powf(-1.0 / (ndim as f64 + 4.0)));
-        let all: Vec<usize> = (0..ndim).collect();
-        let mean = complement_mean(positions, ndim, complement, &all);
-        let cov = complement_cov(positions, ndim, complement, (&all, &mean), (&all, &mean));
+        let (_, cov) = complement_moments(positions, ndim, complement);
         let mut kernel = ComplementFit::from_moments(vec![0.0; ndim], cov * (h * h), None)?;
         let mut centres = Vec::with_capacity(n * ndim);
         let mut white = Vec::with_capacity(n * ndim);
