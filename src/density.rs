@@ -110,6 +110,54 @@ pub trait LogDensity: Sync {
         Vec::new()
     }
 
+    /// Coordinates in which to search for a mode (and draw the first walkers around it), for a
+    /// density that has none in its own: a centred hierarchical model is unbounded where a
+    /// population's spread vanishes with its members at its mean, and has a mode in the
+    /// non-centred coordinates. `None` (the default): search in the density's own.
+    fn search_map(&self) -> Option<&dyn SearchMap> {
+        None
+    }
+
+    /// Blocks (indices into [`blocks`](Self::blocks)) whose conditional density given every
+    /// other coordinate [`conditional_log_density`](Self::conditional_log_density) evaluates
+    /// cheaply, without the likelihood: typically the population level of a hierarchical
+    /// model (a mean and a spread) given its members' values. A sampler may then update such
+    /// a block exactly, by slice sampling that conditional, instead of by ensemble moves.
+    /// Empty (the default): none.
+    fn conditional_blocks(&self) -> Vec<usize> {
+        Vec::new()
+    }
+
+    /// ln p(x_B | every other coordinate) for a block B of
+    /// [`conditional_blocks`](Self::conditional_blocks), up to a constant that does not depend
+    /// on x_B; −∞ outside the support. Between two points that differ only in block B it must
+    /// change exactly as [`log_density`](Self::log_density) does (to rounding). NaN by default.
+    fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
+        let _ = (block, x);
+        f64::NAN
+    }
+
+    /// Whether the density moves the followers of `block` along itself, by
+    /// [`carry_followers`](Self::carry_followers), when a move changes the block (false by
+    /// default: a sampler carries them by regression, or not at all).
+    fn carries_followers(&self, block: usize) -> bool {
+        let _ = block;
+        false
+    }
+
+    /// Moves the followers of `block` (see [`block_links`](Self::block_links)) along with the
+    /// block: `from` is the current point, `to` a copy of it with the block's coordinates
+    /// already moved, whose followers this sets. Returns ln |det J| of the map from the
+    /// followers' old values to their new ones at fixed block values, which the sampler adds
+    /// to the proposal's log-ratio. The map must be a bijection whose inverse is the same map
+    /// from `to` back to `from` (the non-centred map of a hierarchical model: each member
+    /// keeps its standardised offset from the population). Unused unless
+    /// [`carries_followers`](Self::carries_followers) says so.
+    fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
+        let _ = (block, from, to);
+        0.0
+    }
+
     /// Length of the per-point cache that [`log_density_cached`](Self::log_density_cached)
     /// fills and [`log_density_block`](Self::log_density_block) reuses (0 by default).
     fn cache_len(&self) -> usize {
@@ -151,6 +199,32 @@ pub trait LogDensity: Sync {
         let _ = block;
         self.log_density_cached(x, derived, cache)
     }
+
+    /// [`log_density_block`](Self::log_density_block) at a point that differs from the cache's
+    /// only in the coordinates of `block` itself, its followers staying where they are (an
+    /// exact conditional draw moves no followers): the density may skip the parts that only
+    /// the followers change. By default [`log_density_block`](Self::log_density_block).
+    ///
+    /// # Errors
+    /// As [`log_density`](Self::log_density).
+    fn log_density_block_alone(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density_block(block, x, derived, cache)
+    }
+}
+
+/// A bijection between a density's coordinates x and the coordinates y of
+/// [`LogDensity::search_map`]. The density of y is p(x(y)) |det ∂x/∂y|.
+pub trait SearchMap: Sync {
+    /// y of `x`, written into `y`.
+    fn search_point(&self, x: &[f64], y: &mut [f64]);
+    /// x of `y`, written into `x`; returns ln |det ∂x/∂y| at `y`.
+    fn density_point(&self, y: &[f64], x: &mut [f64]) -> f64;
 }
 
 /// How one block of a hierarchical density depends on the others: typically a group's own

@@ -343,8 +343,8 @@ fn pooled_t0_predicts_a_new_contact() {
     for n in [
         "ln_t0_pop_median[m]",
         "ln_t0_pop_log_sd[m]",
-        "z_t0[r1]",
-        "z_t0[r2]",
+        "ln_t0[r1]",
+        "ln_t0[r2]",
     ] {
         assert!(names.contains(&n.to_string()), "{n} missing from {names:?}");
     }

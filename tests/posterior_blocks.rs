@@ -82,10 +82,108 @@ fn check_block_updates(label: &str, post: &Posterior) {
     }
     assert!(checked >= 30, "{label}: only {checked} points evaluated");
     assert!(lp.is_finite());
+    check_conditional_blocks(label, post, &x);
     assert_eq!(
         post.log_density(&x, &mut derived).unwrap().to_bits(),
         lp.to_bits()
     );
+}
+
+/// Each conditional block (a t0 population) at `x`: its conditional density changes as the
+/// log-density does when only the block moves; the update of the block alone equals a full
+/// evaluation bit for bit; the non-centred map keeps each member's standardised offset and
+/// is its own inverse, with opposite Jacobians.
+fn check_conditional_blocks(label: &str, post: &Posterior, x: &[f64]) {
+    let (nd, nc) = (post.derived_names().len(), post.cache_len());
+    let blocks = post.blocks();
+    let links = post.block_links();
+    let (mut derived, mut cache) = (vec![0.0; nd], vec![0.0; nc]);
+    let lp = post
+        .log_density_cached(x, &mut derived, &mut cache)
+        .unwrap();
+    // The search coordinates (non-centred) map back to the point, with the Jacobian of one
+    // ln s per member.
+    if let Some(map) = post.search_map() {
+        let mut y = vec![0.0; x.len()];
+        map.search_point(x, &mut y);
+        let mut back = vec![0.0; x.len()];
+        let ln_jacobian = map.density_point(&y, &mut back);
+        assert!(
+            x.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-12),
+            "{label}"
+        );
+        let members = x.iter().zip(&y).filter(|(a, b)| a != b).count();
+        assert!(
+            members > 0 && ln_jacobian != 0.0,
+            "{label}: {members} members"
+        );
+    } else {
+        assert!(post.conditional_blocks().is_empty(), "{label}");
+    }
+    for b in post.conditional_blocks() {
+        // Every population of the block (μ, ln s pairs) moves: μ up, ln s down.
+        let mut y = x.to_vec();
+        for (k, &i) in blocks[b].iter().enumerate() {
+            y[i] += if k % 2 == 0 { 0.3 } else { -0.4 };
+        }
+        let (mut d_alone, mut c_alone) = (derived.clone(), cache.clone());
+        let alone = post
+            .log_density_block_alone(b, &y, &mut d_alone, &mut c_alone)
+            .unwrap();
+        let (mut d_full, mut c_full) = (vec![0.0; nd], vec![0.0; nc]);
+        let full = post
+            .log_density_cached(&y, &mut d_full, &mut c_full)
+            .unwrap();
+        assert!(
+            same(alone, full),
+            "{label}: block {b} alone: {alone} vs {full}"
+        );
+        assert!(d_alone.iter().zip(&d_full).all(|(u, v)| same(*u, *v)));
+        assert!(c_alone.iter().zip(&c_full).all(|(u, v)| same(*u, *v)));
+        let change = post.conditional_log_density(b, &y) - post.conditional_log_density(b, x);
+        assert!(
+            ((full - lp) - change).abs() <= 1e-9 * lp.abs(),
+            "{label}: block {b}: the conditional changes by {change}, the density by {}",
+            full - lp
+        );
+        // The non-centred map there and back, where the members follow the population: it
+        // keeps every member's non-centred coordinate, with the search map's Jacobian.
+        if !post.carries_followers(b) {
+            assert!(
+                label.contains("by material"),
+                "{label}: block {b} carries nothing"
+            );
+            continue;
+        }
+        let map = post.search_map().expect("a search map with populations");
+        let mut there = y.clone();
+        let jacobian = post.carry_followers(b, x, &mut there);
+        let mut back = x.to_vec();
+        let back_jacobian = post.carry_followers(b, &there, &mut back);
+        assert_eq!(jacobian, -back_jacobian, "{label}: block {b}");
+        assert!(
+            x.iter().zip(&back).all(|(u, v)| (u - v).abs() < 1e-12),
+            "{label}"
+        );
+        let (mut z_x, mut z_there) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        map.search_point(x, &mut z_x);
+        map.search_point(&there, &mut z_there);
+        let moved: Vec<usize> = (0..x.len())
+            .filter(|&i| there[i] != x[i] && !blocks[b].contains(&i))
+            .collect();
+        assert!(!moved.is_empty(), "{label}: block {b} carries nothing");
+        assert!(links[b]
+            .followers
+            .iter()
+            .all(|&i| (z_x[i] - z_there[i]).abs() < 1e-12));
+        let mut scratch = vec![0.0; x.len()];
+        let ln_j = |z: &[f64], s: &mut [f64]| map.density_point(z, s);
+        let expected = ln_j(&z_there, &mut scratch) - ln_j(&z_x, &mut scratch);
+        assert!(
+            (jacobian - expected).abs() < 1e-9,
+            "{label}: Jacobian {jacobian}, search map's {expected}"
+        );
+    }
 }
 
 fn names(post: &Posterior, block: &[usize]) -> Vec<String> {
@@ -167,6 +265,11 @@ fn block_updates_equal_full_evaluations_in_every_variant() {
     let dir = tempfile::tempdir().unwrap();
     let variants = [
         ("pooled.toml", "[pooling]\nt0 = true"),
+        ("pooled-fd.toml", "[pooling]\nt0 = true\nF_d = true"),
+        (
+            "pooled-a-k.toml",
+            "[levels]\na = \"contact\"\n[pooling]\na = true\nk = true",
+        ),
         ("absolute.toml", "aging = \"absolute\""),
         (
             "sigma.toml",
@@ -178,6 +281,13 @@ fn block_updates_equal_full_evaluations_in_every_variant() {
         for blocks in ["material", "contact"] {
             let post = demo_variant(dir.path(), name, extra, blocks);
             assert!(post.blocks().len() >= 2, "{name}");
+            // Pooling adds each material's populations as a conditional block.
+            let populations = if name.starts_with("pooled") { 2 } else { 0 };
+            assert_eq!(
+                post.conditional_blocks().len(),
+                populations,
+                "{name} by {blocks}"
+            );
             check_block_updates(&format!("{name} by {blocks}"), &post);
         }
     }

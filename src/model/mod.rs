@@ -18,4 +18,4 @@ pub mod spec;
 
 pub use one_contact::OneContact;
 pub use posterior::{Band, Posterior, PosteriorError};
-pub use spec::{Blocking, ModelFile, ModelSpec, SpecError};
+pub use spec::{Blocking, ModelFile, ModelSpec, PopulationUpdates, SpecError};

@@ -235,13 +235,43 @@ impl RunSpec {
     }
 }
 
-/// Partial pooling of a parameter within its material.
+/// Partial pooling of parameters within their material: ln θ ~ Normal(μ_material,
+/// s_material) over the material's contacts (or runs), sampled centred (the members' ln θ are
+/// coordinates) with the population drawn exactly. Each needs its parameter at the contact or
+/// run level.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct PoolingSpec {
-    /// Pool ln t0 within each material: ln t0 ~ Normal(μ_material, s_material), non-centred.
+    /// Pool t0.
     #[serde(default)]
     pub t0: bool,
+    /// Pool F_d.
+    #[serde(default, rename = "F_d")]
+    pub f_d: bool,
+    /// Pool k.
+    #[serde(default)]
+    pub k: bool,
+    /// Pool a (a/F_d under `aging = "ratio"`).
+    #[serde(default)]
+    pub a: bool,
+}
+
+impl PoolingSpec {
+    /// Whether `p` is pooled.
+    pub fn pools(&self, p: Param) -> bool {
+        match p {
+            Param::T0 => self.t0,
+            Param::FD => self.f_d,
+            Param::K => self.k,
+            Param::A => self.a,
+            Param::Alpha | Param::Sigma => false,
+        }
+    }
+
+    /// Whether any parameter is pooled.
+    pub fn any(&self) -> bool {
+        Param::ALL.into_iter().any(|p| self.pools(p))
+    }
 }
 
 /// Sampler settings of a fit.
@@ -283,6 +313,31 @@ pub struct SamplerSpec {
     /// contacts' and shared ones together).
     #[serde(default)]
     pub blocks: Blocking,
+    /// How a pooled parameter's population moves under blocked or hierarchical updates.
+    #[serde(default, skip_serializing_if = "PopulationUpdates::is_default")]
+    pub populations: PopulationUpdates,
+}
+
+/// How the population of a pooled parameter (its μ and ln s) is updated.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PopulationUpdates {
+    /// Both, one after the other in every step (the default): neither strong nor weak data
+    /// stall the chain.
+    #[default]
+    Interwoven,
+    /// Drawn exactly from its conditional given the members (centred): mixes where the data
+    /// pin the members, stalls in the funnel where they do not.
+    Exact,
+    /// Moved by the ensemble's moves with the members carried along the non-centred map:
+    /// mixes where the data say little about the members, stalls where they pin them.
+    Carried,
+}
+
+impl PopulationUpdates {
+    fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// The blocks of blocked updates.
@@ -326,6 +381,7 @@ impl Default for SamplerSpec {
             moves: None,
             updates: None,
             blocks: Blocking::default(),
+            populations: PopulationUpdates::default(),
         }
     }
 }
@@ -386,16 +442,27 @@ pub fn default_prior(name: &str) -> Option<Prior> {
             low: Some(1e-9),
             high: Some(1e4),
         }),
-        "t0_pop_log_sd" => Some(Prior::HalfNormal {
+        // Any pooled parameter: sd of its ln over the material's contacts, up to a factor e^5.
+        "t0_pop_log_sd"
+        | "F_d_pop_log_sd"
+        | "k_pop_log_sd"
+        | "a_pop_log_sd"
+        | "a_over_F_d_pop_log_sd" => Some(Prior::HalfNormal {
             sd: 1.0,
             high: Some(5.0),
         }),
+        // The median of a pooled F_d, k or a (a/F_d) population has the parameter's own
+        // default prior (`ModelSpec::prior` follows a prior the file gives the parameter).
+        "F_d_pop_median" => default_prior("F_d"),
+        "k_pop_median" => default_prior("k"),
+        "a_pop_median" => default_prior("a"),
+        "a_over_F_d_pop_median" => default_prior("a_over_F_d"),
         _ => None,
     }
 }
 
 /// Names a model file may give priors for.
-pub const PRIOR_NAMES: [&str; 9] = [
+pub const PRIOR_NAMES: [&str; 17] = [
     "alpha",
     "a",
     "a_over_F_d",
@@ -405,6 +472,14 @@ pub const PRIOR_NAMES: [&str; 9] = [
     "sigma",
     "t0_pop_median",
     "t0_pop_log_sd",
+    "F_d_pop_median",
+    "F_d_pop_log_sd",
+    "k_pop_median",
+    "k_pop_log_sd",
+    "a_pop_median",
+    "a_pop_log_sd",
+    "a_over_F_d_pop_median",
+    "a_over_F_d_pop_log_sd",
 ];
 
 /// A validated model: names resolved to indices, data paths made absolute.
@@ -594,13 +669,18 @@ impl ModelSpec {
                 ));
             }
         }
-        if file.pooling.t0
-            && file.levels.get(&Param::T0).copied().unwrap_or(Level::Run) == Level::Material
-        {
-            return Err(invalid(
-                "pooling.t0".into(),
-                "t0 pooled within a material needs t0 at the contact or run level".into(),
-            ));
+        for p in [Param::T0, Param::FD, Param::K, Param::A] {
+            let level = file.levels.get(&p).copied().unwrap_or(p.default_level());
+            if file.pooling.pools(p) && level == Level::Material {
+                return Err(invalid(
+                    format!("pooling.{}", p.name()),
+                    format!(
+                        "{0} pooled within a material needs {0} at the contact or run level: \
+                         add `{0} = \"contact\"` under [levels]",
+                        p.name()
+                    ),
+                ));
+            }
         }
         let s = &file.sampler;
         if s.ensembles == 0 {
@@ -642,10 +722,15 @@ impl ModelSpec {
 
     /// Prior of a named quantity: the model file's, else the default.
     pub fn prior(&self, name: &str) -> Prior {
+        // The median of a pooled F_d, k or a population follows the parameter's prior.
+        let follows = name
+            .strip_suffix("_pop_median")
+            .filter(|p| *p != "t0" && self.file.priors.contains_key(*p));
         self.file
             .priors
             .get(name)
             .cloned()
+            .or_else(|| follows.map(|p| self.prior(p)))
             .or_else(|| default_prior(name))
             .unwrap_or(Prior::LogUniform {
                 low: 1e-300,

@@ -13,7 +13,7 @@ use rand_distr::StandardNormal;
 use super::lbfgs::{lbfgs, LbfgsOptions};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::OptimizeError;
-use crate::density::{classify, Eval, LogDensity};
+use crate::density::{classify, Eval, LogDensity, LogDensityError, SearchMap};
 use crate::diagnostics::{blockwise_condition_number, WALKER_CONDITION_LIMIT};
 
 /// Covariance of the Laplace approximation at `mode` of the log-density `log_f`, from a
@@ -294,7 +294,9 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
 }
 
 /// Finds the mode of `density` from `start` ([`find_mode`]) and draws `ensembles × walkers`
-/// walkers from the Laplace approximation there ([`laplace_walkers`]).
+/// walkers from the Laplace approximation there ([`laplace_walkers`]). When the density names
+/// a [`search_map`](LogDensity::search_map), both happen in its coordinates (the optimum and
+/// its covariance are reported there) and the walkers are mapped back.
 ///
 /// # Errors
 /// As [`find_mode`] and [`laplace_walkers`].
@@ -305,7 +307,51 @@ pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
     ensembles: usize,
     rng: &mut R,
 ) -> Result<Start, OptimizeError> {
-    let optimum = find_mode(density, start)?;
-    let walkers = laplace_walkers(density, &optimum, walkers, ensembles, rng)?;
+    let Some(map) = density.search_map() else {
+        let optimum = find_mode(density, start)?;
+        let walkers = laplace_walkers(density, &optimum, walkers, ensembles, rng)?;
+        return Ok(Start { walkers, optimum });
+    };
+    let searched = Searched { density, map };
+    let mut y = vec![0.0; start.len()];
+    map.search_point(start, &mut y);
+    let optimum = find_mode(&searched, &y)?;
+    let mut walkers = laplace_walkers(&searched, &optimum, walkers, ensembles, rng)?;
+    for w in walkers.iter_mut().flatten() {
+        y.copy_from_slice(w);
+        map.density_point(&y, w);
+    }
     Ok(Start { walkers, optimum })
+}
+
+/// A density seen in the coordinates of its search map, with the map's Jacobian.
+struct Searched<'d, D: ?Sized> {
+    density: &'d D,
+    map: &'d dyn SearchMap,
+}
+
+impl<D: LogDensity + ?Sized> LogDensity for Searched<'_, D> {
+    fn dim(&self) -> usize {
+        self.density.dim()
+    }
+
+    fn derived_names(&self) -> Vec<String> {
+        self.density.derived_names()
+    }
+
+    fn log_density(&self, y: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
+        let mut x = vec![0.0; y.len()];
+        let ln_jacobian = self.map.density_point(y, &mut x);
+        Ok(self.density.log_density(&x, derived)? + ln_jacobian)
+    }
+
+    fn explain(&self, y: &[f64]) -> Option<String> {
+        let mut x = vec![0.0; y.len()];
+        self.map.density_point(y, &mut x);
+        self.density.explain(&x)
+    }
+
+    fn blocks(&self) -> Vec<Vec<usize>> {
+        self.density.blocks()
+    }
 }

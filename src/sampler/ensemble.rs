@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::moves::{Followers, HalfStepFit, Move};
+use super::slice::{update_coordinate, SliceError};
 use crate::density::{BlockLinks, Eval};
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
@@ -32,12 +33,23 @@ pub(crate) fn stream_rng(seed: u64, stream: u64) -> ChaCha8Rng {
 /// The coordinates one blocked update moves, and its links (empty unless the updates are
 /// hierarchical): independence proposals are conditional on the walker's `given`
 /// coordinates, and every move carries the `followers` along (evaluated with the block, see
-/// [`log_density_block`](crate::density::LogDensity::log_density_block)).
+/// [`log_density_block`](crate::density::LogDensity::log_density_block)). A `conditional`
+/// block is drawn exactly from its cheap conditional density by slice sampling (see
+/// [`Ensemble::draw_conditional`]), not by the moves.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct UpdateBlock {
     pub coords: Vec<usize>,
     pub links: BlockLinks,
+    pub conditional: bool,
+    /// The density moves the followers along itself (its non-centred map), instead of the
+    /// sampler's regression.
+    pub density_carries: bool,
 }
+
+/// The density's map carrying a block's followers along (see
+/// [`carry_followers`](crate::density::LogDensity::carry_followers)): from the current point
+/// to the proposal, returning the log-Jacobian.
+pub(crate) type CarryMap<'c> = &'c dyn Fn(&[f64], &mut [f64]) -> f64;
 
 /// Serialisable state of one ensemble.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -135,6 +147,8 @@ pub(crate) struct Ensemble {
     sub: Vec<f64>,
     /// One proposal in the current block.
     sub_out: Vec<f64>,
+    /// The current half-step's proposals are exact conditional draws, accepted as they are.
+    exact: bool,
 }
 
 impl Ensemble {
@@ -172,6 +186,7 @@ impl Ensemble {
             scratch_z: vec![0.0; half],
             sub: Vec::new(),
             sub_out: Vec::new(),
+            exact: false,
         }
     }
 
@@ -222,9 +237,20 @@ impl Ensemble {
     ///
     /// With `block` the move acts in the block's subspace: on the walkers' coordinates in the
     /// block, the others staying where they are (but for the block's followers, carried along
-    /// by regression); the proposal's derived values and cache start as the walker's own, for
+    /// by regression, or by the density's map when one is given, its log-Jacobian joining the
+    /// proposal ratio); the proposal's derived values and cache start as the walker's own, for
     /// the block update to bring up to date.
-    pub fn draw(&mut self, mv: &Move, h: usize, block: Option<&UpdateBlock>, out: ProposalBuffers) {
+    pub fn draw(
+        &mut self,
+        mv: &Move,
+        h: usize,
+        block: Option<(&UpdateBlock, Option<CarryMap>)>,
+        out: ProposalBuffers,
+    ) {
+        let (block, carry) = match block {
+            Some((b, c)) => (Some(b), c),
+            None => (None, None),
+        };
         let ndim = self.ndim;
         let Self {
             s,
@@ -239,8 +265,10 @@ impl Ensemble {
             sub_out,
             nderived,
             cache_len,
+            exact,
             ..
         } = self;
+        *exact = false;
         let (active, complement) = Self::halves(perm, h);
         // The move sees the walkers' coordinates in the block (all of them when joint).
         let (moved, dim): (&[f64], usize) = match block {
@@ -264,7 +292,7 @@ impl Ensemble {
             block.map(|b| (&b.coords[..], given)),
         );
         let followers = block
-            .filter(|b| !b.links.followers.is_empty())
+            .filter(|b| !b.links.followers.is_empty() && carry.is_none())
             .and_then(|b| {
                 Followers::new(
                     &s.positions,
@@ -306,10 +334,103 @@ impl Ensemble {
                 if let Some(f) = &followers {
                     f.carry(x, &b.coords, &b.links.followers, o);
                 }
+                if let Some(map) = carry {
+                    // The followers' Jacobian joins the proposal's density ratio.
+                    let ln_jacobian = map(x, o);
+                    let ln_factor = if factor[k].is_normal() {
+                        factor[k].ln()
+                    } else {
+                        log_factor[k]
+                    };
+                    log_factor[k] = ln_factor + ln_jacobian;
+                    factor[k] = log_factor[k].exp();
+                }
                 out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
                 out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
             }
         }
+    }
+
+    /// Draws the walkers of half `h` exactly from the conditional density of `block` given
+    /// their other coordinates (`ln_conditional`, cheap: no likelihood), each coordinate of
+    /// the block in turn by one slice update from the walker's own stream. The proposals are
+    /// accepted as they are (a Gibbs step); their evaluation only brings the stored
+    /// log-density, derived values and cache up to date.
+    ///
+    /// The initial slice width of a coordinate is its spread over the complementary half,
+    /// which the update of the active half does not change: each walker's update leaves its
+    /// conditional invariant, whatever the width (see [`slice`](super::slice)).
+    ///
+    /// # Errors
+    /// [`Fatal`] naming the walker whose conditional density is not finite where its
+    /// log-density is, or whose slice collapsed.
+    pub fn draw_conditional(
+        &mut self,
+        h: usize,
+        block: &UpdateBlock,
+        ln_conditional: &dyn Fn(&[f64]) -> f64,
+        out: ProposalBuffers,
+    ) -> Result<(), Fatal> {
+        let ndim = self.ndim;
+        let Self {
+            s,
+            cache,
+            perm,
+            nderived,
+            cache_len,
+            exact,
+            ..
+        } = self;
+        *exact = true;
+        let (active, complement) = Self::halves(perm, h);
+        let widths: Vec<f64> = block
+            .coords
+            .iter()
+            .map(|&i| {
+                let (n, mut sum, mut sq) = (complement.len() as f64, 0.0, 0.0);
+                for &w in complement {
+                    let v = s.positions[w * ndim + i];
+                    sum += v;
+                    sq += v * v;
+                }
+                let sd = (sq / n - (sum / n).powi(2)).max(0.0).sqrt();
+                // A collapsed complement still needs a positive width.
+                if sd.is_normal() {
+                    sd
+                } else {
+                    1e-3
+                }
+            })
+            .collect();
+        let (nd, nc) = (*nderived, *cache_len);
+        let (sd, sc) = (nd.max(1), nc.max(1));
+        let mut ln_f = |x: &[f64]| ln_conditional(x);
+        for (k, &w) in active.iter().enumerate() {
+            let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
+            o.copy_from_slice(&s.positions[w * ndim..(w + 1) * ndim]);
+            let rng = &mut s.walker_rngs[w];
+            let mut f = ln_f(o);
+            for (&i, &width) in block.coords.iter().zip(&widths) {
+                f = update_coordinate(o, i, width, f, &mut ln_f, rng).map_err(|err| Fatal {
+                    walker: w,
+                    position: s.positions[w * ndim..(w + 1) * ndim].to_vec(),
+                    message: match err {
+                        SliceError::NotFinite(v) => format!(
+                            "the conditional density of block {:?} is {v} at a walker where the \
+                             log-density is finite",
+                            block.coords
+                        ),
+                        SliceError::Shrunk => format!(
+                            "the slice of coordinate {i} collapsed onto the walker: its \
+                             conditional density is inconsistent"
+                        ),
+                    },
+                })?;
+            }
+            out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
+            out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
+        }
+        Ok(())
     }
 
     /// Accepts or rejects the evaluated proposals of half `h` (`proposals`, `derived` with
@@ -331,8 +452,10 @@ impl Ensemble {
             factor,
             log_factor,
             accept_u,
+            exact,
             ..
         } = self;
+        let exact = *exact;
         let (active, _) = Self::halves(perm, h);
         s.evaluations += active.len() as u64;
 
@@ -348,6 +471,20 @@ impl Ensemble {
             });
         }
 
+        // An exact draw lies where the conditional density is finite: the density must be too.
+        if let Some(k) = evals
+            .iter()
+            .position(|e| exact && matches!(e, Eval::Rejected(_)))
+        {
+            return Err(Fatal {
+                walker: active[k],
+                position: proposals[k * ndim..(k + 1) * ndim].to_vec(),
+                message: format!(
+                    "the log-density refuses ({:?}) a point its conditional density allows",
+                    evals[k]
+                ),
+            });
+        }
         let stride = nderived.max(1);
         for (k, &w) in active.iter().enumerate() {
             match evals[k] {
@@ -356,7 +493,9 @@ impl Ensemble {
                     // uphill move with u < f needs no logarithm at all.
                     let delta = lp - s.log_density[w];
                     let f = factor[k];
-                    let accept = if f.is_normal() {
+                    let accept = if exact {
+                        true
+                    } else if f.is_normal() {
                         // ln q ≤ q − 1 and ln q ≥ 1 − 1/q decide most cases without the
                         // logarithm.
                         let q = accept_u[k] / f;
@@ -389,7 +528,10 @@ impl Ensemble {
                             cache[w * cache_len..(w + 1) * cache_len].copy_from_slice(c);
                         }
                         s.log_density[w] = lp;
-                        s.accepted[w] += 1;
+                        // Acceptance counts the moves' proposals, not the exact draws.
+                        if !exact {
+                            s.accepted[w] += 1;
+                        }
                     }
                 }
                 Eval::Rejected(reason) => match s.rejections.get_mut(reason) {

@@ -7,6 +7,9 @@
 //! - Moves ([`Move`]): stretch, differential evolution and walk, mixable with weights; the
 //!   red-blue update splits each ensemble randomly in two halves every step and updates one
 //!   from the other.
+//! - Blocked updates ([`Updates`]): one block of the density's coordinates after the other;
+//!   a block whose conditional density is cheap (the population level of a hierarchical
+//!   model) is drawn exactly by slice sampling instead of by ensemble moves.
 //! - Several independent ensembles (default 4) run side by side; R̂ between them detects
 //!   ensembles stuck in different modes.
 //! - Determinism: every walker draws from its own ChaCha8 stream (`seed`, stream id), all
@@ -60,6 +63,7 @@ mod observer;
 mod report;
 mod run;
 pub mod sink;
+mod slice;
 
 pub use config::{
     SamplerConfig, Steps, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,

@@ -372,7 +372,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             pending: (0..ensembles.len()).map(|_| None).collect(),
             step_moves: vec![config.moves()[0].0; ensembles.len()],
             work: Work::new(ensembles.len(), half, ndim, nderived, cache_len),
-            eval_ns: vec![None; blocks.len().max(1)],
+            eval_ns: vec![None; 2 * blocks.len().max(1)],
             half_steps: 0,
             density,
             config,
@@ -411,9 +411,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.deadline = deadline;
     }
 
-    /// Updates of each walker per step: one per block (one when joint).
+    /// Move updates of each walker per step: one per block (exact conditional draws, always
+    /// accepted, do not count towards the acceptance rate), one when joint.
     fn updates_per_step(&self) -> f64 {
-        self.blocks.len().max(1) as f64
+        self.blocks.iter().filter(|b| !b.conditional).count().max(1) as f64
     }
 
     /// Steps completed so far.
@@ -573,13 +574,22 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// loop (see [`evaluate`](Self::evaluate)).
     fn advance(&mut self, step_no: u64) -> Result<(), SamplerError> {
         let blocks = std::mem::take(&mut self.blocks);
+        // A conditional block is drawn exactly; when the density also carries its followers
+        // (the non-centred map), a move of the block with its followers follows, so that the
+        // two parametrisations of a hierarchical model interweave (Yu & Meng 2011): the exact
+        // draw mixes where the data pin the members, the carried move where they do not.
         let result = if blocks.is_empty() {
-            self.update(None)
+            self.update(None, false)
         } else {
-            blocks
-                .iter()
-                .enumerate()
-                .try_for_each(|(b, block)| self.update(Some((b, block))))
+            blocks.iter().enumerate().try_for_each(|(b, block)| {
+                if block.conditional {
+                    self.update(Some((b, block)), true)?;
+                }
+                if !block.conditional || block.density_carries {
+                    self.update(Some((b, block)), false)?;
+                }
+                Ok(())
+            })
         };
         self.blocks = blocks;
         result.map_err(|(e, f)| {
@@ -595,8 +605,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 
     /// Updates every walker of every ensemble once: all coordinates, or those of `block`
-    /// (its index and coordinates). Returns the first fatal evaluation.
-    fn update(&mut self, block: Option<(usize, &UpdateBlock)>) -> Result<(), (usize, Fatal)> {
+    /// (its index and coordinates), by the moves or, when `exact`, by an exact draw from the
+    /// block's conditional. Returns the first fatal evaluation.
+    fn update(
+        &mut self,
+        block: Option<(usize, &UpdateBlock)>,
+        exact: bool,
+    ) -> Result<(), (usize, Fatal)> {
         let moves = self.config.moves();
         let half = self.config.walkers() / 2;
         let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
@@ -610,11 +625,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 cache,
                 ..
             } = &mut self.work;
+            let density = self.density;
             for (((((ens, mv), p), props), der), cac) in self
                 .ensembles
                 .iter_mut()
                 .zip(&self.step_moves)
-                .zip(&self.pending)
+                .zip(self.pending.iter_mut())
                 .zip(proposals.chunks_exact_mut(half * ndim))
                 .zip(derived.chunks_exact_mut(half * stride))
                 .zip(cache.chunks_exact_mut(half * cstride))
@@ -626,10 +642,21 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                         derived: der,
                         cache: cac,
                     };
-                    ens.draw(mv, h, block.map(|b| b.1), out);
+                    match block {
+                        Some((b, ub)) if exact => {
+                            let ln_conditional = |x: &[f64]| density.conditional_log_density(b, x);
+                            *p = ens.draw_conditional(h, ub, &ln_conditional, out).err();
+                        }
+                        Some((b, ub)) if ub.density_carries => {
+                            let carry =
+                                |from: &[f64], to: &mut [f64]| density.carry_followers(b, from, to);
+                            ens.draw(mv, h, Some((ub, Some(&carry))), out);
+                        }
+                        _ => ens.draw(mv, h, block.map(|b| (b.1, None)), out),
+                    }
                 }
             }
-            self.evaluate(block.map(|b| b.0));
+            self.evaluate(block.map(|b| b.0), exact);
             let Work {
                 proposals,
                 derived,
@@ -666,7 +693,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// exceeds [`PARALLEL_MIN_WORK_NS`] (below it the synchronisation costs more than it
     /// saves), serially otherwise. The results are the same either way, so the choice (which
     /// depends on timing) cannot change the chains.
-    fn evaluate(&mut self, block: Option<usize>) {
+    fn evaluate(&mut self, block: Option<usize>, exact: bool) {
         let density = self.density;
         let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
         let (stride, cstride) = (nderived.max(1), cache_len.max(1));
@@ -678,7 +705,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         } = &mut self.work;
         let n = evals.len();
         let threads = rayon::current_num_threads();
-        let cost = &mut self.eval_ns[block.unwrap_or(0)];
+        // Exact draws move no followers and cost less: timed apart from the moves.
+        // (`self.blocks` is taken out during a step: the slots' count is the blocks'.)
+        let slot = block.unwrap_or(0) + if exact { self.eval_ns.len() / 2 } else { 0 };
+        let cost = &mut self.eval_ns[slot];
         let parallel = self.config.parallel()
             && threads > 1
             && cost.is_some_and(|c| c * n as f64 >= PARALLEL_MIN_WORK_NS);
@@ -689,6 +719,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             let (d, c) = (&mut d[..nderived], &mut c[..cache_len]);
             *e = sort(match block {
                 None => density.log_density_cached(x, d, c),
+                Some(b) if exact => density.log_density_block_alone(b, x, d, c),
                 Some(b) => density.log_density_block(b, x, d, c),
             });
         };
@@ -946,9 +977,11 @@ fn blocks_of<D: LogDensity + ?Sized>(
             ),
         });
     }
-    let links = match config.updates() {
-        Updates::Hierarchical => density.block_links(),
-        _ => Vec::new(),
+    let hierarchical = config.updates() == Updates::Hierarchical;
+    let links = if hierarchical {
+        density.block_links()
+    } else {
+        Vec::new()
     };
     if !links.is_empty() {
         let in_range = links
@@ -970,12 +1003,26 @@ fn blocks_of<D: LogDensity + ?Sized>(
             });
         }
     }
+    let conditional = density.conditional_blocks();
+    if let Some(&b) = conditional.iter().find(|&&b| b >= blocks.len()) {
+        return Err(SamplerError::InvalidConfig {
+            name: "conditional_blocks",
+            value: format!("{conditional:?}"),
+            requirement: format!(
+                "block {b} does not exist: name blocks below {}",
+                blocks.len()
+            ),
+        });
+    }
     let mut links = links.into_iter();
     Ok(blocks
         .into_iter()
-        .map(|coords| UpdateBlock {
+        .enumerate()
+        .map(|(b, coords)| UpdateBlock {
             coords,
             links: links.next().unwrap_or_default(),
+            conditional: conditional.contains(&b),
+            density_carries: hierarchical && density.carries_followers(b),
         })
         .collect())
 }

@@ -226,7 +226,7 @@ impl Design {
         if spec.run_follows[repeat] != Some(first) {
             return Err(bad("run `repeat` must follow the first slide".into()));
         }
-        if f.aging != Aging::Ratio || f.pooling.t0 {
+        if f.aging != Aging::Ratio || f.pooling.any() {
             return Err(bad(
                 "SBC draws a/F_d and one t0: use `aging = \"ratio\"` and no [pooling]".into(),
             ));

@@ -15,7 +15,7 @@
 
 use std::collections::BTreeSet;
 
-use super::layout::{CoordPrior, SigmaSource, T0Source};
+use super::layout::{Coord, CoordPrior, SigmaSource};
 use super::likelihood::{RunModel, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
 use super::Posterior;
 use crate::density::{BlockLinks, LogDensityError};
@@ -40,15 +40,10 @@ pub(super) struct Block {
 impl RunModel {
     /// Every coordinate this run's term reads.
     pub(super) fn coords_read(&self) -> Vec<usize> {
-        let mut out: Vec<usize> = [self.alpha, self.a, Some(self.f_d), self.k]
+        let mut out: Vec<usize> = [self.alpha, self.a, Some(self.f_d), self.t0, self.k]
             .into_iter()
             .flatten()
             .collect();
-        match self.t0 {
-            Some(T0Source::Direct(i)) => out.push(i),
-            Some(T0Source::Pooled { mu, ln_s, z }) => out.extend([mu, ln_s, z]),
-            None => {}
-        }
         if let SigmaSource::Coord(s) = self.sigma {
             out.push(s);
         }
@@ -56,28 +51,42 @@ impl RunModel {
     }
 }
 
-/// The blocks of `ncoords` coordinates read by `runs` (evaluated in `order`, in `groups`
+/// The blocks of the coordinates `coords` read by `runs` (evaluated in `order`, in `groups`
 /// marginalised σ groups): coordinates read by the runs of the same set of groups (`group` of
 /// a run: its material or its contact) form one block, in the order of their first
 /// coordinate. A block read by a strict superset of another's groups (a material's shared
 /// parameters, read by all its contacts) is given to that block, which follows it.
+///
+/// A run depends on the population of a pooled t0 through that t0's prior, so the population
+/// is read by the groups of its members' runs; it forms a block of its own (its conditional
+/// is cheap, see [`Posterior::conditional_blocks`](crate::density::LogDensity)).
 pub(super) fn blocks(
-    ncoords: usize,
+    coords: &[Coord],
     runs: &[RunModel],
     order: &[usize],
     sigma_groups: usize,
     group: impl Fn(&RunModel) -> usize,
 ) -> Vec<Block> {
     let read: Vec<Vec<usize>> = runs.iter().map(RunModel::coords_read).collect();
-    let mut readers: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); ncoords];
-    for (r, coords) in runs.iter().zip(&read) {
-        for &i in coords {
+    let population = |i: usize| match coords[i].prior {
+        CoordPrior::Population { mu, ln_s } => Some([mu, ln_s]),
+        CoordPrior::Log(_) => None,
+    };
+    let mut in_population = vec![false; coords.len()];
+    let mut readers: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); coords.len()];
+    for (r, read) in runs.iter().zip(&read) {
+        for &i in read {
             readers[i].insert(group(r));
+            for p in population(i).into_iter().flatten() {
+                readers[p].insert(group(r));
+                in_population[p] = true;
+            }
         }
     }
-    let mut keys: Vec<&BTreeSet<usize>> = Vec::new();
+    let mut keys: Vec<(&BTreeSet<usize>, bool)> = Vec::new();
     let mut members: Vec<Vec<usize>> = Vec::new();
-    for (i, key) in readers.iter().enumerate() {
+    for (i, r) in readers.iter().enumerate() {
+        let key = (r, in_population[i]);
         match keys.iter().position(|k| *k == key) {
             Some(b) => members[b].push(i),
             None => {
@@ -89,13 +98,21 @@ pub(super) fn blocks(
     let links: Vec<(BlockLinks, Vec<usize>)> = keys
         .iter()
         .enumerate()
-        .map(|(b, key)| {
+        .map(|(b, (key, _))| {
             let (mut l, mut priors) = (BlockLinks::default(), vec![b]);
-            for (o, (other, coords)) in keys.iter().zip(&members).enumerate() {
+            for (o, ((other, _), coords)) in keys.iter().zip(&members).enumerate() {
                 if other.is_superset(key) && other != key {
                     l.given.extend(coords);
                 } else if other.is_subset(key) && other != key {
                     l.followers.extend(coords);
+                    priors.push(o);
+                } else if o != b
+                    && coords
+                        .iter()
+                        .any(|&i| population(i).is_some_and(|p| members[b].contains(&p[0])))
+                {
+                    // Members of this population outside its followers (one block per
+                    // material): their priors change with it too.
                     priors.push(o);
                 }
             }
@@ -130,6 +147,17 @@ pub(super) fn blocks(
         .collect()
 }
 
+/// Which derived values an evaluation changes.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Changed<'b> {
+    /// All of them (a full evaluation).
+    All,
+    /// Those of the runs and σ groups a block update re-fits.
+    Block(&'b Block),
+    /// None of the runs' peaks or σ draws (no run was re-fitted).
+    NoRun,
+}
+
 /// A walker's cache, `blocks + 2 × runs + σ groups` values: the prior of each block, each
 /// run's weighted sum of squared residuals, each run's F_end, and the likelihood of each
 /// marginalised σ group.
@@ -161,7 +189,7 @@ impl Posterior {
     }
 
     /// The log-prior of block `b`'s coordinates at `x`.
-    fn block_prior(&self, b: usize, x: &[f64]) -> Result<f64, LogDensityError> {
+    pub(super) fn block_prior(&self, b: usize, x: &[f64]) -> Result<f64, LogDensityError> {
         let mut lp = 0.0;
         for &i in &self.blocks[b].coords {
             let u = x[i];
@@ -173,7 +201,10 @@ impl Posterior {
                     }
                     l + u
                 }
-                CoordPrior::StdNormal => -0.5 * u * u - LN_SQRT_2PI,
+                &CoordPrior::Population { mu, ln_s } => {
+                    let z = (u - x[mu]) * (-x[ln_s]).exp();
+                    -0.5 * z * z - x[ln_s] - LN_SQRT_2PI
+                }
             };
         }
         Ok(lp)
@@ -214,7 +245,7 @@ impl Posterior {
         for g in 0..self.sigma_groups.len() {
             cache.group[g] = self.group_term(g, cache.ssr)?;
         }
-        Ok(self.finish(x, derived, lp, &cache, None))
+        Ok(self.finish(x, derived, lp, &cache, Changed::All))
     }
 
     /// The log-density at `x`, which differs from the point of `cache` and `derived` only in
@@ -225,9 +256,42 @@ impl Posterior {
         b: usize,
         x: &[f64],
         derived: &mut [f64],
-        cache: Cache,
+        mut cache: Cache,
     ) -> Result<f64, LogDensityError> {
         let block = &self.blocks[b];
+        let lp = self.refresh_priors(block, x, &mut cache)?;
+        for &i in &block.runs {
+            self.fit_run(i, x, cache.ssr, cache.last)?;
+        }
+        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
+            cache.group[g] = self.group_term(g, cache.ssr)?;
+        }
+        Ok(self.finish(x, derived, lp, &cache, Changed::Block(block)))
+    }
+
+    /// The log-density at `x`, which differs from the point of `cache` and `derived` only in
+    /// the coordinates of block `b` itself (an exact draw of a population): re-evaluates the
+    /// priors of the block and of its followers (the population's members), and the derived
+    /// values; no run reads a population, so no run is re-fitted.
+    pub(super) fn evaluate_block_alone(
+        &self,
+        b: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        mut cache: Cache,
+    ) -> Result<f64, LogDensityError> {
+        let lp = self.refresh_priors(&self.blocks[b], x, &mut cache)?;
+        Ok(self.finish(x, derived, lp, &cache, Changed::NoRun))
+    }
+
+    /// Re-evaluates the priors `block` changes into `cache`; returns the sum of all blocks'
+    /// priors (in block order, as a full evaluation sums them).
+    fn refresh_priors(
+        &self,
+        block: &Block,
+        x: &[f64],
+        cache: &mut Cache,
+    ) -> Result<f64, LogDensityError> {
         for &p in &block.priors {
             cache.prior[p] = self.block_prior(p, x)?;
         }
@@ -235,31 +299,25 @@ impl Posterior {
         for p in cache.prior.iter() {
             lp += p;
         }
-        for &i in &block.runs {
-            self.fit_run(i, x, cache.ssr, cache.last)?;
-        }
-        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
-            cache.group[g] = self.group_term(g, cache.ssr)?;
-        }
-        Ok(self.finish(x, derived, lp, &cache, Some(block)))
+        Ok(lp)
     }
 
     /// The log-density from the prior `lp` and the cache's likelihood parts (always in the same
-    /// order), after writing the derived values: all, or those `block` changes.
+    /// order), after writing the derived values that `changed`.
     fn finish(
         &self,
         x: &[f64],
         derived: &mut [f64],
         lp: f64,
         cache: &Cache,
-        block: Option<&Block>,
+        changed: Changed,
     ) -> f64 {
         let mut ll = self.run_terms(x, cache.ssr);
         for &g in cache.group[..self.sigma_groups.len()].iter() {
             ll += g;
         }
         if !derived.is_empty() {
-            self.derived_values(x, cache.ssr, derived, block);
+            self.derived_values(x, cache.ssr, derived, changed);
         }
         lp + ll
     }

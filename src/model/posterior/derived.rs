@@ -6,10 +6,11 @@
 //! random numbers are a deterministic function of the bits of the draw itself, so that the
 //! density stays a pure function of `x` and the sampler stays reproducible.
 
-use super::blocks::Block;
-use super::layout::{PeakField, Population, Source};
+use super::blocks::Changed;
+use super::layout::{PeakField, Source};
 use super::Posterior;
 use crate::law::{Elastic, Law, Peak};
+use crate::model::spec::{Aging, Param};
 
 impl Posterior {
     /// Writes the value of every reported column at `x`, in column order, into `derived`
@@ -22,14 +23,15 @@ impl Posterior {
         x: &[f64],
         ssr: &[f64],
         derived: &mut [f64],
-        block: Option<&Block>,
+        changed: Changed,
     ) {
         // Peaks are computed once per run and read by several columns.
         let mut peak_cache: Option<(usize, Option<Peak>, Option<f64>)> = None;
         for (out, source) in derived.iter_mut().zip(&self.sources) {
-            let unchanged = match (source, block) {
-                (Source::Peak { run, .. }, Some(b)) => !b.reads[*run],
-                (Source::Sigma(g), Some(b)) => !b.groups[*g],
+            let unchanged = match (source, changed) {
+                (Source::Peak { run, .. }, Changed::Block(b)) => !b.reads[*run],
+                (Source::Sigma(g), Changed::Block(b)) => !b.groups[*g],
+                (Source::Peak { .. } | Source::Sigma(_), Changed::NoRun) => true,
                 _ => false,
             };
             if unchanged {
@@ -37,7 +39,6 @@ impl Posterior {
             }
             *out = match *source {
                 Source::Coord(i) => x[i].exp(),
-                Source::T0(src) => src.value(x),
                 Source::Sigma(g) => {
                     // Seeded by the group's own residuals, not by all of `x`: the draw then
                     // changes exactly when a block update changes the group.
@@ -75,30 +76,41 @@ impl Posterior {
                         }
                     })
                 }
-                Source::PeakNew(pop) => self.new_contact_peak(x, &self.populations[pop]),
+                Source::PeakNew(m) => self.new_contact_peak(x, m),
             };
         }
     }
 
-    /// The peak of a new contact of a pooled material: its t0 drawn from the material's t0
-    /// population, F_d the mean of the material's contacts, at the material's slow velocity.
-    fn new_contact_peak(&self, x: &[f64], p: &Population) -> f64 {
-        let m = p.material;
+    /// The peak of a new contact of material `m`, at its slow velocity: t0 drawn from the
+    /// material's t0 population; F_d from its population when pooled, else the mean of the
+    /// material's contacts; a (or a/F_d) the material's, or drawn from its population.
+    fn new_contact_peak(&self, x: &[f64], m: usize) -> f64 {
         let material = &self.materials[m];
-        let (Some(aging), Some(v)) = (material.aging, material.slow_velocity) else {
+        let Some(v) = material.slow_velocity else {
             return f64::NAN;
         };
-        let alpha = material.alpha.map_or(f64::NAN, |i| x[i].exp());
-        let f_d = self.mean_fd(x, m);
-        let a = if aging.ratio {
-            x[aging.coord].exp() * f_d
-        } else {
-            x[aging.coord].exp()
+        // The standard-normal draws are deterministic functions of the draw itself so that the
+        // sampler stays reproducible; hashing the bits makes them independent of the values.
+        let new_member = |param: Param, salt: u64| {
+            self.populations
+                .iter()
+                .find(|p| p.param == param && p.material == m)
+                .map(|p| (x[p.mu] + x[p.ln_s].exp() * hashed_normal(x, salt)).exp())
         };
-        // The standard-normal draw is a deterministic function of the draw itself so that the
-        // sampler stays reproducible; hashing the bits makes it independent of the values.
-        let z = hashed_normal(x, m as u64);
-        let t0 = (x[p.mu] + x[p.ln_s].exp() * z).exp();
+        let salt = m as u64;
+        let Some(t0) = new_member(Param::T0, salt) else {
+            return f64::NAN;
+        };
+        let f_d = new_member(Param::FD, salt | 1 << 32).unwrap_or_else(|| self.mean_fd(x, m));
+        let (amplitude, ratio) = match material.aging {
+            Some(aging) => (x[aging.coord].exp(), aging.ratio),
+            None => match new_member(Param::A, salt | 2 << 32) {
+                Some(v) => (v, self.spec.file.aging == Aging::Ratio),
+                None => return f64::NAN,
+            },
+        };
+        let a = if ratio { amplitude * f_d } else { amplitude };
+        let alpha = material.alpha.map_or(f64::NAN, |i| x[i].exp());
         Law::from_rate(alpha * v, a, f_d, t0)
             .ok()
             .and_then(|law| law.peak().interior())

@@ -2,8 +2,8 @@
 //! reads, and which reported column (a [`Quantity`]) each value goes to.
 //!
 //! Every positive parameter θ is sampled as u = ln θ (its prior carries the Jacobian); a pooled
-//! ln t0 is non-centred, ln t0 = μ_m + s_m z with z ~ Normal(0, 1). A coordinate is named
-//! `ln_<name>[<group>]` (`z_t0[<group>]` for a pooled t0), its column `<name>[<group>]` in SI
+//! ln θ is centred, ln θ ~ Normal(μ_m, s_m) with its material's population μ_m and ln s_m
+//! sampled too. A coordinate is named `ln_<name>[<group>]`, its column `<name>[<group>]` in SI
 //! units. One coordinate serves every run of its group (material, contact or run, as the
 //! model's levels say), created the first time a run of the group asks for it, so the order of
 //! the coordinates follows the order of the runs in the model file.
@@ -22,8 +22,8 @@ use crate::model::spec::{Aging, Level, ModelSpec, Param};
 pub(super) enum CoordPrior {
     /// u = ln θ with a prior on θ.
     Log(Prior),
-    /// z ~ Normal(0, 1): the non-centred offset of a pooled t0.
-    StdNormal,
+    /// A pooled ln θ ~ Normal(x[mu], exp(x[ln_s])): its population's coordinates.
+    Population { mu: usize, ln_s: usize },
 }
 
 /// One sampled coordinate.
@@ -38,26 +38,7 @@ impl Coord {
     pub fn prior_contains(&self, u: f64) -> bool {
         match &self.prior {
             CoordPrior::Log(prior) => prior.ln_density(u.exp()) > f64::NEG_INFINITY,
-            CoordPrior::StdNormal => u.is_finite(),
-        }
-    }
-}
-
-/// Where a run's t0 comes from.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum T0Source {
-    /// A coordinate ln t0.
-    Direct(usize),
-    /// ln t0 = x[mu] + exp(x[ln_s]) x[z].
-    Pooled { mu: usize, ln_s: usize, z: usize },
-}
-
-impl T0Source {
-    /// t0 (s) at `x`.
-    pub fn value(self, x: &[f64]) -> f64 {
-        match self {
-            Self::Direct(i) => x[i].exp(),
-            Self::Pooled { mu, ln_s, z } => (x[mu] + x[ln_s].exp() * x[z]).exp(),
+            CoordPrior::Population { .. } => u.is_finite(),
         }
     }
 }
@@ -113,8 +94,6 @@ impl PeakField {
 pub(super) enum Source {
     /// exp of a log-scale coordinate.
     Coord(usize),
-    /// A pooled t0.
-    T0(T0Source),
     /// σ of a marginalised group, drawn from its conditional posterior.
     Sigma(usize),
     /// a = (a/F_d) · F_d of a contact.
@@ -123,13 +102,15 @@ pub(super) enum Source {
     AMaterial(usize),
     /// A field of a run's peak.
     Peak { run: usize, field: PeakField },
-    /// Peak of a new contact of a pooled material (index into the populations).
+    /// Peak of a new contact of a material whose t0 is pooled (the material's index).
     PeakNew(usize),
 }
 
-/// The pooled t0 of one material: the coordinates of ln μ_m (its median) and ln s_m.
+/// The population of a pooled parameter in one material: the coordinates of ln μ_m (its
+/// median) and ln s_m.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Population {
+    pub param: Param,
     pub material: usize,
     pub mu: usize,
     pub ln_s: usize,
@@ -279,7 +260,6 @@ impl<'a> Builder<'a> {
     ) -> usize {
         self.coords.push(Coord { name: coord, prior });
         let i = self.coords.len() - 1;
-        // A pooled z reports t0 through its population: its caller replaces the source.
         self.column(name, group, unit, QuantityKind::Parameter, Source::Coord(i));
         i
     }
@@ -296,70 +276,45 @@ impl<'a> Builder<'a> {
         } else {
             (p.name(), p.unit())
         };
-        let prior = CoordPrior::Log(self.spec.prior(name));
+        let prior = if self.spec.file.pooling.pools(p) {
+            let material = self.spec.contact_material[self.spec.run_contact[run]];
+            let pop = self.population(p, material, name, unit);
+            CoordPrior::Population {
+                mu: pop.mu,
+                ln_s: pop.ln_s,
+            }
+        } else {
+            CoordPrior::Log(self.spec.prior(name))
+        };
         let i = self.coordinate(format!("ln_{name}[{group}]"), prior, name, group, unit);
         self.index.insert((p, level, g), i);
         i
     }
 
-    /// The t0 population of `material`, created with its first pooled run.
-    fn population(&mut self, material: usize) -> Population {
-        if let Some(p) = self.populations.iter().find(|p| p.material == material) {
+    /// The population of parameter `param` (reported as `name`, in `unit`) in `material`,
+    /// created with its first pooled member.
+    fn population(&mut self, param: Param, material: usize, name: &str, unit: &str) -> Population {
+        if let Some(p) = self
+            .populations
+            .iter()
+            .find(|p| p.param == param && p.material == material)
+        {
             return *p;
         }
         let m = self.spec.file.materials[material].name.clone();
-        let median = CoordPrior::Log(self.spec.prior("t0_pop_median"));
-        let mu = self.coordinate(
-            format!("ln_t0_pop_median[{m}]"),
-            median,
-            "t0_pop_median",
-            m.clone(),
-            "s",
-        );
-        let log_sd = CoordPrior::Log(self.spec.prior("t0_pop_log_sd"));
-        let ln_s = self.coordinate(
-            format!("ln_t0_pop_log_sd[{m}]"),
-            log_sd,
-            "t0_pop_log_sd",
-            m,
-            "1",
-        );
-        let p = Population { material, mu, ln_s };
+        let (median, log_sd) = (format!("{name}_pop_median"), format!("{name}_pop_log_sd"));
+        let prior = CoordPrior::Log(self.spec.prior(&median));
+        let mu = self.coordinate(format!("ln_{median}[{m}]"), prior, &median, m.clone(), unit);
+        let prior = CoordPrior::Log(self.spec.prior(&log_sd));
+        let ln_s = self.coordinate(format!("ln_{log_sd}[{m}]"), prior, &log_sd, m, "1");
+        let p = Population {
+            param,
+            material,
+            mu,
+            ln_s,
+        };
         self.populations.push(p);
         p
-    }
-
-    /// A pooled t0: the population of the run's material and one z per t0 group.
-    fn pooled_t0(&mut self, run: usize) -> T0Source {
-        let material = self.spec.contact_material[self.spec.run_contact[run]];
-        let pop = self.population(material);
-        let (level, g) = group_of(self.spec, self.spec.level(Param::T0), run);
-        let z = match self.index.get(&(Param::T0, level, g)) {
-            Some(&z) => z,
-            None => {
-                let group = group_name(self.spec, level, g);
-                let z = self.coordinate(
-                    format!("z_t0[{group}]"),
-                    CoordPrior::StdNormal,
-                    "t0",
-                    group,
-                    "s",
-                );
-                let source = T0Source::Pooled {
-                    mu: pop.mu,
-                    ln_s: pop.ln_s,
-                    z,
-                };
-                *self.sources.last_mut().expect("column just pushed") = Source::T0(source);
-                self.index.insert((Param::T0, level, g), z);
-                z
-            }
-        };
-        T0Source::Pooled {
-            mu: pop.mu,
-            ln_s: pop.ln_s,
-            z,
-        }
     }
 
     /// σ of run `run`: integrated out when its prior is log-uniform (one dimension less per
@@ -402,13 +357,7 @@ impl<'a> Builder<'a> {
         let alpha = uses(Param::Alpha).then(|| self.shared(Param::Alpha, i));
         let a = uses(Param::A).then(|| self.shared(Param::A, i));
         let f_d = self.shared(Param::FD, i);
-        let t0 = if !uses(Param::T0) {
-            None
-        } else if spec.file.pooling.t0 {
-            Some(self.pooled_t0(i))
-        } else {
-            Some(T0Source::Direct(self.shared(Param::T0, i)))
-        };
+        let t0 = uses(Param::T0).then(|| self.shared(Param::T0, i));
         let k = uses(Param::K).then(|| self.shared(Param::K, i));
         let sigma = self.sigma(i);
         let contact = spec.run_contact[i];
@@ -517,21 +466,26 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// The peak of a new contact of each pooled material that has an aging amplitude and a
-    /// slow slide to predict it at.
+    /// The peak of a new contact of each material whose t0 is pooled, that has an aging
+    /// amplitude (shared or pooled) and a slow slide to predict it at.
     fn new_contact_columns(&mut self, materials: &[MaterialModel]) {
-        for (pop, p) in self.populations.clone().iter().enumerate() {
-            let m = &materials[p.material];
-            if m.aging.is_some() && m.slow_velocity.is_some() {
-                let source = Source::PeakNew(pop);
-                self.column(
-                    "F_peak_new",
-                    m.name.clone(),
-                    "N",
-                    QuantityKind::Derived,
-                    source,
-                );
-            }
+        let pooled = |param: Param, m: usize| {
+            self.populations
+                .iter()
+                .any(|p| p.param == param && p.material == m)
+        };
+        let predicted: Vec<usize> = (0..materials.len())
+            .filter(|&m| {
+                let material = &materials[m];
+                pooled(Param::T0, m)
+                    && (material.aging.is_some() || pooled(Param::A, m))
+                    && material.slow_velocity.is_some()
+            })
+            .collect();
+        for m in predicted {
+            let name = materials[m].name.clone();
+            let source = Source::PeakNew(m);
+            self.column("F_peak_new", name, "N", QuantityKind::Derived, source);
         }
     }
 }

@@ -6,7 +6,7 @@
 //! A repeat slide loads elastically up to F_end, the force where the slide it follows stopped
 //! (its model force at its last recorded time), or F_d when it follows none.
 
-use super::layout::{SigmaSource, T0Source};
+use super::layout::SigmaSource;
 use super::sigma::marginal_sigma_log_likelihood;
 use super::Posterior;
 use crate::density::LogDensityError;
@@ -39,7 +39,7 @@ pub(super) struct RunModel {
     pub a: Option<usize>,
     pub ratio: bool,
     pub f_d: usize,
-    pub t0: Option<T0Source>,
+    pub t0: Option<usize>,
     pub k: Option<usize>,
     pub sigma: SigmaSource,
     /// The first slide a repeat slide follows.
@@ -66,7 +66,7 @@ impl RunModel {
             None => 0.0,
         };
         let alpha = self.alpha.map_or(f64::NAN, |i| x[i].exp());
-        let t0 = self.t0.map_or(f64::NAN, |s| s.value(x));
+        let t0 = self.t0.map_or(f64::NAN, |i| x[i].exp());
         Law::from_rate(alpha * self.velocity, a, f_d, t0)
     }
 

@@ -31,8 +31,8 @@ use layout::{Coord, CoordPrior, Layout, MaterialModel, Population, SigmaGroup, S
 use likelihood::RunModel;
 
 use super::data::RunData;
-use super::spec::{Blocking, ModelSpec};
-use crate::density::{BlockLinks, LogDensity, LogDensityError, Quantity};
+use super::spec::{Blocking, ModelSpec, PopulationUpdates};
+use crate::density::{BlockLinks, LogDensity, LogDensityError, Quantity, SearchMap};
 use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
@@ -117,7 +117,7 @@ impl Posterior {
             Blocking::Contact => r.contact,
         };
         let blocks = blocks::blocks(
-            layout.coords.len(),
+            &layout.coords,
             &layout.runs,
             &order,
             layout.sigma_groups.len(),
@@ -139,6 +139,13 @@ impl Posterior {
         })
     }
 
+    /// Whether block `b` holds populations (each a pooled parameter's μ and ln s in a material).
+    fn is_population(&self, b: usize) -> bool {
+        self.populations
+            .iter()
+            .any(|p| self.blocks[b].coords.contains(&p.mu))
+    }
+
     /// The model this posterior was built from.
     pub fn spec(&self) -> &ModelSpec {
         &self.spec
@@ -157,7 +164,10 @@ impl Posterior {
             .map(|c| {
                 let d = match &c.prior {
                     CoordPrior::Log(p) => format!("ln of a parameter with prior {}", p.describe()),
-                    CoordPrior::StdNormal => "standard normal (non-centred pooled t0)".to_string(),
+                    CoordPrior::Population { mu, ln_s } => format!(
+                        "normal with mean {} and sd exp({}) (pooled, centred)",
+                        self.coords[*mu].name, self.coords[*ln_s].name
+                    ),
                 };
                 (c.name.clone(), d)
             })
@@ -247,6 +257,63 @@ impl LogDensity for Posterior {
         self.blocks.iter().map(|b| b.links.clone()).collect()
     }
 
+    /// With pooling, the non-centred coordinates: the centred posterior has no mode.
+    fn search_map(&self) -> Option<&dyn SearchMap> {
+        (!self.populations.is_empty()).then_some(self as &dyn SearchMap)
+    }
+
+    /// The populations: given its members' ln θ, a population's (μ, ln s) has a conditional
+    /// that reads no data.
+    fn conditional_blocks(&self) -> Vec<usize> {
+        if self.spec.file.sampler.populations == PopulationUpdates::Carried {
+            return Vec::new();
+        }
+        (0..self.blocks.len())
+            .filter(|&b| self.is_population(b))
+            .collect()
+    }
+
+    /// The population's prior and its members' normal priors (the priors of the block and of
+    /// its followers: the rest of the density does not depend on it).
+    fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
+        let mut lp = 0.0;
+        for &p in &self.blocks[block].priors {
+            match self.block_prior(p, x) {
+                Ok(v) => lp += v,
+                Err(_) => return f64::NEG_INFINITY,
+            }
+        }
+        lp
+    }
+
+    /// A population carries its members when they follow it (one block per contact).
+    fn carries_followers(&self, block: usize) -> bool {
+        self.spec.file.sampler.populations != PopulationUpdates::Exact
+            && self.is_population(block)
+            && self.blocks[block]
+                .links
+                .followers
+                .iter()
+                .any(|&i| matches!(self.coords[i].prior, CoordPrior::Population { .. }))
+    }
+
+    /// The non-centred map of the block's populations: each member's ln θ keeps its
+    /// standardised offset (ln θ − μ)/s; the other followers stay. Jacobian s'/s per member.
+    fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
+        let mut ln_jacobian = 0.0;
+        for &i in &self.blocks[block].links.followers {
+            let CoordPrior::Population { mu, ln_s } = self.coords[i].prior else {
+                continue;
+            };
+            if self.blocks[block].coords.contains(&mu) {
+                let ln_ratio = to[ln_s] - from[ln_s];
+                to[i] = to[mu] + ln_ratio.exp() * (from[i] - from[mu]);
+                ln_jacobian += ln_ratio;
+            }
+        }
+        ln_jacobian
+    }
+
     fn cache_len(&self) -> usize {
         self.cache_size()
     }
@@ -270,5 +337,45 @@ impl LogDensity for Posterior {
     ) -> Result<f64, LogDensityError> {
         let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
         self.evaluate_block(block, x, derived, cache)
+    }
+
+    fn log_density_block_alone(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
+        if self.is_population(block) {
+            self.evaluate_block_alone(block, x, derived, cache)
+        } else {
+            self.evaluate_block(block, x, derived, cache)
+        }
+    }
+}
+
+/// The non-centred coordinates of pooled parameters: each member's ln θ replaced by its
+/// standardised offset z = (ln θ − μ)/s from its population, everything else as it is.
+impl SearchMap for Posterior {
+    fn search_point(&self, x: &[f64], y: &mut [f64]) {
+        y.copy_from_slice(x);
+        for (i, c) in self.coords.iter().enumerate() {
+            if let CoordPrior::Population { mu, ln_s } = c.prior {
+                y[i] = (x[i] - x[mu]) * (-x[ln_s]).exp();
+            }
+        }
+    }
+
+    fn density_point(&self, y: &[f64], x: &mut [f64]) -> f64 {
+        x.copy_from_slice(y);
+        let mut ln_jacobian = 0.0;
+        for (i, c) in self.coords.iter().enumerate() {
+            if let CoordPrior::Population { mu, ln_s } = c.prior {
+                x[i] = y[mu] + y[ln_s].exp() * y[i];
+                ln_jacobian += y[ln_s];
+            }
+        }
+        ln_jacobian
     }
 }

@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use super::layout::{CoordPrior, SigmaSource, T0Source};
+use super::layout::{CoordPrior, SigmaSource};
 use super::likelihood::{RunModel, RunResiduals};
 use super::Posterior;
 use crate::density::LogDensity;
@@ -53,7 +53,6 @@ impl Posterior {
         for r in self.runs.iter().filter(|r| r.scene == Scene::Repeat) {
             vote_sigma(&mut votes, r, r.data.noise_estimate());
         }
-        let mut t0_votes: Vec<(usize, f64)> = Vec::new();
         // Each slide's fit is independent of the others': on every core, then voted in the
         // runs' order, so that the start does not depend on the number of threads.
         let slides: Vec<&RunModel> = self
@@ -83,10 +82,8 @@ impl Posterior {
                     votes[k].push(v);
                 }
             }
-            match r.t0 {
-                Some(T0Source::Direct(i)) => votes[i].push(fitted.t0),
-                Some(T0Source::Pooled { z, .. }) => t0_votes.push((z, fitted.t0)),
-                None => {}
+            if let Some(i) = r.t0 {
+                votes[i].push(fitted.t0);
             }
         }
         // Natural-scale values from the centre of each coordinate's log estimates.
@@ -102,14 +99,14 @@ impl Posterior {
                 })
                 .collect()
         };
-        let start = self.coordinates(by_level(mean_of_logs), &t0_votes);
+        let start = self.coordinates(by_level(mean_of_logs));
         if self.finite_at(&start) {
             return start;
         }
         // A slide fitted alone can end far off (a ratio of e^13, a t0 of e^-20 in a campaign
         // of 50 contacts), and a geometric mean takes such an outlier in: the median of the
         // runs' estimates does not.
-        let mut start = self.coordinates(by_level(median_of_logs), &t0_votes);
+        let mut start = self.coordinates(by_level(median_of_logs));
         if !self.finite_at(&start) {
             self.repair_contacts(&mut start);
         }
@@ -123,34 +120,33 @@ impl Posterior {
             .is_ok_and(|v| v.is_finite())
     }
 
-    /// The sampler coordinates of natural-scale estimates, with pooled t0 placed from the
-    /// runs' own estimates, kept strictly inside each prior.
-    fn coordinates(&self, mut natural: Vec<f64>, t0_votes: &[(usize, f64)]) -> Vec<f64> {
-        // Pooled t0: the population median from its runs, a moderate spread, and each run's
-        // standardised offset.
+    /// The sampler coordinates of natural-scale estimates, kept strictly inside each prior;
+    /// a t0 population placed at its members' mean ln t0 with a moderate spread.
+    fn coordinates(&self, mut natural: Vec<f64>) -> Vec<f64> {
         for p in &self.populations {
-            let logs: Vec<(usize, f64)> = t0_votes
+            let logs: Vec<f64> = self
+                .coords
                 .iter()
-                .filter(|(z, _)| self.z_population(*z) == Some(p.mu))
-                .map(|&(z, t0)| (z, t0.ln()))
+                .zip(&natural)
+                .filter(|(c, v)| {
+                    matches!(c.prior, CoordPrior::Population { mu, .. } if mu == p.mu)
+                        && v.is_finite()
+                })
+                .map(|(_, v)| v.ln())
                 .collect();
             if logs.is_empty() {
                 continue;
             }
-            let mu = logs.iter().map(|(_, l)| l).sum::<f64>() / logs.len() as f64;
-            natural[p.mu] = mu.exp();
+            natural[p.mu] = (logs.iter().sum::<f64>() / logs.len() as f64).exp();
             natural[p.ln_s] = 0.5;
-            for (z, l) in logs {
-                natural[z] = (l - mu) / 0.5;
-            }
         }
         self.coords
             .iter()
             .zip(&natural)
             .map(|(c, &v)| match c.prior {
-                CoordPrior::StdNormal => {
-                    if v.is_finite() {
-                        v
+                CoordPrior::Population { .. } => {
+                    if v.is_finite() && v > 0.0 {
+                        v.ln()
                     } else {
                         0.0
                     }
@@ -287,14 +283,6 @@ impl Posterior {
                 last[i] = f.last_force;
             }
             (i, fit)
-        })
-    }
-
-    /// The population (its μ coordinate) a pooled z belongs to.
-    fn z_population(&self, z: usize) -> Option<usize> {
-        self.runs.iter().find_map(|r| match r.t0 {
-            Some(T0Source::Pooled { mu, z: zz, .. }) if zz == z => Some(mu),
-            _ => None,
         })
     }
 

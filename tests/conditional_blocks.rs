@@ -1,0 +1,275 @@
+//! Exact conditional draws of a block (slice sampling the population level of a hierarchical
+//! model) leave the posterior invariant: the centred eight schools (Rubin 1981), whose
+//! posterior means follow from a two-dimensional quadrature, sampled with the population
+//! block drawn exactly and the schools' effects by ensemble moves.
+//! Slow in debug builds: run with `cargo test --release`.
+
+mod sampler_util;
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use sampler_util::{assert_within, mean_and_mcse};
+use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
+use slipbayes::sampler::{
+    EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, Silent, Steps, Updates,
+};
+
+const Y: [f64; 8] = [28.0, 8.0, -3.0, 7.0, -1.0, 1.0, 18.0, 12.0];
+const SIGMA: [f64; 8] = [15.0, 10.0, 16.0, 11.0, 9.0, 11.0, 10.0, 18.0];
+/// Prior scales: μ ~ Normal(0, 5), τ ~ half-Cauchy(0, 5) (posteriordb's eight schools).
+const MU_SD: f64 = 5.0;
+const TAU_SCALE: f64 = 5.0;
+
+fn ln_normal(x: f64, mean: f64, sd: f64) -> f64 {
+    let z = (x - mean) / sd;
+    -0.5 * z * z - sd.ln() - 0.5 * (2.0 * std::f64::consts::PI).ln()
+}
+
+/// ln p(μ) + ln p(τ) + ln τ (the Jacobian of u = ln τ).
+fn ln_hyperprior(mu: f64, ln_tau: f64) -> f64 {
+    let tau = ln_tau.exp();
+    ln_normal(mu, 0.0, MU_SD) - (1.0 + (tau / TAU_SCALE).powi(2)).ln() + ln_tau
+}
+
+/// Coordinates μ, ln τ, θ_1..θ_8 (centred: θ_j ~ Normal(μ, τ)).
+struct EightSchools {
+    /// Declare the population block's conditional density.
+    exact: bool,
+    /// Move the population block also with the schools' effects carried non-centred.
+    interweave: bool,
+}
+
+impl EightSchools {
+    fn population(x: &[f64]) -> f64 {
+        let (mu, tau) = (x[0], x[1].exp());
+        ln_hyperprior(x[0], x[1]) + x[2..].iter().map(|&t| ln_normal(t, mu, tau)).sum::<f64>()
+    }
+}
+
+impl LogDensity for EightSchools {
+    fn dim(&self) -> usize {
+        10
+    }
+
+    fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+        let likelihood: f64 = (0..8).map(|j| ln_normal(Y[j], x[2 + j], SIGMA[j])).sum();
+        Ok(Self::population(x) + likelihood)
+    }
+
+    fn blocks(&self) -> Vec<Vec<usize>> {
+        vec![vec![0, 1], (2..10).collect()]
+    }
+
+    fn block_links(&self) -> Vec<BlockLinks> {
+        vec![
+            BlockLinks {
+                given: vec![],
+                followers: (2..10).collect(),
+            },
+            BlockLinks {
+                given: vec![0, 1],
+                followers: vec![],
+            },
+        ]
+    }
+
+    fn conditional_blocks(&self) -> Vec<usize> {
+        if self.exact {
+            vec![0]
+        } else {
+            vec![]
+        }
+    }
+
+    fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
+        assert_eq!(block, 0);
+        Self::population(x)
+    }
+
+    fn carries_followers(&self, block: usize) -> bool {
+        self.interweave && block == 0
+    }
+
+    /// The non-centred map: each θ_j keeps (θ_j − μ)/τ.
+    fn carry_followers(&self, _block: usize, from: &[f64], to: &mut [f64]) -> f64 {
+        let scale = (to[1] - from[1]).exp();
+        for j in 2..10 {
+            to[j] = to[0] + scale * (from[j] - from[0]);
+        }
+        8.0 * (to[1] - from[1])
+    }
+}
+
+/// Posterior means of μ, τ and θ_1 and of their squares by quadrature over (μ, ln τ), with θ
+/// integrated out: y_j ~ Normal(μ, √(σ_j² + τ²)), and E[θ_j | μ, τ, y] is the precision-
+/// weighted mean of y_j and μ.
+fn quadrature() -> [(f64, f64); 3] {
+    let (n_mu, n_u) = (1400, 1400);
+    let (mu_lo, mu_hi, u_lo, u_hi) = (-25.0, 35.0, -12.0, 6.0);
+    let (dmu, du) = ((mu_hi - mu_lo) / n_mu as f64, (u_hi - u_lo) / n_u as f64);
+    let mut cells = Vec::with_capacity(n_mu * n_u);
+    for i in 0..n_mu {
+        let mu = mu_lo + (i as f64 + 0.5) * dmu;
+        for k in 0..n_u {
+            let u = u_lo + (k as f64 + 0.5) * du;
+            let tau = u.exp();
+            let ln_w = ln_hyperprior(mu, u)
+                + (0..8)
+                    .map(|j| ln_normal(Y[j], mu, (SIGMA[j].powi(2) + tau * tau).sqrt()))
+                    .sum::<f64>();
+            let (p_y, p_mu) = (1.0 / SIGMA[0].powi(2), 1.0 / (tau * tau));
+            let theta_mean = (Y[0] * p_y + mu * p_mu) / (p_y + p_mu);
+            let theta_sq = theta_mean * theta_mean + 1.0 / (p_y + p_mu);
+            cells.push((ln_w, mu, tau, theta_mean, theta_sq));
+        }
+    }
+    let top = cells.iter().map(|c| c.0).fold(f64::NEG_INFINITY, f64::max);
+    let mut acc = [0.0; 7];
+    for &(ln_w, mu, tau, t, t2) in &cells {
+        let w = (ln_w - top).exp();
+        for (a, v) in acc
+            .iter_mut()
+            .zip([1.0, mu, mu * mu, tau, tau * tau, t, t2])
+        {
+            *a += w * v;
+        }
+    }
+    let e = |i: usize| acc[i] / acc[0];
+    [(e(1), e(2)), (e(3), e(4)), (e(5), e(6))]
+}
+
+fn run(density: &EightSchools, steps: u64, seed: u64) -> (MemorySink, usize, f64) {
+    let walkers = 32;
+    // The centred posterior has no mode (its density grows without bound as τ → 0 with every
+    // θ_j = μ): the walkers start from a spread over plausible values instead.
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let start: Vec<Vec<Vec<f64>>> = (0..4)
+        .map(|_| {
+            (0..walkers)
+                .map(|_| {
+                    let mu: f64 = 4.0 + 3.0 * rng.sample::<f64, _>(StandardNormal);
+                    let ln_tau: f64 = 1.0 + 0.5 * rng.sample::<f64, _>(StandardNormal);
+                    let mut x = vec![mu, ln_tau];
+                    x.extend(
+                        (0..8).map(|_| mu + ln_tau.exp() * rng.sample::<f64, _>(StandardNormal)),
+                    );
+                    x
+                })
+                .collect()
+        })
+        .collect();
+    let config = SamplerConfig::new(walkers, 4, seed)
+        .unwrap()
+        .with_moves(vec![
+            (Move::student_t(), 0.5),
+            (Move::differential_evolution(), 0.5),
+        ])
+        .unwrap()
+        .with_updates(Updates::Hierarchical);
+    let mut sampler = EnsembleSampler::new(density, config, start).unwrap();
+    let mut sink = MemorySink::new();
+    let report = sampler
+        .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+        .unwrap();
+    let tau = report.tau.expect("tau");
+    (sink, tau.burn_in as usize, tau.max)
+}
+
+/// μ, τ and θ_1 and their second moments within 4 MCSE of the quadrature.
+fn check_against_quadrature(density: &EightSchools, label: &str) {
+    let [(mu, mu2), (tau, tau2), (theta, theta2)] = quadrature();
+    let (sink, burn, tau_max) = run(density, 6_000, 11);
+    let c = &sink.chains;
+    let label = |what: &str| format!("eight schools, {label} (τ_max {tau_max:.0}): {what}");
+    assert_within(
+        &label("mean of μ"),
+        mean_and_mcse(c, burn, |x| x[0]),
+        mu,
+        4.0,
+    );
+    assert_within(
+        &label("E[μ²]"),
+        mean_and_mcse(c, burn, |x| x[0] * x[0]),
+        mu2,
+        4.0,
+    );
+    assert_within(
+        &label("mean of τ"),
+        mean_and_mcse(c, burn, |x| x[1].exp()),
+        tau,
+        4.0,
+    );
+    assert_within(
+        &label("E[τ²]"),
+        mean_and_mcse(c, burn, |x| (2.0 * x[1]).exp()),
+        tau2,
+        4.0,
+    );
+    assert_within(
+        &label("mean of θ_1"),
+        mean_and_mcse(c, burn, |x| x[2]),
+        theta,
+        4.0,
+    );
+    assert_within(
+        &label("E[θ_1²]"),
+        mean_and_mcse(c, burn, |x| x[2] * x[2]),
+        theta2,
+        4.0,
+    );
+}
+
+/// With the population block drawn exactly, the funnel of the centred parametrisation is
+/// sampled without bias (slowly: τ_max ≈ 350 steps, where the centred form stalls at small τ);
+/// the same sampler with the population moved by the ensemble instead puts E[τ] 4.9 MCSE
+/// high at this length, and a conditional density missing its Jacobian 13 MCSE low.
+#[test]
+fn exact_population_draws_sample_the_centred_eight_schools() {
+    let density = EightSchools {
+        exact: true,
+        interweave: false,
+    };
+    check_against_quadrature(&density, "exact population draws");
+}
+
+/// Interweaving the exact draw with a move of the population that carries the schools'
+/// effects non-centred (τ_max ≈ 40 steps).
+#[test]
+fn interwoven_population_updates_sample_the_centred_eight_schools() {
+    let density = EightSchools {
+        exact: true,
+        interweave: true,
+    };
+    check_against_quadrature(&density, "interwoven population updates");
+}
+
+/// A conditional block that does not exist is refused with the blocks named.
+#[test]
+fn a_conditional_block_out_of_range_is_refused() {
+    struct Bad;
+    impl LogDensity for Bad {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+            Ok(-0.5 * (x[0] * x[0] + x[1] * x[1]))
+        }
+        fn blocks(&self) -> Vec<Vec<usize>> {
+            vec![vec![0], vec![1]]
+        }
+        fn conditional_blocks(&self) -> Vec<usize> {
+            vec![2]
+        }
+    }
+    let config = SamplerConfig::new(8, 1, 1)
+        .unwrap()
+        .with_updates(Updates::Blocked);
+    let start: Vec<Vec<f64>> = (0..8)
+        .map(|w| vec![w as f64 * 0.1, 0.3 - w as f64 * 0.05])
+        .collect();
+    match EnsembleSampler::new(&Bad, config, vec![start]) {
+        Err(SamplerError::InvalidConfig { name, .. }) => assert_eq!(name, "conditional_blocks"),
+        other => panic!("expected InvalidConfig, got {other:?}"),
+    }
+}
