@@ -4,9 +4,11 @@
 
 FORMAT is a Python format string over the fields below, read from RUN_DIR/summary.json: every
 reported quantity (parameters and derived), every post-burn-in draw, as ArviZ computes them
-(dimension from RUN_DIR/settings.json).
+(dimension from RUN_DIR/settings.json, None without it).
   dimension, walkers, steps, stopped_by, converged, tau_max, evals, wall_s,
-  ess_bulk_min, ess_tail_min, r_hat_max, quantities, low_ess (quantities with ESS bulk <= 400)
+  ess_bulk_min, ess_tail_min, r_hat_max, quantities, low_ess (quantities with ESS bulk <= 400),
+  ess_per_k_evals, ess_per_s (the lowest ESS bulk per 1,000 evaluations and per second of
+  sampling wall time)
 """
 import json
 import sys
@@ -15,7 +17,11 @@ run_dir, fmt = sys.argv[1:]
 summary = json.load(open(run_dir + "/summary.json"))
 quantities = summary["parameters"] + summary["derived"]
 sampler = summary["sampler"]
-dimension = json.load(open(run_dir + "/settings.json"))["dimension"]
+try:
+    dimension = json.load(open(run_dir + "/settings.json"))["dimension"]
+except FileNotFoundError:
+    # `validate --hard` keeps only the summaries of its fits.
+    dimension = None
 
 
 def values(key):
@@ -37,4 +43,6 @@ print(fmt.format(
     r_hat_max=max(values("r_hat")),
     quantities=len(quantities),
     low_ess=sum(1 for v in values("ess_bulk") if v <= 400),
+    ess_per_k_evals=1000 * min(values("ess_bulk")) / sampler["log_density_evals"],
+    ess_per_s=min(values("ess_bulk")) / sampler["wall_s"],
 ))

@@ -150,8 +150,12 @@ pub trait LogDensity: Sync {
     /// already moved, whose followers this sets. Returns ln |det J| of the map from the
     /// followers' old values to their new ones at fixed block values, which the sampler adds
     /// to the proposal's log-ratio. The map must be a bijection whose inverse is the same map
-    /// from `to` back to `from` (the non-centred map of a hierarchical model: each member
-    /// keeps its standardised offset from the population). Unused unless
+    /// from `to` back to `from`, and the maps must compose: carrying from a to b and then from
+    /// b to c is carrying from a to c. Both hold when the followers keep fixed coordinates of
+    /// a reparametrisation, as in the non-centred map of a hierarchical model (each member
+    /// keeps its standardised offset from the population). The slice move relies on the
+    /// second: it evaluates every point of a walker's line carried from the walker, and the
+    /// reverse update must find the same line. Unused unless
     /// [`carries_followers`](Self::carries_followers) says so.
     fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
         let _ = (block, from, to);

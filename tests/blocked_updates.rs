@@ -233,6 +233,27 @@ fn blocked_updates_sample_a_hierarchical_gaussian() {
             t_and(Move::stretch()),
             Updates::Hierarchical,
         ),
+        // The slice move in each block's subspace, and with μ carrying the θ_j along by
+        // regression (a line in the whole space).
+        (
+            "blocked slice",
+            vec![(Move::slice(), 1.0)],
+            Updates::Blocked,
+        ),
+        (
+            "hierarchical slice",
+            vec![(Move::slice(), 1.0)],
+            Updates::Hierarchical,
+        ),
+        (
+            "hierarchical student-t=0.4,de=0.4,slice=0.2",
+            vec![
+                (Move::student_t(), 0.4),
+                (Move::differential_evolution(), 0.4),
+                (Move::slice(), 0.2),
+            ],
+            Updates::Hierarchical,
+        ),
     ];
     for (label, moves, updates) in cases {
         // Fewer walkers than 2 × 14 dimensions: blocked updates need only 2 × the largest
@@ -274,14 +295,25 @@ fn blocked_updates_sample_a_hierarchical_gaussian() {
 /// updates. Hierarchical updates too.
 #[test]
 fn blocked_state_is_a_full_evaluation_and_resumes() {
+    let moves = vec![(Move::student_t(), 0.5), (Move::stretch(), 0.5)];
     for updates in [Updates::Blocked, Updates::Hierarchical] {
-        blocked_state_check(updates);
+        blocked_state_check(updates, moves.clone());
     }
 }
 
-fn blocked_state_check(updates: Updates) {
+/// The same with the slice move, whose last evaluation of each walker becomes its state, and
+/// whose μ per ensemble and block resumes with the chains (the resume falls within its
+/// tuning).
+#[test]
+fn blocked_slice_state_is_a_full_evaluation_and_resumes() {
+    let moves = vec![(Move::student_t(), 0.5), (Move::slice(), 0.5)];
+    for updates in [Updates::Blocked, Updates::Hierarchical] {
+        blocked_state_check(updates, moves.clone());
+    }
+}
+
+fn blocked_state_check(updates: Updates, moves: Vec<(Move, f64)>) {
     let h = Hierarchy::new(4);
-    let moves = vec![(Move::student_t(), 0.5), (Move::stretch(), 0.5)];
     let mut whole = blocked_sampler(&h, moves.clone(), 12, 5, updates);
     whole
         .run(Steps::Fixed(60), &mut MemorySink::new(), &mut Silent)

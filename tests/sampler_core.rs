@@ -11,7 +11,7 @@ use slipbayes::optimize::{
 };
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, SamplerState, Silent, Steps,
-    StopRule,
+    StopRule, SLICE_ADAPT_STEPS, SLICE_MU0,
 };
 
 /// Bit patterns, compared without printing megabytes on failure.
@@ -70,11 +70,24 @@ fn start(d: &impl LogDensity, walkers: usize, ensembles: usize) -> Vec<Vec<Vec<f
         .walkers
 }
 
+/// The moves mixed with ensemble slice sampling (both directions).
+fn slice_moves() -> Vec<(Move, f64)> {
+    vec![
+        (Move::differential_evolution(), 1.0),
+        (Move::slice(), 1.0),
+        (Move::Slice { gaussian: true }, 0.5),
+    ]
+}
+
 fn run_in_pool(threads: usize, parallel: bool) -> MemorySink {
+    run_moves_in_pool(mixed_moves(), threads, parallel)
+}
+
+fn run_moves_in_pool(moves: Vec<(Move, f64)>, threads: usize, parallel: bool) -> MemorySink {
     let g = Gaussian::correlated(3, 0.9);
     let config = SamplerConfig::new(10, 3, 99)
         .unwrap()
-        .with_moves(mixed_moves())
+        .with_moves(moves)
         .unwrap()
         .with_parallel(parallel);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -115,13 +128,47 @@ fn same_chains_on_one_or_two_threads_and_serially() {
     );
 }
 
+/// Slice half-steps run every walker's update as its own task on the rayon pool: the chains
+/// must still not depend on the threads, nor on running serially.
+#[test]
+fn slice_chains_are_the_same_on_one_or_two_threads_and_serially() {
+    let one = run_moves_in_pool(slice_moves(), 1, true);
+    let two = run_moves_in_pool(slice_moves(), 2, true);
+    let serial = run_moves_in_pool(slice_moves(), 2, false);
+    for e in 0..3 {
+        assert_eq!(
+            bits(&one.chains[e].positions),
+            bits(&two.chains[e].positions)
+        );
+        assert_eq!(
+            bits(&one.chains[e].positions),
+            bits(&serial.chains[e].positions)
+        );
+        assert_eq!(
+            bits(&one.chains[e].log_density),
+            bits(&two.chains[e].log_density)
+        );
+    }
+}
+
 #[test]
 fn resumed_run_equals_uninterrupted_run() {
+    resumed_run_check(mixed_moves());
+}
+
+/// Resumed within the slice move's tuning (at step 40 of 50) and after it: μ is part of the
+/// state, so the chains go on as if never stopped.
+#[test]
+fn resumed_slice_run_equals_uninterrupted_run() {
+    resumed_run_check(slice_moves());
+}
+
+fn resumed_run_check(moves: Vec<(Move, f64)>) {
     let g = Gaussian::correlated(3, 0.9);
     let config = || {
         SamplerConfig::new(8, 2, 5)
             .unwrap()
-            .with_moves(mixed_moves())
+            .with_moves(moves.clone())
             .unwrap()
             .with_checkpoint_every(Some(25))
             .unwrap()
@@ -162,6 +209,113 @@ fn resumed_run_equals_uninterrupted_run() {
     assert_eq!(report_full.ensembles, report_resumed.ensembles);
     assert_eq!(report_resumed.total_steps, 100);
     assert_eq!(report_resumed.steps_run, 60);
+}
+
+/// The slice move's μ is tuned during the first `SLICE_ADAPT_STEPS` steps, per ensemble, and
+/// then never changes; the suggested burn-in covers the tuning.
+#[test]
+fn the_slice_scale_is_tuned_and_then_frozen() {
+    let g = Gaussian::correlated(3, 0.9);
+    let config = SamplerConfig::new(10, 2, 8)
+        .unwrap()
+        .with_moves(vec![(Move::slice(), 1.0)])
+        .unwrap();
+    let mut s = EnsembleSampler::new(&g, config, start(&g, 10, 2)).unwrap();
+    let scales = |s: &EnsembleSampler<'_, Gaussian>| -> Vec<f64> {
+        s.state()
+            .ensembles
+            .iter()
+            .flat_map(|e| e.slice_scales.clone())
+            .collect()
+    };
+    assert_eq!(scales(&s), [SLICE_MU0; 2]);
+    s.run(
+        Steps::Fixed(SLICE_ADAPT_STEPS - 1),
+        &mut MemorySink::new(),
+        &mut Silent,
+    )
+    .unwrap();
+    let before_last = scales(&s);
+    s.run(Steps::Fixed(1), &mut MemorySink::new(), &mut Silent)
+        .unwrap();
+    let tuned = scales(&s);
+    // Tuned away from μ₀, separately per ensemble, up to the last step of the tuning.
+    for (e, (&mu, &prev)) in tuned.iter().zip(&before_last).enumerate() {
+        assert!(
+            (mu / SLICE_MU0 - 1.0).abs() > 0.05,
+            "ensemble {e}: μ {mu} not tuned"
+        );
+        assert_ne!(
+            mu.to_bits(),
+            prev.to_bits(),
+            "ensemble {e}: the last step tunes"
+        );
+    }
+    assert_ne!(tuned[0].to_bits(), tuned[1].to_bits());
+    let report = s
+        .run(Steps::Fixed(150), &mut MemorySink::new(), &mut Silent)
+        .unwrap();
+    assert_eq!(
+        bits(&scales(&s)),
+        bits(&tuned),
+        "μ changed after the tuning"
+    );
+    let tau = report.tau.as_ref().expect("τ");
+    assert!(tau.burn_in >= SLICE_ADAPT_STEPS, "burn-in {}", tau.burn_in);
+    // Slice updates always move: they are no proposals to accept.
+    assert!(report
+        .ensembles
+        .iter()
+        .flat_map(|e| &e.acceptance)
+        .all(|a| a.is_nan()));
+    assert!(report.mean_acceptance().is_nan());
+}
+
+/// A density that counts its evaluations.
+struct Counting<'a, D>(&'a D, std::sync::atomic::AtomicU64);
+impl<D: LogDensity> LogDensity for Counting<'_, D> {
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+    fn derived_names(&self) -> Vec<String> {
+        self.0.derived_names()
+    }
+    fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
+        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.0.log_density(x, d)
+    }
+}
+
+/// The report counts every evaluation a slice update makes (stepping out, shrinking, points
+/// outside the support) and the acceptance fraction only the moves' proposals.
+#[test]
+fn slice_evaluations_are_all_counted_and_acceptance_is_the_other_moves() {
+    let d = Counting(&Truncated, Default::default());
+    let config = SamplerConfig::new(8, 2, 3)
+        .unwrap()
+        .with_moves(vec![(Move::stretch(), 1.0), (Move::slice(), 1.0)])
+        .unwrap();
+    let mut s = EnsembleSampler::new(&d, config, start(&Truncated, 8, 2)).unwrap();
+    let report = s
+        .run(Steps::Fixed(400), &mut MemorySink::new(), &mut Silent)
+        .unwrap();
+    let calls = d.1.load(std::sync::atomic::Ordering::Relaxed);
+    assert_eq!(report.evaluations(), calls);
+    // More than one evaluation per walker and step: the slice steps cost several.
+    assert!(calls > 2 * 8 * 401 * 3 / 2, "{calls} evaluations");
+    let state = s.state();
+    for (e, r) in state.ensembles.iter().zip(&report.ensembles) {
+        // About half the steps were slice updates; the acceptance is over the others.
+        let proposals = 400 - e.slice_updates;
+        assert!(
+            (100..300).contains(&proposals),
+            "{proposals} stretch updates"
+        );
+        for (&a, &acc) in e.accepted.iter().zip(&r.acceptance) {
+            assert_eq!(acc.to_bits(), (a as f64 / proposals as f64).to_bits());
+        }
+        assert!(r.rejections.get("out_of_support").copied().unwrap_or(0) > 0);
+    }
 }
 
 #[test]

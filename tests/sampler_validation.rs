@@ -93,6 +93,19 @@ fn every_move_samples_a_correlated_gaussian() {
         ("student-t independence", vec![(Move::student_t(), 1.0)]),
         ("snooker", vec![(Move::snooker(), 1.0)]),
         ("kde", vec![(Move::Kde { bandwidth: None }, 1.0)]),
+        ("slice", vec![(Move::slice(), 1.0)]),
+        (
+            "slice gaussian",
+            vec![(Move::Slice { gaussian: true }, 1.0)],
+        ),
+        (
+            "slice in the default mixture",
+            vec![
+                (Move::student_t(), 0.4),
+                (Move::differential_evolution(), 0.4),
+                (Move::slice(), 0.2),
+            ],
+        ),
         (
             "mixture",
             vec![
@@ -160,6 +173,16 @@ fn rosenbrock_banana_with_snooker_and_kde() {
         vec![(Move::Kde { bandwidth: None }, 0.5), (Move::snooker(), 0.5)],
         "kde + snooker",
     );
+}
+
+/// Ensemble slice sampling follows the banana along lines between walkers (τ ≈ 23 steps at
+/// about 5 evaluations per walker and step); it must stay exact on it. Directions drawn from
+/// the whole ensemble instead of the complement (the walker itself included) put E (x−1)²
+/// 5.2 MCSE low here, and a slice level at a uniform instead of an exponential depth below
+/// the density 58 MCSE low.
+#[test]
+fn rosenbrock_banana_with_the_slice_move() {
+    check_banana(vec![(Move::slice(), 1.0)], "slice");
 }
 
 fn check_banana(moves: Vec<(Move, f64)>, label: &str) {

@@ -82,7 +82,13 @@ impl Observer for ProgressBarObserver {
             .tau_max
             .map_or_else(|| "τ ?".to_string(), |t| format!("τ_max {t:.1}"));
         let eta = p.eta.map_or_else(|| "?".to_string(), format_eta);
-        bar.set_message(format!("acc {:.2}  {tau}  ETA {eta}", p.acceptance));
+        // NaN when every update so far was a slice update (no proposal to accept).
+        let acc = if p.acceptance.is_nan() {
+            "acc –".to_string()
+        } else {
+            format!("acc {:.2}", p.acceptance)
+        };
+        bar.set_message(format!("{acc}  {tau}  ETA {eta}"));
     }
 
     fn on_finish(&mut self, _report: Option<&RunReport>) {

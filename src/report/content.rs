@@ -743,7 +743,12 @@ fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     let mut blocks = vec![
         heading(1, "diagnostics", "Diagnostics"),
         Block::List(vec![
-            format!("acceptance fraction (all walkers): {:.3}", s.acceptance),
+            if s.acceptance.is_nan() {
+                // Slice updates always move and are not proposals.
+                "acceptance fraction (all walkers): none, every update was a slice update".into()
+            } else {
+                format!("acceptance fraction (all walkers): {:.3}", s.acceptance)
+            },
             format!(
                 "autocorrelation time τ: max {} steps, min {} steps, reliable (chains longer than 50 τ): {}",
                 s.tau_max.map_or_else(|| "–".into(), |t| significant(t, 3)),

@@ -1,7 +1,9 @@
 //! One ensemble: its walkers, random streams, counters and preallocated work buffers, and the
 //! two serial halves of the red-blue update of one step (drawing the proposals, accepting
 //! them). The evaluation in between belongs to the caller, which evaluates the proposals of
-//! all ensembles in one loop (see [`Work`]).
+//! all ensembles in one loop (see [`Work`]). A half-step of the slice move, whose walkers
+//! each need their own number of evaluations, is instead one [`SliceTask`] per walker that
+//! draws, evaluates and settles on its point by itself; the caller runs the tasks.
 
 use std::collections::BTreeMap;
 
@@ -9,9 +11,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{Followers, HalfStepFit, Move};
-use super::slice::{update_coordinate, SliceError};
-use crate::density::{BlockLinks, Eval};
+use super::moves::{Followers, HalfStepFit, Move, SliceDirections, SLICE_MAX_STEPS_OUT};
+use super::slice::{update_along_line, update_coordinate, LineError, SliceError};
+use crate::density::{sort, BlockLinks, Eval, LogDensity};
 
 /// Stream id of the ensemble-level generator (split, move choice) of ensemble `e`.
 fn ensemble_stream(e: usize) -> u64 {
@@ -66,11 +68,177 @@ pub struct EnsembleState {
     pub walker_rngs: Vec<ChaCha8Rng>,
     /// Accepted proposals per walker.
     pub accepted: Vec<u64>,
-    /// Rejected proposals per reason (density errors, NaN, −∞); Metropolis rejections are not
-    /// counted here.
+    /// Points the density refused, per reason (density errors, NaN, −∞): rejected proposals,
+    /// and the points of slice updates that fell outside the support (outside the slice);
+    /// Metropolis rejections are not counted here.
     pub rejections: BTreeMap<String, u64>,
-    /// Log-density evaluations (proposals) so far.
+    /// Log-density evaluations (proposals, and every point of a slice update) so far.
     pub evaluations: u64,
+    /// The slice move's scale μ per update slot (one for joint updates, one per block
+    /// otherwise); empty when the moves hold no slice move. Tuned during the first
+    /// [`SLICE_ADAPT_STEPS`](super::moves::SLICE_ADAPT_STEPS) steps, then fixed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub slice_scales: Vec<f64>,
+    /// Updates of every walker made by the slice move (one per block updated so), which
+    /// always move and are left out of the acceptance fraction.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub slice_updates: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
+}
+
+/// What the current half-step of an ensemble is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum HalfStep {
+    /// Proposals of the moves, accepted or rejected by Metropolis–Hastings.
+    Moves,
+    /// Exact conditional draws, accepted as they are.
+    Exact,
+    /// Slice updates, accepted as they are, after this many evaluations in all.
+    Slice { evaluations: u64 },
+}
+
+/// What the slice move of one ensemble's half-step works with, built once from the
+/// complement and read by every walker of the active half.
+#[derive(Debug)]
+pub(crate) struct SliceContext {
+    directions: SliceDirections,
+    /// The regression that carries the block's followers, under hierarchical updates when the
+    /// density does not carry them itself.
+    followers: Option<Followers>,
+    mu: f64,
+}
+
+/// One walker's slice update in a half-step: everything it reads, its own stream, and its
+/// buffers in [`Work`], so that the walkers of every ensemble can run in parallel with
+/// results that do not depend on the order.
+pub(crate) struct SliceTask<'a> {
+    walker: usize,
+    /// The walker's position, log-density, derived values and cache.
+    x: &'a [f64],
+    lp: f64,
+    derived0: &'a [f64],
+    cache0: &'a [f64],
+    /// All walkers' positions (only the complement's are read for the direction).
+    positions: &'a [f64],
+    complement: &'a [usize],
+    context: &'a SliceContext,
+    rng: &'a mut ChaCha8Rng,
+    out: &'a mut [f64],
+    derived: &'a mut [f64],
+    cache: &'a mut [f64],
+    eval: &'a mut Eval,
+}
+
+/// What one walker's slice update did.
+#[derive(Debug, Default)]
+pub(crate) struct SliceOutcome {
+    expansions: u64,
+    contractions: u64,
+    evaluations: u64,
+    /// The reason of every point the density refused (outside the slice, like −∞).
+    rejections: Vec<&'static str>,
+}
+
+impl SliceOutcome {
+    /// Evaluations of the density the update made.
+    pub fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+}
+
+impl SliceTask<'_> {
+    /// Slices the walker along its direction: `block` is the block updated (with its index),
+    /// `None` for joint updates. The last evaluation is the new point, left in the task's
+    /// buffers of [`Work`].
+    ///
+    /// The target along the line `y(t)` is `π(y(t))`, times, when the density carries the
+    /// block's followers along its own map, that map's Jacobian from the walker to `y(t)`:
+    /// at fixed standardised followers `z` the density of the block is `π(x_b, φ(x_b, z))
+    /// |∂φ/∂z|`, and its ratio to the start's is the carry's Jacobian (docs/model.md §5).
+    ///
+    /// # Errors
+    /// [`Fatal`] when the density fails fatally, or the slice collapses onto the walker.
+    pub fn run<D: LogDensity + ?Sized>(
+        &mut self,
+        density: &D,
+        block: Option<(usize, &UpdateBlock)>,
+    ) -> Result<SliceOutcome, Fatal> {
+        let ndim = self.x.len();
+        let dirs = &self.context.directions;
+        let (mut eta, mut z) = (vec![0.0; dirs.dim()], vec![0.0; dirs.dim()]);
+        dirs.draw(
+            self.context.mu,
+            (self.positions, ndim),
+            self.complement,
+            self.rng,
+            &mut z,
+            &mut eta,
+        );
+        let coords = dirs.coords();
+        let followers = self.context.followers.as_ref();
+        let mut rejections = Vec::new();
+        let (x, derived0, cache0) = (self.x, self.derived0, self.cache0);
+        let (y, derived, cache, eval) = (
+            &mut *self.out,
+            &mut *self.derived,
+            &mut *self.cache,
+            &mut *self.eval,
+        );
+        let mut ln_f = |t: f64| -> Result<f64, String> {
+            y.copy_from_slice(x);
+            for (&i, &e) in coords.iter().zip(&eta) {
+                y[i] = x[i] + t * e;
+            }
+            let mut ln_jacobian = 0.0;
+            if let Some((b, ub)) = block {
+                if let Some(f) = followers {
+                    f.carry(x, &ub.coords, &ub.links.followers, y);
+                }
+                if ub.density_carries {
+                    ln_jacobian = density.carry_followers(b, x, y);
+                }
+            }
+            // Every point is evaluated from the walker's own cache: a refused point may have
+            // left the buffers half updated.
+            derived.copy_from_slice(derived0);
+            cache.copy_from_slice(cache0);
+            *eval = sort(match block {
+                None => density.log_density_cached(y, derived, cache),
+                Some((b, _)) => density.log_density_block(b, y, derived, cache),
+            });
+            match *eval {
+                Eval::Finite(lp) => Ok(lp + ln_jacobian),
+                Eval::Rejected(reason) => {
+                    rejections.push(reason);
+                    Ok(f64::NEG_INFINITY)
+                }
+                Eval::Fatal(ref message) => Err(message.clone()),
+            }
+        };
+        match update_along_line(self.lp, SLICE_MAX_STEPS_OUT, &mut ln_f, self.rng) {
+            Ok(u) => Ok(SliceOutcome {
+                expansions: u.expansions,
+                contractions: u.contractions,
+                evaluations: u.evaluations,
+                rejections,
+            }),
+            Err(LineError::Eval(message)) => Err(Fatal {
+                walker: self.walker,
+                position: self.out.to_vec(),
+                message,
+            }),
+            Err(LineError::Shrunk) => Err(Fatal {
+                walker: self.walker,
+                position: self.x.to_vec(),
+                message: "the slice collapsed onto the walker: the density is not finite \
+                          anywhere near a point where it was"
+                    .into(),
+            }),
+        }
+    }
 }
 
 /// Where a fatal evaluation happened.
@@ -147,8 +315,10 @@ pub(crate) struct Ensemble {
     sub: Vec<f64>,
     /// One proposal in the current block.
     sub_out: Vec<f64>,
-    /// The current half-step's proposals are exact conditional draws, accepted as they are.
-    exact: bool,
+    /// What the current half-step is.
+    kind: HalfStep,
+    /// Expansions and contractions of the slice updates of the current step.
+    slice_tally: (u64, u64),
 }
 
 impl Ensemble {
@@ -186,7 +356,8 @@ impl Ensemble {
             scratch_z: vec![0.0; half],
             sub: Vec::new(),
             sub_out: Vec::new(),
-            exact: false,
+            kind: HalfStep::Moves,
+            slice_tally: (0, 0),
         }
     }
 
@@ -198,6 +369,7 @@ impl Ensemble {
         // Partial Fisher–Yates from the identity: the first half becomes a uniformly random
         // subset (the order within a half does not matter, each walker has its own stream),
         // with `half` draws instead of `walkers − 1`, depending only on the stream.
+        self.slice_tally = (0, 0);
         for (i, p) in self.perm.iter_mut().enumerate() {
             *p = i;
         }
@@ -265,10 +437,10 @@ impl Ensemble {
             sub_out,
             nderived,
             cache_len,
-            exact,
+            kind,
             ..
         } = self;
-        *exact = false;
+        *kind = HalfStep::Moves;
         let (active, complement) = Self::halves(perm, h);
         // The move sees the walkers' coordinates in the block (all of them when joint).
         let (moved, dim): (&[f64], usize) = match block {
@@ -378,10 +550,10 @@ impl Ensemble {
             perm,
             nderived,
             cache_len,
-            exact,
+            kind,
             ..
         } = self;
-        *exact = true;
+        *kind = HalfStep::Exact;
         let (active, complement) = Self::halves(perm, h);
         let widths: Vec<f64> = block
             .coords
@@ -433,6 +605,124 @@ impl Ensemble {
         Ok(())
     }
 
+    /// What the slice move `mv` of half `h` works with in update slot `slot`: the directions
+    /// from the complement, the followers' regression (under hierarchical updates, when the
+    /// density does not carry them), and the ensemble's μ of the slot.
+    pub fn slice_context(
+        &self,
+        h: usize,
+        mv: &Move,
+        slot: usize,
+        block: Option<&UpdateBlock>,
+    ) -> SliceContext {
+        let ndim = self.ndim;
+        let (_, complement) = Self::halves(&self.perm, h);
+        let all: Vec<usize>;
+        let coords = match block {
+            Some(b) => &b.coords[..],
+            None => {
+                all = (0..ndim).collect();
+                &all[..]
+            }
+        };
+        let gaussian = matches!(mv, Move::Slice { gaussian: true });
+        let positions = &self.s.positions;
+        SliceContext {
+            directions: SliceDirections::new(gaussian, positions, ndim, complement, coords),
+            followers: block
+                .filter(|b| !b.links.followers.is_empty() && !b.density_carries)
+                .and_then(|b| {
+                    Followers::new(positions, ndim, complement, &b.coords, &b.links.followers)
+                }),
+            mu: self.s.slice_scales[slot],
+        }
+    }
+
+    /// The slice updates of the walkers of half `h`, one task each in walker order, writing
+    /// into `out` and `evals` (this ensemble's blocks of [`Work`]).
+    pub fn slice_tasks<'a>(
+        &'a mut self,
+        h: usize,
+        context: &'a SliceContext,
+        out: ProposalBuffers<'a>,
+        evals: &'a mut [Eval],
+    ) -> Vec<SliceTask<'a>> {
+        let (ndim, nd, nc) = (self.ndim, self.nderived, self.cache_len);
+        let (sd, sc) = (nd.max(1), nc.max(1));
+        self.kind = HalfStep::Slice { evaluations: 0 };
+        let Self { s, cache, perm, .. } = self;
+        let (active, complement) = Self::halves(perm, h);
+        let EnsembleState {
+            positions,
+            log_density,
+            derived,
+            walker_rngs,
+            ..
+        } = s;
+        let positions = &positions[..];
+        // Each active walker's stream, taken out of the ensemble's (the halves are disjoint).
+        let mut rngs: Vec<Option<&mut ChaCha8Rng>> = walker_rngs.iter_mut().map(Some).collect();
+        active
+            .iter()
+            .zip(out.proposals.chunks_exact_mut(ndim))
+            .zip(out.derived.chunks_exact_mut(sd))
+            .zip(out.cache.chunks_exact_mut(sc))
+            .zip(evals.iter_mut())
+            .map(|((((&w, o), d), c), e)| SliceTask {
+                walker: w,
+                x: &positions[w * ndim..(w + 1) * ndim],
+                lp: log_density[w],
+                derived0: &derived[w * nd..(w + 1) * nd],
+                cache0: &cache[w * nc..(w + 1) * nc],
+                positions,
+                complement,
+                context,
+                rng: rngs[w].take().expect("each active walker once"),
+                out: o,
+                derived: &mut d[..nd],
+                cache: &mut c[..nc],
+                eval: e,
+            })
+            .collect()
+    }
+
+    /// Takes in the outcomes of this ensemble's slice tasks (in walker order): evaluations,
+    /// refused points and the tally of expansions and contractions; the new points themselves
+    /// are in [`Work`], for [`accept`](Self::accept).
+    ///
+    /// # Errors
+    /// The first walker's [`Fatal`].
+    pub fn finish_slice(
+        &mut self,
+        outcomes: impl IntoIterator<Item = Result<SliceOutcome, Fatal>>,
+    ) -> Result<(), Fatal> {
+        let mut evaluations = 0;
+        for outcome in outcomes {
+            let o = outcome?;
+            evaluations += o.evaluations;
+            self.slice_tally.0 += o.expansions;
+            self.slice_tally.1 += o.contractions;
+            for reason in o.rejections {
+                *self.s.rejections.entry(reason.to_string()).or_insert(0) += 1;
+            }
+        }
+        self.kind = HalfStep::Slice { evaluations };
+        Ok(())
+    }
+
+    /// Ends a step's slice update of slot `slot` (both halves done): counts it, and while
+    /// `adapt`, tunes the slot's μ by zeus's rule `μ ← 2 μ N_e / (N_e + N_c)` from the
+    /// expansions and contractions of every walker (N_e at least 1, as zeus, so that μ
+    /// cannot collapse to 0 when no slice needed stepping out).
+    pub fn finish_slice_update(&mut self, slot: usize, adapt: bool) {
+        self.s.slice_updates += 1;
+        if adapt {
+            let (e, c) = self.slice_tally;
+            let e = e.max(1) as f64;
+            self.s.slice_scales[slot] *= 2.0 * e / (e + c as f64);
+        }
+    }
+
     /// Accepts or rejects the evaluated proposals of half `h` (`proposals`, `derived` with
     /// stride max(nderived, 1), `caches` with stride max(cache_len, 1), `evals`: this
     /// ensemble's blocks of [`Work`]).
@@ -452,12 +742,17 @@ impl Ensemble {
             factor,
             log_factor,
             accept_u,
-            exact,
+            kind,
             ..
         } = self;
-        let exact = *exact;
+        let kind = *kind;
+        // Exact draws and slice updates are accepted as they are.
+        let exact = kind != HalfStep::Moves;
         let (active, _) = Self::halves(perm, h);
-        s.evaluations += active.len() as u64;
+        s.evaluations += match kind {
+            HalfStep::Slice { evaluations } => evaluations,
+            _ => active.len() as u64,
+        };
 
         if let Some(k) = evals.iter().position(|e| matches!(e, Eval::Fatal(_))) {
             let message = match &evals[k] {
@@ -472,6 +767,7 @@ impl Ensemble {
         }
 
         // An exact draw lies where the conditional density is finite: the density must be too.
+        // (A slice update ends on a finite point by construction.)
         if let Some(k) = evals
             .iter()
             .position(|e| exact && matches!(e, Eval::Rejected(_)))
@@ -528,7 +824,8 @@ impl Ensemble {
                             cache[w * cache_len..(w + 1) * cache_len].copy_from_slice(c);
                         }
                         s.log_density[w] = lp;
-                        // Acceptance counts the moves' proposals, not the exact draws.
+                        // Acceptance counts the moves' proposals, not the exact draws or the
+                        // slice updates.
                         if !exact {
                             s.accepted[w] += 1;
                         }

@@ -4,9 +4,9 @@
 //! over `&[f64]` with a fallible result. Points the density refuses (out of support, NaN, −∞) are rejected
 //! proposals counted per reason; only fatal faults (and +∞) stop a run.
 //!
-//! - Moves ([`Move`]): stretch, differential evolution and walk, mixable with weights; the
-//!   red-blue update splits each ensemble randomly in two halves every step and updates one
-//!   from the other.
+//! - Moves ([`Move`]): stretch, differential evolution, walk, independence, KDE, DE-snooker
+//!   and ensemble slice sampling, mixable with weights; the red-blue update splits each
+//!   ensemble randomly in two halves every step and updates one from the other.
 //! - Blocked updates ([`Updates`]): one block of the density's coordinates after the other;
 //!   a block whose conditional density is cheap (the population level of a hierarchical
 //!   model) is drawn exactly by slice sampling instead of by ensemble moves.
@@ -14,7 +14,9 @@
 //!   ensembles stuck in different modes.
 //! - Determinism: every walker draws from its own ChaCha8 stream (`seed`, stream id), all
 //!   randomness is drawn serially and only the densities are evaluated in parallel (rayon),
-//!   so a seed gives bit-identical chains on any number of threads.
+//!   so a seed gives bit-identical chains on any number of threads. A slice update, whose
+//!   evaluations depend on its own draws, runs each walker's whole procedure as one parallel
+//!   task reading only the fixed complement and drawing only from the walker's stream.
 //! - Run control ([`Steps`]): fixed steps, or emcee's stopping rule (longer than 50 τ_max, τ
 //!   settled to 1 %, plus R̂ between ensembles) with a cap; the [`RunReport`] gives τ, burn-in
 //!   (≈ 2 τ_max), thinning (≈ τ_min/2), R̂, acceptance, rejections and evaluation counts.
@@ -73,7 +75,7 @@ pub use ensemble::EnsembleState;
 pub use error::SamplerError;
 pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
-pub use moves::{Mixture, Move, MOVE_NAMES};
+pub use moves::{Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0};
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION};

@@ -92,10 +92,47 @@ pub enum Move {
         /// `gaussian_kde` default, which emcee uses).
         bandwidth: Option<f64>,
     },
+    /// Ensemble slice sampling (Karamanis & Beutler 2021, the `zeus` sampler): a univariate
+    /// slice update of the walker along a direction drawn from the complement, by stepping
+    /// out (at most [`SLICE_MAX_STEPS_OUT`] widths) and shrinkage. It always moves and needs
+    /// no acceptance test, but evaluates the density as many times as the walker's slice
+    /// needs (about five on a Gaussian), so a half-step of this move runs each walker's
+    /// procedure as its own loop (see `EnsembleSampler::slice_half_step`). Affine-invariant;
+    /// valid because the direction depends only on the complement, which stays fixed while
+    /// the active half moves. The direction's scale μ (one per ensemble and block) is tuned
+    /// during the first [`SLICE_ADAPT_STEPS`] steps, then frozen.
+    ///
+    /// # Formula
+    /// Direction `η = μ (X_j − X_k)`, `j ≠ k` from the complement (zeus's differential
+    /// direction), or `η = μ √2 L Z` with `L Lᵀ = Ĉ` the complement's sample covariance and
+    /// `Z ~ N(0, I)` (zeus's Gaussian direction, with the differential direction's
+    /// covariance); the walker moves to `X + t η`, `t` drawn by slice sampling
+    /// `π(X + t η)` from an interval of width 1 placed at random around 0. While tuning,
+    /// `μ ← 2 μ N_e / (N_e + N_c)` after each update, `N_e` and `N_c` the expansions and
+    /// contractions of all the ensemble's walkers.
+    Slice {
+        /// Directions from the Gaussian fitted to the complement instead of differences of
+        /// two complement walkers.
+        gaussian: bool,
+    },
 }
 
+/// Most widths a slice update steps its interval out by (zeus allows 10⁴; with μ tuned a
+/// slice needs one or two, and a cap only shortens the interval, which stays valid).
+pub const SLICE_MAX_STEPS_OUT: usize = 32;
+
+/// Initial scale μ of the slice move's directions: zeus's `2 μ₀` with `μ₀ = 1`.
+pub const SLICE_MU0: f64 = 2.0;
+
+/// Steps during which the slice move's μ is tuned; then it stays fixed, so the chains that
+/// follow are a Markov chain whose kernel leaves the target invariant (adapting forever would
+/// not). zeus's own tuning settles within 10–20 updates from μ₀; 50 steps give a mixture that
+/// draws the slice move at 20 % about 10 updates. The sampler's suggested burn-in is at least
+/// this long, so that no draw made while μ was still changing is kept.
+pub const SLICE_ADAPT_STEPS: u64 = 50;
+
 /// The names of the moves in a written mixture, each with its default parameters.
-pub const MOVE_NAMES: [&str; 7] = [
+pub const MOVE_NAMES: [&str; 9] = [
     "stretch",
     "de",
     "walk",
@@ -103,6 +140,8 @@ pub const MOVE_NAMES: [&str; 7] = [
     "student-t",
     "snooker",
     "kde",
+    "slice",
+    "slice-gaussian",
 ];
 
 /// A weighted mixture of moves with their default parameters, as a model file
@@ -193,6 +232,8 @@ impl Move {
             "student-t" => Self::student_t(),
             "snooker" => Self::snooker(),
             "kde" => Self::Kde { bandwidth: None },
+            "slice" => Self::slice(),
+            "slice-gaussian" => Self::Slice { gaussian: true },
             _ => {
                 return Err(format!(
                     "unknown move `{name}`; the moves are {}",
@@ -228,6 +269,17 @@ impl Move {
     /// DE-snooker with emcee's `γ = 1.7`.
     pub fn snooker() -> Self {
         Self::Snooker { gamma: 1.7 }
+    }
+
+    /// Ensemble slice sampling along differences of two complement walkers (zeus's default).
+    pub fn slice() -> Self {
+        Self::Slice { gaussian: false }
+    }
+
+    /// Whether this is the slice move, whose half-steps do not go through the batched
+    /// propose, evaluate, accept.
+    pub fn is_slice(&self) -> bool {
+        matches!(self, Self::Slice { .. })
     }
 
     /// Checks the move's own parameters.
@@ -280,6 +332,9 @@ impl Move {
             Self::DifferentialEvolution { .. } => 2,
             Self::Walk { subset } => subset.unwrap_or(2).max(2),
             Self::Snooker { .. } => 3,
+            // Two walkers for a difference (the Gaussian direction falls back to it when the
+            // complement has no full-rank covariance).
+            Self::Slice { .. } => 2,
             // A full-rank sample covariance needs ndim + 1 points.
             Self::Independence { .. } | Self::Kde { .. } => ndim + 1,
         };
@@ -402,6 +457,9 @@ impl Move {
                 }
                 Correction::power(stretch.abs(), ndim as u64 - 1)
             }
+            // The slice move's half-steps run their own loop (`slice_half_step`) and never
+            // ask for a proposal: reaching this is a bug of the sampler, not of the input.
+            Self::Slice { .. } => unreachable!("the slice move does not make proposals"),
             Self::Independence { .. } | Self::Kde { .. } => match fit {
                 Fitted::Gaussian(fit) => Correction::log(fit.propose(x, rng, out)),
                 Fitted::Kde(fit) => Correction::log(fit.propose(x, rng, out)),
@@ -607,6 +665,19 @@ impl ComplementFit {
         self.log_q(x) - self.log_q(out)
     }
 
+    /// Writes `L Z` into `out` (the fit's mean and degrees of freedom left aside), drawing
+    /// `Z ~ N(0, I)` into `z`; reads the fit only, so one fit serves walkers in parallel.
+    fn draw_centred<R: Rng>(&self, rng: &mut R, z: &mut [f64], out: &mut [f64]) {
+        let ndim = self.mean.len();
+        for v in z.iter_mut() {
+            *v = rng.sample(StandardNormal);
+        }
+        for (a, o) in out.iter_mut().enumerate() {
+            let row = &self.chol[a * ndim..=a * ndim + a];
+            *o = row.iter().zip(&*z).map(|(l, v)| l * v).sum();
+        }
+    }
+
     /// Writes a draw from q into `out`.
     fn draw<R: Rng>(&mut self, rng: &mut R, out: &mut [f64]) {
         let ndim = self.mean.len();
@@ -620,6 +691,88 @@ impl ComplementFit {
         for (a, (o, &ma)) in out.iter_mut().zip(&self.mean).enumerate() {
             let row = &self.chol[a * ndim..=a * ndim + a];
             *o = ma + row.iter().zip(&self.u).map(|(l, z)| l * z).sum::<f64>();
+        }
+    }
+}
+
+/// Where [`Move::Slice`] draws its walkers' directions from in one half-step: built once from
+/// the complement, then read by every walker of the active half (in parallel).
+#[derive(Debug, Clone)]
+pub(crate) struct SliceDirections {
+    /// The coordinates the move acts on (the block's, or all).
+    coords: Vec<usize>,
+    /// The complement's Gaussian for [`Move::Slice`] with `gaussian`; `None` for differences
+    /// of two walkers, also when the complement has no full-rank covariance.
+    fit: Option<ComplementFit>,
+}
+
+impl SliceDirections {
+    /// Directions in coordinates `coords` from the `complement` (`positions` of all walkers,
+    /// `ndim` per row).
+    pub fn new(
+        gaussian: bool,
+        positions: &[f64],
+        ndim: usize,
+        complement: &[usize],
+        coords: &[usize],
+    ) -> Self {
+        let fit = (gaussian && complement.len() > coords.len())
+            .then(|| {
+                let mean = complement_mean(positions, ndim, complement, coords);
+                let m = (coords, &mean[..]);
+                let cov = complement_cov(positions, ndim, complement, m, m);
+                ComplementFit::from_moments(vec![0.0; coords.len()], cov, None)
+            })
+            .flatten();
+        Self {
+            coords: coords.to_vec(),
+            fit,
+        }
+    }
+
+    /// The number of coordinates a direction has.
+    pub fn dim(&self) -> usize {
+        self.coords.len()
+    }
+
+    /// The coordinates a direction moves.
+    pub fn coords(&self) -> &[usize] {
+        &self.coords
+    }
+
+    /// Writes the direction `μ η` of one walker into `out` (one entry per coordinate moved),
+    /// from the walker's own `rng`; `z` is scratch of the same length.
+    pub fn draw<R: Rng>(
+        &self,
+        mu: f64,
+        (positions, ndim): (&[f64], usize),
+        complement: &[usize],
+        rng: &mut R,
+        z: &mut [f64],
+        out: &mut [f64],
+    ) {
+        match &self.fit {
+            Some(fit) => {
+                fit.draw_centred(rng, z, out);
+                // √2: the covariance of a difference of two walkers, so that one μ suits
+                // either direction.
+                let scale = mu * std::f64::consts::SQRT_2;
+                for o in out.iter_mut() {
+                    *o *= scale;
+                }
+            }
+            None => {
+                let nc = complement.len();
+                let i1 = rng.random_range(0..nc);
+                let mut i2 = rng.random_range(0..nc - 1);
+                if i2 >= i1 {
+                    i2 += 1;
+                }
+                let (a, b) = (complement[i1] * ndim, complement[i2] * ndim);
+                for (o, &i) in out.iter_mut().zip(&self.coords) {
+                    *o = mu * (positions[a + i] - positions[b + i]);
+                }
+            }
         }
     }
 }
@@ -912,10 +1065,14 @@ mod tests {
             parse_mixture("de").unwrap(),
             vec![(Move::differential_evolution(), 1.0)]
         );
-        let err = parse_mixture("stretch=0.5,slice=0.5").unwrap_err();
+        let err = parse_mixture("stretch=0.5,hmc=0.5").unwrap_err();
         assert!(
-            err.contains("unknown move `slice`") && err.contains("student-t"),
+            err.contains("unknown move `hmc`") && err.contains("slice-gaussian"),
             "{err}"
+        );
+        assert_eq!(
+            parse_mixture("student-t=0.4,de=0.4,slice=0.2,slice-gaussian").unwrap()[2..],
+            [(Move::slice(), 0.2), (Move::Slice { gaussian: true }, 1.0)]
         );
         let err = parse_mixture("stretch=-1").unwrap_err();
         assert!(err.contains("weight `-1`"), "{err}");

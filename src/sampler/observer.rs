@@ -22,7 +22,8 @@ pub struct Progress {
     pub step: u64,
     /// Step count at which the run stops at the latest.
     pub last_step: u64,
-    /// Mean acceptance fraction over all walkers and ensembles so far.
+    /// Mean acceptance fraction of the moves' proposals over all walkers and ensembles so far
+    /// (NaN when every update so far was a slice update, which always moves).
     pub acceptance: f64,
     /// Latest estimate of the largest autocorrelation time, in steps (stopping-rule runs).
     pub tau_max: Option<f64>,

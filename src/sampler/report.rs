@@ -26,7 +26,9 @@ pub enum StopReason {
 /// Counters of one ensemble.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EnsembleReport {
-    /// Acceptance fraction of each walker over all steps so far.
+    /// Acceptance fraction of each walker over all its Metropolis–Hastings proposals so far
+    /// (slice updates and exact draws, which always move, are left out); NaN when it has had
+    /// none.
     pub acceptance: Vec<f64>,
     /// Proposals rejected because the density refused them, per reason.
     pub rejections: BTreeMap<String, u64>,
@@ -45,8 +47,9 @@ pub struct TauReport {
     pub min: f64,
     /// Whether the chains are longer than 50 τ_max, so that τ can be trusted.
     pub reliable: bool,
-    /// Suggested burn-in, ⌈2 τ_max⌉ steps. (No thinning is suggested: thinning adds no
-    /// information, and the diagnostics use every post-burn-in draw.)
+    /// Suggested burn-in, ⌈2 τ_max⌉ steps, and at least the steps during which the slice
+    /// move's scale was tuned. (No thinning is suggested: thinning adds no information, and
+    /// the diagnostics use every post-burn-in draw.)
     pub burn_in: u64,
 }
 
@@ -79,12 +82,19 @@ impl RunReport {
         self.ensembles.iter().map(|e| e.evaluations).sum()
     }
 
-    /// Mean acceptance fraction over all walkers of all ensembles.
+    /// Mean acceptance fraction over all walkers of all ensembles that had proposals to
+    /// accept; NaN when none had (the slice move alone).
     pub fn mean_acceptance(&self) -> f64 {
+        // Ensemble by ensemble, as before walkers without proposals existed (same rounding).
         let (s, n) = self.ensembles.iter().fold((0.0, 0usize), |(s, n), e| {
-            (s + e.acceptance.iter().sum::<f64>(), n + e.acceptance.len())
+            let proposing = || e.acceptance.iter().filter(|a| !a.is_nan());
+            (s + proposing().sum::<f64>(), n + proposing().count())
         });
-        s / n.max(1) as f64
+        if n == 0 && self.ensembles.iter().any(|e| !e.acceptance.is_empty()) {
+            f64::NAN
+        } else {
+            s / n.max(1) as f64
+        }
     }
 }
 
@@ -127,13 +137,19 @@ pub(crate) fn tau_from_history(
 }
 
 /// τ report from per-ensemble τ and the chain length.
-pub(crate) fn tau_report(per_ensemble: Vec<Vec<f64>>, steps: u64, tau_factor: f64) -> TauReport {
+/// τ's report; the burn-in is ⌈2 τ_max⌉, at least `min_burn_in` steps.
+pub(crate) fn tau_report(
+    per_ensemble: Vec<Vec<f64>>,
+    steps: u64,
+    tau_factor: f64,
+    min_burn_in: u64,
+) -> TauReport {
     let all = per_ensemble.iter().flatten().copied();
     let max = all.clone().fold(f64::NEG_INFINITY, f64::max);
     let min = all.fold(f64::INFINITY, f64::min);
     TauReport {
         reliable: steps as f64 > tau_factor * max,
-        burn_in: (2.0 * max).ceil() as u64,
+        burn_in: ((2.0 * max).ceil() as u64).max(min_burn_in),
         per_ensemble,
         max,
         min,

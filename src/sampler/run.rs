@@ -6,10 +6,12 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::config::{SamplerConfig, Steps, Updates};
-use super::ensemble::{Ensemble, EnsembleState, Fatal, ProposalBuffers, UpdateBlock, Work};
+use super::ensemble::{
+    Ensemble, EnsembleState, Fatal, ProposalBuffers, SliceContext, UpdateBlock, Work,
+};
 use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
-use super::moves::Move;
+use super::moves::{Move, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
     rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
@@ -229,6 +231,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 accepted: vec![0; walkers],
                 rejections: Default::default(),
                 evaluations: walkers as u64,
+                slice_scales: vec![SLICE_MU0; slice_slots(&config, &blocks)],
+                slice_updates: 0,
             });
             caches.push(cache);
         }
@@ -314,6 +318,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 || s.derived.len() != walkers * nderived
                 || s.walker_rngs.len() != walkers
                 || s.accepted.len() != walkers
+                || s.slice_scales.len() != slice_slots(&config, &blocks)
             {
                 return mismatch(format!("arrays of ensemble {e} have the wrong sizes"));
             }
@@ -411,10 +416,33 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.deadline = deadline;
     }
 
-    /// Move updates of each walker per step: one per block (exact conditional draws, always
-    /// accepted, do not count towards the acceptance rate), one when joint.
-    fn updates_per_step(&self) -> f64 {
-        self.blocks.iter().filter(|b| !b.conditional).count().max(1) as f64
+    /// Updates of each walker per step by the moves: one per block (and one more for a block
+    /// drawn exactly whose followers the density carries, which the moves then move too; the
+    /// exact draws, always accepted, do not count towards the acceptance rate), one when
+    /// joint.
+    fn updates_per_step(&self) -> u64 {
+        self.blocks
+            .iter()
+            .filter(|b| !b.conditional || b.density_carries)
+            .count()
+            .max(1) as u64
+    }
+
+    /// Updates of each walker of ensemble `e` so far by Metropolis–Hastings proposals: the
+    /// moves' updates but the slice move's (which always move, so that counting them would
+    /// inflate the acceptance fraction).
+    fn proposals_per_walker(&self, e: &Ensemble) -> u64 {
+        self.updates_per_step() * self.step - e.s.slice_updates
+    }
+
+    /// The steps the suggested burn-in covers at least: those during which the slice move's
+    /// μ was tuned (none without a slice move).
+    fn min_burn_in(&self) -> u64 {
+        if self.config.moves().iter().any(|(m, _)| m.is_slice()) {
+            SLICE_ADAPT_STEPS
+        } else {
+            0
+        }
     }
 
     /// Steps completed so far.
@@ -635,8 +663,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .zip(derived.chunks_exact_mut(half * stride))
                 .zip(cache.chunks_exact_mut(half * cstride))
             {
-                // An ensemble whose first half failed fatally does not go on (as before).
-                if p.is_none() {
+                // An ensemble whose first half failed fatally does not go on (as before); a
+                // slice half-step runs below, walker by walker.
+                if p.is_none() && (exact || !mv.is_slice()) {
                     let out = ProposalBuffers {
                         proposals: props,
                         derived: der,
@@ -656,7 +685,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     }
                 }
             }
-            self.evaluate(block.map(|b| b.0), exact);
+            if !exact && self.step_moves.iter().any(Move::is_slice) {
+                self.slice_half_step(h, block);
+            }
+            if exact || !self.step_moves.iter().all(Move::is_slice) {
+                self.evaluate(block.map(|b| b.0), exact);
+            }
             let Work {
                 proposals,
                 derived,
@@ -674,6 +708,20 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             {
                 if p.is_none() {
                     *p = ens.accept(h, props, der, cac, ev).err();
+                }
+            }
+        }
+        if !exact {
+            let slot = block.map_or(0, |b| b.0);
+            let adapt = self.step < SLICE_ADAPT_STEPS;
+            for ((ens, mv), p) in self
+                .ensembles
+                .iter_mut()
+                .zip(&self.step_moves)
+                .zip(&self.pending)
+            {
+                if mv.is_slice() && p.is_none() {
+                    ens.finish_slice_update(slot, adapt);
                 }
             }
         }
@@ -697,13 +745,20 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let density = self.density;
         let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
         let (stride, cstride) = (nderived.max(1), cache_len.max(1));
+        let half = self.config.walkers() / 2;
+        // The ensembles whose half-step is a slice update have their points already.
+        let skip: Vec<bool> = self
+            .step_moves
+            .iter()
+            .map(|m| !exact && m.is_slice())
+            .collect();
         let Work {
             proposals,
             derived,
             cache,
             evals,
         } = &mut self.work;
-        let n = evals.len();
+        let n = half * skip.iter().filter(|&&s| !s).count();
         let threads = rayon::current_num_threads();
         // Exact draws move no followers and cost less: timed apart from the moves.
         // (`self.blocks` is taken out during a step: the slots' count is the blocks'.)
@@ -715,7 +770,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.half_steps += 1;
         let timed = parallel || cost.is_none() || self.half_steps % RETIME_EVERY == 0;
         let started = timed.then(Instant::now);
-        let eval = |(((x, d), c), e): EvalItem| {
+        let eval = |(k, (((x, d), c), e)): (usize, EvalItem)| {
+            if skip[k / half] {
+                return;
+            }
             let (d, c) = (&mut d[..nderived], &mut c[..cache_len]);
             *e = sort(match block {
                 None => density.log_density_cached(x, d, c),
@@ -729,6 +787,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .zip(derived.par_chunks_mut(stride))
                 .zip(cache.par_chunks_mut(cstride))
                 .zip(evals.par_iter_mut())
+                .enumerate()
                 .for_each(eval);
         } else {
             proposals
@@ -736,6 +795,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .zip(derived.chunks_mut(stride))
                 .zip(cache.chunks_mut(cstride))
                 .zip(evals.iter_mut())
+                .enumerate()
                 .for_each(eval);
         }
         if let Some(t) = started {
@@ -751,6 +811,95 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 Some(c) => 0.5 * (c + per),
                 None => per,
             });
+        }
+    }
+
+    /// The half-step `h` of every ensemble whose move this step is the slice move, on all
+    /// coordinates or those of `block`: each active walker's whole slice update (direction,
+    /// stepping out, shrinkage, as many evaluations as it needs) is one task, and the tasks
+    /// of every ensemble run together, on the rayon pool when parallel evaluation is allowed
+    /// and the work is worth it. Each task reads only the fixed complement and its own
+    /// walker, draws only from the walker's own stream, and writes only its own buffers of
+    /// [`Work`]; the outcomes are taken in walker order. So the chains do not depend on the
+    /// number of threads or on the (timing-based) choice to run in parallel. The new points
+    /// are then accepted as they are by [`Ensemble::accept`].
+    fn slice_half_step(&mut self, h: usize, block: Option<(usize, &UpdateBlock)>) {
+        let half = self.config.walkers() / 2;
+        let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
+        let slot = block.map_or(0, |b| b.0);
+        let contexts: Vec<Option<SliceContext>> = self
+            .ensembles
+            .iter()
+            .zip(&self.step_moves)
+            .zip(&self.pending)
+            .map(|((ens, mv), p)| {
+                (mv.is_slice() && p.is_none())
+                    .then(|| ens.slice_context(h, mv, slot, block.map(|b| b.1)))
+            })
+            .collect();
+        let Work {
+            proposals,
+            derived,
+            cache,
+            evals,
+        } = &mut self.work;
+        let mut tasks = Vec::new();
+        for (((((ens, context), props), der), cac), ev) in self
+            .ensembles
+            .iter_mut()
+            .zip(&contexts)
+            .zip(proposals.chunks_exact_mut(half * ndim))
+            .zip(derived.chunks_exact_mut(half * stride))
+            .zip(cache.chunks_exact_mut(half * cstride))
+            .zip(evals.chunks_exact_mut(half))
+        {
+            if let Some(context) = context {
+                let out = ProposalBuffers {
+                    proposals: props,
+                    derived: der,
+                    cache: cac,
+                };
+                tasks.extend(ens.slice_tasks(h, context, out, ev));
+            }
+        }
+        let density = self.density;
+        let threads = rayon::current_num_threads();
+        // A slice update costs a few evaluations; until one has been timed, assume it is worth
+        // spreading (the choice cannot change the chains).
+        let cost = &mut self.eval_ns[slot];
+        let parallel = self.config.parallel()
+            && threads > 1
+            && cost.is_none_or(|c| {
+                c * (SLICE_EVALS_GUESS * tasks.len()) as f64 >= PARALLEL_MIN_WORK_NS
+            });
+        let started = Instant::now();
+        let run = |t: &mut super::ensemble::SliceTask| t.run(density, block);
+        let outcomes: Vec<_> = if parallel {
+            tasks.par_iter_mut().map(run).collect()
+        } else {
+            tasks.iter_mut().map(run).collect()
+        };
+        drop(tasks);
+        let evaluations: u64 = outcomes
+            .iter()
+            .filter_map(|o| o.as_ref().ok())
+            .map(|o| o.evaluations())
+            .sum();
+        if evaluations > 0 {
+            let ns = started.elapsed().as_secs_f64() * 1e9;
+            let per = ns * if parallel { threads as f64 } else { 1.0 } / evaluations as f64;
+            *cost = Some(cost.map_or(per, |c| 0.5 * (c + per)));
+        }
+        let mut outcomes = outcomes.into_iter();
+        for ((ens, context), p) in self
+            .ensembles
+            .iter_mut()
+            .zip(&contexts)
+            .zip(self.pending.iter_mut())
+        {
+            if context.is_some() {
+                *p = ens.finish_slice(outcomes.by_ref().take(half)).err();
+            }
         }
     }
 
@@ -789,7 +938,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         if !(long_enough && settled) {
             return (false, Some(tmax));
         }
-        let burn_in = (2.0 * tmax).ceil() as u64;
+        let burn_in = ((2.0 * tmax).ceil() as u64).max(self.min_burn_in());
         let rhat_ok =
             match rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel()) {
                 Some(r) => r.iter().all(|&v| v < rule.rhat_max),
@@ -806,11 +955,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         tau_max: Option<f64>,
         tau_factor: Option<f64>,
     ) -> Progress {
-        let (acc, n) = self.ensembles.iter().fold((0u64, 0usize), |(a, n), e| {
-            (a + e.s.accepted.iter().sum::<u64>(), n + e.s.accepted.len())
+        // Over the moves' proposals only; NaN when every update was a slice update.
+        let (acc, n) = self.ensembles.iter().fold((0u64, 0u64), |(a, n), e| {
+            let proposals = self.proposals_per_walker(e) * e.s.accepted.len() as u64;
+            (a + e.s.accepted.iter().sum::<u64>(), n + proposals)
         });
-        let acceptance =
-            acc as f64 / (n as f64 * self.updates_per_step() * self.step.max(1) as f64);
+        let acceptance = if self.step == 0 {
+            0.0
+        } else {
+            acc as f64 / n as f64
+        };
         let done = self.step - first;
         let target = match (tau_factor, tau_max) {
             (Some(f), Some(t)) => ((f * t).ceil() as u64).clamp(self.step, last),
@@ -837,11 +991,18 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             .ensembles
             .iter()
             .map(|e| EnsembleReport {
+                // NaN for walkers updated by the slice move alone: no proposal to accept.
                 acceptance: e
                     .s
                     .accepted
                     .iter()
-                    .map(|&a| a as f64 / (self.updates_per_step() * steps.max(1) as f64))
+                    .map(|&a| {
+                        if steps == 0 {
+                            0.0
+                        } else {
+                            a as f64 / self.proposals_per_walker(e) as f64
+                        }
+                    })
                     .collect(),
                 rejections: e.s.rejections.clone(),
                 evaluations: e.s.evaluations,
@@ -850,7 +1011,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let mut problems = Vec::new();
         let parallel = self.config.parallel();
         let tau = tau_from_history(&self.history, self.ndim, parallel)
-            .map(|t| tau_report(t, steps, TAU_FACTOR));
+            .map(|t| tau_report(t, steps, TAU_FACTOR, self.min_burn_in()));
         match &tau {
             None => problems.push(Problem::NoAutocorrelationTime { steps }),
             Some(t) if !t.reliable => problems.push(Problem::ChainsTooShort {
@@ -902,6 +1063,10 @@ type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
 /// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only
 /// well above that.
 const PARALLEL_MIN_WORK_NS: f64 = 100_000.0;
+
+/// Evaluations a slice update is assumed to cost when deciding whether to run a half-step's
+/// slice updates in parallel (zeus reports about five on Gaussian targets once μ is tuned).
+const SLICE_EVALS_GUESS: usize = 5;
 
 /// Half-steps between re-timings of serial evaluations (each timing costs two clock reads).
 const RETIME_EVERY: u64 = 64;
@@ -1025,6 +1190,16 @@ fn blocks_of<D: LogDensity + ?Sized>(
             density_carries: hierarchical && density.carries_followers(b),
         })
         .collect())
+}
+
+/// Update slots with a slice scale μ of their own: one for joint updates, one per block
+/// otherwise; none when the moves hold no slice move.
+fn slice_slots(config: &SamplerConfig, blocks: &[UpdateBlock]) -> usize {
+    if config.moves().iter().any(|(m, _)| m.is_slice()) {
+        blocks.len().max(1)
+    } else {
+        0
+    }
 }
 
 /// The walkers must span the space each move acts in: the whole space, or each block.

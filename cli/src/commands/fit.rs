@@ -105,8 +105,8 @@ pub(super) struct RunArgs {
     #[arg(long)]
     strict: bool,
     /// Proposal moves and weights, e.g. `student-t=0.8,stretch=0.2` (moves: stretch, de,
-    /// walk, gaussian, student-t, snooker, kde); default: the model file's, else the fit's
-    /// default mixture.
+    /// walk, gaussian, student-t, snooker, kde, slice, slice-gaussian); default: the model
+    /// file's, else the fit's default mixture.
     #[arg(long)]
     moves: Option<Mixture>,
     /// `joint` (every coordinate at once), `blocked` (one block after the other: a material's

@@ -8,6 +8,7 @@ use anyhow::Context;
 use clap::Args;
 
 use crate::validate::{run_sbc, summarise, write_report, GrossLimits, SbcSettings};
+use slipbayes::sampler::Mixture;
 
 /// Simulation-based calibration (Talts et al. 2018): draw parameters from the model's priors,
 /// simulate a first and a repeat slide, fit them, and rank the truth among the posterior draws.
@@ -78,6 +79,13 @@ pub(super) struct ValidateArgs {
     /// With --hard: steps of the 10^6-point fit (it costs about 0.1 s per evaluation).
     #[arg(long, default_value_t = 40, requires = "hard")]
     million_steps: u64,
+    /// With --hard: the fits' moves instead of the default mixture, as `fit --moves` writes
+    /// them (e.g. `student-t=0.4,de=0.4,slice=0.2`).
+    #[arg(long, requires = "hard")]
+    moves: Option<Mixture>,
+    /// With --hard: the step cap of the fits run until converged (default 20 000).
+    #[arg(long, requires = "hard")]
+    max_steps: Option<u64>,
 }
 
 pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
@@ -175,6 +183,10 @@ fn hard(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
         &args.cases,
         args.seed,
         args.million_steps,
+        crate::validate::hard::FitOverrides {
+            moves: args.moves.as_ref().map(Mixture::moves),
+            max_steps: args.max_steps,
+        },
         &command,
         &mut progress,
     )

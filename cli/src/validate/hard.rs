@@ -20,7 +20,7 @@ use slipbayes::fit::{fit_stop_rule, kept_draws, peak_notes, RunDir, DEFAULT_MAX_
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::Steps;
+use slipbayes::sampler::{Move, Steps};
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// Contraction below which a quantity counts as not identified by the data.
@@ -238,8 +238,23 @@ fn run_toml(
     )
 }
 
-/// Runs one case in `dir`; never panics on bad data: errors end up in the outcome.
-pub fn run_case(case: &HardCase, dir: &Path, seed: u64) -> HardOutcome {
+/// What the command line changes in the hard cases' fits.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FitOverrides<'a> {
+    /// Moves instead of the fit's default mixture.
+    pub moves: Option<&'a [(Move, f64)]>,
+    /// Step cap of the fits run until converged, instead of the case's.
+    pub max_steps: Option<u64>,
+}
+
+/// Runs one case in `dir`, fitted with `moves` instead of the default mixture when given;
+/// never panics on bad data: errors end up in the outcome.
+pub fn run_case(
+    case: &HardCase,
+    dir: &Path,
+    seed: u64,
+    moves: Option<&[(Move, f64)]>,
+) -> HardOutcome {
     let started = Instant::now();
     let mut outcome = HardOutcome {
         case: case.clone(),
@@ -256,7 +271,7 @@ pub fn run_case(case: &HardCase, dir: &Path, seed: u64) -> HardOutcome {
         passed: false,
         notes: Vec::new(),
     };
-    if let Err(e) = fit_case(case, dir, seed, &mut outcome) {
+    if let Err(e) = fit_case(case, dir, seed, moves, &mut outcome) {
         outcome.error = Some(e);
     }
     outcome.wall_s = started.elapsed().as_secs_f64();
@@ -269,6 +284,7 @@ fn fit_case(
     case: &HardCase,
     dir: &Path,
     seed: u64,
+    moves: Option<&[(Move, f64)]>,
     outcome: &mut HardOutcome,
 ) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
@@ -325,7 +341,7 @@ fn fit_case(
         Steps::Fixed(steps)
     };
     let fit_dir = RunDir::new(dir.join("fit"));
-    let fit = super::quiet_fit(&posterior, walkers, ensembles, seed, steps, &fit_dir)?;
+    let fit = super::quiet_fit(&posterior, walkers, ensembles, seed, steps, moves, &fit_dir)?;
     let s = &fit.summary;
     outcome.notes = peak_notes(&posterior, s);
     outcome.converged = s.sampler.converged;
@@ -475,7 +491,8 @@ pub fn markdown(outcomes: &[HardOutcome], command: &str) -> String {
 }
 
 /// Runs the named cases (all when `only` is empty) into `out/<case>/`, writing
-/// `out/hard_cases.json` and `out/hard_cases.md` after each case.
+/// `out/hard_cases.json` and `out/hard_cases.md` after each case, the fits changed by
+/// `overrides`.
 ///
 /// # Errors
 /// When the summary files cannot be written.
@@ -484,6 +501,7 @@ pub fn run_hard_cases(
     only: &[String],
     seed: u64,
     million_steps: u64,
+    overrides: FitOverrides,
     command: &str,
     progress: &mut dyn FnMut(&HardOutcome),
 ) -> Result<Vec<HardOutcome>, std::io::Error> {
@@ -493,7 +511,16 @@ pub fn run_hard_cases(
             continue;
         }
         let dir: PathBuf = out.join(&case.name);
-        let outcome = run_case(&case, &dir, seed);
+        // The cap goes into the case, so that its report states the cap the fit had.
+        let (walkers, ensembles, _) = case.fit;
+        let case = match overrides.max_steps {
+            Some(cap) if case.until_converged => HardCase {
+                fit: (walkers, ensembles, cap),
+                ..case
+            },
+            _ => case,
+        };
+        let outcome = run_case(&case, &dir, seed, overrides.moves);
         progress(&outcome);
         outcomes.push(outcome);
         let json = serde_json::to_vec_pretty(&outcomes).unwrap_or_default();

@@ -33,6 +33,7 @@ use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::spec::{Aging, Level, Param};
 use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::Move;
 use slipbayes::sampler::{Silent, Steps};
 use slipbayes::simulate::{simulate, SimulateError, SimulationSpec};
 
@@ -506,6 +507,7 @@ fn fit_and_rank(
         settings.ensembles,
         fit_seed,
         Steps::Fixed(settings.steps),
+        None,
         &fit_dir,
     )?;
     let chains = fit_dir.chain_reader().map_err(|e| e.to_string())?;
@@ -597,8 +599,10 @@ pub(crate) fn quiet_fit(
     ensembles: usize,
     seed: u64,
     steps: Steps,
+    moves: Option<&[(Move, f64)]>,
     dir: &RunDir,
 ) -> Result<slipbayes::fit::FitOutcome, String> {
+    let defaults = FitSettings::default();
     let settings = FitSettings {
         walkers,
         ensembles,
@@ -607,7 +611,8 @@ pub(crate) fn quiet_fit(
         checkpoint_every: None,
         quiet: true,
         overwrite: true,
-        ..FitSettings::default()
+        moves: moves.map_or(defaults.moves.clone(), <[_]>::to_vec),
+        ..defaults
     };
     run_fit(
         posterior,
