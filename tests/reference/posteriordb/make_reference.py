@@ -16,8 +16,14 @@ with `git show HEAD:...`). Needs numpy, scipy and arviz. Writes, beside this scr
   scipy's solve_ivp with DOP853 and Radau at rtol 1e-13, which must agree with each other to
   1e-10 relative (plus 1e-12 absolute); the Rust integrator of the tests is checked against
   them.
+- density_reference.json: each posterior's log-density at three points of its sampled
+  (unconstrained) coordinates, from an independent scipy.stats transcription of the Stan
+  program (whole densities, Jacobians of the transforms included; the ODEs by DOP853 at
+  rtol 1e-12); the tests compare the differences between the points with the Rust densities.
 
-The centred eight schools has no draws of its own: posteriordb names the non-centred
+Parameters whose posterior sd does not exist (HEAVY_TAILED below) also get the same summary of
+their logarithm, with Hill estimates of the tail index as evidence; the tests compare those on
+the log scale. The centred eight schools has no draws of its own: posteriordb names the non-centred
 reference for it (same posterior over mu, tau, theta), and so do the tests.
 """
 
