@@ -310,14 +310,16 @@ pub fn kept_draws(
     let chains = outcome.dir.chain_reader()?;
     let rows = kept_rows(&chains, &outcome.summary.sampler, max_draws);
     let mut draws = vec![Vec::with_capacity(names.len()); rows.len()];
-    // One column in memory at a time.
+    // The rows asked for, one column at a time, read one row group at a time.
     for name in names {
-        let column = chains.column(name).map_err(|source| FitError::Storage {
-            context: format!("reading kept draws from {}", outcome.dir.path().display()),
-            source,
-        })?;
-        for (draw, &i) in draws.iter_mut().zip(&rows) {
-            draw.push(column[i]);
+        let column = chains
+            .rows_of(name, &rows)
+            .map_err(|source| FitError::Storage {
+                context: format!("reading kept draws from {}", outcome.dir.path().display()),
+                source,
+            })?;
+        for (draw, v) in draws.iter_mut().zip(column) {
+            draw.push(v);
         }
     }
     Ok(draws)

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use rayon::prelude::*;
 
 use super::history::RowHistory;
-use crate::diagnostics::{integrated_time, rhat, Problem, DEFAULT_WINDOW_FACTOR};
+use crate::diagnostics::{integrated_time, rhat_by, Problem, DEFAULT_WINDOW_FACTOR};
 
 /// Why the run stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -144,12 +144,14 @@ pub(crate) fn tau_report(per_ensemble: Vec<Vec<f64>>, steps: u64, tau_factor: f6
 /// from the history rows after `burn_in` steps. The chain of an ensemble is its draws in
 /// step order, walkers interleaved within a step, so R̂ compares ensembles (and early with
 /// late halves), never walkers of one ensemble (which are not independent). `None` with
-/// fewer than two ensembles or too few rows. Parameters in parallel when `parallel`.
+/// fewer than two ensembles or too few rows. Parameters one at a time, whatever `parallel`:
+/// each holds 12 bytes per draw of the history while its R̂ is computed, and a run's peak
+/// memory should not hold that once per thread.
 pub(crate) fn rhat_from_history(
     history: &RowHistory,
     ndim: usize,
     burn_in: u64,
-    parallel: bool,
+    _parallel: bool,
 ) -> Option<Vec<f64>> {
     if history.data.len() < 2 {
         return None;
@@ -159,23 +161,14 @@ pub(crate) fn rhat_from_history(
         return None;
     }
     let width = history.width;
-    let rows = first * width..history.rows * width;
-    map_indices(ndim, parallel, |p| {
-        // Row-major rows, walkers interleaved within a row: parameter p of every walker.
-        let chains: Vec<Vec<f64>> = history
-            .data
-            .iter()
-            .map(|buf| {
-                buf[rows.clone()]
-                    .iter()
-                    .skip(p)
-                    .step_by(ndim)
-                    .copied()
-                    .collect()
-            })
-            .collect();
-        let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
-        rhat(&refs).ok()
+    let (start, draws) = (first * width, (history.rows - first) * width / ndim);
+    map_indices(ndim, false, |p| {
+        // Row-major rows, walkers interleaved within a row: parameter p of every walker,
+        // read where the history holds it (no copy of the chains).
+        rhat_by(history.data.len(), draws, &|e, t| {
+            history.data[e][start + t * ndim + p]
+        })
+        .ok()
     })
     .into_iter()
     .collect()
