@@ -38,9 +38,9 @@ use std::sync::OnceLock;
 use super::root::increasing_root;
 use super::{Law, LawError};
 use crate::special::lanes::{
-    d_series, d_subtracted, exp_neg, one_minus_exp_neg, Pieces, X_LANES_MAX,
+    d_series, d_series_close, d_subtracted, exp_neg, one_minus_exp_neg, Pieces, X_LANES_MAX,
 };
-use crate::special::{series_apart, subtracts};
+use crate::special::{in_series_apart, in_series_close, in_subtraction};
 
 /// Points per batch: two AVX-512 registers of f64 (four AVX2 registers), so that two
 /// independent dependency chains fill the pipelines (one register's worth, 8, was 1.3–1.5×
@@ -70,20 +70,22 @@ pub struct KernelCounts {
     /// Batch evaluations of the law outside the lanes' regimes, done lane by lane by the
     /// scalar law.
     pub scalar_law_batches: u64,
-    /// Anchors solved by the serial iteration.
+    /// Anchors solved serially.
     pub anchors: u64,
+    /// Evaluations of the scalar law for the anchors.
+    pub anchor_evaluations: u64,
     /// Points left to the serial iteration after the last Newton round.
     pub serial_points: u64,
+    /// Slides solved point after point by the serial reference, because t(τ) folds
+    /// (dF/dτ ≤ −kv) somewhere before the last time, where a time may have several τ and only
+    /// the serial path follows the quasi-static branch.
+    pub serial_slides: u64,
 }
 
 /// Counting the kernel's paths, or not: `()` counts nothing and compiles to nothing.
 pub(super) trait Tally {
+    /// Records what happened, when counting.
     fn count(&mut self, what: impl FnOnce(&mut KernelCounts));
-}
-
-impl Tally for () {
-    #[inline(always)]
-    fn count(&mut self, _: impl FnOnce(&mut KernelCounts)) {}
 }
 
 impl Tally for KernelCounts {
@@ -91,6 +93,11 @@ impl Tally for KernelCounts {
     fn count(&mut self, what: impl FnOnce(&mut KernelCounts)) {
         what(self)
     }
+}
+
+impl Tally for () {
+    #[inline(always)]
+    fn count(&mut self, _: impl FnOnce(&mut KernelCounts)) {}
 }
 
 /// The vector instructions the kernel is compiled for; every choice gives the same bits.
@@ -159,7 +166,7 @@ impl Simd {
     }
 }
 
-/// One point solved: interface time, force and dF/dτ there, and dτ/dt, d²τ/dt².
+/// One point solved: interface time, force, and dτ/dt, d²τ/dt², d³τ/dt³ there.
 #[derive(Debug, Clone, Copy)]
 struct Anchor {
     t: f64,
@@ -167,20 +174,64 @@ struct Anchor {
     force: f64,
     slope: f64,
     curvature: f64,
+    jerk: f64,
 }
 
 impl Anchor {
-    /// The anchor at (t, τ) with F and dF/dτ there: dτ/dt = 1/G', d²τ/dt² = −(F''/kv) (dτ/dt)³.
+    /// The anchor at (t, τ) with F and dF/dτ there. From dτ/dt = 1/G' = kv/(kv + F'):
+    /// d²τ/dt² = −c (dτ/dt)³ with c = F''/kv, and d³τ/dt³ = −(F⁽³⁾/kv) (dτ/dt)⁴ −
+    /// 3 c (dτ/dt)² d²τ/dt², where F⁽³⁾ = 2a/τ³ − αv F'' (from Eq. 2).
     fn new(law: &Law, kv: f64, t: f64, tau: f64, force: f64, rate: f64) -> Self {
         let slope = 1.0 / (1.0 + rate / kv);
-        let curvature = -law.curvature(tau, rate) / kv * slope * slope * slope;
+        let f2 = law.curvature(tau, rate);
+        let f3 = 2.0 * law.a / (tau * tau * tau) - law.alpha_v * f2;
+        let s2 = slope * slope;
+        let curvature = -f2 / kv * s2 * slope;
+        let jerk = -f3 / kv * s2 * s2 - 3.0 * f2 / kv * s2 * curvature;
         Self {
             t,
             tau,
             force,
             slope,
             curvature,
+            jerk,
         }
+    }
+}
+
+/// One Newton step on G(τ) = τ + F(τ)/(kv) − t from a τ where the law gives F and dF/dτ:
+/// the next τ, F carried along its tangent, whether both are final (the predicted error of
+/// each below a quarter ulp, see the module's doc) and whether the step stayed in (lo, t].
+#[derive(Debug, Clone, Copy)]
+struct Step {
+    tau: f64,
+    force: f64,
+    converged: bool,
+    inside: bool,
+}
+
+/// [`Step`] from `tau`; branch-free, so that it vectorises across lanes.
+#[inline(always)]
+fn newton_step(law: &Law, inv_kv: f64, lo: f64, t: f64, tau: f64, force: f64, rate: f64) -> Step {
+    let g_slope = 1.0 + rate * inv_kv;
+    let inv_slope = 1.0 / g_slope;
+    let step = (t - tau - force * inv_kv) * inv_slope;
+    let next = tau + step;
+    let next_force = force + rate * step;
+    let inv_tau = 1.0 / tau;
+    let curvature = -law.a * inv_tau * inv_tau - law.alpha_v * rate;
+    let remainder = 0.5 * curvature.abs() * step * step;
+    let tau_error = remainder * inv_kv * inv_slope;
+    let force_error = remainder * (1.0 + rate.abs() * inv_kv * inv_slope);
+    let inside = (next > lo) & (next <= t);
+    Step {
+        tau: next,
+        force: next_force,
+        converged: (g_slope > 0.0)
+            & inside
+            & (tau_error <= ROUND_OFF * next)
+            & (force_error <= ROUND_OFF * next_force.abs()),
+        inside,
     }
 }
 
@@ -214,19 +265,40 @@ impl<'l> LawLanes<'l> {
         for l in 0..LANES {
             x[l] = alpha_v * tau[l];
         }
-        // The regime is decided for the batch from its smallest and largest x (a NaN anywhere
-        // makes the sum NaN and sends the batch to the scalar law). Subtraction holds from
-        // some x on for a fixed x0 (h ≥ 2 always subtracts; 1 ≤ h < 2 does once h > x0;
-        // h < 1 never does), so it holds for the batch if it holds at its smallest x; the
-        // series with x ≥ 2 x0 holds on an interval of x, so at both ends.
+        // Which forms of D the batch needs, decided from its smallest and largest x where
+        // the batch lies in one regime (the bulk of a slide): subtraction holds from some x on
+        // for a fixed x0 (h ≥ 2 always subtracts, 1 ≤ h < 2 does once h > x0, h < 1 never
+        // does), so at the smallest x; either series holds on an interval of x, so at both
+        // ends. A batch across a boundary is classified lane by lane and evaluated in each
+        // form it needs; a lane in no vector form (the quadrature regime, τ before t0, x past
+        // the lanes' range, NaN: the sum catches it) sends the batch to the scalar law.
         let (lo, hi, sum) = x.iter().fold(
             (f64::INFINITY, f64::NEG_INFINITY, 0.0),
             |(lo, hi, sum), &v| (lo.min(v), hi.max(v), sum + v),
         );
-        let finite = sum.is_finite() && self.ei0.is_finite();
-        let subtract = finite && subtracts(lo, x0) && hi <= X_LANES_MAX;
-        let series = finite && series_apart(lo, x0) && series_apart(hi, x0);
-        if !(subtract || series) {
+        let finite = sum.is_finite() && self.ei0.is_finite() && hi <= X_LANES_MAX;
+        let mut forms = [[false; LANES]; 3];
+        let (subtract, apart, close) = if !finite {
+            (false, false, false)
+        } else if in_subtraction(lo, x0) {
+            (true, false, false)
+        } else if in_series_apart(lo, x0) && in_series_apart(hi, x0) {
+            (false, true, false)
+        } else if in_series_close(lo, x0) && in_series_close(hi, x0) {
+            (false, false, true)
+        } else {
+            let mut every = true;
+            for l in 0..LANES {
+                forms[0][l] = in_subtraction(x[l], x0);
+                forms[1][l] = in_series_apart(x[l], x0);
+                forms[2][l] = in_series_close(x[l], x0);
+                every &= forms[0][l] | forms[1][l] | forms[2][l];
+            }
+            let any = |f: &[bool; LANES]| every && f.iter().any(|&b| b);
+            (any(&forms[0]), any(&forms[1]), any(&forms[2]))
+        };
+        let forms_needed = u8::from(subtract) + u8::from(apart) + u8::from(close);
+        if forms_needed == 0 {
             tally.count(|c| c.scalar_law_batches += 1);
             for l in 0..LANES {
                 (force[l], rate[l]) = law.force_and_rate(tau[l]);
@@ -238,24 +310,60 @@ impl<'l> LawLanes<'l> {
             e[l] = exp_neg(x[l]);
         }
         let mut d = [0.0; LANES];
-        let mut one_minus_e = [0.0; LANES];
-        if subtract {
-            d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut d);
-            for l in 0..LANES {
-                // x ≥ 1 here, so 1 − e^(−x) keeps its digits.
-                one_minus_e[l] = 1.0 - e[l];
+        if forms_needed == 1 {
+            if subtract {
+                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut d);
+            } else if apart {
+                d_series(&x, &e, x0, hi, &mut d);
+            } else {
+                d_series_close(&x, &e, x0, hi, &mut d);
             }
         } else {
-            d_series(&x, &e, x0, hi, &mut d);
-            for l in 0..LANES {
-                one_minus_e[l] = one_minus_exp_neg(x[l], e[l]);
+            // Each form into `part`, then its lanes into `d`.
+            let mut part = [0.0; LANES];
+            let take = |form: &[bool; LANES], part: &Lanes, d: &mut Lanes| {
+                for l in 0..LANES {
+                    d[l] = if form[l] { part[l] } else { d[l] };
+                }
+            };
+            if subtract {
+                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut part);
+                take(&forms[0], &part, &mut d);
+            }
+            if apart {
+                d_series(&x, &e, x0, hi, &mut part);
+                take(&forms[1], &part, &mut d);
+            }
+            if close {
+                d_series_close(&x, &e, x0, hi, &mut part);
+                take(&forms[2], &part, &mut d);
             }
         }
+        // x ≥ 1 where D subtracts, so 1 − e^(−x) keeps its digits; elsewhere x may be below
+        // 1/2, where it is taken by its series, as the scalar law takes −expm1(−x).
+        if forms_needed == 1 && subtract {
+            self.assemble(tau, &e, &d, |l| 1.0 - e[l], force, rate);
+        } else {
+            self.assemble(tau, &e, &d, |l| one_minus_exp_neg(x[l], e[l]), force, rate);
+        }
+    }
+
+    /// F and dF/dτ from e^(−x), D and 1 − e^(−x), as in `Law::force_and_rate`.
+    #[inline(always)]
+    fn assemble(
+        &self,
+        tau: &Lanes,
+        e: &Lanes,
+        d: &Lanes,
+        one_minus_e: impl Fn(usize) -> f64,
+        force: &mut Lanes,
+        rate: &mut Lanes,
+    ) {
+        let law = self.law;
         for l in 0..LANES {
-            // As Law::force_and_rate.
             let aging = law.a * d[l];
-            force[l] = aging + law.f_d * one_minus_e[l];
-            rate[l] = law.a / tau[l] - alpha_v * (aging - law.f_d * e[l]);
+            force[l] = aging + law.f_d * one_minus_e(l);
+            rate[l] = law.a / tau[l] - law.alpha_v * (aging - law.f_d * e[l]);
         }
     }
 }
@@ -281,11 +389,12 @@ pub(super) fn stiff<V: FnMut(usize, f64, f64), T: Tally>(
 }
 
 /// A first slide through a spring (kv in N/s): the elastic solve at every time, in batches.
-/// Times are sorted (checked by the caller).
+/// Times are sorted, and t(τ) = τ + F(τ)/(kv) increases for every τ up to the last time
+/// (dF/dτ > −kv there, checked by the caller): each time then has exactly one τ, so the root
+/// that a Newton step finds from any guess in its bracket is the quasi-static path's.
 ///
 /// # Errors
-/// [`LawError::NotFinite`] when the law is not finite on the path, [`LawError::StickSlip`]
-/// when dF/dτ ≤ −kv on the path up to the last point.
+/// [`LawError::NotFinite`] when the law is not finite on the path.
 pub(super) fn spring<V: FnMut(usize, f64, f64), T: Tally>(
     simd: Simd,
     law: &Law,
@@ -414,7 +523,7 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     while i < n {
         let end = (i + CHUNK).min(n) - 1;
         tally.count(|c| c.anchors += 1);
-        let right = solve_anchor(law, kv, &left, times[end])?;
+        let right = solve_anchor(law, kv, &left, times[end], tally)?;
         let between = &times[i..end];
         solve_between(
             &lanes,
@@ -429,24 +538,35 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
         left = right;
         i = end + 1;
     }
-    let (tau_min, rate_min) = law.min_rate_up_to(left.tau);
-    if rate_min <= -kv {
-        return Err(LawError::StickSlip {
-            tau: tau_min,
-            rate: rate_min,
-            limit: -kv,
-        });
-    }
     Ok(())
 }
 
-/// The point at time `t` after `left`, by the safeguarded Newton iteration on the bracket
-/// [τ_left, t] from the quadratic Taylor guess along τ(t).
+/// The point at time `t` after `left`: Newton steps from the cubic Taylor guess along τ(t)
+/// until one's predicted error is round-off, else the safeguarded iteration on [τ_left, t].
 #[inline(always)]
-fn solve_anchor(law: &Law, kv: f64, left: &Anchor, t: f64) -> Result<Anchor, LawError> {
+fn solve_anchor(
+    law: &Law,
+    kv: f64,
+    left: &Anchor,
+    t: f64,
+    tally: &mut impl Tally,
+) -> Result<Anchor, LawError> {
     let dt = t - left.t;
-    let guess = left.tau + dt * (left.slope + 0.5 * left.curvature * dt);
-    let (root, force, rate) = solve_point(law, kv, left.tau, t, guess)?;
+    let mut tau = left.tau + dt * (left.slope + dt * (0.5 * left.curvature + dt * left.jerk / 6.0));
+    for _ in 0..MAX_ROUNDS {
+        if !(tau > left.tau && tau <= t) {
+            break;
+        }
+        tally.count(|c| c.anchor_evaluations += 1);
+        let (force, rate) = law.force_and_rate(tau);
+        let step = newton_step(law, 1.0 / kv, left.tau, t, tau, force, rate);
+        if step.converged {
+            return Ok(Anchor::new(law, kv, t, step.tau, step.force, rate));
+        }
+        tau = step.tau;
+    }
+    tally.count(|c| c.serial_points += 1);
+    let (root, force, rate) = solve_point(law, kv, left.tau, t, tau)?;
     Ok(Anchor::new(law, kv, t, root, force, rate))
 }
 
@@ -507,27 +627,13 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
             // Branch-free (`&`, selects), so that the lanes stay in vector registers.
             let mut failed = 0_u32;
             for l in 0..LANES {
-                let g_slope = 1.0 + rate[l] * inv_kv;
-                let inv_slope = 1.0 / g_slope;
-                let step = (t[l] - tau[l] - force[l] * inv_kv) * inv_slope;
-                let next = tau[l] + step;
-                let next_force = force[l] + rate[l] * step;
-                let inv_tau = 1.0 / tau[l];
-                let curvature = -law.a * inv_tau * inv_tau - law.alpha_v * rate[l];
-                let remainder = 0.5 * curvature.abs() * step * step;
-                let tau_error = remainder * inv_kv * inv_slope;
-                let force_error = remainder * (1.0 + rate[l].abs() * inv_kv * inv_slope);
-                let inside = (next > left.tau) & (next <= t[l]);
-                let ok = (g_slope > 0.0)
-                    & inside
-                    & (tau_error <= ROUND_OFF * next)
-                    & (force_error <= ROUND_OFF * next_force.abs());
-                converged[l] = ok;
-                failed += u32::from(!ok);
+                let step = newton_step(law, inv_kv, left.tau, t[l], tau[l], force[l], rate[l]);
+                converged[l] = step.converged;
+                failed += u32::from(!step.converged);
                 // A lane that left its bracket restarts from the bracket's middle.
                 let middle = left.tau + 0.5 * (t[l] - left.tau);
-                tau[l] = if inside { next } else { middle };
-                out_force[l] = next_force;
+                tau[l] = if step.inside { step.tau } else { middle };
+                out_force[l] = step.force;
             }
             if failed == 0 {
                 break;

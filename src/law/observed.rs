@@ -158,7 +158,17 @@ impl ObservedSlide {
                 kernel::stiff(simd, &self.law, times, visit, tally);
                 Ok(())
             }
-            Elastic::Spring { kv } => kernel::spring(simd, &self.law, kv, times, visit, tally),
+            Elastic::Spring { kv } => {
+                // Where t(τ) folds before the last time, a time can have several τ: only the
+                // serial solve, point after point from t0, follows the quasi-static branch
+                // (and says whether the data reach the fold).
+                let t_last = times.last().copied().unwrap_or(f64::NEG_INFINITY);
+                if t_last > self.law.t0() && self.law.min_rate_up_to(t_last).1 <= -kv {
+                    tally.count(|c| c.serial_slides += 1);
+                    return self.for_each_force_serial(times, visit);
+                }
+                kernel::spring(simd, &self.law, kv, times, visit, tally)
+            }
         }
     }
 

@@ -13,13 +13,16 @@
 //! `super::ei_scaled_diff` subtracts (h = x − x0 ≥ 1 outside its series and quadrature
 //! regimes, see `diff.rs`), for x up to [`X_LANES_MAX`].
 
-use super::diff::ein_diff;
+use super::diff::{ein_diff, INV_K_KFACT};
 use super::fits;
 
 /// Accuracy of [`exp_neg`], [`ln`] and [`one_minus_exp_neg`] against 40-digit references, in
-/// ulps of the exact value (ln: in ε absolute where |ln x| < 1), as the tests measure it.
+/// ulps of the exact value (ln: in ε absolute where |ln x| < 1); measured 1.0 for each.
 #[cfg(test)]
 const LANE_ULPS: f64 = 2.0;
+/// The same for [`ln_1p`], whose argument u/(2 + u) is rounded twice: measured 3.0.
+#[cfg(test)]
+const LN_1P_ULPS: f64 = 4.0;
 
 /// Largest x the lane functions accept: e^(−x) stays a normal number (e^(−708) ≈ 3e−308).
 pub(crate) const X_LANES_MAX: f64 = 700.0;
@@ -200,7 +203,7 @@ fn g_piece<const L: usize>(
 }
 
 /// D(x, x0) = e^(−x) [ln(x/x0) + Σ_k (x^k − x0^k)/(k k!)] where the series applies with
-/// x ≥ 2 x0 (`series_apart`), given `e = e^(−x)` and the batch's largest x; the degree of the
+/// x ≥ 2 x0 (`in_series_apart`), given `e = e^(−x)` and the batch's largest x; the degree of the
 /// power sums is chosen once for the batch from `x_max`, as the scalar series chooses it per
 /// point (a higher degree than a lane needs only adds terms below its rounding).
 #[inline(always)]
@@ -232,6 +235,82 @@ fn d_series_degree<const L: usize, const N: usize>(
     for l in 0..L {
         d[l] = e[l] * (ln(x[l] / x0) + ein_diff::<N>(x[l], x0));
     }
+}
+
+/// D(x, x0) = e^(−x) [ln(1 + h/x0) + Σ_k (x^k − x0^k)/(k k!)], h = x − x0, where the series
+/// applies with x < 2 x0 (`in_series_close`): x^k − x0^k built as d_(k+1) = x d_k + h x0^k, every
+/// term positive, as the scalar series does. The number of terms is chosen once for the batch
+/// from its largest x: terms fall as x^(k−1)/k! relative to the sum, below 2^−56 after 9, 13,
+/// 19 and 24 terms for x up to 1/32, 1/4, 1 and 2.
+#[inline(always)]
+pub(crate) fn d_series_close<const L: usize>(
+    x: &[f64; L],
+    e: &[f64; L],
+    x0: f64,
+    x_max: f64,
+    d: &mut [f64; L],
+) {
+    if x_max <= 1.0 / 32.0 {
+        d_close_terms::<L, 9>(x, e, x0, d)
+    } else if x_max <= 0.25 {
+        d_close_terms::<L, 13>(x, e, x0, d)
+    } else if x_max <= 1.0 {
+        d_close_terms::<L, 19>(x, e, x0, d)
+    } else {
+        d_close_terms::<L, 24>(x, e, x0, d)
+    }
+}
+
+#[inline(always)]
+fn d_close_terms<const L: usize, const N: usize>(
+    x: &[f64; L],
+    e: &[f64; L],
+    x0: f64,
+    d: &mut [f64; L],
+) {
+    for l in 0..L {
+        // x0 ≤ x < 2 x0: h is exact (Sterbenz).
+        let h = x[l] - x0;
+        let (mut d_k, mut q_k) = (h, x0);
+        let mut sum = d_k * INV_K_KFACT[0];
+        for c in &INV_K_KFACT[1..N] {
+            d_k = x[l] * d_k + h * q_k;
+            q_k *= x0;
+            sum += d_k * c;
+        }
+        d[l] = e[l] * (ln_1p(h / x0) + sum);
+    }
+}
+
+/// 2/(2j + 1) for j = 0..=17: ln(1 + u) = Σ_j c_j s^(2j+1) with s = u/(2 + u) ≤ 1/3 for
+/// 0 ≤ u ≤ 1 (the dropped term is below 1e−18 relative).
+const LN_1P_ATANH: [f64; 18] = [
+    2.0,
+    2.0 / 3.0,
+    2.0 / 5.0,
+    2.0 / 7.0,
+    2.0 / 9.0,
+    2.0 / 11.0,
+    2.0 / 13.0,
+    2.0 / 15.0,
+    2.0 / 17.0,
+    2.0 / 19.0,
+    2.0 / 21.0,
+    2.0 / 23.0,
+    2.0 / 25.0,
+    2.0 / 27.0,
+    2.0 / 29.0,
+    2.0 / 31.0,
+    2.0 / 33.0,
+    2.0 / 35.0,
+];
+
+/// ln(1 + u) for 0 ≤ u ≤ 1, to about three ulps: 2 atanh(u/(2 + u)) by its series, which keeps
+/// the relative accuracy of small u that ln(1 + u) would lose.
+#[inline(always)]
+pub(crate) fn ln_1p(u: f64) -> f64 {
+    let s = u / (2.0 + u);
+    s * horner(&LN_1P_ATANH, s * s)
 }
 
 /// 1/(k+1)! for k = 0..=17: 1 − e^(−x) = x Σ_k (−x)^k/(k+1)! for 0 ≤ x ≤ 1/2, where 1 − e^(−x)
@@ -288,7 +367,7 @@ mod tests {
             "/tests/reference/lanes_mpmath.csv"
         );
         let text = std::fs::read_to_string(path).expect("reference table");
-        let mut worst = [(0.0_f64, 0.0_f64); 3];
+        let mut worst = [(0.0_f64, 0.0_f64); 4];
         for line in text.lines().skip(1) {
             let mut cols = line.split(',');
             let (name, x, want) = (
@@ -302,6 +381,7 @@ mod tests {
                 "exp_neg" => (0, exp_neg(x)),
                 "ln" => (1, ln(x)),
                 "one_minus_exp_neg" => (2, one_minus_exp_neg(x, exp_neg(x))),
+                "ln_1p" => (3, ln_1p(x)),
                 other => panic!("unknown function {other}"),
             };
             // ln is judged absolutely near its root, where relative error has no meaning.
@@ -315,13 +395,14 @@ mod tests {
             }
         }
         eprintln!(
-            "worst errors (ulps, at x): exp_neg {:?}, ln {:?}, one_minus_exp_neg {:?}",
-            worst[0], worst[1], worst[2]
+            "worst errors (ulps, at x): exp_neg {:?}, ln {:?}, one_minus_exp_neg {:?}, ln_1p {:?}",
+            worst[0], worst[1], worst[2], worst[3]
         );
         for ((err, x), (name, bar)) in worst.iter().zip([
             ("exp_neg", LANE_ULPS),
             ("ln", LANE_ULPS),
             ("one_minus_exp_neg", LANE_ULPS),
+            ("ln_1p", LN_1P_ULPS),
         ]) {
             assert!(
                 *err <= bar,

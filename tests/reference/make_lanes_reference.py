@@ -13,6 +13,7 @@ Writes ``lanes_mpmath.csv`` next to this script, columns ``function,x,value``:
   the powers of two with their neighbouring doubles.
 * ``one_minus_exp_neg``: 1 - e^(-x) for 0 < x <= 2 (log-spaced from 1e-300, dense around 1/2
   where the lane function switches from its series).
+* ``ln_1p``: ln(1 + u) for 0 <= u <= 1 (log-spaced from 1e-300, uniform).
 
 Every ``x`` is written as ``repr`` of an IEEE double, so the Rust side reads back exactly the
 input evaluated here; values are 40 significant digits at 60 digits of working precision.
@@ -69,6 +70,11 @@ def main():
     for x in sorted(set(xs)):
         if 0 < x <= 2:
             rows.append(("one_minus_exp_neg", x, -mp.expm1(-mp.mpf(x))))
+
+    xs = logspace(-300, 0, 1000) + [rng.uniform(0, 1) for _ in range(1000)] + nextafter_n(1.0, 2)
+    for x in sorted(set(xs)):
+        if 0 <= x <= 1:
+            rows.append(("ln_1p", x, mp.log1p(mp.mpf(x))))
 
     path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "lanes_mpmath.csv")
     with open(path, "w", newline="") as f:
