@@ -505,7 +505,7 @@ impl Selection {
             Some(t) => {
                 if !t.reliable {
                     problems.push(Problem::ChainsTooShort {
-                        steps: total,
+                        steps: total - t.from_step,
                         tau_max: t.max,
                     });
                 }
