@@ -7,7 +7,7 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use slipbayes::law::{Elastic, Law, LawParams, ObservedSlide};
+use slipbayes::law::{Elastic, Law, LawParams, ObservedSlide, Simd};
 use slipbayes::special::ei_scaled;
 
 /// Points per slide, as in a slow first slide of a few hours sampled every few seconds.
@@ -66,6 +66,36 @@ fn per_point(c: &mut Criterion) {
             forces[POINTS - 1]
         })
     });
+    group.bench_function("observed_model_serial", |b| {
+        b.iter(|| {
+            let mut last = 0.0;
+            slide
+                .for_each_force_serial(black_box(&times), |_, _, f| last = f)
+                .expect("stable slide");
+            last
+        })
+    });
+    let stiff = ObservedSlide::new(law.clone(), Elastic::Stiff);
+    for simd in Simd::available() {
+        group.bench_function(format!("observed_model_{}", simd.as_str()), |b| {
+            b.iter(|| {
+                let mut last = 0.0;
+                slide
+                    .for_each_force_with(simd, black_box(&times), |_, _, f| last += f)
+                    .expect("stable slide");
+                last
+            })
+        });
+        group.bench_function(format!("law_lanes_{}", simd.as_str()), |b| {
+            b.iter(|| {
+                let mut last = 0.0;
+                stiff
+                    .for_each_force_with(simd, black_box(&times), |_, _, f| last += f)
+                    .expect("stiff slide");
+                last
+            })
+        });
+    }
     group.finish();
 }
 

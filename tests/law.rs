@@ -5,7 +5,9 @@ mod common;
 
 use common::Table;
 use proptest::prelude::*;
-use slipbayes::law::{Elastic, Law, LawError, LawParams, ObservedSlide, PeakOutcome, RepeatSlide};
+use slipbayes::law::{
+    Elastic, Law, LawError, LawParams, ObservedSlide, PeakOutcome, RepeatSlide, Simd,
+};
 
 /// The bar for the law's value: 1e−13 relative, or 1e−13·(a + F_d) absolute where F is
 /// tiny.
@@ -59,6 +61,67 @@ fn law_matches_50_digit_reference_on_hard_cases() {
         worst_rel / f64::EPSILON
     );
     assert!(worst.0 <= 1.0, "law off the reference: {}", worst.1);
+}
+
+/// The law in lanes (a stiff slide, τ = t, through the batched kernel) against 50-digit
+/// references on every instruction set this machine has: on `law_lanes_mpmath.csv`, whose τ
+/// come in runs dense enough that whole batches lie in one regime of the vector law (series
+/// and every piece of the subtraction), and on the hard-case grid of `law_mpmath.csv`, whose
+/// sparse τ mix regimes within a batch (the scalar fallback).
+#[test]
+fn law_in_lanes_matches_50_digit_reference() {
+    for (table, most_in_lanes) in [("law_lanes_mpmath.csv", true), ("law_mpmath.csv", false)] {
+        let t = Table::load(table);
+        let mut cases: Vec<(String, Law, Vec<f64>, Vec<f64>)> = Vec::new();
+        for row in &t.rows {
+            let name = t.str(row, "case");
+            if cases.last().is_none_or(|c| c.0 != name) {
+                cases.push((name.to_owned(), law_row(&t, row), Vec::new(), Vec::new()));
+            }
+            let case = cases.last_mut().unwrap();
+            case.2.push(t.f64(row, "tau"));
+            case.3.push(t.f64(row, "force"));
+        }
+        for simd in Simd::available() {
+            let mut worst = (0.0, String::new());
+            let (mut batches, mut scalar) = (0, 0);
+            for (name, law, taus, want) in &cases {
+                // A slide's times must increase: the case's τ in increasing order.
+                let mut order: Vec<usize> = (0..taus.len()).collect();
+                order.sort_by(|&i, &j| taus[i].total_cmp(&taus[j]));
+                let times: Vec<f64> = order.iter().map(|&i| taus[i]).collect();
+                let slide = ObservedSlide::new(law.clone(), Elastic::Stiff);
+                slide
+                    .for_each_force_with(simd, &times, |k, _, got| {
+                        let i = order[k];
+                        let err = law_error(got, want[i], law.a() + law.f_d());
+                        if err > worst.0 {
+                            worst = (
+                                err,
+                                format!("{name} tau={:e}: got {got:e} want {:e}", taus[i], want[i]),
+                            );
+                        }
+                    })
+                    .unwrap();
+                let counts = slide.kernel_counts(simd, &times).unwrap();
+                batches += counts.batches;
+                scalar += counts.scalar_law_batches;
+            }
+            eprintln!(
+                "{table}, law in lanes ({}): worst error {:.3} of the bar ({}); {scalar} of {batches} batches by the scalar law",
+                simd.as_str(),
+                worst.0,
+                worst.1
+            );
+            assert!(worst.0 <= 1.0, "{table} ({}): {}", simd.as_str(), worst.1);
+            if most_in_lanes {
+                assert!(
+                    scalar * 10 <= batches,
+                    "{table}: {scalar} of {batches} batches scalar"
+                );
+            }
+        }
+    }
 }
 
 #[test]
@@ -396,6 +459,106 @@ proptest! {
             if i > 0 {
                 prop_assert!(tau[i] >= tau[i - 1]);
             }
+        }
+    }
+}
+
+/// A slow PTFE first slide (the paper's Fig. 2 parameters, k = 1.2e4 N/m, 1 nm/s) sampled
+/// every `dt` seconds for `n` points.
+fn slow_first_slide(dt: f64, n: usize) -> (ObservedSlide, Vec<f64>) {
+    let law = Law::new(&LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(), 1e-9).unwrap();
+    let slide = ObservedSlide::new(law, Elastic::spring(1.2e4, 1e-9).unwrap());
+    (slide, (1..=n).map(|i| i as f64 * dt).collect())
+}
+
+/// Every instruction set gives the same bits: the kernel uses no fused multiply-add, so the
+/// chains of a fit cannot depend on the machine's vector unit.
+#[test]
+fn every_instruction_set_gives_the_same_bits() {
+    let (slide, times) = slow_first_slide(7.0, 4000);
+    let stiff = ObservedSlide::new(slide.law().clone(), Elastic::Stiff);
+    let run = |slide: &ObservedSlide, simd: Simd| {
+        let mut out = Vec::new();
+        slide
+            .for_each_force_with(simd, &times, |_, tau, f| {
+                out.push((tau.to_bits(), f.to_bits()))
+            })
+            .unwrap();
+        out
+    };
+    let available = Simd::available();
+    assert!(available.contains(&Simd::Baseline));
+    for simd in &available[1..] {
+        assert!(
+            run(&slide, *simd) == run(&slide, Simd::Baseline),
+            "{} differs from baseline",
+            simd.as_str()
+        );
+        assert!(
+            run(&stiff, *simd) == run(&stiff, Simd::Baseline),
+            "stiff {} differs",
+            simd.as_str()
+        );
+    }
+}
+
+/// On slides shaped like the bundled data, the kernel takes its fast paths: the law in lanes
+/// for all but the first few batches, one Newton round for nearly every batch, no point left
+/// to the serial iteration. (Without this, a kernel that silently fell back everywhere would
+/// pass every accuracy test.)
+#[test]
+fn the_kernel_takes_its_fast_paths_on_a_typical_slide() {
+    for (dt, n) in [(10.0, 3000), (5.0, 5000), (1.0, 30000)] {
+        let (slide, times) = slow_first_slide(dt, n);
+        let c = slide.kernel_counts(Simd::active(), &times).unwrap();
+        eprintln!("dt {dt} s, {n} points: {c:?}");
+        assert_eq!(c.serial_points, 0, "dt {dt}: {c:?}");
+        assert!(c.rounds as f64 <= 1.25 * c.batches as f64, "dt {dt}: {c:?}");
+        assert!(
+            c.scalar_law_batches as f64 <= 0.05 * c.rounds as f64,
+            "dt {dt}: {c:?}"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+    /// The batched kernel against the serial solve it replaces, over the parameter ranges of
+    /// the solve's own property test and record lengths from a few points to many chunks:
+    /// the same τ and force to the law's bar, the same error (stick-slip) where the path is
+    /// unstable.
+    #[test]
+    fn kernel_agrees_with_the_serial_solve(
+        log_alpha_v in -8.0..2.0_f64,
+        ratio in 0.0..3.0_f64,
+        log_t0 in -7.0..3.0_f64,
+        log_kv_scale in -0.5..3.0_f64,
+        n in 1_usize..700,
+        span_factor in 0.1..40.0_f64,
+    ) {
+        let (alpha_v, f_d) = (10f64.powf(log_alpha_v), 1e-2);
+        let t0 = 10f64.powf(log_t0);
+        let law = Law::from_rate(alpha_v, ratio * f_d, f_d, t0).unwrap();
+        let t_end = span_factor / alpha_v + 10.0 * t0;
+        let (_, min_rate) = law.min_rate_up_to(t_end);
+        let kv = (-min_rate).max(f_d * alpha_v) * 10f64.powf(log_kv_scale);
+        let slide = ObservedSlide::new(law.clone(), Elastic::Spring { kv });
+        let times: Vec<f64> = (1..=n).map(|i| t_end * i as f64 / n as f64).collect();
+        let mut serial = Vec::new();
+        let serial_result = slide.for_each_force_serial(&times, |_, tau, f| serial.push((tau, f)));
+        let mut batched = Vec::new();
+        let batched_result = slide.for_each_force(&times, |_, tau, f| batched.push((tau, f)));
+        match (&serial_result, &batched_result) {
+            (Ok(()), Ok(())) => {
+                for (i, ((tau_s, f_s), (tau_b, f_b))) in serial.iter().zip(&batched).enumerate() {
+                    prop_assert!((tau_b - tau_s).abs() <= LAW_REL * tau_s.abs(),
+                        "point {i}: tau {tau_b:e} against {tau_s:e}");
+                    prop_assert!(law_error(*f_b, *f_s, law.a() + law.f_d()) <= 1.0,
+                        "point {i}: force {f_b:e} against {f_s:e}");
+                }
+            }
+            (Err(LawError::StickSlip { .. }), Err(LawError::StickSlip { .. })) => {}
+            _ => prop_assert!(false, "serial {serial_result:?}, batched {batched_result:?}"),
         }
     }
 }

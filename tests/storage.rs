@@ -532,7 +532,32 @@ fn chain_reader_reads_one_column_like_the_whole_table() {
             reader.series(name).expect("series"),
             whole.series(name).expect("series")
         );
+        // Row group by row group (7 rows each, cut at step 37), every row once, in order.
+        let mut chunked = Vec::new();
+        reader
+            .for_each_chunk::<StorageError>(&[name, "alpha"], 37, |first, chunks| {
+                assert_eq!(first, reader.row(37, 0, 0) + chunked.len());
+                assert!(chunks[0].len() <= 7 && chunks[0].len() == chunks[1].len());
+                assert_eq!(
+                    bits(&chunks[1]),
+                    bits(&whole.column("alpha").unwrap()[first..][..chunks[1].len()])
+                );
+                chunked.extend_from_slice(&chunks[0]);
+                Ok(())
+            })
+            .expect("chunks");
+        assert_eq!(bits(&chunked), bits(&from));
+        // Chosen rows, read one row group at a time.
+        let rows = [3, 4, 11, reader.row(37, 1, 2), reader.rows() - 1];
+        let picked: Vec<f64> = rows.iter().map(|&r| expected[r]).collect();
+        assert_eq!(
+            bits(&reader.rows_of(name, &rows).expect("rows")),
+            bits(&picked)
+        );
+        assert!(reader.rows_of(name, &[]).expect("no rows").is_empty());
     }
+    assert!(reader.rows_of("alpha", &[4, 3]).is_err());
+    assert!(reader.rows_of("alpha", &[reader.rows()]).is_err());
     for row in [0, 1, WALKERS, ENSEMBLES * WALKERS + 3, reader.rows() - 1] {
         let (step, e, w) = reader.locate(row);
         assert_eq!(reader.row(step, e, w), row);

@@ -99,47 +99,88 @@ pub(crate) fn sorted(x: &[f64]) -> Vec<f64> {
 
 /// `np.median`: the middle value, or the mean of the two middle values.
 pub(crate) fn median_of_sorted(s: &[f64]) -> f64 {
-    let n = s.len();
+    median_at(s.len(), &|i| s[i])
+}
+
+/// [`median_of_sorted`] of `n` sorted values, the `i`-th given by `at(i)`: what a summary
+/// whose sorted draws are not in memory asks for (see [`super::external`]).
+pub(crate) fn median_at(n: usize, at: &dyn Fn(usize) -> f64) -> f64 {
     if n % 2 == 1 {
-        s[n / 2]
+        at(n / 2)
     } else {
-        (s[n / 2 - 1] + s[n / 2]) / 2.0
+        (at(n / 2 - 1) + at(n / 2)) / 2.0
     }
 }
 
-/// Average ranks (1-based, ties share the mean rank), as `scipy.stats.rankdata`.
-fn average_ranks(x: &[f64]) -> Vec<f64> {
-    // u32 indices halve the working memory of the largest copy (chains of 2^32 draws of one
-    // quantity are beyond any run).
-    let mut idx: Vec<u32> = (0..x.len() as u32).collect();
-    idx.sort_by(|&a, &b| x[a as usize].total_cmp(&x[b as usize]));
-    let mut ranks = vec![0.0; x.len()];
+/// Sum in index order from -0.0, as `Iterator::sum` of f64 takes it: a sum fed in pieces
+/// (a row read in segments, a column in row groups) equals `.sum()` of the whole to the bit.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SeqSum(pub(crate) f64);
+
+impl Default for SeqSum {
+    fn default() -> Self {
+        Self(-0.0)
+    }
+}
+
+impl SeqSum {
+    pub(crate) fn add_all(&mut self, x: impl IntoIterator<Item = f64>) {
+        for v in x {
+            self.0 += v;
+        }
+    }
+}
+
+/// Normal scores of average ranks (1-based, ties share the mean rank, as
+/// `scipy.stats.rankdata`): `idx` lists the draws `0..idx.len()` in ascending order of their
+/// values `x(i)`, and `z[i]` receives the score of draw `i`.
+fn fill_scores(idx: &[u32], x: impl Fn(usize) -> f64, z: &mut [f64]) {
+    let size = idx.len() as f64;
     let mut start = 0;
     while start < idx.len() {
         let mut end = start + 1;
+        let first = x(idx[start] as usize);
         // partial_cmp treats -0.0 and 0.0 as tied, as numpy does.
         while end < idx.len()
-            && x[idx[end] as usize].partial_cmp(&x[idx[start] as usize])
-                == Some(std::cmp::Ordering::Equal)
+            && x(idx[end] as usize).partial_cmp(&first) == Some(std::cmp::Ordering::Equal)
         {
             end += 1;
         }
-        let r = 0.5 * ((start + 1) as f64 + end as f64);
+        let score = normal_score(average_rank(start, end), size);
         for &i in &idx[start..end] {
-            ranks[i as usize] = r;
+            z[i as usize] = score;
         }
         start = end;
     }
-    ranks
+}
+
+/// The draws `0..n` in ascending order of `x(i)` (u32 indices halve the working memory of
+/// the largest copy; chains of 2^32 draws of one quantity are beyond any run).
+fn order_by(n: usize, x: impl Fn(usize) -> f64) -> Vec<u32> {
+    let mut idx: Vec<u32> = (0..n as u32).collect();
+    idx.sort_by(|&a, &b| x(a as usize).total_cmp(&x(b as usize)));
+    idx
+}
+
+/// The average rank (1-based) of the sorted positions `start..end` (0-based, `end`
+/// excluded) that hold equal values.
+pub(crate) fn average_rank(start: usize, end: usize) -> f64 {
+    0.5 * ((start + 1) as f64 + end as f64)
+}
+
+/// The normal score of average rank `r` among `size` draws (Blom's offset).
+pub(crate) fn normal_score(r: f64, size: f64) -> f64 {
+    norm_ppf((r - BLOM_C) / (size - 2.0 * BLOM_C + 1.0))
 }
 
 /// ArviZ `_z_scale`: normal scores of the pooled average ranks.
 pub(crate) fn z_scale(m: &Mat) -> Mat<'static> {
-    let size = m.data.len() as f64;
-    let data: Vec<f64> = average_ranks(&m.data)
-        .into_iter()
-        .map(|r| norm_ppf((r - BLOM_C) / (size - 2.0 * BLOM_C + 1.0)))
-        .collect();
+    let mut data = vec![0.0; m.data.len()];
+    fill_scores(
+        &order_by(m.data.len(), |i| m.data[i]),
+        |i| m.data[i],
+        &mut data,
+    );
     Mat {
         rows: m.rows,
         cols: m.cols,
@@ -149,120 +190,216 @@ pub(crate) fn z_scale(m: &Mat) -> Mat<'static> {
 
 /// ArviZ `_rhat`: the classic potential scale reduction of the rows of `m`.
 pub(crate) fn rhat_raw(m: &Mat) -> f64 {
-    let n = m.cols as f64;
-    let means: Vec<f64> = (0..m.rows).map(|r| mean(m.row(r))).collect();
-    let vars: Vec<f64> = (0..m.rows).map(|r| var(m.row(r), 1)).collect();
-    let between = n * var(&means, 1);
-    let within = mean(&vars);
-    ((between / within + n - 1.0) / n).sqrt()
+    let mut rows = RhatRows::new(m.cols);
+    for r in 0..m.rows {
+        let row = m.row(r);
+        let mu = mean(row);
+        rows.push(mu, var_about(row, mu, 1));
+    }
+    rows.finish()
 }
 
-/// Autocovariances of every row at lags `0..cols` (biased, divided by `cols`), by FFT of the
+/// `np.var` about a given mean `m` (the mean of `x`).
+fn var_about(x: &[f64], m: f64, ddof: usize) -> f64 {
+    x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - ddof) as f64
+}
+
+/// [`rhat_raw`] fed one row's mean and variance (`ddof = 1`) at a time, in row order.
+#[derive(Debug, Clone)]
+pub(crate) struct RhatRows {
+    cols: usize,
+    means: Vec<f64>,
+    vars: Vec<f64>,
+}
+
+impl RhatRows {
+    pub(crate) fn new(cols: usize) -> Self {
+        Self {
+            cols,
+            means: Vec::new(),
+            vars: Vec::new(),
+        }
+    }
+
+    pub(crate) fn push(&mut self, mean: f64, var: f64) {
+        self.means.push(mean);
+        self.vars.push(var);
+    }
+
+    pub(crate) fn finish(self) -> f64 {
+        let n = self.cols as f64;
+        let between = n * var(&self.means, 1);
+        let within = mean(&self.vars);
+        ((between / within + n - 1.0) / n).sqrt()
+    }
+}
+
+/// Autocovariances of one row at lags `0..cols` (biased, divided by `cols`), by FFT of the
 /// mean-subtracted row zero-padded to `2 cols` (ArviZ `autocov`; any padding of at least
-/// `2 cols - 1` gives the same linear autocovariance up to rounding).
-fn autocov_rows(m: &Mat) -> Vec<Vec<f64>> {
-    let n = m.cols;
-    let len = 2 * n;
-    let mut planner = FftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(len);
-    let ifft = planner.plan_fft_inverse(len);
-    let mut buf = vec![Complex::new(0.0, 0.0); len];
-    (0..m.rows)
-        .map(|r| {
-            let row = m.row(r);
-            let mu = mean(row);
-            for (b, &v) in buf.iter_mut().zip(row) {
-                *b = Complex::new(v - mu, 0.0);
-            }
-            for b in buf.iter_mut().skip(n) {
-                *b = Complex::new(0.0, 0.0);
-            }
-            fft.process(&mut buf);
-            for b in buf.iter_mut() {
-                *b = Complex::new(b.norm_sqr(), 0.0);
-            }
-            ifft.process(&mut buf);
-            // rustfft's inverse is unnormalised: divide by the FFT length, then by n.
-            buf[..n]
-                .iter()
-                .map(|b| b.re / len as f64 / n as f64)
-                .collect()
-        })
-        .collect()
+/// `2 cols - 1` gives the same linear autocovariance up to rounding). One plan serves every
+/// row of a length.
+pub(crate) struct Autocov {
+    n: usize,
+    fft: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    ifft: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    buf: Vec<Complex<f64>>,
+}
+
+impl Autocov {
+    pub(crate) fn new(n: usize) -> Self {
+        let len = 2 * n;
+        let mut planner = FftPlanner::<f64>::new();
+        Self {
+            n,
+            fft: planner.plan_fft_forward(len),
+            ifft: planner.plan_fft_inverse(len),
+            buf: vec![Complex::new(0.0, 0.0); len],
+        }
+    }
+
+    /// The row's mean; `add(t, acov_t)` receives the autocovariance at every lag in order.
+    fn of(&mut self, row: &[f64], mut add: impl FnMut(usize, f64)) -> f64 {
+        let (n, len) = (self.n, 2 * self.n);
+        let mu = mean(row);
+        for (b, &v) in self.buf.iter_mut().zip(row) {
+            *b = Complex::new(v - mu, 0.0);
+        }
+        for b in self.buf.iter_mut().skip(n) {
+            *b = Complex::new(0.0, 0.0);
+        }
+        self.fft.process(&mut self.buf);
+        for b in self.buf.iter_mut() {
+            *b = Complex::new(b.norm_sqr(), 0.0);
+        }
+        self.ifft.process(&mut self.buf);
+        // rustfft's inverse is unnormalised: divide by the FFT length, then by n.
+        for (t, b) in self.buf[..n].iter().enumerate() {
+            add(t, b.re / len as f64 / n as f64);
+        }
+        mu
+    }
 }
 
 /// ArviZ `_ess`: multi-chain effective sample size with Geyer's initial positive and initial
 /// monotone sequences (Vehtari et al. 2021, eq. 10-11), rows of `m` as chains.
 pub(crate) fn ess_raw(m: &Mat) -> f64 {
-    let (lo, hi) = m
-        .data
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-            (lo.min(v), hi.max(v))
-        });
-    if hi - lo < CONSTANT_RANGE {
-        return m.data.len() as f64;
+    let mut autocov = Autocov::new(m.cols);
+    let mut rows = EssRows::new(m.cols);
+    for r in 0..m.rows {
+        rows.push(m.row(r), &mut autocov);
     }
-    let n_chain = m.rows;
-    let n_draw = m.cols;
-    let nd = n_draw as f64;
-    let acov = autocov_rows(m);
-    let mean_acov = |t: usize| acov.iter().map(|a| a[t]).sum::<f64>() / n_chain as f64;
-    let chain_means: Vec<f64> = (0..n_chain).map(|r| mean(m.row(r))).collect();
-    let mean_var = mean_acov(0) * nd / (nd - 1.0);
-    let mut var_plus = mean_var * (nd - 1.0) / nd;
-    if n_chain > 1 {
-        var_plus += var(&chain_means, 1);
+    rows.finish()
+}
+
+/// [`ess_raw`] fed one row (chain) at a time, in row order: it keeps the sum of the rows'
+/// autocovariances per lag and the rows' means, never the rows, so that its memory is one
+/// row's length whatever the number of rows.
+#[derive(Debug, Clone)]
+pub(crate) struct EssRows {
+    n_draw: usize,
+    /// Per lag, the autocovariances of the rows so far summed in row order (from -0.0, as
+    /// `.sum()` over the rows would).
+    acov_sum: Vec<f64>,
+    chain_means: Vec<f64>,
+    lo: f64,
+    hi: f64,
+    values: usize,
+}
+
+impl EssRows {
+    pub(crate) fn new(n_draw: usize) -> Self {
+        Self {
+            n_draw,
+            acov_sum: vec![-0.0; n_draw],
+            chain_means: Vec::new(),
+            lo: f64::INFINITY,
+            hi: f64::NEG_INFINITY,
+            values: 0,
+        }
     }
 
-    let mut rho = vec![0.0; n_draw];
-    let mut rho_even = 1.0;
-    rho[0] = rho_even;
-    let mut rho_odd = 1.0 - (mean_var - mean_acov(1)) / var_plus;
-    rho[1] = rho_odd;
+    /// Adds the next row (`n_draw` values).
+    pub(crate) fn push(&mut self, row: &[f64], autocov: &mut Autocov) {
+        debug_assert_eq!(row.len(), self.n_draw);
+        let (lo, hi) = row
+            .iter()
+            .fold((self.lo, self.hi), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        (self.lo, self.hi) = (lo, hi);
+        self.values += row.len();
+        let sum = &mut self.acov_sum;
+        let mu = autocov.of(row, |t, a| sum[t] += a);
+        self.chain_means.push(mu);
+    }
 
-    // Geyer's initial positive sequence. Indices are signed because ArviZ's max_t can be -1.
-    let mut t: isize = 1;
-    while t < n_draw as isize - 3 && rho_even + rho_odd > 0.0 {
-        let tu = t as usize;
-        rho_even = 1.0 - (mean_var - mean_acov(tu + 1)) / var_plus;
-        rho_odd = 1.0 - (mean_var - mean_acov(tu + 2)) / var_plus;
-        if rho_even + rho_odd >= 0.0 {
-            rho[tu + 1] = rho_even;
-            rho[tu + 2] = rho_odd;
+    pub(crate) fn finish(self) -> f64 {
+        if self.hi - self.lo < CONSTANT_RANGE {
+            return self.values as f64;
         }
-        t += 2;
-    }
-    let max_t = t - 2;
-    if rho_even > 0.0 {
-        rho[(max_t + 1) as usize] = rho_even;
-    }
-    // Geyer's initial monotone sequence.
-    let mut t: isize = 1;
-    while t <= max_t - 2 {
-        let tu = t as usize;
-        if rho[tu + 1] + rho[tu + 2] > rho[tu - 1] + rho[tu] {
-            rho[tu + 1] = (rho[tu - 1] + rho[tu]) / 2.0;
-            rho[tu + 2] = rho[tu + 1];
+        let n_chain = self.chain_means.len();
+        let n_draw = self.n_draw;
+        let nd = n_draw as f64;
+        let mean_acov = |t: usize| self.acov_sum[t] / n_chain as f64;
+        let chain_means = &self.chain_means;
+        let mean_var = mean_acov(0) * nd / (nd - 1.0);
+        let mut var_plus = mean_var * (nd - 1.0) / nd;
+        if n_chain > 1 {
+            var_plus += var(chain_means, 1);
         }
-        t += 2;
+
+        let mut rho = vec![0.0; n_draw];
+        let mut rho_even = 1.0;
+        rho[0] = rho_even;
+        let mut rho_odd = 1.0 - (mean_var - mean_acov(1)) / var_plus;
+        rho[1] = rho_odd;
+
+        // Geyer's initial positive sequence. Indices are signed because ArviZ's max_t can be
+        // -1.
+        let mut t: isize = 1;
+        while t < n_draw as isize - 3 && rho_even + rho_odd > 0.0 {
+            let tu = t as usize;
+            rho_even = 1.0 - (mean_var - mean_acov(tu + 1)) / var_plus;
+            rho_odd = 1.0 - (mean_var - mean_acov(tu + 2)) / var_plus;
+            if rho_even + rho_odd >= 0.0 {
+                rho[tu + 1] = rho_even;
+                rho[tu + 2] = rho_odd;
+            }
+            t += 2;
+        }
+        let max_t = t - 2;
+        if rho_even > 0.0 {
+            rho[(max_t + 1) as usize] = rho_even;
+        }
+        // Geyer's initial monotone sequence.
+        let mut t: isize = 1;
+        while t <= max_t - 2 {
+            let tu = t as usize;
+            if rho[tu + 1] + rho[tu + 2] > rho[tu - 1] + rho[tu] {
+                rho[tu + 1] = (rho[tu - 1] + rho[tu]) / 2.0;
+                rho[tu + 2] = rho[tu + 1];
+            }
+            t += 2;
+        }
+        let ess = (n_chain * n_draw) as f64;
+        let head: f64 = rho[..(max_t + 1) as usize].iter().sum();
+        let next = rho.get((max_t + 1) as usize).copied().unwrap_or(0.0);
+        let tau_hat = (-1.0 + 2.0 * head + next).max(1.0 / ess.log10());
+        if rho.iter().any(|v| v.is_nan()) {
+            return f64::NAN;
+        }
+        ess / tau_hat
     }
-    let ess = (n_chain * n_draw) as f64;
-    let head: f64 = rho[..(max_t + 1) as usize].iter().sum();
-    let next = rho.get((max_t + 1) as usize).copied().unwrap_or(0.0);
-    let tau_hat = (-1.0 + 2.0 * head + next).max(1.0 / ess.log10());
-    if rho.iter().any(|v| v.is_nan()) {
-        return f64::NAN;
-    }
-    ess / tau_hat
 }
 
 /// Quantile by Hyndman and Fan's type 7 with scipy `mquantiles(alphap=1, betap=1)` arithmetic
 /// (what ArviZ uses for the tail and quantile indicators).
 fn mquantile_sorted(s: &[f64], p: f64) -> f64 {
-    let n = s.len();
+    mquantile_at(s.len(), &|i| s[i], p)
+}
+
+/// [`mquantile_sorted`] of `n` sorted values given by `at`.
+pub(crate) fn mquantile_at(n: usize, at: &dyn Fn(usize) -> f64, p: f64) -> f64 {
     if n == 1 {
-        return s[0];
+        return at(0);
     }
     let nf = n as f64;
     // m = alphap + p (1 - alphap - betap) = 1 - p
@@ -270,7 +407,7 @@ fn mquantile_sorted(s: &[f64], p: f64) -> f64 {
     let k = aleph.clamp(1.0, nf - 1.0).floor();
     let gamma = (aleph - k).clamp(0.0, 1.0);
     let k = k as usize;
-    (1.0 - gamma) * s[k - 1] + gamma * s[k]
+    (1.0 - gamma) * at(k - 1) + gamma * at(k)
 }
 
 /// ESS of the indicator `draw <= q_p` (ArviZ `_ess_quantile`), on split chains.
@@ -360,6 +497,81 @@ pub fn rhat(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
     Ok(rhat_rank_mat(&m))
 }
 
+/// [`rhat`] of `chains` chains of `draws` draws each, draw `t` of chain `c` being
+/// `at(c, t)`: the same number to the bit, from the draws where they are. It holds 12 bytes
+/// per draw (their order and one score each) where [`rhat`] holds several copies of the
+/// draws: what the sampler's stopping rule uses on its history.
+///
+/// # Errors
+/// As [`rhat`].
+pub fn rhat_by(
+    chains: usize,
+    draws: usize,
+    at: &dyn Fn(usize, usize) -> f64,
+) -> Result<f64, DiagnosticsError> {
+    if chains == 0 {
+        return Err(DiagnosticsError::NoChains { needed: 1 });
+    }
+    if draws < MIN_DRAWS {
+        return Err(DiagnosticsError::TooFewDraws {
+            what: "R-hat",
+            have: draws,
+            needed: MIN_DRAWS,
+        });
+    }
+    for c in 0..chains {
+        if let Some((index, value)) = (0..draws)
+            .map(|t| (t, at(c, t)))
+            .find(|(_, v)| !v.is_finite())
+        {
+            return Err(DiagnosticsError::NonFinite {
+                chain: c,
+                index,
+                value,
+            });
+        }
+    }
+    if chains < MIN_CHAINS_RHAT {
+        return Err(DiagnosticsError::TooFewChains {
+            what: "R-hat",
+            have: chains,
+            needed: MIN_CHAINS_RHAT,
+        });
+    }
+    // The split chains (ArviZ `_split_chains`) as rows of `half` draws: the first halves of
+    // every chain, then the last halves; `split(p)` is the value at position p of their
+    // concatenation.
+    let half = draws / 2;
+    let size = 2 * chains * half;
+    let split = |p: usize| {
+        let (row, t) = (p / half, p % half);
+        let (second, c) = (row / chains, row % chains);
+        at(c, if second == 1 { draws - half + t } else { t })
+    };
+    let mut z = vec![0.0; size];
+    let mut idx = order_by(size, split);
+    fill_scores(&idx, split, &mut z);
+    let scores = |z: &[f64]| {
+        rhat_raw(&Mat {
+            rows: 2 * chains,
+            cols: half,
+            data: Cow::Borrowed(z),
+        })
+    };
+    let bulk = scores(&z);
+    let med = median_at(size, &|i| split(idx[i] as usize));
+    let folded = |p: usize| (split(p) - med).abs();
+    idx.sort_by(|&a, &b| folded(a as usize).total_cmp(&folded(b as usize)));
+    fill_scores(&idx, folded, &mut z);
+    let tail = scores(&z);
+    // As rhat_rank_of_split: Python's max(), NaN if either is NaN.
+    Ok(if bulk.is_nan() || tail.is_nan() {
+        f64::NAN
+    } else {
+        bulk.max(tail)
+    })
+}
+
 /// Bulk ESS: Geyer ESS of the rank-normalised split chains (ArviZ `ess(method="bulk")`).
 ///
 /// # Errors
@@ -421,17 +633,21 @@ fn checked_draws(draws: &[f64], what: &'static str) -> Result<(), DiagnosticsErr
 
 /// numpy's default (`method="linear"`) quantile of sorted values.
 pub(crate) fn quantile_sorted(s: &[f64], p: f64) -> f64 {
-    let n = s.len();
+    quantile_at(s.len(), &|i| s[i], p)
+}
+
+/// [`quantile_sorted`] of `n` sorted values given by `at`.
+pub(crate) fn quantile_at(n: usize, at: &dyn Fn(usize) -> f64, p: f64) -> f64 {
     let virt = (n - 1) as f64 * p;
     if virt >= (n - 1) as f64 {
-        return s[n - 1];
+        return at(n - 1);
     }
     if virt < 0.0 {
-        return s[0];
+        return at(0);
     }
     let prev = virt.floor();
     let gamma = virt - prev;
-    let (a, b) = (s[prev as usize], s[prev as usize + 1]);
+    let (a, b) = (at(prev as usize), at(prev as usize + 1));
     let diff = b - a;
     // numpy's _lerp: interpolate from the nearer end for accuracy.
     if gamma >= 0.5 {
@@ -470,9 +686,14 @@ pub fn equal_tailed_interval(draws: &[f64], prob: f64) -> Result<(f64, f64), Dia
 }
 
 pub(crate) fn eti_sorted(s: &[f64], prob: f64) -> (f64, f64) {
+    eti_at(s.len(), &|i| s[i], prob)
+}
+
+/// [`eti_sorted`] of `n` sorted values given by `at`.
+pub(crate) fn eti_at(n: usize, at: &dyn Fn(usize) -> f64, prob: f64) -> (f64, f64) {
     (
-        quantile_sorted(s, (1.0 - prob) / 2.0),
-        quantile_sorted(s, (1.0 + prob) / 2.0),
+        quantile_at(n, at, (1.0 - prob) / 2.0),
+        quantile_at(n, at, (1.0 + prob) / 2.0),
     )
 }
 
@@ -488,7 +709,12 @@ pub fn hdi(draws: &[f64], prob: f64) -> Result<(f64, f64), DiagnosticsError> {
 }
 
 pub(crate) fn hdi_sorted(s: &[f64], prob: f64) -> Result<(f64, f64), DiagnosticsError> {
-    let n = s.len();
+    let inc = hdi_span(s.len(), prob)?;
+    Ok(hdi_scan(s.iter().copied(), s[inc..].iter().copied()))
+}
+
+/// The distance `floor(prob n)` between the order statistics that bound an HDI of `n` draws.
+pub(crate) fn hdi_span(n: usize, prob: f64) -> Result<usize, DiagnosticsError> {
     let inc = (prob * n as f64).floor() as usize;
     if inc >= n {
         // Only reachable when prob * n rounds up to n.
@@ -498,15 +724,81 @@ pub(crate) fn hdi_sorted(s: &[f64], prob: f64) -> Result<(f64, f64), Diagnostics
             reason: "floor(prob * n) must be below the number of draws n for an HDI",
         });
     }
-    let mut best = 0;
+    Ok(inc)
+}
+
+/// The narrowest of the intervals `(low_i, high_i)`, where `lows` yields the sorted draws
+/// `s[0..]` and `highs` the sorted draws `s[inc..]` (the scan stops with the shorter): the
+/// first narrowest wins, as `np.argmin`. Two streams over the sorted draws suffice, so an
+/// HDI needs no copy of them in memory.
+pub(crate) fn hdi_scan(
+    lows: impl IntoIterator<Item = f64>,
+    highs: impl IntoIterator<Item = f64>,
+) -> (f64, f64) {
+    let mut best = None;
     let mut best_w = f64::INFINITY;
-    for i in 0..n - inc {
-        let w = s[i + inc] - s[i];
+    for (low, high) in lows.into_iter().zip(highs) {
+        // Index 0 unless a narrower interval is found, as in the loop over indices.
+        best.get_or_insert((low, high));
+        let w = high - low;
         // Strict: the first narrowest interval wins, as np.argmin.
         if w < best_w {
             best_w = w;
-            best = i;
+            best = Some((low, high));
         }
     }
-    Ok((s[best], s[best + inc]))
+    best.unwrap_or((f64::NAN, f64::NAN))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`rhat_by`] reads the chains where they are and gives [`rhat`] to the bit: odd and
+    /// even lengths, ties (a value repeated, -0.0 and 0.0), a constant set of chains, and the
+    /// same errors.
+    #[test]
+    fn rhat_by_is_rhat_to_the_bit() {
+        let value = |c: usize, t: usize, n: usize| {
+            let k = (c * 7919 + t * 104_729 + n) % 23;
+            if k == 0 {
+                -0.0
+            } else {
+                (k as f64 / 4.0).round() - 2.0 + 0.1 * c as f64 * (t % 3) as f64
+            }
+        };
+        for (chains, draws) in [(2, 4), (3, 9), (4, 40), (2, 41)] {
+            let data: Vec<Vec<f64>> = (0..chains)
+                .map(|c| (0..draws).map(|t| value(c, t, draws)).collect())
+                .collect();
+            let refs: Vec<&[f64]> = data.iter().map(Vec::as_slice).collect();
+            let expected = rhat(&refs).unwrap();
+            let got = rhat_by(chains, draws, &|c, t| data[c][t]).unwrap();
+            assert_eq!(got.to_bits(), expected.to_bits(), "{chains} × {draws}");
+        }
+        let constant = rhat_by(3, 10, &|_, _| 1.5).unwrap();
+        assert!(
+            constant.is_nan()
+                && rhat(&[&[1.5; 10], &[1.5; 10], &[1.5; 10]])
+                    .unwrap()
+                    .is_nan()
+        );
+        let bad = |c: usize, t: usize| if (c, t) == (1, 2) { f64::NAN } else { 1.0 };
+        assert!(matches!(
+            rhat_by(2, 5, &bad),
+            Err(DiagnosticsError::NonFinite {
+                chain: 1,
+                index: 2,
+                ..
+            })
+        ));
+        assert!(matches!(
+            rhat_by(1, 5, &|_, t| t as f64),
+            Err(DiagnosticsError::TooFewChains { .. })
+        ));
+        assert!(matches!(
+            rhat_by(2, 3, &|_, t| t as f64),
+            Err(DiagnosticsError::TooFewDraws { .. })
+        ));
+    }
 }

@@ -79,29 +79,69 @@ fn acf_into(
 /// a constant walker (whose autocorrelation is undefined).
 pub fn mean_acf(walkers: &[&[f64]]) -> Result<Vec<f64>, DiagnosticsError> {
     let n = validate_chains(walkers, MIN_STEPS_AUTOCORR, "an autocorrelation function")?;
-    let len = 2 * next_pow_two(n);
-    let mut planner = FftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(len);
-    let ifft = planner.plan_fft_inverse(len);
-    let mut buf = vec![Complex::new(0.0, 0.0); len];
-    let mut one = vec![0.0; n];
-    let mut sum = vec![0.0; n];
+    let mut sum = AcfSum::new(n);
     for (w, x) in walkers.iter().enumerate() {
-        acf_into(x, &mut buf, fft.as_ref(), ifft.as_ref(), &mut one).ok_or(
-            DiagnosticsError::ConstantChain {
-                chain: w,
-                value: x[0],
-            },
-        )?;
-        for (s, o) in sum.iter_mut().zip(&one) {
-            *s += o;
+        sum.push(x).ok_or(DiagnosticsError::ConstantChain {
+            chain: w,
+            value: x[0],
+        })?;
+    }
+    Ok(sum.finish())
+}
+
+/// [`mean_acf`] fed one walker's series at a time, in walker order: its memory is one
+/// series' length, whatever the number of walkers.
+pub(crate) struct AcfSum {
+    n: usize,
+    fft: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    ifft: std::sync::Arc<dyn rustfft::Fft<f64>>,
+    buf: Vec<Complex<f64>>,
+    one: Vec<f64>,
+    sum: Vec<f64>,
+    walkers: usize,
+}
+
+impl AcfSum {
+    /// For series of `n` steps.
+    pub(crate) fn new(n: usize) -> Self {
+        let len = 2 * next_pow_two(n);
+        let mut planner = FftPlanner::<f64>::new();
+        Self {
+            n,
+            fft: planner.plan_fft_forward(len),
+            ifft: planner.plan_fft_inverse(len),
+            buf: vec![Complex::new(0.0, 0.0); len],
+            one: vec![0.0; n],
+            sum: vec![0.0; n],
+            walkers: 0,
         }
     }
-    let k = walkers.len() as f64;
-    for s in sum.iter_mut() {
-        *s /= k;
+
+    /// Adds the next walker's series (`n` finite values); `None` when it is constant.
+    pub(crate) fn push(&mut self, x: &[f64]) -> Option<()> {
+        debug_assert_eq!(x.len(), self.n);
+        acf_into(
+            x,
+            &mut self.buf,
+            self.fft.as_ref(),
+            self.ifft.as_ref(),
+            &mut self.one,
+        )?;
+        for (s, o) in self.sum.iter_mut().zip(&self.one) {
+            *s += o;
+        }
+        self.walkers += 1;
+        Some(())
     }
-    Ok(sum)
+
+    /// The mean of the functions added.
+    pub(crate) fn finish(mut self) -> Vec<f64> {
+        let k = self.walkers as f64;
+        for s in self.sum.iter_mut() {
+            *s /= k;
+        }
+        self.sum
+    }
 }
 
 /// emcee's integrated autocorrelation time of a scalar quantity over an ensemble.
@@ -129,10 +169,16 @@ pub fn integrated_time(walkers: &[&[f64]], c: f64) -> Result<AutocorrTime, Diagn
         });
     }
     let rho = mean_acf(walkers)?;
+    Ok(time_of_acf(&rho, c))
+}
+
+/// Sokal's window over the walker-averaged ACF `rho`, window factor `c` (valid, as
+/// [`integrated_time`] checks).
+pub(crate) fn time_of_acf(rho: &[f64], c: f64) -> AutocorrTime {
     let n = rho.len();
     let mut cum = 0.0;
     let mut taus = Vec::with_capacity(n);
-    for r in &rho {
+    for r in rho {
         cum += r;
         taus.push(2.0 * cum - 1.0);
     }
@@ -142,11 +188,11 @@ pub fn integrated_time(walkers: &[&[f64]], c: f64) -> Result<AutocorrTime, Diagn
         .position(|(m, &t)| (m as f64) >= c * t)
         .unwrap_or(n - 1);
     let tau = taus[window];
-    Ok(AutocorrTime {
+    AutocorrTime {
         tau,
         window,
         reliable: TAU_FACTOR * tau <= n as f64,
-    })
+    }
 }
 
 #[cfg(test)]

@@ -82,6 +82,21 @@ pub enum DiagnosticsError {
         /// What it must satisfy.
         reason: &'static str,
     },
+    /// A working file of a summary could not be created, written or read back (see
+    /// [`super::external`]).
+    #[error(
+        "cannot {action} a working file of the summary in {}: {message} \
+         (the summary of a long run keeps its sorted draws there; free some disk space)",
+        dir.display()
+    )]
+    Scratch {
+        /// What was being done ("create", "write", "read").
+        action: &'static str,
+        /// The directory of the working files.
+        dir: std::path::PathBuf,
+        /// The underlying error, in words.
+        message: String,
+    },
 }
 
 /// Checks that `chains` is non-empty, rectangular, at least `min_draws` long and finite.

@@ -9,6 +9,8 @@
 //!   quantiles over independent chains, numerically identical to arviz 0.23.
 //! - [`ensemble`]: the summary of an ensemble run: R-hat *between independent ensembles*, ESS
 //!   over walkers, intervals over all draws (the design is argued in its documentation).
+//! - [`external`]: the same summary, to the bit, in memory that does not grow with the
+//!   number of draws (draws and sorted runs in working files): what a fit uses.
 //!
 //! Inputs are validated once, at the entry of each function: empty, ragged, too short or
 //! non-finite draws give a [`DiagnosticsError`] naming the chain and index at fault.
@@ -33,18 +35,20 @@ pub mod arviz;
 pub mod autocorr;
 pub mod ensemble;
 mod error;
+pub mod external;
 pub mod verdict;
 mod walkers;
 
 pub use arviz::{
     equal_tailed_interval, ess_bulk, ess_mean, ess_tail, hdi, mcse_mean, mcse_quantile, mcse_sd,
-    quantile, rhat, MIN_CHAINS_RHAT, MIN_DRAWS, TAIL_PROBS,
+    quantile, rhat, rhat_by, MIN_CHAINS_RHAT, MIN_DRAWS, TAIL_PROBS,
 };
 pub use autocorr::{
     integrated_time, mean_acf, AutocorrTime, DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR,
 };
 pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
+pub use external::{summarize_draws, DrawsWriter, Limits, WalkerDraws, Workspace};
 pub use verdict::{
     problem_lines, quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX,
     TAU_FACTOR,

@@ -84,7 +84,8 @@ pub enum Problem {
     /// The chains are shorter than [`TAU_FACTOR`] τ_max: τ, and the burn-in taken
     /// from it, cannot be trusted.
     ChainsTooShort {
-        /// Steps in the chains.
+        /// Steps τ was estimated on: the whole chains, or what follows their first quarter
+        /// or half when the start's transient dominated τ over the whole chains.
         steps: u64,
         /// The longest autocorrelation time (steps).
         tau_max: f64,
@@ -162,7 +163,7 @@ impl std::fmt::Display for Problem {
             ),
             Self::ChainsTooShort { steps, tau_max } => write!(
                 f,
-                "chains of {steps} steps are shorter than {TAU_FACTOR} τ_max = {:.0} steps: the autocorrelation time, and the burn-in taken from it, are unreliable; run longer",
+                "τ was estimated on {steps} steps, fewer than {TAU_FACTOR} τ_max = {:.0} steps: the autocorrelation time, and the burn-in taken from it, are unreliable; run longer",
                 TAU_FACTOR * tau_max
             ),
             Self::NoAutocorrelationTime { steps } => write!(

@@ -5,8 +5,8 @@ use std::path::Path;
 
 use super::run_dir::{relative_path, RunRecord};
 use super::{
-    default_moves, default_updates, fit_stop_rule, kept_draws, run_fit, Aggregate, ComparisonSpec,
-    FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
+    default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit, Aggregate,
+    ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
 };
 use crate::density::LogDensity;
 use crate::law::Scene;
@@ -47,40 +47,17 @@ pub struct SettingOverrides {
 
 impl FitSettings {
     /// The settings of a fit of `posterior`: its model file's `[sampler]` table under
-    /// `overrides`; walkers default to max(32, 4·d + 4, 2·f + 4), where d is the number of
-    /// coordinates one update moves (the dimension, or the largest block when the updates are
-    /// blocked): the independence proposals are fitted to half the walkers, and a fit of d
-    /// dimensions from barely d + 1 points proposes poorly (on the demo, 32 walkers for
-    /// blocks of 9 gave τ ≈ 26 steps, 38 walkers τ ≈ 17). With hierarchical updates f is the
-    /// largest number of followers a block carries: each follower's regression on the block
-    /// is fitted to the complement, and the errors of all f add up in the acceptance ratio of
-    /// the shared block, so τ grows as f over the walkers (10 contacts, 30 followers: τ 25 at
-    /// 32 walkers, 11 at 64).
+    /// `overrides`; walkers default to [`default_walkers`].
     pub fn for_model(posterior: &Posterior, overrides: &SettingOverrides) -> Self {
         let s = &posterior.spec().file.sampler;
         let updates = overrides
             .updates
             .or(s.updates)
             .unwrap_or_else(default_updates);
-        let span = match updates {
-            Updates::Joint => posterior.dim(),
-            Updates::Blocked | Updates::Hierarchical => {
-                posterior.blocks().iter().map(Vec::len).max().unwrap_or(0)
-            }
-        };
-        let followers = match updates {
-            Updates::Hierarchical => posterior
-                .block_links()
-                .iter()
-                .map(|l| l.followers.len())
-                .max()
-                .unwrap_or(0),
-            Updates::Joint | Updates::Blocked => 0,
-        };
         let walkers = overrides
             .walkers
             .or(s.walkers)
-            .unwrap_or_else(|| (4 * span + 4).max(2 * followers + 4).max(32));
+            .unwrap_or_else(|| default_walkers(posterior, updates));
         let max_steps = overrides.max_steps.unwrap_or(s.max_steps);
         let steps = match overrides.steps.or(s.steps) {
             Some(n) => Steps::Fixed(n),

@@ -4,7 +4,15 @@
 //! Every diagnostic sees every post-burn-in draw. Thinning adds no information, and on a
 //! thinned chain Geyer's initial-sequence estimator sees few draws per half-chain and
 //! overstates the ESS; R̂ and ESS here are what ArviZ computes on the same draws (chain =
-//! ensemble for R̂, chain = walker within an ensemble for ESS, see [`EnsembleDraws`]).
+//! ensemble for R̂, chain = walker within an ensemble for ESS, see
+//! [`EnsembleDraws`](crate::diagnostics::EnsembleDraws)).
+//!
+//! Memory does not grow with the number of draws: each quantity's draws (a column, a mean of
+//! columns, a difference of two) are read one Parquet row group at a time into a working file
+//! of the run directory, and summarised from there by
+//! [`summarize_draws`] (an external sort for ranks and order statistics; the same numbers
+//! as [`summarize`](crate::diagnostics::summarize) to the bit). Quantities are summarised
+//! in parallel only as far as [`SUMMARY_MEMORY_BYTES`] allows.
 
 use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
@@ -16,8 +24,8 @@ use super::run_dir::{AggregateSummary, Comparison, FitSummary, QuantitySummary, 
 use super::{FitError, FitSettings, SummarySpec};
 use crate::density::QuantityKind;
 use crate::diagnostics::{
-    mcse_mean, quantity_problems, stuck_walkers, summarize, EnsembleDraws, Problem, Summary,
-    MIN_DRAWS,
+    quantity_problems, stuck_walkers, summarize_draws, DiagnosticsError, DrawsWriter, Limits,
+    Problem, Summary, WalkerDraws, Workspace, MIN_DRAWS,
 };
 use crate::sampler::RunReport;
 use crate::storage::ChainReader;
@@ -191,118 +199,154 @@ impl Plan {
         let mut problems = Vec::new();
         let selection = Selection::new(report, &mut problems)?;
         let quantities = &self.spec.quantities;
-        // The kept draws of an operand, read from disk when asked for, so that memory holds
-        // the columns of the quantities being summarised, never the whole table.
-        let column = |name: &str| {
-            chains
-                .column_from(name, selection.burn_in)
-                .map_err(|source| FitError::Storage {
-                    context: format!("reading column {name:?} of {}", dir.display()),
-                    source,
-                })
-        };
-        let values = |o: Operand| -> Result<Vec<f64>, FitError> {
-            match o {
-                Operand::Quantity(i) => column(&quantities[i].column),
-                Operand::Aggregate(i) => {
-                    let of = &self.spec.aggregates[i].of;
-                    let mut sum = vec![0.0; selection.kept * ensembles * walkers];
-                    for c in of {
-                        for (s, v) in sum.iter_mut().zip(column(c)?) {
-                            *s += v;
-                        }
-                    }
-                    sum.iter_mut().for_each(|s| *s /= of.len() as f64);
-                    Ok(sum)
-                }
-            }
-        };
-        // Kept draws are read from the burn-in on, so kept step t is the chains' step t.
-        let kept = |f: &(dyn Fn(usize) -> f64 + Sync)| {
-            EnsembleDraws::from_fn(ensembles, walkers, selection.kept, |e, w, t| {
-                f(chains.row(t as u64, e, w))
-            })
-        };
+        let ws = Workspace::new(dir, Limits::DEFAULT);
         let probs = (settings.ci_prob, settings.hdi_prob);
-        // A quantity's column is dropped once its draws are laid out per walker, before the
-        // diagnostics make their working copies.
-        let summary_of = |label: String, v: Vec<f64>| {
+        // Reads the columns `names` from the burn-in on, one row group at a time, and writes
+        // the values `fs` give of each row (from the row group's chunks of `names`, in
+        // order) as the draws of as many quantities: memory holds one row group, never a
+        // column.
+        let draws = |label: &str,
+                     names: &[&str],
+                     fs: &[&Row<'_>]|
+         -> Result<Vec<Result<WalkerDraws<'_>, DiagnosticsError>>, FitError> {
             let diag = |source| FitError::Diagnostics {
-                quantity: label.clone(),
+                quantity: label.to_owned(),
                 source,
             };
-            let draws = kept(&|row| v[row]).map_err(diag)?;
-            drop(v);
-            summarize(&draws, probs.0, probs.1).map_err(diag)
-        };
-
-        let stats: Vec<Summary> = (0..quantities.len())
-            .into_par_iter()
-            .map(|i| summary_of(quantities[i].label(), values(Operand::Quantity(i))?))
-            .collect::<Result<_, _>>()?;
-        let aggregates: Vec<AggregateSummary> = (0..self.spec.aggregates.len())
-            .into_par_iter()
-            .map(|i| {
-                let a = &self.spec.aggregates[i];
-                let label = crate::density::label(&a.name, &a.group);
-                Ok(AggregateSummary {
-                    name: a.name.clone(),
-                    group: a.group.clone(),
-                    unit: a.unit.clone(),
-                    of: a.of.clone(),
-                    note: a.note.clone(),
-                    stats: summary_of(label, values(Operand::Aggregate(i))?)?,
-                })
-            })
-            .collect::<Result<_, FitError>>()?;
-        let label_of = |o: Operand| match o {
-            Operand::Quantity(i) => quantities[i].label(),
-            Operand::Aggregate(i) => {
-                let a = &self.spec.aggregates[i];
-                crate::density::label(&a.name, &a.group)
-            }
-        };
-        let group_of = |o: Operand| match o {
-            Operand::Quantity(i) => quantities[i].group.clone(),
-            Operand::Aggregate(i) => self.spec.aggregates[i].group.clone(),
-        };
-        let compare = |(name, unit, note, a, b): &(String, String, String, Operand, Operand)| {
-            let what = format!("{} − {}", label_of(*a), label_of(*b));
-            let (a, b) = (*a, *b);
-            let (va, vb) = (values(a)?, values(b)?);
-            let difference = summary_of(
-                what.clone(),
-                va.iter().zip(&vb).map(|(a, b)| a - b).collect(),
-            )?;
-            // A zero or non-finite ratio draw leaves the ratio undefined, not the fit.
-            let ratio = kept(&|row| va[row] / vb[row])
-                .ok()
-                .and_then(|r| summarize(&r, probs.0, probs.1).ok());
-            let above =
-                kept(&|row| if va[row] > vb[row] { 1.0 } else { 0.0 }).map_err(|source| {
-                    FitError::Diagnostics {
-                        quantity: what,
-                        source,
+            let mut writers = fs
+                .iter()
+                .map(|_| DrawsWriter::new(&ws, ensembles, walkers, selection.kept))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(diag)?;
+            let mut values = Vec::new();
+            chains
+                .for_each_chunk::<ReadError>(names, selection.burn_in, |_, chunks| {
+                    for (f, writer) in fs.iter().zip(&mut writers) {
+                        values.clear();
+                        values.extend((0..chunks[0].len()).map(|k| f(chunks, k)));
+                        writer.push(&values).map_err(ReadError::Diagnostics)?;
                     }
+                    Ok(())
+                })
+                .map_err(|e| match e {
+                    ReadError::Storage(source) => FitError::Storage {
+                        context: format!("reading columns {names:?} of {}", dir.display()),
+                        source,
+                    },
+                    ReadError::Diagnostics(source) => diag(source),
                 })?;
-            let (p, p_mcse) = probability(&above);
+            Ok(writers.into_iter().map(DrawsWriter::finish).collect())
+        };
+        let summary_of =
+            |label: String, names: &[&str], f: &Row<'_>| -> Result<Summary, FitError> {
+                let diag = |source| FitError::Diagnostics {
+                    quantity: label.clone(),
+                    source,
+                };
+                let x = draws(&label, names, &[f])?
+                    .pop()
+                    .expect("one")
+                    .map_err(diag)?;
+                summarize_draws(&x, probs.0, probs.1).map_err(diag)
+            };
+        // Quantities are summarised in parallel as far as the memory budget allows (each
+        // in the memory of `Limits`), never beyond it whatever the threads; each result is
+        // independent of the others, so of the number of threads.
+        let jobs = (SUMMARY_MEMORY_BYTES / ws.limits().working_bytes(selection.kept))
+            .clamp(1, rayon::current_num_threads().max(1));
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(jobs)
+            .build()
+            .map_err(|e| FitError::Inconsistent {
+                dir: dir.to_path_buf(),
+                problem: format!("cannot start the threads of the summary: {e}"),
+            })?;
+
+        let operand = |o| self.operand(o);
+        // One comparison: A − B, A / B and P(A > B) per draw, from one reading of the
+        // columns of A and B.
+        let compare = |(name, unit, note, a, b): &(String, String, String, Operand, Operand)| {
+            let (label_a, names_a) = self.operand(*a);
+            let (label_b, names_b) = self.operand(*b);
+            let what = format!("{label_a} − {label_b}");
+            let diag = |source| FitError::Diagnostics {
+                quantity: what.clone(),
+                source,
+            };
+            let split = names_a.len();
+            let va = |c: &[Vec<f64>], k: usize| operand_value(*a, &c[..split], k);
+            let vb = |c: &[Vec<f64>], k: usize| operand_value(*b, &c[split..], k);
+            let mut names = names_a;
+            names.extend(names_b);
+            let [difference, ratio, above]: [Result<WalkerDraws, DiagnosticsError>; 3] = draws(
+                &what,
+                &names,
+                &[
+                    &|c, k| va(c, k) - vb(c, k),
+                    &|c, k| va(c, k) / vb(c, k),
+                    &|c, k| if va(c, k) > vb(c, k) { 1.0 } else { 0.0 },
+                ],
+            )?
+            .try_into()
+            .map_err(|_| diag(DiagnosticsError::NoChains { needed: 3 }))?;
+            let difference =
+                summarize_draws(&difference.map_err(diag)?, probs.0, probs.1).map_err(diag)?;
+            // A zero or non-finite ratio draw leaves the ratio undefined, not the fit (a
+            // working file that fails does fail it).
+            let ratio = match ratio.and_then(|r| summarize_draws(&r, probs.0, probs.1)) {
+                Ok(r) => Some(r),
+                Err(e @ DiagnosticsError::Scratch { .. }) => return Err(diag(e)),
+                Err(_) => None,
+            };
+            // The mean of 0/1 indicators and its MCSE (`None` when every draw agrees, where
+            // the MCSE estimate is undefined).
+            let (p, p_mcse) = above.and_then(|x| x.mean_and_mcse()).map_err(diag)?;
+            let group_of = |o: Operand| match o {
+                Operand::Quantity(i) => quantities[i].group.clone(),
+                Operand::Aggregate(i) => self.spec.aggregates[i].group.clone(),
+            };
             Ok(Comparison {
                 name: name.clone(),
                 unit: unit.clone(),
-                group_a: group_of(a),
-                group_b: group_of(b),
+                group_a: group_of(*a),
+                group_b: group_of(*b),
                 note: note.clone(),
                 difference,
                 ratio,
                 p_a_greater: p,
-                p_a_greater_mcse: p_mcse,
+                p_a_greater_mcse: Some(p_mcse).filter(|m| m.is_finite() && *m > 0.0),
             })
         };
-        let comparisons: Vec<Comparison> = self
-            .pairs
-            .par_iter()
-            .map(compare)
-            .collect::<Result<_, FitError>>()?;
+        let (stats, aggregates, comparisons) = pool.install(|| {
+            let stats: Vec<Summary> = (0..quantities.len())
+                .into_par_iter()
+                .map(|i| {
+                    let (label, names) = operand(Operand::Quantity(i));
+                    summary_of(label, &names, &|c, k| c[0][k])
+                })
+                .collect::<Result<_, _>>()?;
+            let aggregates: Vec<AggregateSummary> = (0..self.spec.aggregates.len())
+                .into_par_iter()
+                .map(|i| {
+                    let a = &self.spec.aggregates[i];
+                    let (label, names) = operand(Operand::Aggregate(i));
+                    Ok(AggregateSummary {
+                        name: a.name.clone(),
+                        group: a.group.clone(),
+                        unit: a.unit.clone(),
+                        of: a.of.clone(),
+                        note: a.note.clone(),
+                        stats: summary_of(label, &names, &|c, k| mean_of(c, k))?,
+                    })
+                })
+                .collect::<Result<_, FitError>>()?;
+            let comparisons: Vec<Comparison> = self
+                .pairs
+                .par_iter()
+                .map(compare)
+                .collect::<Result<_, FitError>>()?;
+            Ok::<_, FitError>((stats, aggregates, comparisons))
+        })?;
 
         if settings.ensembles < 2 {
             problems.push(Problem::SingleEnsemble);
@@ -368,20 +412,61 @@ impl Plan {
     }
 }
 
-/// Mean of 0/1 indicator draws and its MCSE (`None` when every draw agrees, where the MCSE
-/// estimate is undefined).
-fn probability(indicator: &EnsembleDraws) -> (f64, Option<f64>) {
-    let series: Vec<&[f64]> = (0..indicator.ensembles())
-        .flat_map(|e| (0..indicator.walkers()).map(move |w| (e, w)))
-        .map(|(e, w)| indicator.series(e, w))
-        .collect();
-    let n: usize = series.iter().map(|s| s.len()).sum();
-    let ones: f64 = series.iter().flat_map(|s| s.iter()).sum();
-    let p = ones / n as f64;
-    let mcse = mcse_mean(&series)
-        .ok()
-        .filter(|m| m.is_finite() && *m > 0.0);
-    (p, mcse)
+/// What the summaries may hold in memory at once, beyond the row groups being read: as many
+/// quantities are summarised in parallel as fit in it (at least one).
+const SUMMARY_MEMORY_BYTES: usize = 12 << 20;
+
+/// The value of a row from the row group's chunks of an operand's columns.
+type Row<'a> = dyn Fn(&[Vec<f64>], usize) -> f64 + Sync + 'a;
+
+/// Per row, the mean of the chunks' values: summed in column order from 0.0, then divided,
+/// as an aggregate's draws have always been.
+fn mean_of(chunks: &[Vec<f64>], k: usize) -> f64 {
+    let mut sum = 0.0;
+    for c in chunks {
+        sum += c[k];
+    }
+    sum / chunks.len() as f64
+}
+
+/// An operand's value in a row, from the chunks of its columns: a quantity's column, or the
+/// mean of an aggregate's.
+fn operand_value(o: Operand, chunks: &[Vec<f64>], k: usize) -> f64 {
+    match o {
+        Operand::Quantity(_) => chunks[0][k],
+        Operand::Aggregate(_) => mean_of(chunks, k),
+    }
+}
+
+/// Reading the chains for a summary: the store or the draws' working files.
+enum ReadError {
+    Storage(crate::storage::StorageError),
+    Diagnostics(DiagnosticsError),
+}
+
+impl From<crate::storage::StorageError> for ReadError {
+    fn from(e: crate::storage::StorageError) -> Self {
+        Self::Storage(e)
+    }
+}
+
+impl Plan {
+    /// An operand's label and the columns it reads.
+    fn operand(&self, o: Operand) -> (String, Vec<&str>) {
+        match o {
+            Operand::Quantity(i) => {
+                let q = &self.spec.quantities[i];
+                (q.label(), vec![q.column.as_str()])
+            }
+            Operand::Aggregate(i) => {
+                let a = &self.spec.aggregates[i];
+                (
+                    crate::density::label(&a.name, &a.group),
+                    a.of.iter().map(String::as_str).collect(),
+                )
+            }
+        }
+    }
 }
 
 /// Checks the shape of the chains against the settings and the sampler's report.
@@ -420,7 +505,7 @@ impl Selection {
             Some(t) => {
                 if !t.reliable {
                     problems.push(Problem::ChainsTooShort {
-                        steps: total,
+                        steps: total - t.from_step,
                         tau_max: t.max,
                     });
                 }

@@ -19,11 +19,13 @@
 //!
 //! This module knows nothing of files, data sets or sampling. All quantities are SI.
 
+pub mod kernel;
 pub mod observed;
 pub mod peak;
 pub mod repeat;
 mod root;
 
+pub use kernel::{KernelCounts, Simd, SIMD_ENV};
 pub use observed::{Elastic, ObservedSlide};
 pub use peak::{Peak, PeakOutcome};
 pub use repeat::RepeatSlide;

@@ -10,8 +10,9 @@
 //! F(t0) = F_d(1 − e^(−x0)) at t0; the instrument sees that jump as elastic loading,
 //! F = kv(t − t0), while τ waits at t0 — which keeps the recorded force continuous.
 
+use super::kernel::{self, KernelCounts};
 use super::root::increasing_root;
-use super::{positive, Law, LawError};
+use super::{positive, Law, LawError, Simd};
 
 /// How the machine's elasticity enters a slide.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,6 +91,91 @@ impl ObservedSlide {
     /// time of `times` (strictly increasing), in order, without allocating: the hot path of a
     /// likelihood.
     ///
+    /// The points are solved in batches in vector registers (`kernel`): every
+    /// [`CHUNK`](super::kernel::CHUNK)-th point by the serial safeguarded Newton iteration,
+    /// the points between by one Newton step each from a quintic Hermite guess between those
+    /// anchors, repeated where a lane's predicted error is above round-off. The result agrees
+    /// with [`for_each_force_serial`](Self::for_each_force_serial) to rounding, on whatever
+    /// vector instructions the machine has ([`Simd::active`](super::Simd::active)), and is
+    /// the same bit for bit on every one of them.
+    ///
+    /// # Errors
+    /// [`LawError::UnsortedTimes`] when times do not increase (checked before any visit), and
+    /// [`LawError::StickSlip`] when dF/dτ ≤ −kv anywhere on the path up to the last point
+    /// (checked after the visits, whose values are then meaningless).
+    pub fn for_each_force(
+        &self,
+        times: &[f64],
+        visit: impl FnMut(usize, f64, f64),
+    ) -> Result<(), LawError> {
+        self.for_each_force_with(Simd::active(), times, visit)
+    }
+
+    /// [`for_each_force`](Self::for_each_force) on the instruction set `simd` (for benchmarks
+    /// and for checking that every set gives the same bits).
+    ///
+    /// # Errors
+    /// As [`for_each_force`](Self::for_each_force); [`LawError::InvalidParameter`] naming
+    /// `simd` when this machine cannot run it.
+    pub fn for_each_force_with(
+        &self,
+        simd: Simd,
+        times: &[f64],
+        mut visit: impl FnMut(usize, f64, f64),
+    ) -> Result<(), LawError> {
+        self.run_kernel(simd, times, &mut visit, &mut ())
+    }
+
+    /// How often each path of the kernel ran on `times` (every point is solved as by
+    /// [`for_each_force_with`](Self::for_each_force_with)): for tests that the fast paths
+    /// are the ones taken, and for benchmarks.
+    ///
+    /// # Errors
+    /// As [`for_each_force_with`](Self::for_each_force_with).
+    pub fn kernel_counts(&self, simd: Simd, times: &[f64]) -> Result<KernelCounts, LawError> {
+        let mut counts = KernelCounts::default();
+        self.run_kernel(simd, times, &mut |_, _, _| {}, &mut counts)?;
+        Ok(counts)
+    }
+
+    fn run_kernel(
+        &self,
+        simd: Simd,
+        times: &[f64],
+        visit: &mut impl FnMut(usize, f64, f64),
+        tally: &mut impl kernel::Tally,
+    ) -> Result<(), LawError> {
+        if !simd.is_available() {
+            return Err(LawError::InvalidParameter {
+                name: "simd",
+                value: f64::NAN,
+                expected: "an instruction set this machine has (Simd::available)",
+            });
+        }
+        check_sorted(times)?;
+        match self.elastic {
+            Elastic::Stiff => {
+                kernel::stiff(simd, &self.law, times, visit, tally);
+                Ok(())
+            }
+            Elastic::Spring { kv } => {
+                // Where t(τ) folds before the last time, a time can have several τ: only the
+                // serial solve, point after point from t0, follows the quasi-static branch
+                // (and says whether the data reach the fold).
+                let t_last = times.last().copied().unwrap_or(f64::NEG_INFINITY);
+                if t_last > self.law.t0() && self.law.min_rate_up_to(t_last).1 <= -kv {
+                    tally.count(|c| c.serial_slides += 1);
+                    return self.for_each_force_serial(times, visit);
+                }
+                kernel::spring(simd, &self.law, kv, times, visit, tally)
+            }
+        }
+    }
+
+    /// [`for_each_force`](Self::for_each_force) solved point after point, each by the
+    /// safeguarded Newton iteration warm-started from the previous point: the reference that
+    /// the batched kernel is tested and measured against.
+    ///
     /// Each point is solved by a safeguarded Newton iteration on the bracket
     /// [τ of the previous point, t], warm-started by extrapolating along the previous point's
     /// slope dτ/dt = 1/(1 + F'/(kv)) and its change since the point before; it always
@@ -99,19 +185,12 @@ impl ObservedSlide {
     /// [`LawError::UnsortedTimes`] when times do not increase (checked before any visit), and
     /// [`LawError::StickSlip`] when dF/dτ ≤ −kv anywhere on the path up to the last point
     /// (checked after the visits, whose values are then meaningless).
-    pub fn for_each_force(
+    pub fn for_each_force_serial(
         &self,
         times: &[f64],
         mut visit: impl FnMut(usize, f64, f64),
     ) -> Result<(), LawError> {
-        let mut previous_time = f64::NEG_INFINITY;
-        for (index, &time) in times.iter().enumerate() {
-            // NaN fails this comparison too.
-            if time.partial_cmp(&previous_time) != Some(std::cmp::Ordering::Greater) {
-                return Err(LawError::UnsortedTimes { index, time });
-            }
-            previous_time = time;
-        }
+        check_sorted(times)?;
         let kv = match self.elastic {
             Elastic::Stiff => {
                 for (i, &t) in times.iter().enumerate() {
@@ -190,6 +269,18 @@ impl ObservedSlide {
         self.forces(&[time], &mut out, None)?;
         Ok(out[0])
     }
+}
+
+/// Times must strictly increase (NaN fails the comparison too).
+fn check_sorted(times: &[f64]) -> Result<(), LawError> {
+    let mut previous_time = f64::NEG_INFINITY;
+    for (index, &time) in times.iter().enumerate() {
+        if time.partial_cmp(&previous_time) != Some(std::cmp::Ordering::Greater) {
+            return Err(LawError::UnsortedTimes { index, time });
+        }
+        previous_time = time;
+    }
+    Ok(())
 }
 
 fn check_len(expected: usize, got: usize) -> Result<(), LawError> {

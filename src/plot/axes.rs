@@ -139,13 +139,30 @@ pub fn widen((lo, hi): (f64, f64)) -> (f64, f64) {
 
 /// The finite range of `values`, padded by `pad` of its width on each side.
 pub fn range_of<'v>(values: impl IntoIterator<Item = &'v f64>, pad: f64) -> (f64, f64) {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for &v in values {
-        if v.is_finite() {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
+    padded(
+        values
+            .into_iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |b, &v| {
+                extend_bounds(b, v)
+            }),
+        pad,
+    )
+}
+
+/// `(lo, hi)` extended to take in `v` when it is finite: folded from (∞, −∞) over values,
+/// their finite range, as [`range_of`] takes it (so that a figure can take the range of
+/// values it does not keep).
+pub fn extend_bounds((lo, hi): (f64, f64), v: f64) -> (f64, f64) {
+    if v.is_finite() {
+        (lo.min(v), hi.max(v))
+    } else {
+        (lo, hi)
     }
+}
+
+/// The range `(lo, hi)` made non-empty ([`widen`]) and padded by `pad` of its width on each
+/// side.
+pub fn padded((lo, hi): (f64, f64), pad: f64) -> (f64, f64) {
     let (lo, hi) = widen((lo, hi));
     let w = hi - lo;
     (lo - pad * w, hi + pad * w)

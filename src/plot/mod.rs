@@ -24,7 +24,9 @@ use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-pub use axes::{chart, linear_chart, range_of, significant, tick, widen, Frame};
+pub use axes::{
+    chart, extend_bounds, linear_chart, padded, range_of, significant, tick, widen, Frame,
+};
 pub use series::{band, bars, legend, line, markers, styled_line};
 pub use style::{
     band_fills, caption_font, grid, ink, label_font, small_font, tint, Dash, FONT, PANEL,

@@ -6,8 +6,9 @@ use super::curves::{coordinate_draws, interface_curve, peak_vs_t0, InterfaceCurv
 use super::document::Block;
 use super::inputs::{coverage_95, RunInputs};
 use super::plots::{
-    corner_figure, distance_figure, fit_figure, forest_figure, peak_density_figure, peak_t0_figure,
-    trace_figure, velocity_text, ForestPanel, ForestRow, PeakDraws, RunView, TracePanel,
+    corner_figure, distance_figure, fit_figure, forest_figure, peak_density, peak_density_figure,
+    peak_t0_figure, trace_figure, trace_stride, velocity_text, CornerColumn, ForestPanel,
+    ForestRow, PeakDraws, RunView, TracePanel,
 };
 use super::units::{significant, DisplayUnit};
 use super::ReportError;
@@ -15,7 +16,8 @@ use crate::diagnostics::{problem_lines, Summary, ESS_MIN, RHAT_MAX};
 use crate::fit::{kept_rows, AggregateSummary, QuantitySummary};
 use crate::law::Scene;
 use crate::model::{Band, ModelSpec, Posterior};
-use crate::plot::DrawError;
+use crate::plot::{extend_bounds, DrawError};
+use crate::storage::{ChainReader, StorageError};
 
 /// Posterior draws behind every redrawn curve (as many as `predictive.csv` uses).
 const CURVE_DRAWS: usize = 200;
@@ -146,9 +148,9 @@ impl Context<'_> {
         self.inputs.summary.problems_of(&q.label()).next().is_some()
     }
 
+    /// The kept rows' values of `column`, read one row group at a time.
     fn kept_column(&self, column: &str) -> Option<Vec<f64>> {
-        let values = self.inputs.chains.column(column).ok()?;
-        Some(self.kept.iter().map(|&i| values[i]).collect())
+        self.inputs.chains.rows_of(column, &self.kept).ok()
     }
 
     fn slides(&self) -> impl Iterator<Item = (usize, &RunView)> {
@@ -233,18 +235,16 @@ struct MaterialComparison {
     ratio: String,
 }
 
-/// Per kept draw, the mean of `columns` (the draws behind an aggregate's density).
+/// Per kept draw, the mean of `columns` (the draws behind an aggregate's density), read one
+/// column at a time: each draw's sum is taken in column order from -0.0, as `.sum()`.
 fn mean_draws(ctx: &Context, columns: &[String]) -> Option<Vec<f64>> {
-    let cols: Vec<Vec<f64>> = columns
-        .iter()
-        .map(|c| ctx.kept_column(c))
-        .collect::<Option<_>>()?;
-    let n = cols.first()?.len();
-    Some(
-        (0..n)
-            .map(|d| cols.iter().map(|c| c[d]).sum::<f64>() / cols.len() as f64)
-            .collect(),
-    )
+    let mut sum = vec![-0.0; ctx.kept.len()];
+    for c in columns {
+        for (s, v) in sum.iter_mut().zip(ctx.kept_column(c)?) {
+            *s += v;
+        }
+    }
+    (!columns.is_empty()).then(|| sum.into_iter().map(|s| s / columns.len() as f64).collect())
 }
 
 /// The aggregates of the summary named `name` (one per material that has one).
@@ -557,7 +557,7 @@ fn peak_section(
             let s = &q.stats;
             density.push((
                 format!("{} ({material})", run.name),
-                values,
+                peak_density(&values),
                 [s.ci_low, s.median, s.ci_high],
             ));
             if let Some(t0) = ctx.find("t0", &run.name) {
@@ -585,7 +585,7 @@ fn peak_section(
                 if let Some(mean) = mean_draws(ctx, &agg.of) {
                     let s = &agg.stats;
                     let label = format!("{material}: {}", agg.note);
-                    density.push((label, mean, [s.ci_low, s.median, s.ci_high]));
+                    density.push((label, peak_density(&mean), [s.ci_low, s.median, s.ci_high]));
                 }
             }
         }
@@ -825,23 +825,12 @@ fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         .iter()
         .filter(|q| q.name != "sigma")
     {
-        let Ok(series) = chains.series(&q.column) else {
+        let u = DisplayUnit::of_si(&q.unit);
+        let Ok(panel) = trace_panel(chains, &q.column, format!("{}{}", label(q), u.suffix()), &u)
+        else {
             continue;
         };
-        let u = DisplayUnit::of_si(&q.unit);
-        panels.push(TracePanel {
-            title: format!("{}{}", label(q), u.suffix()),
-            series: series
-                .into_iter()
-                .map(|walkers| {
-                    walkers
-                        .into_iter()
-                        .take(TRACE_WALKERS)
-                        .map(|v| v.into_iter().map(|x| u.show(x)).collect())
-                        .collect()
-                })
-                .collect(),
-        });
+        panels.push(panel);
     }
     let mut blocks = Vec::new();
     let figures = panels.len().div_ceil(TRACES_PER_FIGURE);
@@ -859,6 +848,46 @@ fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         ));
     }
     Ok(blocks)
+}
+
+/// The trace panel of column `column`: the first [`TRACE_WALKERS`] walkers of every
+/// ensemble, read one row group at a time, keeping the points drawn and the range of all
+/// (so that memory holds a few hundred points per walker, whatever the length of the run).
+fn trace_panel(
+    chains: &ChainReader,
+    column: &str,
+    title: String,
+    u: &DisplayUnit,
+) -> Result<TracePanel, StorageError> {
+    let (ensembles, walkers) = (chains.ensembles(), chains.walkers().min(TRACE_WALKERS));
+    let steps = chains.steps() as usize;
+    let stride = trace_stride(steps);
+    let mut points = vec![vec![Vec::new(); walkers]; ensembles];
+    let empty = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut bounds = vec![vec![empty; walkers]; ensembles];
+    chains.for_each_chunk::<StorageError>(&[column], 0, |first, chunks| {
+        for (k, &x) in chunks[0].iter().enumerate() {
+            let (step, e, w) = chains.locate(first + k);
+            if w < walkers {
+                let v = u.show(x);
+                bounds[e][w] = extend_bounds(bounds[e][w], v);
+                if step as usize % stride == 0 {
+                    points[e][w].push((step as f64, v));
+                }
+            }
+        }
+        Ok(())
+    })?;
+    // Walker after walker, each in step order, as the range of all values is folded.
+    let range = bounds.iter().flatten().fold(empty, |b, &(lo, hi)| {
+        extend_bounds(extend_bounds(b, lo), hi)
+    });
+    Ok(TracePanel {
+        title,
+        steps,
+        points,
+        range,
+    })
 }
 
 fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
@@ -882,18 +911,21 @@ fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         if chosen.len() < 2 {
             continue;
         }
-        let mut names = Vec::new();
+        // One quantity's kept draws in memory at a time.
         let mut columns = Vec::new();
         for q in &chosen {
             let Some(values) = ctx.kept_column(&q.column) else {
                 continue;
             };
             let u = DisplayUnit::of_si(&q.unit);
-            names.push(format!("{}{}", label(q), u.suffix()));
-            columns.push(values.into_iter().map(|x| u.show(x)).collect::<Vec<f64>>());
+            let shown: Vec<f64> = values.into_iter().map(|x| u.show(x)).collect();
+            columns.push(CornerColumn::of(
+                format!("{}{}", label(q), u.suffix()),
+                &shown,
+            ));
         }
         let file = format!("corner-{material}.svg");
-        let svg = corner_figure(&file, &names, &columns)?;
+        let svg = corner_figure(&file, &columns)?;
         blocks.push(figure(
             file,
             format!(

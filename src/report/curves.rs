@@ -27,14 +27,16 @@ pub fn coordinate_draws(
         .iter()
         .map(|&i| (i, Vec::with_capacity(chains.param_names().len())))
         .collect();
-    // One column in memory at a time.
+    // The rows asked for, one column at a time, read one row group at a time.
     for name in chains.param_names() {
-        let column = chains.column(name).map_err(|source| ReportError::Chains {
-            dir: chains.dir().to_path_buf(),
-            source,
-        })?;
-        for (i, draw) in &mut draws {
-            draw.push(column[*i]);
+        let column = chains
+            .rows_of(name, &rows)
+            .map_err(|source| ReportError::Chains {
+                dir: chains.dir().to_path_buf(),
+                source,
+            })?;
+        for ((_, draw), v) in draws.iter_mut().zip(column) {
+            draw.push(v);
         }
     }
     Ok(draws)

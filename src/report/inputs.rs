@@ -28,7 +28,7 @@ pub struct RunInputs {
     pub record: RunRecord,
     /// `predictive.csv`, per run in file order.
     pub predictive: Vec<Band>,
-    /// The chains, read one column at a time.
+    /// The chains, read one row group at a time.
     pub chains: ChainReader,
 }
 

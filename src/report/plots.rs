@@ -9,8 +9,8 @@ use crate::law::Scene;
 use crate::model::Band;
 use crate::plot::{
     band, band_fills, caption_font, grid, ink, label_font, legend, line, linear_chart, markers,
-    panel_grid, range_of, significant, small_font, svg_figure, tick, tint, widen, Area, DrawError,
-    Drawn, LinearChart, PANEL,
+    padded, panel_grid, range_of, significant, small_font, svg_figure, tick, tint, widen, Area,
+    DrawError, Drawn, LinearChart, PANEL,
 };
 
 /// N to mN.
@@ -276,8 +276,16 @@ pub fn distance_figure(
     })
 }
 
-/// One panel of the peak density figure: title, F_peak draws (N), and (2.5 %, 50 %, 97.5 %).
-pub type PeakDraws = (String, Vec<f64>, [f64; 3]);
+/// One panel of the peak density figure: title, the density of the F_peak draws in mN
+/// ([`peak_density`]), and (2.5 %, 50 %, 97.5 %) in N.
+pub type PeakDraws = (String, (Vec<f64>, Vec<f64>), [f64; 3]);
+
+/// The density a panel of [`peak_density_figure`] draws, of F_peak draws in N: what a panel
+/// keeps of its draws, so that the figure holds no draws.
+pub fn peak_density(draws_n: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mn: Vec<f64> = draws_n.iter().map(|f| f * MN).collect();
+    kernel_density(&mn, 200)
+}
 
 /// Posterior density of the peak static friction, one panel per run and per material mean:
 /// the density, its 95 % interval shaded under it, and the median as a dashed line.
@@ -289,9 +297,7 @@ pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, D
     let (w, h) = (420u32, 300u32);
     svg_figure(name, (w * cols as u32, h * rows as u32), |root| {
         let areas = root.split_evenly((rows, cols));
-        for ((title, draws, q), area) in panels.iter().zip(&areas) {
-            let mn: Vec<f64> = draws.iter().map(|f| f * MN).collect();
-            let (grid_x, dens) = kernel_density(&mn, 200);
+        for ((title, (grid_x, dens), q), area) in panels.iter().zip(&areas) {
             let top = dens.iter().copied().fold(0.0_f64, f64::max);
             let mut chart = linear_chart(
                 area,
@@ -534,17 +540,29 @@ pub fn forest_figure(name: &str, panels: &[ForestPanel]) -> Result<String, DrawE
     })
 }
 
-/// One trace panel: a parameter's walkers per ensemble.
+/// One trace panel: a parameter's walkers per ensemble, as drawn: every
+/// [`trace_stride`]-th step, and the range of every step.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TracePanel {
     /// Title (parameter and unit).
     pub title: String,
-    /// `series[ensemble][walker]`: values by step, in display units.
-    pub series: Vec<Vec<Vec<f64>>>,
+    /// Steps of the run (the x axis spans them).
+    pub steps: usize,
+    /// `points[ensemble][walker]`: (step, value in display units) at every
+    /// [`trace_stride`]`(steps)`-th step from step 0.
+    pub points: Vec<Vec<Vec<(f64, f64)>>>,
+    /// The finite range of the values of these walkers at every step, in display units
+    /// (before padding; [`extend_bounds`](crate::plot::extend_bounds) folded over them).
+    pub range: (f64, f64),
 }
 
 /// Most points drawn per walker line.
 const TRACE_POINTS: usize = 250;
+
+/// Steps between the points drawn of a trace of `steps` steps.
+pub fn trace_stride(steps: usize) -> usize {
+    steps.div_ceil(TRACE_POINTS).max(1)
+}
 
 /// Trace plots: a few walkers of every ensemble per parameter, ensembles told apart by ink
 /// (dark to light), the burn-in marked.
@@ -558,15 +576,8 @@ pub fn trace_figure(name: &str, panels: &[TracePanel], burn_in: u64) -> Result<S
     svg_figure(name, (w * cols as u32, h * rows as u32), |root| {
         let areas = root.split_evenly((rows, cols));
         for (p, (panel, area)) in panels.iter().zip(&areas).enumerate() {
-            let steps = panel
-                .series
-                .iter()
-                .flatten()
-                .map(Vec::len)
-                .max()
-                .unwrap_or(0);
-            let values = panel.series.iter().flatten().flatten();
-            let (y0, y1) = range_of(values, 0.05);
+            let steps = panel.steps;
+            let (y0, y1) = padded(panel.range, 0.05);
             let mut chart = ChartBuilder::on(area)
                 .caption(&panel.title, small_font())
                 .margin(6)
@@ -587,15 +598,9 @@ pub fn trace_figure(name: &str, panels: &[TracePanel], burn_in: u64) -> Result<S
                 .x_desc(if p + cols >= panels.len() { "step" } else { "" })
                 .draw()
                 .drawn(name)?;
-            let stride = steps.div_ceil(TRACE_POINTS).max(1);
-            for (e, walkers) in panel.series.iter().enumerate() {
-                for (w_i, values) in walkers.iter().enumerate() {
-                    let pts: Vec<(f64, f64)> = values
-                        .iter()
-                        .enumerate()
-                        .step_by(stride)
-                        .map(|(s, &v)| (s as f64, v))
-                        .collect();
+            for (e, walkers) in panel.points.iter().enumerate() {
+                for (w_i, pts) in walkers.iter().enumerate() {
+                    let pts = pts.clone();
                     // Solid lines: dashes would multiply the SVG's size by the number of
                     // dashes; ensembles differ in ink, dark to light.
                     let style = ink(e).stroke_width(1);
@@ -626,39 +631,62 @@ pub fn trace_figure(name: &str, panels: &[TracePanel], burn_in: u64) -> Result<S
 /// Most draws shown as points in a corner plot panel.
 pub const CORNER_POINTS: usize = 200;
 
-/// A corner plot: densities on the diagonal, pairs of draws below it. `columns[i]` holds the
-/// draws of `names[i]` in display units, paired by index.
+/// What a corner plot draws of one quantity's draws (in display units): its padded range,
+/// its density, and the draws shown as points. Built one quantity at a time
+/// ([`CornerColumn::of`]), so that the figure holds a few hundred points per quantity, never
+/// the draws.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CornerColumn {
+    /// Axis label.
+    pub name: String,
+    /// The finite range of the draws, padded by 5 %.
+    pub range: (f64, f64),
+    /// Kernel density of the draws: (grid, density).
+    pub density: (Vec<f64>, Vec<f64>),
+    /// Every `draws.div_ceil(CORNER_POINTS)`-th draw, paired by index across quantities.
+    pub points: Vec<f64>,
+}
+
+impl CornerColumn {
+    /// The column of `draws` (display units), labelled `name`.
+    pub fn of(name: String, draws: &[f64]) -> Self {
+        let stride = draws.len().div_ceil(CORNER_POINTS).max(1);
+        Self {
+            name,
+            range: range_of(draws.iter(), 0.05),
+            density: kernel_density(draws, 120),
+            points: draws.iter().step_by(stride).copied().collect(),
+        }
+    }
+}
+
+/// A corner plot: densities on the diagonal, pairs of draws below it, one
+/// [`CornerColumn`] per quantity.
 ///
 /// # Errors
 /// [`DrawError`] when the backend fails.
-pub fn corner_figure(
-    name: &str,
-    names: &[String],
-    columns: &[Vec<f64>],
-) -> Result<String, DrawError> {
-    let n = names.len().max(1);
+pub fn corner_figure(name: &str, columns: &[CornerColumn]) -> Result<String, DrawError> {
+    let n = columns.len().max(1);
     let cell = 190u32;
     svg_figure(name, (cell * n as u32, cell * n as u32), |root| {
         let areas = root.split_evenly((n, n));
-        let ranges: Vec<(f64, f64)> = columns.iter().map(|c| range_of(c.iter(), 0.05)).collect();
-        let draws = columns.first().map_or(0, Vec::len);
-        let stride = draws.div_ceil(CORNER_POINTS).max(1);
         for i in 0..n {
             for j in 0..=i.min(n - 1) {
                 let area = &areas[i * n + j];
-                let (grid_x, dens) = kernel_density(&columns[i], 120);
+                let (grid_x, dens) = &columns[i].density;
                 let top = dens.iter().copied().fold(0.0_f64, f64::max);
+                let (ci, cj) = (&columns[i], &columns[j]);
                 // The diagonal shows a density (no y ticks); below it, column i against j.
                 let y = if i == j {
                     (0.0, (top * 1.1).max(f64::MIN_POSITIVE))
                 } else {
-                    ranges[i]
+                    ci.range
                 };
                 let mut chart = ChartBuilder::on(area)
                     .margin(4)
                     .x_label_area_size(if i == n - 1 { 44 } else { 8 })
                     .y_label_area_size(if j == 0 { 56 } else { 8 })
-                    .build_cartesian_2d(ranges[j].0..ranges[j].1, y.0..y.1)
+                    .build_cartesian_2d(cj.range.0..cj.range.1, y.0..y.1)
                     .drawn(name)?;
                 chart
                     .configure_mesh()
@@ -667,22 +695,24 @@ pub fn corner_figure(
                     .y_labels(if j == 0 && i != j { 3 } else { 0 })
                     .x_label_formatter(&|v| tick(*v))
                     .y_label_formatter(&|v| tick(*v))
-                    .x_desc(if i == n - 1 { names[j].as_str() } else { "" })
-                    .y_desc(if j == 0 { names[i].as_str() } else { "" })
+                    .x_desc(if i == n - 1 { cj.name.as_str() } else { "" })
+                    .y_desc(if j == 0 { ci.name.as_str() } else { "" })
                     .label_style(small_font())
                     .axis_desc_style(small_font())
                     .draw()
                     .drawn(name)?;
                 if i == j {
-                    let pts: Vec<(f64, f64)> = grid_x.into_iter().zip(dens).collect();
+                    let pts: Vec<(f64, f64)> =
+                        grid_x.iter().copied().zip(dens.iter().copied()).collect();
                     line(&mut chart, name, pts, 0, 1, None)?;
                 } else {
                     let style = ink(0).mix(0.45).filled();
                     chart
                         .draw_series(
-                            (0..draws)
-                                .step_by(stride)
-                                .map(|d| Circle::new((columns[j][d], columns[i][d]), 1, style)),
+                            cj.points
+                                .iter()
+                                .zip(&ci.points)
+                                .map(|(&x, &y)| Circle::new((x, y), 1, style)),
                         )
                         .drawn(name)?;
                 }

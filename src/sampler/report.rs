@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use rayon::prelude::*;
 
 use super::history::RowHistory;
-use crate::diagnostics::{integrated_time, rhat, Problem, DEFAULT_WINDOW_FACTOR};
+use crate::diagnostics::{integrated_time, rhat_by, Problem, DEFAULT_WINDOW_FACTOR};
 
 /// Why the run stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -45,11 +45,16 @@ pub struct TauReport {
     pub max: f64,
     /// Smallest τ.
     pub min: f64,
-    /// Whether the chains are longer than 50 τ_max, so that τ can be trusted.
+    /// Whether the steps τ was estimated on are more than 50 τ_max, so that τ can be
+    /// trusted.
     pub reliable: bool,
-    /// Suggested burn-in, ⌈2 τ_max⌉ steps, and at least the steps during which the slice
-    /// move's scale was tuned. (No thinning is suggested: thinning adds no information, and
-    /// the diagnostics use every post-burn-in draw.)
+    /// The step from which τ was estimated: 0 (the whole chains), or a quarter or half of the
+    /// way in when the start's transient would otherwise dominate τ.
+    #[serde(default)]
+    pub from_step: u64,
+    /// Suggested burn-in, max(`from_step`, ⌈2 τ_max⌉) steps, and at least the steps during
+    /// which the slice move's scale was tuned. (No thinning is suggested: thinning adds no
+    /// information, and the diagnostics use every post-burn-in draw.)
     pub burn_in: u64,
 }
 
@@ -108,12 +113,31 @@ fn map_indices<T: Send>(n: usize, parallel: bool, f: impl Fn(usize) -> T + Sync 
     }
 }
 
-/// τ (in steps) per ensemble and parameter from the history; `None` when the history is too
-/// short or a series is constant. The (ensemble, parameter) pairs are independent, so they
-/// are computed in parallel when `parallel`.
-pub(crate) fn tau_from_history(
+/// Where τ is estimated from, as fractions of the steps run: the whole chains, then after the
+/// first quarter, then after the first half. A chain that starts away from the typical set
+/// carries its transient in every autocorrelation estimate over the whole chain (a
+/// Lotka–Volterra posterior of `tests/posteriordb.rs`: τ 334 steps over the whole chain, 19
+/// after its first quarter), so a rule that only looked from step 0 would run hundreds of τ
+/// longer than needed. The first window that is long enough (more than 50 τ of its own) wins,
+/// and the burn-in is at least its start: the kept draws are the ones τ was measured on.
+pub(crate) const TAU_WINDOWS: [f64; 3] = [0.0, 0.25, 0.5];
+
+/// The first kept history row at or after `fraction` of `steps`, and its step.
+fn window_start(history: &RowHistory, steps: u64, fraction: f64) -> (usize, u64) {
+    let target = (fraction * steps as f64).floor() as u64;
+    let row = (0..history.rows)
+        .find(|&r| history.step_of(r) >= target)
+        .unwrap_or(history.rows);
+    (row, history.step_of(row))
+}
+
+/// τ (in steps) per ensemble and parameter from the history rows from `first_row` on; `None`
+/// when they are too few or a series is constant. The (ensemble, parameter) pairs are
+/// independent, so they are computed in parallel when `parallel`.
+fn tau_from_rows(
     history: &RowHistory,
     ndim: usize,
+    first_row: usize,
     parallel: bool,
 ) -> Option<Vec<Vec<f64>>> {
     let thin = history.thin as f64;
@@ -121,7 +145,7 @@ pub(crate) fn tau_from_history(
     let ensembles = history.data.len();
     let flat = map_indices(ensembles * ndim, parallel, |i| {
         let (e, p) = (i / ndim, i % ndim);
-        let buf = &history.data[e];
+        let buf = &history.data[e][first_row * history.width..];
         let series: Vec<Vec<f64>> = (0..walkers)
             .map(|w| history.column(buf, w * ndim + p))
             .collect();
@@ -136,10 +160,28 @@ pub(crate) fn tau_from_history(
     Some(flat?.chunks(ndim).map(<[f64]>::to_vec).collect())
 }
 
-/// τ report from per-ensemble τ and the chain length.
-/// τ's report; the burn-in is ⌈2 τ_max⌉, at least `min_burn_in` steps.
+/// τ on each of the [`TAU_WINDOWS`] of a history of `steps` steps: the window's first step
+/// and its τ per ensemble and parameter (`None` where it cannot be estimated).
+pub(crate) fn tau_windows(
+    history: &RowHistory,
+    ndim: usize,
+    steps: u64,
+    parallel: bool,
+) -> Vec<(u64, Option<Vec<Vec<f64>>>)> {
+    TAU_WINDOWS
+        .iter()
+        .map(|&f| {
+            let (row, from_step) = window_start(history, steps, f);
+            (from_step, tau_from_rows(history, ndim, row, parallel))
+        })
+        .collect()
+}
+
+/// τ report from per-ensemble τ estimated on the steps from `from_step` to `steps`; the
+/// burn-in is at least `min_burn_in` steps.
 pub(crate) fn tau_report(
     per_ensemble: Vec<Vec<f64>>,
+    from_step: u64,
     steps: u64,
     tau_factor: f64,
     min_burn_in: u64,
@@ -148,24 +190,49 @@ pub(crate) fn tau_report(
     let max = all.clone().fold(f64::NEG_INFINITY, f64::max);
     let min = all.fold(f64::INFINITY, f64::min);
     TauReport {
-        reliable: steps as f64 > tau_factor * max,
-        burn_in: ((2.0 * max).ceil() as u64).max(min_burn_in),
+        reliable: steps.saturating_sub(from_step) as f64 > tau_factor * max,
+        burn_in: from_step.max((2.0 * max).ceil() as u64).max(min_burn_in),
+        from_step,
         per_ensemble,
         max,
         min,
     }
 }
 
+/// The report of the first window long enough for its τ (more than `tau_factor` τ_max
+/// steps); when none is, the window closest to it, whose τ says how much longer to run.
+pub(crate) fn chosen_tau_report(
+    windows: Vec<(u64, Option<Vec<Vec<f64>>>)>,
+    steps: u64,
+    tau_factor: f64,
+    min_burn_in: u64,
+) -> Option<TauReport> {
+    let reports: Vec<TauReport> = windows
+        .into_iter()
+        .filter_map(|(from, t)| t.map(|t| tau_report(t, from, steps, tau_factor, min_burn_in)))
+        .collect();
+    let length_in_tau = |t: &TauReport| (steps - t.from_step) as f64 / t.max;
+    let first_reliable = reports.iter().position(|t| t.reliable);
+    let closest = || {
+        (0..reports.len())
+            .max_by(|&a, &b| length_in_tau(&reports[a]).total_cmp(&length_in_tau(&reports[b])))
+    };
+    let i = first_reliable.or_else(closest)?;
+    reports.into_iter().nth(i)
+}
+
 /// Rank-normalised split R̂ (ArviZ, Vehtari et al. 2021) between ensembles per parameter,
 /// from the history rows after `burn_in` steps. The chain of an ensemble is its draws in
 /// step order, walkers interleaved within a step, so R̂ compares ensembles (and early with
 /// late halves), never walkers of one ensemble (which are not independent). `None` with
-/// fewer than two ensembles or too few rows. Parameters in parallel when `parallel`.
+/// fewer than two ensembles or too few rows. Parameters one at a time, whatever `parallel`:
+/// each holds 12 bytes per draw of the history while its R̂ is computed, and a run's peak
+/// memory should not hold that once per thread.
 pub(crate) fn rhat_from_history(
     history: &RowHistory,
     ndim: usize,
     burn_in: u64,
-    parallel: bool,
+    _parallel: bool,
 ) -> Option<Vec<f64>> {
     if history.data.len() < 2 {
         return None;
@@ -175,24 +242,70 @@ pub(crate) fn rhat_from_history(
         return None;
     }
     let width = history.width;
-    let rows = first * width..history.rows * width;
-    map_indices(ndim, parallel, |p| {
-        // Row-major rows, walkers interleaved within a row: parameter p of every walker.
-        let chains: Vec<Vec<f64>> = history
-            .data
-            .iter()
-            .map(|buf| {
-                buf[rows.clone()]
-                    .iter()
-                    .skip(p)
-                    .step_by(ndim)
-                    .copied()
-                    .collect()
-            })
-            .collect();
-        let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
-        rhat(&refs).ok()
+    let (start, draws) = (first * width, (history.rows - first) * width / ndim);
+    map_indices(ndim, false, |p| {
+        // Row-major rows, walkers interleaved within a row: parameter p of every walker,
+        // read where the history holds it (no copy of the chains).
+        rhat_by(history.data.len(), draws, &|e, t| {
+            history.data[e][start + t * ndim + p]
+        })
+        .ok()
     })
     .into_iter()
     .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn window(from: u64, tau: f64) -> (u64, Option<Vec<Vec<f64>>>) {
+        (from, Some(vec![vec![tau, tau / 2.0]; 2]))
+    }
+
+    #[test]
+    fn the_whole_chains_are_preferred_when_long_enough() {
+        let t = chosen_tau_report(
+            vec![window(0, 10.0), window(250, 5.0), window(500, 5.0)],
+            1000,
+            50.0,
+            0,
+        )
+        .expect("a report");
+        assert_eq!((t.from_step, t.burn_in, t.max), (0, 20, 10.0));
+        assert!(t.reliable);
+    }
+
+    #[test]
+    fn a_transient_moves_the_window_and_the_burn_in_with_it() {
+        // τ over the whole chains is inflated by the start; after a quarter it is short.
+        let t = chosen_tau_report(
+            vec![window(0, 100.0), window(250, 10.0), window(500, 10.0)],
+            1000,
+            50.0,
+            0,
+        )
+        .expect("a report");
+        assert_eq!((t.from_step, t.burn_in, t.max), (250, 250, 10.0));
+        assert!(t.reliable);
+        // A window's own 2 τ can exceed its start.
+        let t = chosen_tau_report(vec![window(0, 400.0), window(2, 10.0)], 1000, 50.0, 0)
+            .expect("a report");
+        assert_eq!((t.from_step, t.burn_in), (2, 20));
+    }
+
+    #[test]
+    fn without_a_long_enough_window_the_closest_is_reported_unreliable() {
+        let t = chosen_tau_report(
+            vec![window(0, 100.0), window(250, 40.0), (500, None)],
+            1000,
+            50.0,
+            0,
+        )
+        .expect("a report");
+        // 750 / 40 = 18.75 τ beats 1000 / 100 = 10 τ.
+        assert_eq!((t.from_step, t.max), (250, 40.0));
+        assert!(!t.reliable);
+        assert!(chosen_tau_report(vec![(0, None)], 1000, 50.0, 0).is_none());
+    }
 }

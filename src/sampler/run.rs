@@ -14,7 +14,8 @@ use super::history::{rebuild, History, RowHistory};
 use super::moves::{Move, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
-    rhat_from_history, tau_from_history, tau_report, EnsembleReport, RunReport, StopReason,
+    chosen_tau_report, rhat_from_history, tau_windows, EnsembleReport, RunReport, StopReason,
+    TAU_WINDOWS,
 };
 use super::sink::{ChainSink, StepView};
 use crate::density::{sort, Eval, LogDensity};
@@ -57,8 +58,12 @@ pub struct SamplerState {
     /// stays as small as one step of the ensembles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub history: Option<History>,
-    /// τ per (ensemble, parameter) at the last stopping-rule check.
+    /// τ per (ensemble, parameter) at the last stopping-rule check, over the whole chains.
     pub last_tau: Option<Vec<Vec<f64>>>,
+    /// The same after the first quarter and after the first half of the steps (the later
+    /// windows the stopping rule looks at; empty in states written before it did).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub last_tau_later: Vec<Option<Vec<Vec<f64>>>>,
 }
 
 impl SamplerState {
@@ -108,7 +113,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     eval_ns: Vec<Option<f64>>,
     /// Half-steps evaluated so far (for occasional re-timing).
     half_steps: u64,
-    last_tau: Option<Vec<Vec<f64>>>,
+    /// τ of each window of the stopping rule at its last check (`TAU_WINDOWS` order).
+    last_tau: Vec<Option<Vec<Vec<f64>>>>,
     /// Any run stops here (a wall-time budget), whatever its [`Steps`].
     deadline: Option<Instant>,
     poisoned: bool,
@@ -242,7 +248,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             config.history_rows_for(ndim),
         );
         Ok(Self::assemble(
-            density, config, blocks, states, caches, 0, history, None,
+            density,
+            config,
+            blocks,
+            states,
+            caches,
+            0,
+            history,
+            vec![None; TAU_WINDOWS.len()],
         ))
     }
 
@@ -344,8 +357,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             ensembles,
             step,
             last_tau,
+            last_tau_later,
             ..
         } = state;
+        let mut later = last_tau_later.into_iter();
+        let last_tau = std::iter::once(last_tau)
+            .chain((1..TAU_WINDOWS.len()).map(|_| later.next().flatten()))
+            .collect();
         history.max_rows = config.history_rows_for(ndim).max(history.rows + 1);
         let history = RowHistory::from_history(&history, walkers * ndim);
         Ok(Self::assemble(
@@ -362,7 +380,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         caches: Vec<Vec<f64>>,
         step: u64,
         history: RowHistory,
-        last_tau: Option<Vec<Vec<f64>>>,
+        last_tau: Vec<Option<Vec<Vec<f64>>>>,
     ) -> Self {
         let ndim = density.dim();
         let nderived = density.derived_names().len();
@@ -407,7 +425,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
             history: Some(self.history.to_history()),
-            last_tau: self.last_tau.clone(),
+            last_tau: self.last_tau[0].clone(),
+            last_tau_later: self.last_tau[1..].to_vec(),
         }
     }
 
@@ -903,20 +922,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
     }
 
-    /// Applies the stopping rule; returns whether it holds and the current τ_max.
+
+    /// Applies the stopping rule; returns whether it holds and the current τ_max. Each window
+    /// of `TAU_WINDOWS` is judged on its own τ: long enough (more than `tau_factor` τ_max
+    /// steps from its start), settled (τ changed by less than the rule allows since the last
+    /// check of the same window), and R̂ below the bound after the burn-in
+    /// max(start, 2 τ_max, the slice move's tuning). The first window that passes stops the run.
     fn check_stop(&mut self, rule: &super::config::StopRule) -> (bool, Option<f64>) {
-        let tau = tau_from_history(&self.history, self.ndim, self.config.parallel());
-        let previous = self.last_tau.take();
-        self.last_tau = tau.clone();
-        let Some(tau) = tau else {
-            return (false, None);
-        };
-        let tmax = tau
-            .iter()
-            .flatten()
-            .copied()
-            .fold(f64::NEG_INFINITY, f64::max);
-        let long_enough = self.step as f64 > rule.tau_factor * tmax;
+        let windows = tau_windows(&self.history, self.ndim, self.step, self.config.parallel());
         // Every coordinate's τ, averaged over the ensembles (each estimates the same τ, and
         // the maximum change over ensembles × coordinates single estimates would mostly
         // measure their noise), changed by less than the rule allows.
@@ -929,22 +942,46 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             }
             m
         };
-        let settled = previous.is_some_and(|prev| {
-            mean_tau(&prev)
+        let mut shown: Option<(f64, f64)> = None;
+        let mut met = false;
+        for (i, (from_step, tau)) in windows.into_iter().enumerate() {
+            let previous = std::mem::replace(&mut self.last_tau[i], tau.clone());
+            let Some(tau) = tau else {
+                continue;
+            };
+            let tmax = tau
                 .iter()
-                .zip(mean_tau(&tau))
-                .all(|(p, t)| ((t - p) / t).abs() < rule.tau_rel_change)
-        });
-        if !(long_enough && settled) {
-            return (false, Some(tmax));
-        }
-        let burn_in = ((2.0 * tmax).ceil() as u64).max(self.min_burn_in());
-        let rhat_ok =
-            match rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel()) {
+                .flatten()
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max);
+            let length = (self.step - from_step) as f64;
+            // The τ shown in progress is the one of the window closest to being long enough.
+            if shown.is_none_or(|(l, _)| length / tmax > l) {
+                shown = Some((length / tmax, tmax));
+            }
+            if met {
+                continue;
+            }
+            let long_enough = length > rule.tau_factor * tmax;
+            let settled = previous.is_some_and(|prev| {
+                mean_tau(&prev)
+                    .iter()
+                    .zip(mean_tau(&tau))
+                    .all(|(p, t)| ((t - p) / t).abs() < rule.tau_rel_change)
+            });
+            if !(long_enough && settled) {
+                continue;
+            }
+            let burn_in = from_step
+                .max((2.0 * tmax).ceil() as u64)
+                .max(self.min_burn_in());
+            met = match rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel())
+            {
                 Some(r) => r.iter().all(|&v| v < rule.rhat_max),
                 None => self.ensembles.len() < 2,
             };
-        (rhat_ok, Some(tmax))
+        }
+        (met, shown.map(|(_, t)| t))
     }
 
     fn progress(
@@ -1010,12 +1047,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             .collect();
         let mut problems = Vec::new();
         let parallel = self.config.parallel();
-        let tau = tau_from_history(&self.history, self.ndim, parallel)
-            .map(|t| tau_report(t, steps, TAU_FACTOR, self.min_burn_in()));
+        let tau = chosen_tau_report(
+            tau_windows(&self.history, self.ndim, steps, parallel),
+            steps,
+            TAU_FACTOR,
+            self.min_burn_in(),
+        );
         match &tau {
             None => problems.push(Problem::NoAutocorrelationTime { steps }),
             Some(t) if !t.reliable => problems.push(Problem::ChainsTooShort {
-                steps,
+                steps: steps - t.from_step,
                 tau_max: t.max,
             }),
             Some(_) => {}
@@ -1082,7 +1123,7 @@ struct StateView<'s> {
     updates: Updates,
     step: u64,
     ensembles: &'s [Ensemble],
-    last_tau: &'s Option<Vec<Vec<f64>>>,
+    last_tau: &'s [Option<Vec<Vec<f64>>>],
 }
 
 impl Serialize for StateView<'_> {
@@ -1094,7 +1135,7 @@ impl Serialize for StateView<'_> {
                 ser.collect_seq(self.0.iter().map(|e| &e.s))
             }
         }
-        let mut st = ser.serialize_struct("SamplerState", 10)?;
+        let mut st = ser.serialize_struct("SamplerState", 11)?;
         st.serialize_field("version", &STATE_VERSION)?;
         st.serialize_field("seed", &self.seed)?;
         st.serialize_field("ndim", &self.ndim)?;
@@ -1104,7 +1145,8 @@ impl Serialize for StateView<'_> {
         st.serialize_field("updates", &self.updates)?;
         st.serialize_field("step", &self.step)?;
         st.serialize_field("ensembles", &Ensembles(self.ensembles))?;
-        st.serialize_field("last_tau", self.last_tau)?;
+        st.serialize_field("last_tau", &self.last_tau[0])?;
+        st.serialize_field("last_tau_later", &self.last_tau[1..])?;
         st.end()
     }
 }

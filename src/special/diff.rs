@@ -50,7 +50,7 @@ const GL12_W: [f64; 6] = [
 ];
 
 /// 1/(k k!) for k = 1..=32 (same provenance as the rules above).
-const INV_K_KFACT: [f64; 32] = [
+pub(super) const INV_K_KFACT: [f64; 32] = [
     1.0,
     0.25,
     0.05555555555555555,
@@ -169,6 +169,37 @@ fn diff(x: f64, x0: f64, s0: impl FnOnce() -> f64) -> f64 {
     }
 }
 
+/// Whether D(x, x0) is formed by subtraction (neither the series nor the quadrature regime:
+/// then h = x − x0 ≥ 1 and x > 1), the regime whose branch-free form `lanes::d_subtracted`
+/// evaluates; false for NaN.
+#[inline(always)]
+pub(crate) fn in_subtraction(x: f64, x0: f64) -> bool {
+    let h = x - x0;
+    // `&` rather than `&&`: no branches, so that a batch of lanes is tested in vector registers.
+    (x0 > 0.0)
+        & (h >= 0.0)
+        & !((h < H_SERIES_MAX) & (x <= X_SERIES_MAX))
+        & !((h < H_QUADRATURE_MAX) & (x0 >= h))
+}
+
+/// Whether D(x, x0) is formed by the series with x ≥ 2 x0, whose branch-free form
+/// `lanes::d_series` evaluates (two fixed-degree power sums, no loop).
+#[inline(always)]
+pub(crate) fn in_series_apart(x: f64, x0: f64) -> bool {
+    let h = x - x0;
+    (x0 > 0.0) & (h < H_SERIES_MAX) & (x <= X_SERIES_MAX) & (x >= 2.0 * x0)
+}
+
+/// Whether D(x, x0) is formed by the series with x < 2 x0, whose branch-free form
+/// `lanes::d_series_close` evaluates.
+#[inline(always)]
+// `&` on comparisons, not `Range::contains` (`&&`): no branches in a loop over lanes.
+#[allow(clippy::manual_range_contains)]
+pub(crate) fn in_series_close(x: f64, x0: f64) -> bool {
+    let h = x - x0;
+    (x0 > 0.0) & (h >= 0.0) & (h < H_SERIES_MAX) & (x <= X_SERIES_MAX) & (x < 2.0 * x0)
+}
+
 /// h < 1, x ≤ 2: e^(−x) [ln(x/x0) + Σ_{k≥1} (x^k − x0^k)/(k k!)].
 #[inline]
 fn series(x: f64, x0: f64, h: f64) -> f64 {
@@ -201,7 +232,7 @@ fn series(x: f64, x0: f64, h: f64) -> f64 {
 /// Σ_{k=1}^{N} (x^k − x0^k)/(k k!) as x E(x) − x0 E(x0), E(t) = Σ t^(k−1)/(k k!), for
 /// x0 ≤ x/2 (every coefficient positive, at most one bit lost in the difference).
 #[inline(always)]
-fn ein_diff<const N: usize>(x: f64, x0: f64) -> f64 {
+pub(super) fn ein_diff<const N: usize>(x: f64, x0: f64) -> f64 {
     let mut c = [0.0; N];
     c.copy_from_slice(&INV_K_KFACT[..N]);
     x * estrin(c, x) - x0 * estrin(c, x0)

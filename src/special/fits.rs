@@ -180,20 +180,56 @@ pub(crate) fn ei_small(x: f64) -> f64 {
 /// g(x) = e^(−x) (Ei(x) − x) for x > 6; g(∞) = 0.
 #[inline]
 pub(crate) fn g_large(x: f64) -> f64 {
-    let y = if x <= 10.0 {
-        let t = x / 2.0 - 4.0;
-        Y10 + poly(&P10, t) / poly(&Q10, t)
+    if x <= 10.0 {
+        g_upto_10(x)
     } else if x <= 20.0 {
-        let t = x / 5.0 - 3.0;
-        Y20 + poly(&P20, t) / poly(&Q20, t)
+        g_upto_20(x)
     } else if x <= 40.0 {
-        let t = x / 10.0 - 3.0;
-        Y40 + poly(&P40, t) / poly(&Q40, t)
+        g_upto_40(x)
     } else {
-        let t = 1.0 / x;
-        YINF + poly(&PINF, t) / poly(&QINF, t)
-    };
-    y / x
+        g_beyond_40(x)
+    }
+}
+
+// The four pieces of g, each without a branch, so that a batch of arguments in one range
+// is evaluated lane by lane in vector registers (`super::lanes`).
+
+/// g(x) on (6, 10].
+#[inline(always)]
+pub(crate) fn g_upto_10(x: f64) -> f64 {
+    let t = x / 2.0 - 4.0;
+    (Y10 + poly(&P10, t) / poly(&Q10, t)) / x
+}
+
+/// g(x) on (10, 20].
+#[inline(always)]
+pub(crate) fn g_upto_20(x: f64) -> f64 {
+    let t = x / 5.0 - 3.0;
+    (Y20 + poly(&P20, t) / poly(&Q20, t)) / x
+}
+
+/// g(x) on (20, 40].
+#[inline(always)]
+pub(crate) fn g_upto_40(x: f64) -> f64 {
+    let t = x / 10.0 - 3.0;
+    (Y40 + poly(&P40, t) / poly(&Q40, t)) / x
+}
+
+/// g(x) for x > 40.
+#[inline(always)]
+pub(crate) fn g_beyond_40(x: f64) -> f64 {
+    let t = 1.0 / x;
+    (YINF + poly(&PINF, t) / poly(&QINF, t)) / x
+}
+
+/// Ei(x) for 1 ≤ x ≤ 6 given ln x, without a branch (the root of Ei is below 1, so ln(x/r)
+/// = ln x − ln r adds two positive terms): the same fit as [`ei_small`].
+#[inline(always)]
+pub(crate) fn ei_mid_given_ln(x: f64, ln_x: f64) -> f64 {
+    let t = x / 3.0 - 1.0;
+    let r = poly(&P6, t) / poly(&Q6, t);
+    let d = (x - ROOT_HI) - ROOT_LO;
+    r * d + (ln_x - LN_ROOT)
 }
 
 /// Ei(x) for x > 6 from g: e^x g(x) + x, overflowing only where Ei itself does.

@@ -51,10 +51,12 @@ mod cf;
 mod diff;
 mod fits;
 mod gamma;
+pub(crate) mod lanes;
 mod normal;
 
 pub use beta::{beta_ppf, beta_reg};
 pub use diff::{ei_scaled_diff, ScaledEiDiff};
+pub(crate) use diff::{in_series_apart, in_series_close, in_subtraction};
 pub use gamma::{gamma_p, gamma_q, ln_gamma_p, ln_gamma_p_diff, ln_gamma_q};
 pub use normal::norm_ppf;
 

@@ -1,7 +1,8 @@
 //! Chains streamed to Parquet, checkpoints for resuming, and atomic output files.
 //!
 //! The sampler hands draws to a [`ParquetSink`] through the [`ChainSink`] contract; the
-//! summaries read them back one column at a time with [`ChainReader`]. This part knows nothing of friction or of
+//! summaries and reports read them back with [`ChainReader`], one row group of the columns
+//! they need at a time ([`ChainReader::for_each_chunk`], [`ChainReader::rows_of`]). This part knows nothing of friction or of
 //! how draws are made: it stores rows and an opaque, serialisable sampler state, in the files
 //! its caller names ([`ChainFiles`]; a fit's run directory names them, see
 //! [`crate::fit::RunDir`]).

@@ -220,7 +220,46 @@ impl PartSet {
         }
         Ok(values)
     }
+
+    /// Calls `visit(first, chunks)` for every row group holding rows from `first_row` on, in
+    /// row order: `chunks[k]` holds the rows `first..first + len` of column `names[k]`
+    /// (row groups wholly before `first_row` are not read, and the rows before it are cut
+    /// off). Memory holds one row group of these columns at a time.
+    fn for_each_chunk<E: From<StorageError>>(
+        &self,
+        names: &[&str],
+        first_row: usize,
+        visit: &mut Visit<'_, E>,
+    ) -> Result<(), E> {
+        let mut start = 0;
+        for part in &self.parts {
+            if start + part.rows() <= first_row {
+                start += part.rows();
+                continue;
+            }
+            let mut file = part.open_file()?;
+            for g in 0..part.metadata.row_groups.len() {
+                let rows = part.metadata.row_groups[g].num_rows();
+                let end = start + rows;
+                if end > first_row {
+                    let skip = first_row.saturating_sub(start);
+                    let mut chunks = Vec::with_capacity(names.len());
+                    for name in names {
+                        let mut values = part.group_column::<f64>(&mut file, name, g)?;
+                        values.drain(..skip);
+                        chunks.push(values);
+                    }
+                    visit(start + skip, &chunks)?;
+                }
+                start = end;
+            }
+        }
+        Ok(())
+    }
 }
+
+/// What [`PartSet::for_each_chunk`] calls per row group: (first row, the columns' chunks).
+type Visit<'a, E> = dyn FnMut(usize, &[Vec<f64>]) -> Result<(), E> + 'a;
 
 /// One complete part: its path, footer and schema. Columns are read from the file one at a
 /// time, so that reading one column never holds the others in memory.
@@ -249,57 +288,75 @@ impl Part {
         self.metadata.num_rows
     }
 
-    /// The column `name`, read chunk by chunk from the file, as values of `T` without nulls.
+    fn open_file(&self) -> Result<File, StorageError> {
+        File::open(&self.path).map_err(|e| StorageError::io("open", &self.path, e))
+    }
+
+    /// The column `name`, read row group by row group from the file, as values of `T`
+    /// without nulls.
     fn column<T: NativeType>(&self, name: &str) -> Result<Vec<T>, StorageError> {
+        let mut file = self.open_file()?;
+        let mut values = Vec::with_capacity(self.rows());
+        for g in 0..self.metadata.row_groups.len() {
+            values.extend_from_slice(&self.group_column::<T>(&mut file, name, g)?);
+        }
+        Ok(values)
+    }
+
+    /// Row group `g` of the column `name`, as values of `T` without nulls.
+    fn group_column<T: NativeType>(
+        &self,
+        file: &mut File,
+        name: &str,
+        g: usize,
+    ) -> Result<Vec<T>, StorageError> {
         let path = &self.path;
         let missing = || StorageError::ColumnMissing {
             column: name.to_owned(),
             path: path.clone(),
         };
         let field = self.schema.get(name).ok_or_else(missing)?;
-        let mut file = File::open(path).map_err(|e| StorageError::io("open", path, e))?;
-        let mut values = Vec::with_capacity(self.rows());
-        for group in &self.metadata.row_groups {
-            let (pages, types): (Vec<_>, Vec<_>) = group
-                .columns_under_root_iter(name)
-                .ok_or_else(missing)?
-                .map(|chunk| {
-                    let range = chunk.byte_range();
-                    let mut bytes = vec![0; (range.end - range.start) as usize];
-                    file.seek(SeekFrom::Start(range.start))
-                        .and_then(|_| file.read_exact(&mut bytes))
-                        .map_err(|e| StorageError::io("read", path, e))?;
-                    let pages = PageReader::new(
-                        MemReader::new(MemSlice::from_vec(bytes)),
-                        chunk,
-                        vec![],
-                        usize::MAX,
-                    );
-                    Ok((
-                        BasicDecompressor::new(pages, vec![]),
-                        &chunk.descriptor().descriptor.primitive_type,
-                    ))
-                })
-                .collect::<Result<Vec<_>, StorageError>>()?
-                .into_iter()
-                .unzip();
-            let array = column_iter_to_arrays(pages, types, field.clone(), None)
-                .map_err(|e| StorageError::parquet(path, e))?;
-            let typed = array
-                .as_any()
-                .downcast_ref::<PrimitiveArray<T>>()
-                .ok_or_else(|| StorageError::parquet(path, "column of unexpected type"))?;
-            if typed.null_count() > 0 {
-                return Err(StorageError::parquet(path, "column holds nulls"));
-            }
-            values.extend_from_slice(typed.values());
+        let group = &self.metadata.row_groups[g];
+        let (pages, types): (Vec<_>, Vec<_>) = group
+            .columns_under_root_iter(name)
+            .ok_or_else(missing)?
+            .map(|chunk| {
+                let range = chunk.byte_range();
+                let mut bytes = vec![0; (range.end - range.start) as usize];
+                file.seek(SeekFrom::Start(range.start))
+                    .and_then(|_| file.read_exact(&mut bytes))
+                    .map_err(|e| StorageError::io("read", path, e))?;
+                let pages = PageReader::new(
+                    MemReader::new(MemSlice::from_vec(bytes)),
+                    chunk,
+                    vec![],
+                    usize::MAX,
+                );
+                Ok((
+                    BasicDecompressor::new(pages, vec![]),
+                    &chunk.descriptor().descriptor.primitive_type,
+                ))
+            })
+            .collect::<Result<Vec<_>, StorageError>>()?
+            .into_iter()
+            .unzip();
+        let array = column_iter_to_arrays(pages, types, field.clone(), None)
+            .map_err(|e| StorageError::parquet(path, e))?;
+        let typed = array
+            .as_any()
+            .downcast_ref::<PrimitiveArray<T>>()
+            .ok_or_else(|| StorageError::parquet(path, "column of unexpected type"))?;
+        if typed.null_count() > 0 {
+            return Err(StorageError::parquet(path, "column holds nulls"));
         }
-        Ok(values)
+        Ok(typed.values().to_vec())
     }
 }
 
-/// The chains of a complete run, read one column at a time: what summaries and reports use,
-/// so that their memory is one column's draws, never the whole table.
+/// The chains of a complete run, read one column ([`ChainReader::column`]) or one row group
+/// of a few columns ([`ChainReader::for_each_chunk`], [`ChainReader::rows_of`]) at a time:
+/// summaries and reports use the latter, so that their memory is one row group, never a
+/// whole column.
 ///
 /// Opening checks that the rows form the grid a sampler writes (every step from 0, in each
 /// step every ensemble, in each ensemble every walker, in that order), so a row number alone
@@ -466,6 +523,67 @@ impl ChainReader {
                     .collect()
             })
             .collect())
+    }
+
+    /// Reads the columns `names` from `first_step` on, one row group at a time, calling
+    /// `visit(first_row, chunks)` for each in row order: `chunks[k]` holds column `names[k]`
+    /// at rows `first_row..first_row + chunks[k].len()` (rows counted from the start of the
+    /// chains). Memory holds one row group of these columns, whatever the length of the run:
+    /// what summaries of long runs use.
+    ///
+    /// # Errors
+    /// As [`ChainReader::column`], and whatever `visit` returns.
+    pub fn for_each_chunk<E: From<StorageError>>(
+        &self,
+        names: &[&str],
+        first_step: u64,
+        mut visit: impl FnMut(usize, &[Vec<f64>]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        self.store.for_each_chunk(
+            names,
+            self.row(first_step.min(self.steps), 0, 0),
+            &mut visit,
+        )
+    }
+
+    /// The values of column `name` at `rows` (ascending row numbers, as [`ChainReader::row`]
+    /// gives), read one row group at a time: memory holds one row group and the values
+    /// asked for, never the whole column.
+    ///
+    /// # Errors
+    /// As [`ChainReader::column`]; [`StorageError::Inconsistent`] when `rows` is not
+    /// ascending or reaches past the last row.
+    pub fn rows_of(&self, name: &str, rows: &[usize]) -> Result<Vec<f64>, StorageError> {
+        let bad = |problem: String| StorageError::Inconsistent {
+            dir: self.dir.clone(),
+            problem,
+        };
+        if rows.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(bad(format!(
+                "rows of column {name:?} asked for out of order"
+            )));
+        }
+        if let Some(&last) = rows.last().filter(|&&r| r >= self.rows()) {
+            return Err(bad(format!(
+                "row {last} of column {name:?} asked for, but the chains hold {} rows",
+                self.rows()
+            )));
+        }
+        let mut values = Vec::with_capacity(rows.len());
+        let Some(&first) = rows.first() else {
+            return Ok(values);
+        };
+        let mut next = 0;
+        self.store
+            .for_each_chunk::<StorageError>(&[name], first, &mut |start, chunks| {
+                let chunk = &chunks[0];
+                while next < rows.len() && rows[next] < start + chunk.len() {
+                    values.push(chunk[rows[next] - start]);
+                    next += 1;
+                }
+                Ok(())
+            })?;
+        Ok(values)
     }
 }
 

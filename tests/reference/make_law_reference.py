@@ -5,7 +5,8 @@ Run from the repository root with mpmath installed:
 
     python3 tests/reference/make_law_reference.py
 
-Writes tests/reference/law_mpmath.csv, observed_mpmath.csv and peak_mpmath.csv. Every input
+Writes tests/reference/law_mpmath.csv, law_lanes_mpmath.csv (dense runs of tau within each
+regime of the vectorised law), observed_mpmath.csv and peak_mpmath.csv. Every input
 is an exact binary64 value (written with repr, so Rust parses the same double); every output is
 a 50-significant-digit decimal string. The law is Farain and Bonn's Eq. 3 with x = alpha_v*tau,
 x0 = alpha_v*t0 (alpha_v = alpha*v in 1/s, given directly so that the product is exact):
@@ -180,7 +181,34 @@ def write_peak():
             w.writerow([name, repr(av), repr(a), repr(fd), repr(t0), s(tau), s(F)])
 
 
+def lanes_tau_grid(alpha_v, t0):
+    """Sorted tau values in runs dense enough that every batch of the law's vector kernel lies
+    in one regime of e^-x [Ei(x) - Ei(x0)]: the series with x >= 2 x0 (x up to x0 + 1 and 2),
+    and the subtraction regime (x from x0 + 2 to 700) across all its rational pieces."""
+    x0 = alpha_v * t0
+    xs = []
+    lo, hi = 2 * x0, min(x0 + 1, 2.0)
+    if lo < hi:
+        xs += [lo * (hi / lo) ** (i / 63) for i in range(64)]
+    lo, hi = x0 + 2, 700.0
+    if lo < hi:
+        xs += [lo * (hi / lo) ** (i / 255) for i in range(256)]
+    return sorted(set(float(x / alpha_v) for x in xs if x / alpha_v >= t0))
+
+
+def write_law_lanes():
+    path = os.path.join(HERE, "law_lanes_mpmath.csv")
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["case", "alpha_v", "a", "f_d", "t0", "tau", "force"])
+        for name, av, a, fd, t0 in CASES:
+            for tau in lanes_tau_grid(av, t0):
+                w.writerow([name, repr(av), repr(a), repr(fd), repr(t0), repr(tau),
+                            s(force(av, a, fd, t0, tau))])
+
+
 if __name__ == "__main__":
+    write_law_lanes()
     write_law()
     write_observed()
     write_peak()

@@ -143,7 +143,7 @@ impl RunDir {
         })
     }
 
-    /// The chains of a complete run, to be read one column at a time.
+    /// The chains of a complete run, to be read one column or one row group at a time.
     ///
     /// # Errors
     /// [`RunDirError::Chains`] when they cannot be opened or are not a complete grid of steps,

@@ -1,0 +1,33 @@
+//! Cost of one evaluation of the demo posterior (`models/demo.toml`) at its start point, on
+//! every instruction set this machine has: `cargo run --release --example posterior_cost`.
+//!
+//! The start point is found first (an optimisation, not timed); then `REPS` evaluations are
+//! timed. Reported in reports/performance.md.
+
+use std::path::Path;
+use std::time::Instant;
+
+use slipbayes::density::LogDensity;
+use slipbayes::law::{Simd, SIMD_ENV};
+use slipbayes::model::{ModelSpec, Posterior};
+
+const REPS: usize = 300;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let spec = ModelSpec::load(Path::new("models/demo.toml"))?;
+    let posterior = Posterior::new(&spec)?;
+    let x = posterior.start().to_vec();
+    let mut derived = vec![0.0; posterior.derived_names().len()];
+    let started = Instant::now();
+    let mut value = 0.0;
+    for _ in 0..REPS {
+        value = posterior.log_density(&x, &mut derived)?;
+    }
+    let per = started.elapsed().as_secs_f64() / REPS as f64;
+    println!(
+        "{:.1} µs per evaluation on {} (log-density {value:.6}); set {SIMD_ENV}=baseline|avx2|avx512 to choose",
+        per * 1e6,
+        Simd::active().as_str()
+    );
+    Ok(())
+}

@@ -1,0 +1,674 @@
+//! The observed-time model over a whole slide, evaluated in batches of [`LANES`] points in
+//! vector registers: the hot path of every likelihood evaluation.
+//!
+//! # Why batches, and why anchors
+//! Solving t = τ + F(τ)/(kv) point after point (the reference,
+//! [`ObservedSlide::for_each_force_serial`](super::ObservedSlide::for_each_force_serial)) is
+//! one serial chain: each point's Newton iteration starts from the previous point's root.
+//! Here only every [`CHUNK`]-th point (an *anchor*) is solved that way. The points between two
+//! anchors get a cubic Hermite guess of τ(t) from the anchors' τ and dτ/dt, which makes them
+//! independent of one another, and are solved together: one evaluation of the law per lane
+//! and one Newton step, batch after batch.
+//!
+//! # Exactness
+//! A Newton step from a guess off by s leaves an error of ½ |G''/G'| s² in τ, G(τ) = τ +
+//! F(τ)/(kv) − t, and carrying F along its tangent leaves ½ |F''| s². Both are computed per
+//! lane from the law's own curvature (d²F/dτ² = −a/τ² − αv dF/dτ) and must be below
+//! a quarter of an ulp of τ and of F; a batch where some lane fails takes another Newton
+//! step, and a lane that still fails after four rounds (or leaves its bracket) is solved by the
+//! safeguarded serial iteration. So every point is as exact as the serial solve's: the
+//! difference is rounding (tested against it and against 50-digit references).
+//!
+//! # The law in lanes
+//! Where every lane of a batch lies in the regime where e^(−x)[Ei(x) − Ei(x0)] is formed by
+//! subtraction (x ≥ x0 + 1 outside the series and quadrature regimes of
+//! [`crate::special::ei_scaled_diff`]: the bulk of any slide), the law is assembled from one
+//! branch-free e^(−x), one ln x (for x ≤ 6) and one rational fit per lane
+//! ([`crate::special`]'s lane functions). Other batches (the first moments after t0, very
+//! large αv t0) evaluate the scalar law lane by lane.
+//!
+//! # Vector width
+//! The same code is compiled for the baseline x86-64 (SSE2), AVX2 and AVX-512 and chosen at
+//! run time ([`Simd`]). It uses only IEEE additions, multiplications, divisions and bit
+//! operations, no fused multiply-add, so every width gives the same bits: the chains do not
+//! depend on the machine's vector unit.
+
+use std::sync::OnceLock;
+
+use super::root::increasing_root;
+use super::{Law, LawError};
+use crate::special::lanes::{
+    d_series, d_series_close, d_subtracted, exp_neg, one_minus_exp_neg, Pieces, X_LANES_MAX,
+};
+use crate::special::{in_series_apart, in_series_close, in_subtraction};
+
+/// Points per batch: two AVX-512 registers of f64 (four AVX2 registers), so that two
+/// independent dependency chains fill the pipelines (one register's worth, 8, was 1.3–1.5×
+/// slower per point on this project's machine).
+pub const LANES: usize = 16;
+/// Batches of points between two anchors.
+const BATCHES_PER_CHUNK: usize = 4;
+/// Points per anchor: the anchor and the points before it back to the previous anchor.
+pub const CHUNK: usize = BATCHES_PER_CHUNK * LANES + 1;
+/// Newton steps a batch may take before its failing lanes are solved serially.
+const MAX_ROUNDS: usize = 4;
+/// Largest predicted error of a lane, relative to τ and to F: a quarter of an ulp.
+const ROUND_OFF: f64 = f64::EPSILON / 4.0;
+
+type Lanes = [f64; LANES];
+
+/// What the kernel did on one slide: how often each of its paths ran (for tests and
+/// benchmarks, through [`ObservedSlide::kernel_counts`](super::ObservedSlide::kernel_counts)).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct KernelCounts {
+    /// Batches evaluated: the points between anchors of a slide through a spring, every point
+    /// of a stiff slide.
+    pub batches: u64,
+    /// Newton rounds over the batches between anchors (one per batch whose guesses were
+    /// close enough for a single step).
+    pub rounds: u64,
+    /// Batch evaluations of the law outside the lanes' regimes, done lane by lane by the
+    /// scalar law.
+    pub scalar_law_batches: u64,
+    /// Anchors solved serially.
+    pub anchors: u64,
+    /// Evaluations of the scalar law for the anchors.
+    pub anchor_evaluations: u64,
+    /// Points left to the serial iteration after the last Newton round.
+    pub serial_points: u64,
+    /// Slides solved point after point by the serial reference, because t(τ) folds
+    /// (dF/dτ ≤ −kv) somewhere before the last time, where a time may have several τ and only
+    /// the serial path follows the quasi-static branch.
+    pub serial_slides: u64,
+}
+
+/// Counting the kernel's paths, or not: `()` counts nothing and compiles to nothing.
+pub(super) trait Tally {
+    /// Records what happened, when counting.
+    fn count(&mut self, what: impl FnOnce(&mut KernelCounts));
+}
+
+impl Tally for KernelCounts {
+    #[inline(always)]
+    fn count(&mut self, what: impl FnOnce(&mut KernelCounts)) {
+        what(self)
+    }
+}
+
+impl Tally for () {
+    #[inline(always)]
+    fn count(&mut self, _: impl FnOnce(&mut KernelCounts)) {}
+}
+
+/// The vector instructions the kernel is compiled for; every choice gives the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Simd {
+    /// The baseline of the target (SSE2 on x86-64, whatever the compiler targets elsewhere).
+    Baseline,
+    /// AVX2 (x86-64): four lanes per register.
+    Avx2,
+    /// AVX-512 F/DQ/VL (x86-64): eight lanes per register.
+    Avx512,
+}
+
+/// Environment variable that overrides the detected instruction set (`baseline`, `avx2`,
+/// `avx512`): for measuring one against another, and for checking that they agree.
+pub const SIMD_ENV: &str = "SLIPBAYES_SIMD";
+
+impl Simd {
+    /// `"baseline"`, `"avx2"` or `"avx512"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Baseline => "baseline",
+            Self::Avx2 => "avx2",
+            Self::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this machine can run it.
+    pub fn is_available(self) -> bool {
+        match self {
+            Self::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            Self::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// Every instruction set this machine can run, widest last.
+    pub fn available() -> Vec<Self> {
+        [Self::Baseline, Self::Avx2, Self::Avx512]
+            .into_iter()
+            .filter(|s| s.is_available())
+            .collect()
+    }
+
+    /// The one in use: [`SIMD_ENV`] when it names an available set, else the widest
+    /// available. Decided once per process.
+    pub fn active() -> Self {
+        static ACTIVE: OnceLock<Simd> = OnceLock::new();
+        *ACTIVE.get_or_init(|| {
+            let widest = *Self::available().last().unwrap_or(&Self::Baseline);
+            match std::env::var(SIMD_ENV).ok().as_deref() {
+                Some("baseline") => Self::Baseline,
+                Some("avx2") if Self::Avx2.is_available() => Self::Avx2,
+                Some("avx512") if Self::Avx512.is_available() => Self::Avx512,
+                _ => widest,
+            }
+        })
+    }
+}
+
+/// One point solved: interface time, force, and dτ/dt, d²τ/dt², d³τ/dt³ there.
+#[derive(Debug, Clone, Copy)]
+struct Anchor {
+    t: f64,
+    tau: f64,
+    force: f64,
+    slope: f64,
+    curvature: f64,
+    jerk: f64,
+}
+
+impl Anchor {
+    /// The anchor at (t, τ) with F and dF/dτ there. From dτ/dt = 1/G' = kv/(kv + F'):
+    /// d²τ/dt² = −c (dτ/dt)³ with c = F''/kv, and d³τ/dt³ = −(F⁽³⁾/kv) (dτ/dt)⁴ −
+    /// 3 c (dτ/dt)² d²τ/dt², where F⁽³⁾ = 2a/τ³ − αv F'' (from Eq. 2).
+    fn new(law: &Law, kv: f64, t: f64, tau: f64, force: f64, rate: f64) -> Self {
+        let slope = 1.0 / (1.0 + rate / kv);
+        let f2 = law.curvature(tau, rate);
+        let f3 = 2.0 * law.a / (tau * tau * tau) - law.alpha_v * f2;
+        let s2 = slope * slope;
+        let curvature = -f2 / kv * s2 * slope;
+        let jerk = -f3 / kv * s2 * s2 - 3.0 * f2 / kv * s2 * curvature;
+        Self {
+            t,
+            tau,
+            force,
+            slope,
+            curvature,
+            jerk,
+        }
+    }
+}
+
+/// One Newton step on G(τ) = τ + F(τ)/(kv) − t from a τ where the law gives F and dF/dτ:
+/// the next τ, F carried along its tangent, whether both are final (the predicted error of
+/// each below a quarter ulp, see the module's doc) and whether the step stayed in (lo, t].
+#[derive(Debug, Clone, Copy)]
+struct Step {
+    tau: f64,
+    force: f64,
+    converged: bool,
+    inside: bool,
+}
+
+/// [`Step`] from `tau`; branch-free, so that it vectorises across lanes.
+#[inline(always)]
+fn newton_step(law: &Law, inv_kv: f64, lo: f64, t: f64, tau: f64, force: f64, rate: f64) -> Step {
+    let g_slope = 1.0 + rate * inv_kv;
+    let inv_slope = 1.0 / g_slope;
+    let step = (t - tau - force * inv_kv) * inv_slope;
+    let next = tau + step;
+    let next_force = force + rate * step;
+    let inv_tau = 1.0 / tau;
+    let curvature = -law.a * inv_tau * inv_tau - law.alpha_v * rate;
+    let remainder = 0.5 * curvature.abs() * step * step;
+    let tau_error = remainder * inv_kv * inv_slope;
+    let force_error = remainder * (1.0 + rate.abs() * inv_kv * inv_slope);
+    let inside = (next > lo) & (next <= t);
+    Step {
+        tau: next,
+        force: next_force,
+        converged: (g_slope > 0.0)
+            & inside
+            & (tau_error <= ROUND_OFF * next)
+            & (force_error <= ROUND_OFF * next_force.abs()),
+        inside,
+    }
+}
+
+/// The law's constants for batches.
+struct LawLanes<'l> {
+    law: &'l Law,
+    /// Ei(x0), for D = e^(−x)[Ei(x) − Ei(x0)].
+    ei0: f64,
+}
+
+impl<'l> LawLanes<'l> {
+    fn new(law: &'l Law) -> Self {
+        Self {
+            law,
+            ei0: crate::special::ei(law.diff.x0()),
+        }
+    }
+
+    /// F and dF/dτ at every lane of `tau`.
+    #[inline(always)]
+    fn force_and_rate(
+        &self,
+        tau: &Lanes,
+        force: &mut Lanes,
+        rate: &mut Lanes,
+        tally: &mut impl Tally,
+    ) {
+        let law = self.law;
+        let (alpha_v, x0) = (law.alpha_v, law.diff.x0());
+        let mut x = [0.0; LANES];
+        for l in 0..LANES {
+            x[l] = alpha_v * tau[l];
+        }
+        // Which forms of D the batch needs, decided from its smallest and largest x where
+        // the batch lies in one regime (the bulk of a slide): subtraction holds from some x on
+        // for a fixed x0 (h ≥ 2 always subtracts, 1 ≤ h < 2 does once h > x0, h < 1 never
+        // does), so at the smallest x; either series holds on an interval of x, so at both
+        // ends. A batch across a boundary is classified lane by lane and evaluated in each
+        // form it needs; a lane in no vector form (the quadrature regime, τ before t0, x past
+        // the lanes' range, NaN: the sum catches it) sends the batch to the scalar law.
+        let (lo, hi, sum) = x.iter().fold(
+            (f64::INFINITY, f64::NEG_INFINITY, 0.0),
+            |(lo, hi, sum), &v| (lo.min(v), hi.max(v), sum + v),
+        );
+        let finite = sum.is_finite() && self.ei0.is_finite() && hi <= X_LANES_MAX;
+        let mut forms = [[false; LANES]; 3];
+        let (subtract, apart, close) = if !finite {
+            (false, false, false)
+        } else if in_subtraction(lo, x0) {
+            (true, false, false)
+        } else if in_series_apart(lo, x0) && in_series_apart(hi, x0) {
+            (false, true, false)
+        } else if in_series_close(lo, x0) && in_series_close(hi, x0) {
+            (false, false, true)
+        } else {
+            let mut every = true;
+            for l in 0..LANES {
+                forms[0][l] = in_subtraction(x[l], x0);
+                forms[1][l] = in_series_apart(x[l], x0);
+                forms[2][l] = in_series_close(x[l], x0);
+                every &= forms[0][l] | forms[1][l] | forms[2][l];
+            }
+            let any = |f: &[bool; LANES]| every && f.iter().any(|&b| b);
+            (any(&forms[0]), any(&forms[1]), any(&forms[2]))
+        };
+        let forms_needed = u8::from(subtract) + u8::from(apart) + u8::from(close);
+        if forms_needed == 0 {
+            tally.count(|c| c.scalar_law_batches += 1);
+            for l in 0..LANES {
+                (force[l], rate[l]) = law.force_and_rate(tau[l]);
+            }
+            return;
+        }
+        let mut e = [0.0; LANES];
+        for l in 0..LANES {
+            e[l] = exp_neg(x[l]);
+        }
+        let mut d = [0.0; LANES];
+        if forms_needed == 1 {
+            if subtract {
+                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut d);
+            } else if apart {
+                d_series(&x, &e, x0, hi, &mut d);
+            } else {
+                d_series_close(&x, &e, x0, hi, &mut d);
+            }
+        } else {
+            // Each form into `part`, then its lanes into `d`.
+            let mut part = [0.0; LANES];
+            let take = |form: &[bool; LANES], part: &Lanes, d: &mut Lanes| {
+                for l in 0..LANES {
+                    d[l] = if form[l] { part[l] } else { d[l] };
+                }
+            };
+            if subtract {
+                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut part);
+                take(&forms[0], &part, &mut d);
+            }
+            if apart {
+                d_series(&x, &e, x0, hi, &mut part);
+                take(&forms[1], &part, &mut d);
+            }
+            if close {
+                d_series_close(&x, &e, x0, hi, &mut part);
+                take(&forms[2], &part, &mut d);
+            }
+        }
+        // x ≥ 1 where D subtracts, so 1 − e^(−x) keeps its digits; elsewhere x may be below
+        // 1/2, where it is taken by its series, as the scalar law takes −expm1(−x).
+        if forms_needed == 1 && subtract {
+            self.assemble(tau, &e, &d, |l| 1.0 - e[l], force, rate);
+        } else {
+            self.assemble(tau, &e, &d, |l| one_minus_exp_neg(x[l], e[l]), force, rate);
+        }
+    }
+
+    /// F and dF/dτ from e^(−x), D and 1 − e^(−x), as in `Law::force_and_rate`.
+    #[inline(always)]
+    fn assemble(
+        &self,
+        tau: &Lanes,
+        e: &Lanes,
+        d: &Lanes,
+        one_minus_e: impl Fn(usize) -> f64,
+        force: &mut Lanes,
+        rate: &mut Lanes,
+    ) {
+        let law = self.law;
+        for l in 0..LANES {
+            let aging = law.a * d[l];
+            force[l] = aging + law.f_d * one_minus_e(l);
+            rate[l] = law.a / tau[l] - law.alpha_v * (aging - law.f_d * e[l]);
+        }
+    }
+}
+
+/// A slide declared stiff (τ = t): the law at every time, in batches.
+pub(super) fn stiff<V: FnMut(usize, f64, f64), T: Tally>(
+    simd: Simd,
+    law: &Law,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) {
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: callers name only instruction sets that `Simd::is_available` confirmed on
+        // this machine (`Simd::active`, `ObservedSlide::for_each_force_with`).
+        Simd::Avx512 => unsafe { stiff_avx512(law, times, visit, tally) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Simd::Avx2 => unsafe { stiff_avx2(law, times, visit, tally) },
+        _ => stiff_lanes(law, times, visit, tally),
+    }
+}
+
+/// A first slide through a spring (kv in N/s): the elastic solve at every time, in batches.
+/// Times are sorted, and t(τ) = τ + F(τ)/(kv) increases for every τ up to the last time
+/// (dF/dτ > −kv there, checked by the caller): each time then has exactly one τ, so the root
+/// that a Newton step finds from any guess in its bracket is the quasi-static path's.
+///
+/// # Errors
+/// [`LawError::NotFinite`] when the law is not finite on the path.
+pub(super) fn spring<V: FnMut(usize, f64, f64), T: Tally>(
+    simd: Simd,
+    law: &Law,
+    kv: f64,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) -> Result<(), LawError> {
+    match simd {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as in `stiff`.
+        Simd::Avx512 => unsafe { spring_avx512(law, kv, times, visit, tally) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as in `stiff`.
+        Simd::Avx2 => unsafe { spring_avx2(law, kv, times, visit, tally) },
+        _ => spring_lanes(law, kv, times, visit, tally),
+    }
+}
+
+// The same bodies compiled for wider registers: `#[inline(always)]` on every function they
+// call puts the whole kernel inside the `target_feature` function, where the compiler may use
+// the wider instructions.
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2")]
+unsafe fn stiff_avx512<V: FnMut(usize, f64, f64), T: Tally>(
+    law: &Law,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) {
+    stiff_lanes(law, times, visit, tally)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn stiff_avx2<V: FnMut(usize, f64, f64), T: Tally>(
+    law: &Law,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) {
+    stiff_lanes(law, times, visit, tally)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2")]
+unsafe fn spring_avx512<V: FnMut(usize, f64, f64), T: Tally>(
+    law: &Law,
+    kv: f64,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) -> Result<(), LawError> {
+    spring_lanes(law, kv, times, visit, tally)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn spring_avx2<V: FnMut(usize, f64, f64), T: Tally>(
+    law: &Law,
+    kv: f64,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) -> Result<(), LawError> {
+    spring_lanes(law, kv, times, visit, tally)
+}
+
+/// Copies up to [`LANES`] values into a batch, repeating the last to fill it (the repeated
+/// lanes are computed and dropped).
+#[inline(always)]
+fn batch_of(values: &[f64]) -> Lanes {
+    let mut out = [values[values.len() - 1]; LANES];
+    out[..values.len()].copy_from_slice(values);
+    out
+}
+
+#[inline(always)]
+fn stiff_lanes<V: FnMut(usize, f64, f64), T: Tally>(
+    law: &Law,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) {
+    let lanes = LawLanes::new(law);
+    let (mut force, mut rate) = ([0.0; LANES], [0.0; LANES]);
+    for (b, chunk) in times.chunks(LANES).enumerate() {
+        tally.count(|c| c.batches += 1);
+        let t = batch_of(chunk);
+        lanes.force_and_rate(&t, &mut force, &mut rate, tally);
+        for (l, &t) in chunk.iter().enumerate() {
+            visit(b * LANES + l, t, force[l]);
+        }
+    }
+}
+
+#[inline(always)]
+fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
+    law: &Law,
+    kv: f64,
+    times: &[f64],
+    visit: &mut V,
+    tally: &mut T,
+) -> Result<(), LawError> {
+    let t0 = law.t0();
+    let (force_t0, rate_t0) = law.force_and_rate(t0);
+    let loading_ends = t0 + force_t0 / kv;
+    let n = times.len();
+    let mut i = 0;
+    // Before t0 the interface does not evolve; until the spring has taken up the law's jump
+    // at t0 it loads elastically (docs/model.md §3).
+    while i < n && times[i] <= t0 {
+        visit(i, times[i], 0.0);
+        i += 1;
+    }
+    while i < n && times[i] <= loading_ends {
+        visit(i, t0, kv * (times[i] - t0));
+        i += 1;
+    }
+    if i == n {
+        return Ok(());
+    }
+    let lanes = LawLanes::new(law);
+    let mut left = Anchor::new(law, kv, loading_ends, t0, force_t0, rate_t0);
+    while i < n {
+        let end = (i + CHUNK).min(n) - 1;
+        tally.count(|c| c.anchors += 1);
+        let right = solve_anchor(law, kv, &left, times[end], tally)?;
+        let between = &times[i..end];
+        solve_between(
+            &lanes,
+            kv,
+            &left,
+            &right,
+            between,
+            tally,
+            &mut |j, tau, f| visit(i + j, tau, f),
+        )?;
+        visit(end, right.tau, right.force);
+        left = right;
+        i = end + 1;
+    }
+    Ok(())
+}
+
+/// The point at time `t` after `left`: Newton steps from the cubic Taylor guess along τ(t)
+/// until one's predicted error is round-off, else the safeguarded iteration on [τ_left, t].
+#[inline(always)]
+fn solve_anchor(
+    law: &Law,
+    kv: f64,
+    left: &Anchor,
+    t: f64,
+    tally: &mut impl Tally,
+) -> Result<Anchor, LawError> {
+    let dt = t - left.t;
+    let mut tau = left.tau + dt * (left.slope + dt * (0.5 * left.curvature + dt * left.jerk / 6.0));
+    for _ in 0..MAX_ROUNDS {
+        if !(tau > left.tau && tau <= t) {
+            break;
+        }
+        tally.count(|c| c.anchor_evaluations += 1);
+        let (force, rate) = law.force_and_rate(tau);
+        let step = newton_step(law, 1.0 / kv, left.tau, t, tau, force, rate);
+        if step.converged {
+            return Ok(Anchor::new(law, kv, t, step.tau, step.force, rate));
+        }
+        tau = step.tau;
+    }
+    tally.count(|c| c.serial_points += 1);
+    let (root, force, rate) = solve_point(law, kv, left.tau, t, tau)?;
+    Ok(Anchor::new(law, kv, t, root, force, rate))
+}
+
+/// τ, F and dF/dτ at time `t` by the safeguarded Newton iteration on [lo, t] (F carried along
+/// its tangent from the last evaluation, one tiny step away).
+#[inline(always)]
+fn solve_point(
+    law: &Law,
+    kv: f64,
+    lo: f64,
+    t: f64,
+    guess: f64,
+) -> Result<(f64, f64, f64), LawError> {
+    let mut last = (f64::NAN, 0.0, 0.0);
+    let root = increasing_root(
+        |tau| {
+            let (f, r) = law.force_and_rate(tau);
+            last = (tau, f, r);
+            (tau + f / kv - t, 1.0 + r / kv)
+        },
+        lo.max(law.t0()),
+        t,
+        guess,
+    )
+    .ok_or(LawError::NotFinite { tau: last.0 })?;
+    let (tau_eval, f_eval, r_eval) = last;
+    Ok((root, f_eval + r_eval * (root - tau_eval), r_eval))
+}
+
+/// The points strictly between two anchors, batch by batch: Hermite guesses, Newton steps
+/// until every lane's predicted error is round-off, the serial solve for what remains.
+#[inline(always)]
+fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
+    lanes: &LawLanes,
+    kv: f64,
+    left: &Anchor,
+    right: &Anchor,
+    times: &[f64],
+    tally: &mut T,
+    visit: &mut V,
+) -> Result<(), LawError> {
+    let law = lanes.law;
+    let span = right.t - left.t;
+    let inv_kv = 1.0 / kv;
+    let (mut force, mut rate) = ([0.0; LANES], [0.0; LANES]);
+    for (b, chunk) in times.chunks(LANES).enumerate() {
+        tally.count(|c| c.batches += 1);
+        let t = batch_of(chunk);
+        let mut tau = [0.0; LANES];
+        for l in 0..LANES {
+            tau[l] = hermite(left, right, span, t[l]);
+        }
+        let mut converged = [false; LANES];
+        let mut out_force = [0.0; LANES];
+        for _ in 0..MAX_ROUNDS {
+            tally.count(|c| c.rounds += 1);
+            lanes.force_and_rate(&tau, &mut force, &mut rate, tally);
+            // Branch-free (`&`, selects), so that the lanes stay in vector registers.
+            let mut failed = 0_u32;
+            for l in 0..LANES {
+                let step = newton_step(law, inv_kv, left.tau, t[l], tau[l], force[l], rate[l]);
+                converged[l] = step.converged;
+                failed += u32::from(!step.converged);
+                // A lane that left its bracket restarts from the bracket's middle.
+                let middle = left.tau + 0.5 * (t[l] - left.tau);
+                tau[l] = if step.inside { step.tau } else { middle };
+                out_force[l] = step.force;
+            }
+            if failed == 0 {
+                break;
+            }
+        }
+        for (l, &t) in chunk.iter().enumerate() {
+            if converged[l] {
+                visit(b * LANES + l, tau[l], out_force[l]);
+            } else {
+                tally.count(|c| c.serial_points += 1);
+                let (root, f, _) = solve_point(law, kv, left.tau, t, tau[l])?;
+                visit(b * LANES + l, root, f);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// τ at `t` by the quintic Hermite interpolant of the anchors' τ, dτ/dt and d²τ/dt² (its
+/// error falls as the sixth power of the anchors' spacing, so that one Newton step usually
+/// leaves only round-off).
+#[inline(always)]
+fn hermite(left: &Anchor, right: &Anchor, span: f64, t: f64) -> f64 {
+    let u = (t - left.t) / span;
+    let (u2, u3) = (u * u, u * u * u);
+    let (u4, u5) = (u3 * u, u3 * u2);
+    let h0 = 1.0 - 10.0 * u3 + 15.0 * u4 - 6.0 * u5;
+    let h1 = u - 6.0 * u3 + 8.0 * u4 - 3.0 * u5;
+    let h2 = 0.5 * (u2 - 3.0 * u3 + 3.0 * u4 - u5);
+    let h3 = 0.5 * (u3 - 2.0 * u4 + u5);
+    let h4 = -4.0 * u3 + 7.0 * u4 - 3.0 * u5;
+    let h5 = 10.0 * u3 - 15.0 * u4 + 6.0 * u5;
+    let span2 = span * span;
+    h0 * left.tau
+        + h5 * right.tau
+        + span * (h1 * left.slope + h4 * right.slope)
+        + span2 * (h2 * left.curvature + h3 * right.curvature)
+}
