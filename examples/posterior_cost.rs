@@ -2,7 +2,8 @@
 //! every instruction set this machine has: `cargo run --release --example posterior_cost`.
 //!
 //! The start point is found first (an optimisation, not timed); then `REPS` evaluations are
-//! timed. Reported in reports/performance.md.
+//! timed (`POSTERIOR_COST_REPS` sets how many, for a profiler). Reported in
+//! reports/performance.md.
 
 use std::path::Path;
 use std::time::Instant;
@@ -20,10 +21,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut derived = vec![0.0; posterior.derived_names().len()];
     let started = Instant::now();
     let mut value = 0.0;
-    for _ in 0..REPS {
+    let reps = std::env::var("POSTERIOR_COST_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(REPS);
+    for _ in 0..reps {
         value = posterior.log_density(&x, &mut derived)?;
     }
-    let per = started.elapsed().as_secs_f64() / REPS as f64;
+    let per = started.elapsed().as_secs_f64() / reps as f64;
     println!(
         "{:.1} µs per evaluation on {} (log-density {value:.6}); set {SIMD_ENV}=baseline|avx2|avx512 to choose",
         per * 1e6,
