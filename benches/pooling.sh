@@ -6,8 +6,9 @@
 #   `aging = "absolute"` without and with t0 pooled;
 # - a 10-contact one-material campaign (data/make_campaign.py) without pooling, with t0
 #   pooled, and with t0 and F_d pooled;
-# - the pooled demo with each population update alone (`[sampler] populations = "exact"`,
-#   `"carried"`; the latter capped at 2,000 steps).
+# - the pooled demo with both population updates in every step (`[sampler] populations =
+#   "interwoven"`, the default being "auto") and with each alone (`"exact"`, `"carried"`; the
+#   latter capped at 2,000 steps).
 #
 #   bash benches/pooling.sh OUT_DIR [PATTERN]   # from the repository root, ~22 min on 2 cores
 #
@@ -27,7 +28,7 @@ demo > "$out/models/demo.toml"
 { demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/pooled.toml"
 { echo 'aging = "absolute"'; demo; } > "$out/models/absolute.toml"
 { echo 'aging = "absolute"'; demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/absolute-pooled.toml"
-for how in exact carried; do
+for how in exact carried interwoven; do
   sed "s/^\[sampler\]$/[sampler]\npopulations = \"$how\"/" "$out/models/pooled.toml" > "$out/models/pooled-$how.toml"
 done
 python3 data/make_campaign.py --contacts 10 --out "$out/campaign" --binary "$bin" > /dev/null
@@ -58,5 +59,6 @@ fit "demo, absolute, t0 pooled" "$out/models/absolute-pooled.toml"
 fit "10 contacts" "$c/campaign.toml"
 fit "10 contacts, t0 pooled" "$c/pooled-t0.toml"
 fit "10 contacts, t0 and F_d pooled" "$c/pooled-t0-fd.toml"
+fit "demo, t0 pooled, interwoven every step" "$out/models/pooled-interwoven.toml"
 fit "demo, t0 pooled, exact draws alone" "$out/models/pooled-exact.toml"
 fit "demo, t0 pooled, carried moves alone" "$out/models/pooled-carried.toml" --max-steps 2000

@@ -145,6 +145,17 @@ pub trait LogDensity: Sync {
         false
     }
 
+    /// Whether the sampler may stop moving a block that is both drawn exactly
+    /// ([`conditional_blocks`](Self::conditional_blocks)) and carried
+    /// ([`carries_followers`](Self::carries_followers)) by the moves, once its first
+    /// [`CARRY_TUNE_STEPS`](crate::sampler::CARRY_TUNE_STEPS) steps have shown that the
+    /// carried move shifts the block far less than the exact draw (false by default: both
+    /// updates every step).
+    fn carried_move_optional(&self, block: usize) -> bool {
+        let _ = block;
+        false
+    }
+
     /// Moves the followers of `block` (see [`block_links`](Self::block_links)) along with the
     /// block: `from` is the current point, `to` a copy of it with the block's coordinates
     /// already moved, whose followers this sets. Returns ln |det J| of the map from the

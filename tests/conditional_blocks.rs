@@ -13,7 +13,7 @@ use sampler_util::{assert_within, mean_and_mcse};
 use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, RunReport, SamplerConfig, SamplerError, Silent, Steps,
-    Updates,
+    Updates, CARRY_TUNE_STEPS,
 };
 
 const Y: [f64; 8] = [28.0, 8.0, -3.0, 7.0, -1.0, 1.0, 18.0, 12.0];
@@ -39,6 +39,9 @@ struct EightSchools {
     exact: bool,
     /// Move the population block also with the schools' effects carried non-centred.
     interweave: bool,
+    /// Let the sampler drop that carried move after its tuning steps if it moves the
+    /// population far less than the exact draw.
+    optional: bool,
 }
 
 impl EightSchools {
@@ -90,6 +93,10 @@ impl LogDensity for EightSchools {
 
     fn carries_followers(&self, block: usize) -> bool {
         self.interweave && block == 0
+    }
+
+    fn carried_move_optional(&self, block: usize) -> bool {
+        self.optional && block == 0
     }
 
     /// The non-centred map: each θ_j keeps (θ_j − μ)/τ.
@@ -264,6 +271,7 @@ fn exact_population_draws_sample_the_centred_eight_schools() {
     let density = EightSchools {
         exact: true,
         interweave: false,
+        optional: false,
     };
     check_against_quadrature(&density, "exact population draws");
 }
@@ -275,6 +283,7 @@ fn interwoven_population_updates_sample_the_centred_eight_schools() {
     let density = EightSchools {
         exact: true,
         interweave: true,
+        optional: false,
     };
     check_against_quadrature(&density, "interwoven population updates");
 }
@@ -289,6 +298,7 @@ fn interwoven_slice_updates_sample_the_centred_eight_schools() {
     let density = EightSchools {
         exact: true,
         interweave: true,
+        optional: false,
     };
     check_moves_against_quadrature(
         &density,
@@ -304,6 +314,7 @@ fn interwoven_slice_chains_do_not_depend_on_the_threads() {
     let density = EightSchools {
         exact: true,
         interweave: true,
+        optional: false,
     };
     let moves = vec![(Move::differential_evolution(), 0.5), (Move::slice(), 0.5)];
     let (a, one) = run_in(&density, moves.clone(), 80, 3, Some(1));
@@ -314,6 +325,161 @@ fn interwoven_slice_chains_do_not_depend_on_the_threads() {
         assert!(bits(&x.log_density) == bits(&y.log_density));
     }
     assert_eq!(a.ensembles, b.ensembles);
+}
+
+fn same_chains(one: &MemorySink, two: &MemorySink) -> bool {
+    let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+    one.chains.len() == two.chains.len()
+        && one.chains.iter().zip(&two.chains).all(|(x, y)| {
+            bits(&x.positions) == bits(&y.positions) && bits(&x.log_density) == bits(&y.log_density)
+        })
+}
+
+/// Where the data say little about the schools, the carried move moves the population
+/// further than the exact draw (2.2–2.8 times in squared distance over the tuning steps), so
+/// a sampler allowed to drop it keeps it: the same chains as interweaving every step.
+#[test]
+fn an_optional_carried_move_is_kept_where_the_exact_draw_stalls() {
+    let always = EightSchools {
+        exact: true,
+        interweave: true,
+        optional: false,
+    };
+    let optional = EightSchools {
+        optional: true,
+        ..always
+    };
+    let steps = 2 * CARRY_TUNE_STEPS + 20;
+    let (a, one) = run_in(&always, default_moves(), steps, 5, None);
+    let (b, two) = run_in(&optional, default_moves(), steps, 5, None);
+    assert!(same_chains(&one, &two));
+    assert_eq!(a.ensembles, b.ensembles);
+    // The burn-in covers the tuning steps.
+    assert!(b.tau.expect("tau").burn_in >= CARRY_TUNE_STEPS);
+}
+
+/// Where the exact draw does the work, the optional carried move is dropped after the tuning
+/// steps: the chains agree with interweaving every step up to there and then cost fewer
+/// evaluations. Here the schools are pinned (σ_j / 100), so that the exact draw alone mixes.
+#[test]
+fn an_optional_carried_move_is_dropped_where_the_exact_draw_suffices_and_resumes_alike() {
+    struct Pinned(EightSchools);
+    impl LogDensity for Pinned {
+        fn dim(&self) -> usize {
+            10
+        }
+        fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
+            let likelihood: f64 = (0..8)
+                .map(|j| ln_normal(Y[j], x[2 + j], SIGMA[j] / 100.0))
+                .sum();
+            Ok(EightSchools::population(x) + likelihood)
+        }
+        fn blocks(&self) -> Vec<Vec<usize>> {
+            self.0.blocks()
+        }
+        fn block_links(&self) -> Vec<BlockLinks> {
+            self.0.block_links()
+        }
+        fn conditional_blocks(&self) -> Vec<usize> {
+            self.0.conditional_blocks()
+        }
+        fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
+            self.0.conditional_log_density(block, x)
+        }
+        fn carries_followers(&self, block: usize) -> bool {
+            self.0.carries_followers(block)
+        }
+        fn carried_move_optional(&self, block: usize) -> bool {
+            self.0.carried_move_optional(block)
+        }
+        fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
+            self.0.carry_followers(block, from, to)
+        }
+    }
+    let density = |optional| {
+        Pinned(EightSchools {
+            exact: true,
+            interweave: true,
+            optional,
+        })
+    };
+    let (always, optional) = (density(false), density(true));
+    let config = || {
+        SamplerConfig::new(32, 4, 9)
+            .unwrap()
+            .with_moves(default_moves())
+            .unwrap()
+            .with_updates(Updates::Hierarchical)
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let start: Vec<Vec<Vec<f64>>> = (0..4)
+        .map(|_| {
+            (0..32)
+                .map(|_| {
+                    let mut x = vec![
+                        8.0 + rng.sample::<f64, _>(StandardNormal),
+                        2.0 + 0.3 * rng.sample::<f64, _>(StandardNormal),
+                    ];
+                    x.extend(
+                        Y.iter()
+                            .map(|y| y + 0.1 * rng.sample::<f64, _>(StandardNormal)),
+                    );
+                    x
+                })
+                .collect()
+        })
+        .collect();
+    let run = |d: &Pinned, steps: u64| {
+        let mut sampler = EnsembleSampler::new(d, config(), start.clone()).unwrap();
+        let mut sink = MemorySink::new();
+        let report = sampler
+            .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+            .unwrap();
+        (report, sink, sampler.state())
+    };
+    let steps = 2 * CARRY_TUNE_STEPS;
+    // Up to the decision both samplers make the same updates.
+    let (_, tuned_always, _) = run(&always, CARRY_TUNE_STEPS);
+    let (_, tuned_optional, _) = run(&optional, CARRY_TUNE_STEPS);
+    assert!(same_chains(&tuned_always, &tuned_optional));
+    // After it the optional one drops its carried move: fewer evaluations.
+    let (a, _, _) = run(&always, steps);
+    let (b, whole, _) = run(&optional, steps);
+    let evaluations = |r: &RunReport| r.ensembles.iter().map(|e| e.evaluations).sum::<u64>();
+    assert!(
+        evaluations(&b) < evaluations(&a),
+        "{} against {}",
+        evaluations(&b),
+        evaluations(&a)
+    );
+    // The decision is part of the state: a run resumed during the tuning steps ends with the
+    // same chains.
+    let (_, first, state) = run(&optional, CARRY_TUNE_STEPS / 2);
+    let mut resumed = EnsembleSampler::from_state(&optional, config(), state).unwrap();
+    let mut rest = MemorySink::new();
+    resumed
+        .run(
+            Steps::Fixed(steps - CARRY_TUNE_STEPS / 2),
+            &mut rest,
+            &mut Silent,
+        )
+        .unwrap();
+    let joined = MemorySink {
+        chains: first
+            .chains
+            .iter()
+            .zip(&rest.chains)
+            .map(|(x, y)| {
+                let mut c = x.clone();
+                c.positions.extend_from_slice(&y.positions);
+                c.log_density.extend_from_slice(&y.log_density);
+                c.derived.extend_from_slice(&y.derived);
+                c
+            })
+            .collect(),
+        ..MemorySink::new()
+    };
+    assert!(same_chains(&whole, &joined));
 }
 
 /// A conditional block that does not exist is refused with the blocks named.

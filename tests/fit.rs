@@ -634,7 +634,10 @@ fn bimodal_target_is_reported_unconverged_with_reasons() {
         // after the first quarter or half.
         matches!(
             sampler.problems[0],
-            Problem::ChainsTooShort { steps: 3000 | 2250 | 1500, .. }
+            Problem::ChainsTooShort {
+                steps: 3000 | 2250 | 1500,
+                ..
+            }
         ),
         "the unreliable τ comes first: {:#?}",
         sampler.problems

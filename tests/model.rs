@@ -104,8 +104,7 @@ fn bad_models_and_data_fail_before_sampling_naming_the_culprit() {
     assert!(e.contains("galaxy") || e.contains("levels"), "{e}");
     let e = load_err(
         d,
-        &(one_run_model("ok.csv", "1e-9", "first")
-            + "\n[sampler]\nmoves = \"stretch=1,hmc=2\"\n"),
+        &(one_run_model("ok.csv", "1e-9", "first") + "\n[sampler]\nmoves = \"stretch=1,hmc=2\"\n"),
     );
     assert!(
         e.contains("unknown move `hmc`") && e.contains("moves") && e.contains("line"),

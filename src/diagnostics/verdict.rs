@@ -412,7 +412,10 @@ mod tests {
         }
         let lines = problem_lines(&problems, 1000, 200);
         assert_eq!(lines.len(), 3, "{lines:#?}");
-        assert!(lines[0].starts_with("τ was estimated on 1000 steps"), "{lines:#?}");
+        assert!(
+            lines[0].starts_with("τ was estimated on 1000 steps"),
+            "{lines:#?}"
+        );
         // ESS 200 on 800 kept steps: 1600 kept steps, 1800 in all.
         assert!(
             lines[1].contains("for 2 quantities: a, b") && lines[1].contains("about 1800 steps"),

@@ -5,10 +5,11 @@
 //! Solving t = τ + F(τ)/(kv) point after point (the reference,
 //! [`ObservedSlide::for_each_force_serial`](super::ObservedSlide::for_each_force_serial)) is
 //! one serial chain: each point's Newton iteration starts from the previous point's root.
-//! Here only every [`CHUNK`]-th point (an *anchor*) is solved that way. The points between two
-//! anchors get a cubic Hermite guess of τ(t) from the anchors' τ and dτ/dt, which makes them
-//! independent of one another, and are solved together: one evaluation of the law per lane
-//! and one Newton step, batch after batch.
+//! Here only every [`CHUNK`]-th point (an *anchor*) is solved one after the other, by Newton
+//! steps from a cubic Taylor guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from the law). The
+//! points between two anchors get a quintic Hermite guess of τ(t) from the anchors' τ, dτ/dt
+//! and d²τ/dt², which makes them independent of one another, and are solved together: one
+//! evaluation of the law per lane and one Newton step, batch after batch.
 //!
 //! # Exactness
 //! A Newton step from a guess off by s leaves an error of ½ |G''/G'| s² in τ, G(τ) = τ +
@@ -24,8 +25,17 @@
 //! subtraction (x ≥ x0 + 1 outside the series and quadrature regimes of
 //! [`crate::special::ei_scaled_diff`]: the bulk of any slide), the law is assembled from one
 //! branch-free e^(−x), one ln x (for x ≤ 6) and one rational fit per lane
-//! ([`crate::special`]'s lane functions). Other batches (the first moments after t0, very
-//! large αv t0) evaluate the scalar law lane by lane.
+//! ([`crate::special`]'s lane functions). A batch that straddles the regimes (the series
+//! of e^(−x)[Ei(x) − Ei(x0)] near x0, apart from or close to it) evaluates each form it needs
+//! in lanes and keeps per lane the one the scalar law would use; only batches outside every
+//! vector form (quadrature, τ before t0, x past the lanes' range) evaluate the scalar law
+//! lane by lane.
+//!
+//! # Where the path folds
+//! Where dF/dτ ≤ −kv before the slide's last time, t(τ) is not monotonic and only the serial
+//! solve follows the quasi-static branch up to the fold (a batched Newton step can find a
+//! root beyond it), so such a slide is evaluated by the serial reference, which then reports
+//! the stick-slip as before.
 //!
 //! # Vector width
 //! The same code is compiled for the baseline x86-64 (SSE2), AVX2 and AVX-512 and chosen at

@@ -322,9 +322,15 @@ pub struct SamplerSpec {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PopulationUpdates {
-    /// Both, one after the other in every step (the default): neither strong nor weak data
-    /// stall the chain.
+    /// Both, one after the other, during the first
+    /// [`CARRY_TUNE_STEPS`](crate::sampler::CARRY_TUNE_STEPS) steps; then the carried move
+    /// only where it moved the population at least
+    /// [`CARRY_MIN_JUMP_RATIO`](crate::sampler::CARRY_MIN_JUMP_RATIO) as far as the exact draw
+    /// (the default): where the data pin the members the exact draw does the work alone and
+    /// the carried move's evaluations are saved.
     #[default]
+    Auto,
+    /// Both, one after the other in every step: neither strong nor weak data stall the chain.
     Interwoven,
     /// Drawn exactly from its conditional given the members (centred): mixes where the data
     /// pin the members, stalls in the funnel where they do not.

@@ -46,6 +46,9 @@ pub(crate) struct UpdateBlock {
     /// The density moves the followers along itself (its non-centred map), instead of the
     /// sampler's regression.
     pub density_carries: bool,
+    /// A conditional block whose carried move is dropped after the tuning steps if it moved
+    /// the block far less than the exact draw did (see `EnsembleSampler::keeps_carried_move`).
+    pub carry_measured: bool,
 }
 
 /// The density's map carrying a block's followers along (see

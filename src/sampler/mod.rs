@@ -78,5 +78,8 @@ pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::{Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0};
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
-pub use run::{EnsembleSampler, SamplerState, RESUME_RTOL, STATE_VERSION};
+pub use run::{
+    EnsembleSampler, SamplerState, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS, RESUME_RTOL,
+    STATE_VERSION,
+};
 pub use sink::{ChainSink, StepView};

@@ -297,6 +297,11 @@ impl LogDensity for Posterior {
                 .any(|&i| matches!(self.coords[i].prior, CoordPrior::Population { .. }))
     }
 
+    /// Under `populations = "auto"` the sampler measures whether the carried move is needed.
+    fn carried_move_optional(&self, block: usize) -> bool {
+        self.spec.file.sampler.populations == PopulationUpdates::Auto && self.is_population(block)
+    }
+
     /// The non-centred map of the block's populations: each member's ln θ keeps its
     /// standardised offset (ln θ − μ)/s; the other followers stay. Jacobian s'/s per member.
     fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
