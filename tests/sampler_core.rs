@@ -104,23 +104,8 @@ fn run_moves_in_pool(moves: Vec<(Move, f64)>, threads: usize, parallel: bool) ->
 #[test]
 fn same_chains_on_one_or_two_threads_and_serially() {
     let one = run_in_pool(1, true);
-    let two = run_in_pool(2, true);
-    let serial = run_in_pool(2, false);
     assert_eq!(one.chains.len(), 3);
-    for e in 0..3 {
-        assert_eq!(
-            bits(&one.chains[e].positions),
-            bits(&two.chains[e].positions)
-        );
-        assert_eq!(
-            bits(&one.chains[e].positions),
-            bits(&serial.chains[e].positions)
-        );
-        assert_eq!(
-            bits(&one.chains[e].log_density),
-            bits(&two.chains[e].log_density)
-        );
-    }
+    assert_same_chains(&one, &run_in_pool(2, true), &run_in_pool(2, false));
     // Ensembles use different streams.
     assert_ne!(
         bits(&one.chains[0].positions),
@@ -132,10 +117,16 @@ fn same_chains_on_one_or_two_threads_and_serially() {
 /// must still not depend on the threads, nor on running serially.
 #[test]
 fn slice_chains_are_the_same_on_one_or_two_threads_and_serially() {
-    let one = run_moves_in_pool(slice_moves(), 1, true);
-    let two = run_moves_in_pool(slice_moves(), 2, true);
-    let serial = run_moves_in_pool(slice_moves(), 2, false);
-    for e in 0..3 {
+    assert_same_chains(
+        &run_moves_in_pool(slice_moves(), 1, true),
+        &run_moves_in_pool(slice_moves(), 2, true),
+        &run_moves_in_pool(slice_moves(), 2, false),
+    );
+}
+
+/// The chains of one thread, two threads and a serial run agree bit for bit.
+fn assert_same_chains(one: &MemorySink, two: &MemorySink, serial: &MemorySink) {
+    for e in 0..one.chains.len() {
         assert_eq!(
             bits(&one.chains[e].positions),
             bits(&two.chains[e].positions)
