@@ -45,7 +45,7 @@
 
 use std::sync::OnceLock;
 
-use super::root::increasing_root;
+use super::observed::solve_point;
 use super::{Law, LawError};
 use crate::special::lanes::{
     d_series, d_series_close, d_subtracted, exp_neg, one_minus_exp_neg, Pieces, X_LANES_MAX,
@@ -578,32 +578,6 @@ fn solve_anchor(
     tally.count(|c| c.serial_points += 1);
     let (root, force, rate) = solve_point(law, kv, left.tau, t, tau)?;
     Ok(Anchor::new(law, kv, t, root, force, rate))
-}
-
-/// τ, F and dF/dτ at time `t` by the safeguarded Newton iteration on [lo, t] (F carried along
-/// its tangent from the last evaluation, one tiny step away).
-#[inline(always)]
-fn solve_point(
-    law: &Law,
-    kv: f64,
-    lo: f64,
-    t: f64,
-    guess: f64,
-) -> Result<(f64, f64, f64), LawError> {
-    let mut last = (f64::NAN, 0.0, 0.0);
-    let root = increasing_root(
-        |tau| {
-            let (f, r) = law.force_and_rate(tau);
-            last = (tau, f, r);
-            (tau + f / kv - t, 1.0 + r / kv)
-        },
-        lo.max(law.t0()),
-        t,
-        guess,
-    )
-    .ok_or(LawError::NotFinite { tau: last.0 })?;
-    let (tau_eval, f_eval, r_eval) = last;
-    Ok((root, f_eval + r_eval * (root - tau_eval), r_eval))
 }
 
 /// The points strictly between two anchors, batch by batch: Hermite guesses, Newton steps

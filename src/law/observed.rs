@@ -223,22 +223,7 @@ impl ObservedSlide {
                     None => 0.0,
                 };
                 let guess = tau_prev + dt * (slope_prev + 0.5 * curvature * dt);
-                let mut last = (f64::NAN, 0.0, 0.0);
-                let root = increasing_root(
-                    |tau| {
-                        let (f, r) = law.force_and_rate(tau);
-                        last = (tau, f, r);
-                        (tau + f / kv - t, 1.0 + r / kv)
-                    },
-                    tau_prev.max(t0),
-                    t,
-                    guess,
-                )
-                .ok_or(LawError::NotFinite { tau: last.0 })?;
-                let (tau_eval, f_eval, r_eval) = last;
-                // The root is one tiny Newton step from the last evaluation: carry F along
-                // its tangent rather than paying for one more evaluation.
-                let force = f_eval + r_eval * (root - tau_eval);
+                let (root, force, r_eval) = solve_point(law, kv, tau_prev, t, guess)?;
                 before = Some(previous);
                 previous = (t, root, slope(r_eval));
                 (root, force)
@@ -289,4 +274,32 @@ fn check_len(expected: usize, got: usize) -> Result<(), LawError> {
     } else {
         Err(LawError::LengthMismatch { expected, got })
     }
+}
+
+/// τ, F and dF/dτ at time `t` by the safeguarded Newton iteration on [max(lo, t0), t], from
+/// `guess`: the serial solve of every point and the kernel's anchors and fallbacks. The root is
+/// one tiny Newton step from the last evaluation, so F is carried along its tangent rather than
+/// paying for one more evaluation.
+#[inline(always)]
+pub(super) fn solve_point(
+    law: &Law,
+    kv: f64,
+    lo: f64,
+    t: f64,
+    guess: f64,
+) -> Result<(f64, f64, f64), LawError> {
+    let mut last = (f64::NAN, 0.0, 0.0);
+    let root = increasing_root(
+        |tau| {
+            let (f, r) = law.force_and_rate(tau);
+            last = (tau, f, r);
+            (tau + f / kv - t, 1.0 + r / kv)
+        },
+        lo.max(law.t0()),
+        t,
+        guess,
+    )
+    .ok_or(LawError::NotFinite { tau: last.0 })?;
+    let (tau_eval, f_eval, r_eval) = last;
+    Ok((root, f_eval + r_eval * (root - tau_eval), r_eval))
 }
