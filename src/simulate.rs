@@ -105,22 +105,7 @@ impl SimulationSpec {
 
     /// Instrument times 0, Δt, 2Δt, … up to the duration.
     pub fn times(&self) -> Result<Vec<f64>, SimulateError> {
-        let (d, dt) = (self.duration_s, self.interval_s);
-        setting("duration", d, d.is_finite() && d > 0.0, "a duration > 0 s")?;
-        setting(
-            "interval",
-            dt,
-            dt.is_finite() && dt > 0.0 && dt <= d,
-            "an interval > 0 s, at most the duration",
-        )?;
-        let n = (d / dt * (1.0 + 4.0 * f64::EPSILON)).floor() as usize;
-        setting(
-            "duration/interval",
-            d / dt,
-            n < 50_000_000,
-            "at most 5e7 points",
-        )?;
-        Ok((0..=n).map(|i| i as f64 * dt).collect())
+        sample_times(self.duration_s, self.interval_s)
     }
 
     /// The noiseless force at `times` for this scene, and F_end for a repeat slide.
@@ -163,6 +148,30 @@ impl SimulationSpec {
             }
         }
     }
+}
+
+/// Instrument times 0, Δt, 2Δt, … up to `duration_s` (with Δt = `interval_s`).
+///
+/// # Errors
+/// [`SimulateError::InvalidSetting`] for a duration or interval that is not positive, an
+/// interval longer than the duration, or more than 5e7 points.
+pub fn sample_times(duration_s: f64, interval_s: f64) -> Result<Vec<f64>, SimulateError> {
+    let (d, dt) = (duration_s, interval_s);
+    setting("duration", d, d.is_finite() && d > 0.0, "a duration > 0 s")?;
+    setting(
+        "interval",
+        dt,
+        dt.is_finite() && dt > 0.0 && dt <= d,
+        "an interval > 0 s, at most the duration",
+    )?;
+    let n = (d / dt * (1.0 + 4.0 * f64::EPSILON)).floor() as usize;
+    setting(
+        "duration/interval",
+        d / dt,
+        n < 50_000_000,
+        "at most 5e7 points",
+    )?;
+    Ok((0..=n).map(|i| i as f64 * dt).collect())
 }
 
 /// Simulates the run described by `spec`.

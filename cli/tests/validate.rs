@@ -99,15 +99,7 @@ fn the_gate_catches_overconfident_posteriors() {
             let (rank, q) = if i % 2 == 0 { (0, 0.0) } else { (50, 0.5) };
             Replication {
                 index: i,
-                truth: slipbayes_cli::validate::TrueParams {
-                    alpha_per_m: 1e6,
-                    a_over_f_d: 0.6,
-                    f_d_n: 1e-2,
-                    t0_s: 10.0,
-                    k_n_per_m: 1e4,
-                    sigma_n: vec![1e-4],
-                    f_peak_n: 2e-2,
-                },
+                truth: BTreeMap::from([("alpha[m]".to_string(), 1e6)]),
                 redraws: 0,
                 fit_seed: 0,
                 ranks: BTreeMap::from([("alpha[m]".to_string(), rank)]),
@@ -131,4 +123,36 @@ fn the_gate_catches_overconfident_posteriors() {
             && problems.iter().any(|p| p.contains("not uniform")),
         "{problems:?}"
     );
+}
+
+/// A pooled campaign goes through the same pipeline: populations drawn before their members,
+/// every population, member and a new contact's peak ranked.
+#[test]
+fn pooled_models_are_validated_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = SbcSettings {
+        model: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../models/sbc_pooled.toml"),
+        steps: 400,
+        ..settings(2)
+    };
+    let reps = run_sbc(&s, dir.path(), false, &|_| {}).unwrap();
+    for r in &reps {
+        assert_eq!(r.failure, None, "replication {}", r.index);
+        for c in [
+            "t0_pop_median[PTFE]",
+            "t0_pop_log_sd[PTFE]",
+            "F_d_pop_median[PTFE]",
+            "F_d_pop_log_sd[PTFE]",
+            "t0[c3-first]",
+            "F_d[c2]",
+            "F_peak_new[PTFE]",
+        ] {
+            assert!(
+                r.truth[c].is_finite() && r.truth[c] > 0.0,
+                "{c}: {:?}",
+                r.truth
+            );
+            assert!(r.ranks[c] <= s.rank_draws, "{c}");
+        }
+    }
 }

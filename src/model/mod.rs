@@ -17,5 +17,5 @@ pub mod prior;
 pub mod spec;
 
 pub use one_contact::OneContact;
-pub use posterior::{Band, Posterior, PosteriorError};
+pub use posterior::{Band, Posterior, PosteriorError, PriorDraw, PriorDrawError};
 pub use spec::{Blocking, ModelFile, ModelSpec, PopulationUpdates, SpecError};

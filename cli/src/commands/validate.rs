@@ -1,4 +1,4 @@
-//! `slipbayes validate`: simulation-based calibration of the one-contact pipeline.
+//! `slipbayes validate`: simulation-based calibration of the whole pipeline on any model of first and repeat slides.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,7 +21,8 @@ use slipbayes::sampler::Mixture;
 #[derive(Debug, Args)]
 #[command(verbatim_doc_comment)]
 pub(super) struct ValidateArgs {
-    /// The one-contact model with the priors to draw from and fit with.
+    /// The model with the priors to draw from and fit with (every run a first slide or a
+    /// repeat slide that follows one; `models/sbc_pooled.toml` is a pooled campaign).
     #[arg(long, default_value = "models/sbc.toml")]
     model: PathBuf,
     /// Output directory.

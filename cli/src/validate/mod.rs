@@ -1,9 +1,13 @@
-//! Simulation-based calibration (SBC, Talts et al. 2018) of the whole pipeline on the
-//! one-contact model: draw the true parameters from the model file's priors, simulate the
-//! first and the repeat slide with [`slipbayes::simulate`], fit them with [`slipbayes::fit`], and
-//! record the rank of every true parameter (and of the true F_peak) among L thinned
-//! posterior draws. Calibrated posteriors give uniform ranks and intervals that cover the
-//! truth as often as they claim.
+//! Simulation-based calibration (SBC, Talts et al. 2018) of the whole pipeline: draw the true
+//! parameters and the data from the model's prior predictive distribution
+//! ([`Posterior::draw_prior_predictive`]: the model file's priors, populations before their
+//! members when parameters are pooled, each slide simulated at the design's times with the
+//! noise of its σ), fit them with [`slipbayes::fit`], and record the rank of every true
+//! parameter (and of the true peaks, a new contact's included) among L thinned posterior
+//! draws. Calibrated posteriors give uniform ranks and intervals that cover the truth as often
+//! as they claim. Any model whose runs are first slides and repeat slides that follow them
+//! can be checked: one contact (`models/sbc.toml`) or a pooled campaign
+//! (`models/sbc_pooled.toml`).
 //!
 //! Replication `i` depends only on (seed, i): its randomness is ChaCha8 stream `i` of the
 //! seed, and the fit is bit-identical on any number of threads, so replications run in
@@ -29,13 +33,12 @@ use slipbayes::density::QuantityKind;
 use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
 use slipbayes::fit::{run_fit, FitSettings};
 use slipbayes::fit::{RunDir, SummarySpec};
-use slipbayes::law::{Law, LawParams, Scene};
+use slipbayes::law::Scene;
 use slipbayes::model::data::RunData;
-use slipbayes::model::spec::{Aging, Level, Param};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::Move;
 use slipbayes::sampler::{Silent, Steps};
-use slipbayes::simulate::{simulate, SimulateError, SimulationSpec};
+use slipbayes::simulate::sample_times;
 
 pub use stats::{Coverage, Uniformity};
 
@@ -49,7 +52,7 @@ const MAX_REDRAWS: usize = 1000;
 /// Errors of a validation run (a failing fit is not one: it is recorded in its replication).
 #[derive(Debug, thiserror::Error)]
 pub enum ValidateError {
-    /// The model is not the one-contact model SBC runs on.
+    /// The model has a run SBC cannot simulate.
     #[error("{path}: {message}")]
     Model {
         /// The model file.
@@ -97,17 +100,18 @@ pub enum ValidateError {
 /// The simulated design and the fit of every replication.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SbcSettings {
-    /// Model file with the one-contact model and its priors (e.g. `models/sbc.toml`).
+    /// Model file with its priors (e.g. `models/sbc.toml`); every run a first slide or a
+    /// repeat slide that follows one.
     pub model: PathBuf,
     /// Replications.
     pub replications: usize,
     /// Seed; replication i uses ChaCha8 stream i of it.
     pub seed: u64,
-    /// Length of the simulated first slide (s).
+    /// Length of each simulated first slide (s).
     pub first_duration_s: f64,
     /// Its sampling interval (s).
     pub first_interval_s: f64,
-    /// Length of the simulated repeat slide (s).
+    /// Length of each simulated repeat slide (s).
     pub repeat_duration_s: f64,
     /// Its sampling interval (s).
     pub repeat_interval_s: f64,
@@ -176,126 +180,96 @@ impl SbcSettings {
     }
 }
 
-/// One quantity of the model whose truth is ranked: a chain column and how to get its truth.
+/// One reported column whose truth is ranked, and its index among the posterior's columns.
 #[derive(Debug, Clone)]
 struct Tracked {
     column: String,
-    truth: Truth,
+    index: usize,
 }
 
-#[derive(Debug, Clone, Copy)]
-enum Truth {
-    Param(Param),
-    AOverFd,
-    A,
-    /// σ of a run (index into the drawn σs).
-    Sigma(usize),
-    FPeak,
-}
-
-/// The one-contact model, checked, with the quantities to rank.
+/// The model, checked, over the simulated design: a posterior whose data are placeholders at
+/// the simulated times (its prior predictive draws make each replication's data), with the
+/// quantities to rank.
 #[derive(Debug, Clone)]
 struct Design {
     spec: ModelSpec,
-    first: usize,
-    repeat: usize,
-    /// One σ per run (first, repeat), else one shared σ.
-    sigma_per_run: bool,
+    posterior: Posterior,
+    /// Each run's instrument times.
+    times: Vec<Vec<f64>>,
+    tracked: Vec<Tracked>,
 }
 
 impl Design {
-    fn new(spec: ModelSpec) -> Result<Self, ValidateError> {
+    fn new(spec: ModelSpec, settings: &SbcSettings) -> Result<Self, ValidateError> {
         let bad = |message: String| ValidateError::Model {
             path: spec.source.clone(),
             message,
         };
-        let f = &spec.file;
-        let scenes: Vec<Scene> = f.runs.iter().map(|r| r.scene).collect();
-        let first = scenes.iter().position(|&s| s == Scene::First);
-        let repeat = scenes.iter().position(|&s| s == Scene::Repeat);
-        let (Some(first), Some(repeat)) = (first, repeat) else {
-            return Err(bad("SBC runs on the one-contact model: one [[material]], one [[contact]], a `first` and a `repeat` run (see models/sbc.toml)".into()));
+        let runs = &spec.file.runs;
+        for (i, r) in runs.iter().enumerate() {
+            match r.scene {
+                Scene::First => {}
+                Scene::Repeat if spec.run_follows[i].is_some() => {}
+                Scene::Repeat => {
+                    return Err(bad(format!(
+                        "run `{}`: SBC simulates a repeat slide after the first slide it `follows`; name it",
+                        r.name
+                    )))
+                }
+                Scene::StiffFast => {
+                    return Err(bad(format!(
+                        "run `{}`: SBC simulates `first` and `repeat` slides only",
+                        r.name
+                    )))
+                }
+            }
+            if r.window_s.is_some() || r.bins.is_some() {
+                return Err(bad(format!(
+                    "run `{}`: drop `window_s` and `bins`: the simulated record is the fitted one",
+                    r.name
+                )));
+            }
+        }
+        let times_of = |scene| match scene {
+            Scene::Repeat => sample_times(settings.repeat_duration_s, settings.repeat_interval_s),
+            _ => sample_times(settings.first_duration_s, settings.first_interval_s),
         };
-        if f.materials.len() != 1 || f.contacts.len() != 1 || f.runs.len() != 2 {
-            return Err(bad(format!(
-                "SBC runs on the one-contact model, but this one has {} materials, {} contacts and {} runs; keep one of each and the two runs `first` and `repeat`",
-                f.materials.len(),
-                f.contacts.len(),
-                f.runs.len()
-            )));
+        let mut times = Vec::with_capacity(runs.len());
+        let mut placeholders = Vec::with_capacity(runs.len());
+        for (i, r) in runs.iter().enumerate() {
+            let t = times_of(r.scene).map_err(|e| bad(e.to_string()))?;
+            let series = slipbayes::data::Series {
+                force_n: vec![0.0; t.len()],
+                time_s: t.clone(),
+                normal_force_n: None,
+            };
+            placeholders
+                .push(RunData::for_series(&spec, i, series).map_err(|e| bad(e.to_string()))?);
+            times.push(t);
         }
-        if spec.run_follows[repeat] != Some(first) {
-            return Err(bad("run `repeat` must follow the first slide".into()));
-        }
-        if f.aging != Aging::Ratio || f.pooling.any() {
-            return Err(bad(
-                "SBC draws a/F_d and one t0: use `aging = \"ratio\"` and no [pooling]".into(),
-            ));
-        }
-        if f.runs[first].window_s.is_some() || f.runs[repeat].window_s.is_some() {
-            return Err(bad(
-                "drop `window_s`: the simulated record is the fitted one".into(),
-            ));
-        }
-        let sigma_per_run = spec.level(Param::Sigma) == Level::Run;
-        Ok(Self {
-            spec,
-            first,
-            repeat,
-            sigma_per_run,
-        })
-    }
-
-    /// The posterior's columns whose truth is known: every parameter and F_peak.
-    fn tracked(&self, posterior: &Posterior) -> Vec<Tracked> {
-        let runs = &self.spec.file.runs;
-        posterior
+        let posterior =
+            Posterior::from_data(&spec, placeholders).map_err(|e| bad(e.to_string()))?;
+        // Every parameter, the peak of every first slide and the peak of a new contact: the
+        // other derived columns (where and when the peak is) follow from these.
+        let tracked = posterior
             .quantities()
             .iter()
-            .filter_map(|c| {
-                let truth = match (c.kind, c.name.as_str()) {
-                    (QuantityKind::Parameter, "alpha") => Truth::Param(Param::Alpha),
-                    (QuantityKind::Parameter, "a_over_F_d") => Truth::AOverFd,
-                    (QuantityKind::Parameter, "a") => Truth::A,
-                    (QuantityKind::Parameter, "F_d") => Truth::Param(Param::FD),
-                    (QuantityKind::Parameter, "t0") => Truth::Param(Param::T0),
-                    (QuantityKind::Parameter, "k") => Truth::Param(Param::K),
-                    (QuantityKind::Parameter, "sigma") => Truth::Sigma(if self.sigma_per_run {
-                        usize::from(
-                            runs.iter().position(|r| r.name == c.group) == Some(self.repeat),
-                        )
-                    } else {
-                        0
-                    }),
-                    (QuantityKind::Derived, "F_peak") => Truth::FPeak,
-                    _ => return None,
-                };
-                Some(Tracked {
-                    column: c.column.clone(),
-                    truth,
-                })
+            .enumerate()
+            .filter(|(_, c)| {
+                c.kind == QuantityKind::Parameter || c.name == "F_peak" || c.name == "F_peak_new"
             })
-            .collect()
+            .map(|(index, c)| Tracked {
+                column: c.column.clone(),
+                index,
+            })
+            .collect();
+        Ok(Self {
+            spec,
+            posterior,
+            times,
+            tracked,
+        })
     }
-}
-
-/// The true parameters of one replication.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TrueParams {
-    /// α (1/m).
-    pub alpha_per_m: f64,
-    /// a/F_d.
-    pub a_over_f_d: f64,
-    /// F_d (N).
-    pub f_d_n: f64,
-    /// t0 (s).
-    pub t0_s: f64,
-    /// k (N/m).
-    pub k_n_per_m: f64,
-    /// σ per run (first, repeat), or one shared σ.
-    pub sigma_n: Vec<f64>,
-    /// The law's peak force on the first slide (N).
-    pub f_peak_n: f64,
 }
 
 /// What one replication found.
@@ -303,8 +277,8 @@ pub struct TrueParams {
 pub struct Replication {
     /// Index i (stream i of the seed).
     pub index: usize,
-    /// The truth.
-    pub truth: TrueParams,
+    /// The true value of every ranked column.
+    pub truth: BTreeMap<String, f64>,
     /// Prior draws rejected before this one because the law has no quasi-static path.
     pub redraws: usize,
     /// Seed of the fit.
@@ -329,112 +303,7 @@ pub struct Replication {
     pub failure: Option<String>,
 }
 
-/// Draws the true parameters from the model's priors until the law has a quasi-static path
-/// over the simulated record; returns them with the slides and the number of redraws.
-fn draw_and_simulate(
-    design: &Design,
-    settings: &SbcSettings,
-    rng: &mut ChaCha8Rng,
-) -> Result<(TrueParams, [slipbayes::data::Series; 2], usize), String> {
-    let spec = &design.spec;
-    let runs = &spec.file.runs;
-    let v_first = runs[design.first].velocity_m_per_s;
-    let v_repeat = runs[design.repeat].velocity_m_per_s;
-    let draw = |name: &str, rng: &mut ChaCha8Rng| {
-        spec.prior(name)
-            .sample(rng)
-            .ok_or_else(|| format!("the prior of {name} keeps almost no mass inside its bounds"))
-    };
-    for redraws in 0..MAX_REDRAWS {
-        let alpha = draw("alpha", rng)?;
-        let ratio = draw("a_over_F_d", rng)?;
-        let f_d = draw("F_d", rng)?;
-        let t0 = draw("t0", rng)?;
-        let k = draw("k", rng)?;
-        let sigmas: Vec<f64> = (0..if design.sigma_per_run { 2 } else { 1 })
-            .map(|_| draw("sigma", rng))
-            .collect::<Result<_, _>>()?;
-        let noise_seeds: [u64; 2] = [rng.random(), rng.random()];
-        let Ok(params) = LawParams::new(alpha, ratio * f_d, f_d, t0) else {
-            continue;
-        };
-        let sim = |scene, duration, interval, sigma, seed, after| SimulationSpec {
-            scene,
-            params,
-            stiffness_n_per_m: Some(k),
-            velocity_m_per_s: if scene == Scene::First {
-                v_first
-            } else {
-                v_repeat
-            },
-            duration_s: duration,
-            interval_s: interval,
-            noise_sd_n: sigma,
-            seed,
-            f_end_n: None,
-            after_first_s: after,
-            normal_force_n: None,
-            normal_noise_sd_n: 0.0,
-        };
-        let first = match simulate(&sim(
-            Scene::First,
-            settings.first_duration_s,
-            settings.first_interval_s,
-            sigmas[0],
-            noise_seeds[0],
-            None,
-        )) {
-            Ok(s) => s.series,
-            Err(SimulateError::Law(_)) => continue,
-            Err(e) => return Err(e.to_string()),
-        };
-        let end = *first.time_s.last().ok_or("empty first slide")?;
-        let repeat = simulate(&sim(
-            Scene::Repeat,
-            settings.repeat_duration_s,
-            settings.repeat_interval_s,
-            *sigmas.last().unwrap_or(&sigmas[0]),
-            noise_seeds[1],
-            Some(end),
-        ))
-        .map_err(|e| e.to_string())?
-        .series;
-        let peak = Law::new(&params, v_first)
-            .map_err(|e| e.to_string())?
-            .peak()
-            .interior()
-            .map_or(f64::NAN, |p| p.force_n);
-        let truth = TrueParams {
-            alpha_per_m: alpha,
-            a_over_f_d: ratio,
-            f_d_n: f_d,
-            t0_s: t0,
-            k_n_per_m: k,
-            sigma_n: sigmas,
-            f_peak_n: peak,
-        };
-        return Ok((truth, [first, repeat], redraws));
-    }
-    Err(format!(
-        "{MAX_REDRAWS} prior draws in a row give stick-slip: the priors of k, α and a/F_d hardly allow a quasi-static slide"
-    ))
-}
-
-fn true_value(truth: &TrueParams, t: Truth) -> f64 {
-    match t {
-        Truth::Param(Param::Alpha) => truth.alpha_per_m,
-        Truth::Param(Param::FD) => truth.f_d_n,
-        Truth::Param(Param::T0) => truth.t0_s,
-        Truth::Param(Param::K) => truth.k_n_per_m,
-        Truth::Param(Param::A) | Truth::A => truth.a_over_f_d * truth.f_d_n,
-        Truth::Param(Param::Sigma) => truth.sigma_n[0],
-        Truth::AOverFd => truth.a_over_f_d,
-        Truth::Sigma(i) => truth.sigma_n[i.min(truth.sigma_n.len() - 1)],
-        Truth::FPeak => truth.f_peak_n,
-    }
-}
-
-/// Runs replication `index` in `dir` (its data and fit are left there, minus the chains).
+/// Runs replication `index` in `dir` (its fit is left there, minus the chains).
 fn replicate(design: &Design, settings: &SbcSettings, index: usize, dir: &Path) -> Replication {
     let started = Instant::now();
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
@@ -455,27 +324,26 @@ fn replicate(design: &Design, settings: &SbcSettings, index: usize, dir: &Path) 
         wall_s: started.elapsed().as_secs_f64(),
         failure: Some(failure),
     };
-    let nan_truth = TrueParams {
-        alpha_per_m: f64::NAN,
-        a_over_f_d: f64::NAN,
-        f_d_n: f64::NAN,
-        t0_s: f64::NAN,
-        k_n_per_m: f64::NAN,
-        sigma_n: vec![],
-        f_peak_n: f64::NAN,
+    let draw = match design
+        .posterior
+        .draw_prior_predictive(&mut rng, MAX_REDRAWS)
+    {
+        Ok(d) => d,
+        Err(e) => return failed(BTreeMap::new(), MAX_REDRAWS, e.to_string()),
     };
-    let (truth, slides, redraws) = match draw_and_simulate(design, settings, &mut rng) {
-        Ok(t) => t,
-        Err(e) => return failed(nan_truth, MAX_REDRAWS, e),
-    };
-    match fit_and_rank(design, settings, dir, &truth, &slides, fit_seed) {
+    let truth: BTreeMap<String, f64> = design
+        .tracked
+        .iter()
+        .map(|t| (t.column.clone(), draw.values[t.index]))
+        .collect();
+    match fit_and_rank(design, settings, dir, &truth, draw.forces_n, fit_seed) {
         Ok(mut rep) => {
             rep.index = index;
-            rep.redraws = redraws;
+            rep.redraws = draw.redraws;
             rep.wall_s = started.elapsed().as_secs_f64();
             rep
         }
-        Err(e) => failed(truth, redraws, e),
+        Err(e) => failed(truth, draw.redraws, e),
     }
 }
 
@@ -483,22 +351,26 @@ fn fit_and_rank(
     design: &Design,
     settings: &SbcSettings,
     dir: &Path,
-    truth: &TrueParams,
-    slides: &[slipbayes::data::Series; 2],
+    truth: &BTreeMap<String, f64>,
+    forces_n: Vec<Vec<f64>>,
     fit_seed: u64,
 ) -> Result<Replication, String> {
     let spec = &design.spec;
     std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
     // The simulated slides are fitted from memory; only the chains go to disk.
-    let mut data: Vec<Option<RunData>> = vec![None; spec.file.runs.len()];
-    for (run, series) in [design.first, design.repeat].into_iter().zip(slides) {
-        data[run] =
-            Some(RunData::for_series(spec, run, series.clone()).map_err(|e| e.to_string())?);
-    }
-    let data: Vec<RunData> = data
+    let data = forces_n
         .into_iter()
-        .collect::<Option<_>>()
-        .ok_or("the SBC model has a run that is neither the first nor the repeat slide")?;
+        .zip(&design.times)
+        .enumerate()
+        .map(|(run, (force_n, time_s))| {
+            let series = slipbayes::data::Series {
+                time_s: time_s.clone(),
+                force_n,
+                normal_force_n: None,
+            };
+            RunData::for_series(spec, run, series).map_err(|e| e.to_string())
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let posterior = Posterior::from_data(spec, data).map_err(|e| e.to_string())?;
     let fit_dir = RunDir::new(dir.join("fit"));
     let outcome = quiet_fit(
@@ -534,12 +406,12 @@ fn fit_and_rank(
             min_gap = Some(min_gap.map_or(gap, |g| g.min(gap)));
         }
     }
-    let tracked = design.tracked(&posterior);
+    let tracked = &design.tracked;
     let mut ranks = BTreeMap::new();
     let mut quantiles = BTreeMap::new();
-    for t in &tracked {
+    for t in tracked {
         let column = chains.column(&t.column).map_err(|e| e.to_string())?;
-        let value = true_value(truth, t.truth);
+        let value = truth[&t.column];
         let thinned: Vec<f64> = chosen.iter().map(|&i| column[i]).collect();
         ranks.insert(t.column.clone(), stats::rank(value, &thinned));
         let all: Vec<f64> = kept.iter().map(|&i| column[i]).collect();
@@ -815,7 +687,7 @@ fn first_difference(a: &SbcSettings, b: &SbcSettings) -> String {
 /// replication finishes, from whichever thread ran it.
 ///
 /// # Errors
-/// [`ValidateError`] for a model that is not the one-contact model, invalid settings, an
+/// [`ValidateError`] for a model with a run SBC cannot simulate, invalid settings, an
 /// output directory holding another run (unless `overwrite`), or files that cannot be
 /// written. A failing fit is not an error: it is recorded in its replication.
 pub fn run_sbc(
@@ -826,7 +698,7 @@ pub fn run_sbc(
 ) -> Result<Vec<Replication>, ValidateError> {
     settings.validate()?;
     let spec = ModelSpec::load(&settings.model)?;
-    let design = Design::new(spec)?;
+    let design = Design::new(spec, settings)?;
     let reps_dir = out.join(REPLICATIONS_DIR);
     let settings_path = out.join(SETTINGS_FILE);
     if overwrite {
@@ -860,22 +732,35 @@ pub fn run_sbc(
         let text = std::fs::read_to_string(result_path(i)).ok()?;
         serde_json::from_str(&text).ok()
     };
-    (0..settings.replications)
-        .into_par_iter()
-        .with_max_len(1)
-        .map(|i| {
-            if let Some(rep) = done(i) {
-                return Ok(rep);
-            }
-            let dir = reps_dir.join(format!("{i:05}"));
-            let rep = replicate(&design, settings, i, &dir);
-            let path = result_path(i);
-            let json = serde_json::to_vec_pretty(&rep).unwrap_or_default();
-            write_atomically(&path, &json).map_err(io("writing", &path))?;
-            progress(&rep);
-            Ok(rep)
-        })
-        .collect()
+    let run_one = |i: usize| {
+        if let Some(rep) = done(i) {
+            return Ok(rep);
+        }
+        let dir = reps_dir.join(format!("{i:05}"));
+        let rep = replicate(&design, settings, i, &dir);
+        let path = result_path(i);
+        let json = serde_json::to_vec_pretty(&rep).unwrap_or_default();
+        write_atomically(&path, &json).map_err(io("writing", &path))?;
+        progress(&rep);
+        Ok(rep)
+    };
+    // As many replications at a time as there are threads. A single parallel loop over all
+    // of them lets a thread that waits inside one fit steal the next replication, so that
+    // dozens were in flight at once, holding their memory, and none finished for minutes.
+    let at_once = rayon::current_num_threads().max(1);
+    let mut reps = Vec::with_capacity(settings.replications);
+    for start in (0..settings.replications).step_by(at_once) {
+        let end = (start + at_once).min(settings.replications);
+        let chunk: Vec<Result<Replication, ValidateError>> = (start..end)
+            .into_par_iter()
+            .with_max_len(1)
+            .map(run_one)
+            .collect();
+        for rep in chunk {
+            reps.push(rep?);
+        }
+    }
+    Ok(reps)
 }
 
 /// The replications finished so far in `out` (any order of indices), to report on a run that

@@ -85,17 +85,29 @@ impl Posterior {
     /// material's t0 population; F_d from its population when pooled, else the mean of the
     /// material's contacts; a (or a/F_d) the material's, or drawn from its population.
     fn new_contact_peak(&self, x: &[f64], m: usize) -> f64 {
+        // The standard-normal draws are deterministic functions of the draw itself so that the
+        // sampler stays reproducible; hashing the bits makes them independent of the values.
+        self.new_contact_peak_with(x, m, &mut |salt| hashed_normal(x, salt))
+    }
+
+    /// The peak of a new contact of material `m` as [`Self::new_contact_peak`] computes it,
+    /// with the standard-normal draw of each new member from `normal` (given a salt that
+    /// names the member).
+    pub(super) fn new_contact_peak_with(
+        &self,
+        x: &[f64],
+        m: usize,
+        normal: &mut dyn FnMut(u64) -> f64,
+    ) -> f64 {
         let material = &self.materials[m];
         let Some(v) = material.slow_velocity else {
             return f64::NAN;
         };
-        // The standard-normal draws are deterministic functions of the draw itself so that the
-        // sampler stays reproducible; hashing the bits makes them independent of the values.
-        let new_member = |param: Param, salt: u64| {
+        let mut new_member = |param: Param, salt: u64| {
             self.populations
                 .iter()
                 .find(|p| p.param == param && p.material == m)
-                .map(|p| (x[p.mu] + x[p.ln_s].exp() * hashed_normal(x, salt)).exp())
+                .map(|p| (x[p.mu] + x[p.ln_s].exp() * normal(salt)).exp())
         };
         let salt = m as u64;
         let Some(t0) = new_member(Param::T0, salt) else {

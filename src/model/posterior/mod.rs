@@ -12,6 +12,8 @@
 //! - `derived`: the reported values of a draw (SI parameters, peaks, a new contact's peak).
 //! - `start`: the optimiser's start from rough features of the data (computed on first use).
 //! - `predictive`: curves of single runs and the posterior predictive bands.
+//! - `prior_predictive`: parameters and data drawn from the prior (simulation-based
+//!   calibration).
 //!
 //! The model itself is described in `docs/model.md`.
 
@@ -20,6 +22,7 @@ mod derived;
 mod layout;
 mod likelihood;
 mod predictive;
+mod prior_predictive;
 mod sigma;
 mod start;
 
@@ -37,6 +40,7 @@ use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
 pub use predictive::Band;
+pub use prior_predictive::{PriorDraw, PriorDrawError};
 
 /// The posterior of a validated model with its data loaded.
 #[derive(Debug, Clone)]

@@ -32,7 +32,7 @@ impl Posterior {
     }
 
     /// Model forces of run `run` at its data times, given where every first slide stopped.
-    fn forces_after(
+    pub(super) fn forces_after(
         &self,
         x: &[f64],
         f_end: &[Option<f64>],

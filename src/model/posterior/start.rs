@@ -2,6 +2,8 @@
 //! (the loading slope and plateau of repeat slides), then every first or fast slide fitted on
 //! its own by least squares, the results combined over the runs that share a parameter.
 
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
 use super::layout::{CoordPrior, SigmaSource};
@@ -296,6 +298,15 @@ impl Posterior {
         let t_end = d.model_times[d.n_obs - 1].max(f64::MIN_POSITIVE);
         let k0 = k_known.unwrap_or(1.5 * d.initial_slope() / r.velocity);
         let free_k = r.scene == Scene::First && k_known.is_none();
+        // A long record is fitted on evenly spread points of it, so that this rough start
+        // costs the same for 10⁴ points as for 10⁶ (its thousands of evaluations took
+        // minutes there); the mode search that follows reads every point.
+        let picked = subsample(d.n_obs);
+        let times: Cow<[f64]> = match &picked {
+            Some(p) => Cow::Owned(p.iter().map(|&j| d.model_times[j]).collect()),
+            None => Cow::Borrowed(&d.model_times),
+        };
+        let n_fitted = picked.as_ref().map_or(d.n_obs, Vec::len);
         let ssr = |p: &[f64]| -> f64 {
             let (alpha, ratio, t0, f_d) = (p[0].exp(), p[1].exp(), p[2].exp(), p[3].exp());
             let k = if free_k { p[4].exp() } else { k0 };
@@ -311,7 +322,8 @@ impl Posterior {
             };
             let mut sum = 0.0;
             let obs = &d.force;
-            let ok = ObservedSlide::new(law, elastic).for_each_force(&d.model_times, |j, _, f| {
+            let ok = ObservedSlide::new(law, elastic).for_each_force(&times, |m, _, f| {
+                let j = picked.as_ref().map_or(m, |p| p[m]);
                 if j < d.n_obs {
                     sum += d.weight(j) * (obs[j] - f).powi(2);
                 }
@@ -349,7 +361,7 @@ impl Posterior {
         let (x, ln_ssr) = best.unwrap_or_default();
         let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
         RunAlone {
-            sigma: (ln_ssr.exp() / d.n_obs as f64).sqrt(),
+            sigma: (ln_ssr.exp() / n_fitted as f64).sqrt(),
             alpha: get(0),
             ratio: get(1),
             t0: get(2),
@@ -357,6 +369,24 @@ impl Posterior {
             k: if free_k { Some(get(4)) } else { None },
         }
     }
+}
+
+/// Records up to this many points are fitted whole by [`Posterior::fit_run_alone`].
+const START_MAX_POINTS: usize = 10_000;
+
+/// The observations a longer record is fitted on: every m-th from the first, about
+/// [`START_MAX_POINTS`] / 2 of them, and the last (where a repeat slide takes its F_end and a
+/// first slide has relaxed most); `None` for a record short enough to fit whole.
+fn subsample(n_obs: usize) -> Option<Vec<usize>> {
+    if n_obs <= START_MAX_POINTS {
+        return None;
+    }
+    let stride = n_obs.div_ceil(START_MAX_POINTS / 2);
+    let mut picked: Vec<usize> = (0..n_obs).step_by(stride).collect();
+    if picked.last() != Some(&(n_obs - 1)) {
+        picked.push(n_obs - 1);
+    }
+    Some(picked)
 }
 
 /// Mean of the logarithms of positive estimates (the log of their geometric mean).
@@ -370,4 +400,30 @@ fn median_of_logs(v: &[f64]) -> f64 {
     let mut logs: Vec<f64> = v.iter().map(|x| x.ln()).collect();
     logs.sort_by(f64::total_cmp);
     logs[(logs.len() - 1) / 2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_records_are_fitted_on_a_bounded_spread_of_their_points() {
+        assert_eq!(subsample(START_MAX_POINTS), None);
+        for n in [START_MAX_POINTS + 1, 123_457, 1_000_000, 10_000_000] {
+            let picked = subsample(n).unwrap();
+            assert!(
+                picked.len() <= START_MAX_POINTS / 2 + 1,
+                "{n}: {}",
+                picked.len()
+            );
+            assert!(
+                picked.len() >= START_MAX_POINTS / 4,
+                "{n}: {}",
+                picked.len()
+            );
+            assert_eq!(picked[0], 0);
+            assert_eq!(*picked.last().unwrap(), n - 1);
+            assert!(picked.windows(2).all(|w| w[0] < w[1]));
+        }
+    }
 }
