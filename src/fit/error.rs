@@ -67,6 +67,15 @@ pub enum FitError {
         #[source]
         source: StorageError,
     },
+    /// The observer asked the run to stop; the chains and checkpoint are written up to `step`,
+    /// and the run continues with a resume.
+    #[error("the fit in {} was interrupted at step {step}; its checkpoint is written and it can be resumed", dir.display())]
+    Interrupted {
+        /// The run directory.
+        dir: PathBuf,
+        /// Steps in the chains.
+        step: u64,
+    },
     /// A resumed run does not match the requested settings.
     #[error("cannot resume the run in {}: {problem}", dir.display())]
     ResumeMismatch {

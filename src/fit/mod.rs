@@ -43,8 +43,8 @@ use crate::data::Provenance;
 use crate::density::{LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
-    EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError, SamplerState, Silent,
-    Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
+    EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError, SamplerState, Steps,
+    StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
 use crate::storage::{ChainReader, ParquetSink, SinkOptions};
 
@@ -464,11 +464,12 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     };
 
     dir.remove_summaries()?;
-    let mut silent = Silent;
+    // Quiet hides progress, but a request to stop must still reach the sampler.
+    let mut stop_only = StopOnly(observer);
     let observer: &mut dyn Observer = if settings.quiet {
-        &mut silent
+        &mut stop_only
     } else {
-        observer
+        stop_only.0
     };
     sampler.set_deadline(
         settings
@@ -481,7 +482,14 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         source,
     };
     // Every run ends with a checkpoint, which makes all its chains durable and readable.
+    let interrupted = |report: &RunReport| FitError::Interrupted {
+        dir: dir.path().to_path_buf(),
+        step: report.total_steps,
+    };
     let mut report = sampler.run(steps, &mut sink, observer).map_err(sampling)?;
+    if report.stopped_by == StopReason::Interrupted {
+        return Err(interrupted(&report));
+    }
     let mut summary =
         plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
 
@@ -498,6 +506,9 @@ pub fn run_fit<D: LogDensity + ?Sized>(
             report = sampler
                 .run(Steps::Fixed(more), &mut sink, observer)
                 .map_err(sampling)?;
+            if report.stopped_by == StopReason::Interrupted {
+                return Err(interrupted(&report));
+            }
             summary =
                 plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
         }
@@ -520,4 +531,13 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         summary,
         dir: dir.clone(),
     })
+}
+
+/// Forwards only [`Observer::stop_requested`]: the observer of a quiet fit.
+struct StopOnly<'a, O: Observer + ?Sized>(&'a mut O);
+
+impl<O: Observer + ?Sized> Observer for StopOnly<'_, O> {
+    fn stop_requested(&mut self) -> bool {
+        self.0.stop_requested()
+    }
 }

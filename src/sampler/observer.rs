@@ -25,8 +25,12 @@ pub struct Progress {
     /// Mean acceptance fraction of the moves' proposals over all walkers and ensembles so far
     /// (NaN when every update so far was a slice update, which always moves).
     pub acceptance: f64,
-    /// Latest estimate of the largest autocorrelation time, in steps (stopping-rule runs).
+    /// Latest estimate of the largest autocorrelation time, in steps: from the last check of
+    /// the stopping rule, in this run or an earlier one of the same sampler.
     pub tau_max: Option<f64>,
+    /// Largest split R̂ between the ensembles at that check (after its burn-in); `None` before
+    /// the first check or with a single ensemble.
+    pub r_hat_max: Option<f64>,
     /// Estimated time to the end (the fixed end, or 50 τ_max when converging).
     pub eta: Option<Duration>,
 }
@@ -39,6 +43,12 @@ pub trait Observer {
     fn on_step(&mut self, _progress: &Progress) {}
     /// Called once after the last step (also when the run fails, with `None`).
     fn on_finish(&mut self, _report: Option<&RunReport>) {}
+    /// Asked after every step: `true` ends the run there, after a checkpoint, with
+    /// [`StopReason::Interrupted`](super::StopReason::Interrupted) (e.g. on Ctrl-C), so that
+    /// it can be resumed.
+    fn stop_requested(&mut self) -> bool {
+        false
+    }
 }
 
 /// An observer that ignores everything.

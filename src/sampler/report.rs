@@ -21,6 +21,8 @@ pub enum StopReason {
     /// The sampler's deadline passed before the run's steps were done or its stopping rule
     /// was met.
     TimeCap,
+    /// The observer asked the run to stop ([`Observer::stop_requested`](super::Observer)).
+    Interrupted,
 }
 
 /// Counters of one ensemble.

@@ -125,6 +125,10 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     carry_jumps: Vec<[f64; 2]>,
     /// Any run stops here (a wall-time budget), whatever its [`Steps`].
     deadline: Option<Instant>,
+    /// τ_max and R̂ of the last stopping-rule check, shown in progress until the next one
+    /// (also through the fixed-length runs a fit adds after its stopping rule).
+    shown_tau: Option<f64>,
+    shown_r_hat: Option<f64>,
     poisoned: bool,
 }
 
@@ -435,6 +439,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             history,
             last_tau,
             deadline: None,
+            shown_tau: None,
+            shown_r_hat: None,
             poisoned: false,
         }
     }
@@ -596,7 +602,6 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         } else {
             StopReason::FixedSteps
         };
-        let mut tau_max: Option<f64> = None;
         let mut checkpointed_at = None;
         while self.step < last {
             let step_no = self.step;
@@ -624,18 +629,18 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             }
             let mut stop = false;
             if let Some(rule) = rule {
-                if self.step % rule.check_every == 0 {
-                    let (met, tmax) = self.check_stop(&rule);
-                    tau_max = tmax.or(tau_max);
-                    if met {
-                        stop = true;
-                        stopped_by = StopReason::Converged;
-                    }
+                if self.step % rule.check_every == 0 && self.check_stop(&rule) {
+                    stop = true;
+                    stopped_by = StopReason::Converged;
                 }
             }
             if !stop && self.step < last && self.deadline.is_some_and(|d| Instant::now() >= d) {
                 stop = true;
                 stopped_by = StopReason::TimeCap;
+            }
+            if !stop && self.step < last && observer.stop_requested() {
+                stop = true;
+                stopped_by = StopReason::Interrupted;
             }
             let due = self
                 .config
@@ -645,13 +650,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 self.checkpoint(sink)?;
                 checkpointed_at = Some(self.step);
             }
-            observer.on_step(&self.progress(
-                first,
-                last,
-                started,
-                tau_max,
-                rule.map(|r| r.tau_factor),
-            ));
+            observer.on_step(&self.progress(first, last, started, rule.map(|r| r.tau_factor)));
             if stop {
                 break;
             }
@@ -1005,7 +1004,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// steps from its start), settled (τ changed by less than the rule allows since the last
     /// check of the same window), and R̂ below the bound after the burn-in
     /// max(start, 2 τ_max, the slice move's tuning). The first window that passes stops the run.
-    fn check_stop(&mut self, rule: &super::config::StopRule) -> (bool, Option<f64>) {
+    /// Returns whether it holds; keeps τ_max and R̂ of the window closest to being long
+    /// enough for progress.
+    fn check_stop(&mut self, rule: &super::config::StopRule) -> bool {
         let windows = tau_windows(&self.history, self.ndim, self.step, self.config.parallel());
         // Every coordinate's τ, averaged over the ensembles (each estimates the same τ, and
         // the maximum change over ensembles × coordinates single estimates would mostly
@@ -1019,7 +1020,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             }
             m
         };
-        let mut shown: Option<(f64, f64)> = None;
+        let mut shown: Option<(f64, f64, u64)> = None;
         let mut met = false;
         for (i, (from_step, tau)) in windows.into_iter().enumerate() {
             let previous = std::mem::replace(&mut self.last_tau[i], tau.clone());
@@ -1033,8 +1034,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .fold(f64::NEG_INFINITY, f64::max);
             let length = (self.step - from_step) as f64;
             // The τ shown in progress is the one of the window closest to being long enough.
-            if shown.is_none_or(|(l, _)| length / tmax > l) {
-                shown = Some((length / tmax, tmax));
+            if shown.is_none_or(|(l, _, _)| length / tmax > l) {
+                shown = Some((length / tmax, tmax, from_step));
             }
             if met {
                 continue;
@@ -1058,7 +1059,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 None => self.ensembles.len() < 2,
             };
         }
-        (met, shown.map(|(_, t)| t))
+        if let Some((_, tmax, from_step)) = shown {
+            let burn_in = from_step
+                .max((2.0 * tmax).ceil() as u64)
+                .max(self.min_burn_in());
+            self.shown_tau = Some(tmax);
+            self.shown_r_hat =
+                rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel())
+                    .map(|r| r.into_iter().fold(f64::NEG_INFINITY, f64::max));
+        }
+        met
     }
 
     fn progress(
@@ -1066,9 +1076,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         first: u64,
         last: u64,
         started: Instant,
-        tau_max: Option<f64>,
         tau_factor: Option<f64>,
     ) -> Progress {
+        let tau_max = self.shown_tau;
         // Over the moves' proposals only; NaN when every update was a slice update.
         let (acc, n) = self.ensembles.iter().fold((0u64, 0u64), |(a, n), e| {
             let proposals = self.proposals_per_walker(e) * e.s.accepted.len() as u64;
@@ -1094,6 +1104,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             last_step: last,
             acceptance,
             tau_max,
+            r_hat_max: self.shown_r_hat,
             eta,
         }
     }
