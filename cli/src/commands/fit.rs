@@ -3,17 +3,21 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Duration;
 
 use anyhow::{bail, Context};
 use clap::Args;
 
 use slipbayes::diagnostics::problem_lines;
-use slipbayes::fit::{fit_model, FitOutcome, FitSettings, SettingOverrides};
+use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::sampler::{Mixture, Updates};
 
 use super::import::ImportArgs;
-use crate::progress::ProgressBarObserver;
+use super::{positive, EXIT_NOT_CONVERGED};
+use crate::interrupt::{self, EXIT_INTERRUPTED};
+use crate::lock::RunLock;
+use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
 
 fn parse_window(text: &str) -> Result<[f64; 2], String> {
     let parts: Vec<&str> = text.split(',').collect();
@@ -34,8 +38,10 @@ fn parse_window(text: &str) -> Result<[f64; 2], String> {
 /// The run directory gets `summary.json`, `summary.csv`, `chains/` (Parquet), `model.toml`
 /// (the exact model fitted), `settings.json` and `predictive.csv` (posterior and posterior
 /// predictive bands at the data times). A killed fit continues with `--resume` and
-/// ends with the same chains. Exit code 1 on error; with --strict, 2 when the results were
-/// written but the run has not converged (R̂ < 1.01, ESS > 400, τ trusted).
+/// ends with the same chains; Ctrl-C stops it after a checkpoint and prints that command.
+/// Progress goes to stderr: a bar on a terminal, else a line every --progress-every seconds.
+/// Exit codes: 0 done; 1 error; 2 invalid command line; 3 with --strict, results written but
+/// the run has not converged (R̂ < 1.01, ESS > 400, τ trusted); 130 interrupted (Ctrl-C).
 #[derive(Debug, Args)]
 #[command(verbatim_doc_comment)]
 pub(super) struct FitArgs {
@@ -51,13 +57,13 @@ pub(super) struct FitArgs {
     #[arg(long, requires = "first")]
     repeat: Option<PathBuf>,
     /// Quick path: sliding velocity (m/s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     velocity: Option<f64>,
     /// Quick path: the first slide is fast and declared stiff (no elastic correction).
     #[arg(long, requires = "first")]
     stiff: bool,
     /// Quick path: normal force (N), for μ_s.
-    #[arg(long = "normal-force")]
+    #[arg(long = "normal-force", allow_hyphen_values = true, value_parser = positive)]
     normal_force: Option<f64>,
     /// Quick path: fit the first slide only within START,END (s of instrument time).
     #[arg(long = "window-s", value_parser = parse_window, requires = "first")]
@@ -90,7 +96,7 @@ pub(super) struct RunArgs {
     max_steps: Option<u64>,
     /// Wall-time budget of the fit in seconds; a run that hits it writes its results and
     /// says what it would still need.
-    #[arg(long = "max-time")]
+    #[arg(long = "max-time", allow_hyphen_values = true, value_parser = positive)]
     max_time: Option<f64>,
     /// Continue a killed fit in the output directory.
     #[arg(long)]
@@ -98,10 +104,18 @@ pub(super) struct RunArgs {
     /// Replace an earlier fit in the output directory.
     #[arg(long)]
     overwrite: bool,
-    /// No progress bar.
+    /// No progress bar or progress lines.
     #[arg(long)]
     quiet: bool,
-    /// Exit with status 2 when the run has not converged (results are written either way).
+    /// Seconds between progress lines when stderr is not a terminal (batch jobs, logs).
+    #[arg(
+        long = "progress-every",
+        default_value_t = DEFAULT_LINE_EVERY.as_secs_f64(),
+        allow_hyphen_values = true,
+        value_parser = positive
+    )]
+    progress_every: f64,
+    /// Exit with status 3 when the run has not converged (results are written either way).
     #[arg(long)]
     strict: bool,
     /// Proposal moves and weights, e.g. `student-t=0.8,stretch=0.2` (moves: stretch, de,
@@ -144,9 +158,32 @@ pub(super) fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
 }
 
 pub(super) fn demo(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    if !args.model.exists() {
+        bail!("{}", missing_demo_model(&args.model));
+    }
     let spec = ModelSpec::load(&args.model)?;
     // The main job is re-run as it is: it replaces its earlier results unless resuming.
     fit_and_report(&spec, &args.out, &args.run, !args.run.resume)
+}
+
+/// Where `demo` looked for its model and how to point it at the one bundled with the source.
+fn missing_demo_model(model: &Path) -> String {
+    let looked = std::env::current_dir()
+        .map(|cwd| cwd.join(model))
+        .unwrap_or_else(|_| model.to_path_buf());
+    // The repository this binary was built from, if it is still there.
+    let bundled = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/demo.toml");
+    let hint = match bundled.canonicalize() {
+        Ok(path) => format!("--model {}", path.display()),
+        Err(_) => "--model PATH/TO/slipbayes/models/demo.toml".to_owned(),
+    };
+    format!(
+        "no demo model at {} (`demo` reads {} relative to the current directory): run it from \
+         the root of the slipbayes repository, or point it at the bundled model with `slipbayes \
+         demo {hint} --out DIR`",
+        looked.display(),
+        model.display()
+    )
 }
 
 /// The one-contact model of the quick path: groups `first`, `repeat` (runs) and `contact`.
@@ -191,16 +228,31 @@ fn fit_and_report(
     let posterior = Posterior::new(spec)?;
     let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let mut observer = ProgressBarObserver::new(run.quiet);
-    let command = std::env::args().collect();
-    let outcome = fit_model(
+    let _lock = RunLock::acquire(out)?;
+    interrupt::install();
+    let mut observer =
+        ProgressBarObserver::new(run.quiet, Duration::from_secs_f64(run.progress_every))
+            .stop_when(&interrupt::INTERRUPTED);
+    let command: Vec<String> = std::env::args().collect();
+    let outcome = match fit_model(
         &posterior,
         &settings,
         out,
         run.resume,
-        command,
+        command.clone(),
         &mut observer,
-    )?;
+    ) {
+        Err(FitError::Interrupted { dir, step }) => {
+            eprintln!(
+                "interrupted at step {step}: the chains and checkpoint in {} are written; \
+                 resume with:\n  {}",
+                dir.display(),
+                interrupt::resume_command(&command)
+            );
+            return Ok(ExitCode::from(EXIT_INTERRUPTED));
+        }
+        result => result?,
+    };
     print_summary(&outcome);
     #[cfg(feature = "report")]
     super::report::write_and_print(&outcome.dir, &posterior)?;
@@ -214,7 +266,7 @@ fn fit_and_report(
     Ok(if converged || !run.strict {
         ExitCode::SUCCESS
     } else {
-        ExitCode::from(2)
+        ExitCode::from(EXIT_NOT_CONVERGED)
     })
 }
 

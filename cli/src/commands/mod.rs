@@ -16,9 +16,21 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+/// Exit status of `fit`/`demo --strict` when the results are written but the run has not
+/// converged (distinct from clap's 2 for an invalid command line).
+pub(crate) const EXIT_NOT_CONVERGED: u8 = 3;
+
+const EXIT_CODES: &str = "\
+Exit codes:
+  0    done
+  1    error (the message says what and what to do)
+  2    invalid command line
+  3    fit/demo --strict: results written, but the run has not converged
+  130  fit/demo interrupted by Ctrl-C (resumable with the --resume command printed)";
+
 /// Bayesian inference of the onset of frictional slip.
 #[derive(Debug, Parser)]
-#[command(name = "slipbayes", version, about, long_about = None)]
+#[command(name = "slipbayes", version, about, long_about = None, after_help = EXIT_CODES)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -47,12 +59,38 @@ pub fn main() -> ExitCode {
     match run(cli) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err}");
-            for cause in err.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
+            for line in error_lines(&err) {
+                eprintln!("{line}");
             }
             ExitCode::FAILURE
         }
+    }
+}
+
+/// `error: ...` and one `caused by: ...` per cause, leaving out a cause whose text the lines
+/// above already hold (many errors quote their source in their own message).
+fn error_lines(err: &anyhow::Error) -> Vec<String> {
+    let mut shown = err.to_string();
+    let mut lines = vec![format!("error: {shown}")];
+    for cause in err.chain().skip(1) {
+        let text = cause.to_string();
+        if !shown.contains(&text) {
+            lines.push(format!("  caused by: {text}"));
+            shown.push('\n');
+            shown.push_str(&text);
+        }
+    }
+    lines
+}
+
+/// A number > 0 (and finite), for flags such as `--velocity`: a negative one is parsed and
+/// then refused with this reason, instead of being taken for a flag.
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        // clap quotes the flag and the value given.
+        Ok(_) => Err("it must be a number > 0".to_owned()),
+        Err(_) => Err("not a number".to_owned()),
     }
 }
 
@@ -70,5 +108,32 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate(args) => validate::run(&args),
         #[cfg(feature = "parquet")]
         Command::Bench(args) => bench::run_bench(&args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cause_quoted_by_the_message_is_printed_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let err = anyhow::Error::new(io)
+            .context("m.toml: No such file")
+            .context("loading the model");
+        assert_eq!(
+            error_lines(&err),
+            [
+                "error: loading the model",
+                "  caused by: m.toml: No such file"
+            ]
+        );
+    }
+
+    #[test]
+    fn positive_numbers_only() {
+        assert_eq!(positive("1e-9"), Ok(1e-9));
+        assert!(positive("-1e-9").unwrap_err().contains("> 0"));
+        assert!(positive("0").is_err() && positive("inf").is_err() && positive("x").is_err());
     }
 }

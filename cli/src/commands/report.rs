@@ -3,10 +3,10 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use clap::Args;
 
-use slipbayes::fit::run_dir::FIGURES_DIR;
+use slipbayes::fit::run_dir::{CHAINS_DIR, FIGURES_DIR, SETTINGS_JSON};
 use slipbayes::fit::RunDir;
 use slipbayes::model::Posterior;
 use slipbayes::report::{rebuild_report, write_report, ReportFiles};
@@ -23,6 +23,9 @@ pub(super) struct ReportArgs {
 
 pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     let dir = RunDir::new(&args.dir);
+    if let Some(problem) = missing_chains(&dir) {
+        bail!("{problem}");
+    }
     let files = rebuild_report(&dir)
         .with_context(|| format!("writing the report of {}", dir.path().display()))?;
     print_written(&dir, &files);
@@ -35,6 +38,36 @@ pub(super) fn write_and_print(dir: &RunDir, posterior: &Posterior) -> anyhow::Re
         .with_context(|| format!("writing the report of {}", dir.path().display()))?;
     print_written(dir, &files);
     Ok(())
+}
+
+/// A finished run (its `settings.json` is written last) whose chains are gone, as in a fresh
+/// clone of the repository, where chains are not committed: what is missing and the command
+/// that wrote them.
+fn missing_chains(dir: &RunDir) -> Option<String> {
+    let chains = dir.file(CHAINS_DIR);
+    let has_parts = std::fs::read_dir(&chains).is_ok_and(|entries| {
+        entries
+            .flatten()
+            .any(|e| e.path().extension().is_some_and(|x| x == "parquet"))
+    });
+    if has_parts || !dir.file(SETTINGS_JSON).exists() {
+        return None;
+    }
+    let command = dir
+        .read_record()
+        .ok()
+        .filter(|r| !r.command.is_empty())
+        .map_or_else(
+            || "the fit that wrote it".to_owned(),
+            |r| format!("`{}`", r.command.join(" ")),
+        );
+    Some(format!(
+        "the chains of {} are missing ({} holds no Parquet files; chains are not kept in git): \
+         regenerate them by running {command} again, then rerun `slipbayes report {}`",
+        dir.path().display(),
+        chains.display(),
+        dir.path().display()
+    ))
 }
 
 fn print_written(dir: &RunDir, files: &ReportFiles) {

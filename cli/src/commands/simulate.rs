@@ -3,13 +3,15 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
+use anyhow::{bail, Context};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 
 use slipbayes::data::write_atomically;
 use slipbayes::law::{Elastic, Law, LawParams, Scene};
 use slipbayes::simulate::{simulate, SimulationSpec};
+
+use super::positive;
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum SceneArg {
@@ -38,28 +40,28 @@ pub(super) struct SimulateArgs {
     #[arg(long, value_enum)]
     scene: SceneArg,
     /// Shear-rejuvenation constant α (1/m).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     alpha: f64,
     /// Logarithmic aging amplitude a (N).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     a: f64,
     /// Steady-state friction F_d (N).
-    #[arg(long = "f-d")]
+    #[arg(long = "f-d", allow_hyphen_values = true)]
     f_d: f64,
     /// Short-time cut-off t0 (s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     t0: f64,
     /// Machine stiffness k (N/m); required for first and repeat slides.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     k: Option<f64>,
     /// Sliding velocity v (m/s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     velocity: f64,
     /// Length of the record (s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     duration: f64,
     /// Sampling interval (s).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     interval: f64,
     /// Standard deviation σ of the Gaussian force noise (N).
     #[arg(long, default_value_t = 1e-4)]
@@ -83,6 +85,9 @@ pub(super) struct SimulateArgs {
     /// Output CSV path; the true values go to the same path with extension `.json`.
     #[arg(long)]
     out: PathBuf,
+    /// Replace existing output files.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 /// The true-values file written beside a simulated CSV.
@@ -106,6 +111,17 @@ struct TruePeak {
 }
 
 pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
+    let truth_path = args.out.with_extension("json");
+    if !args.overwrite {
+        for path in [&args.out, &truth_path] {
+            if path.exists() {
+                bail!(
+                    "{} already exists; pass --overwrite to replace it, or choose another --out",
+                    path.display()
+                );
+            }
+        }
+    }
     let scene = match args.scene {
         SceneArg::First => Scene::First,
         SceneArg::Repeat => Scene::Repeat,
@@ -150,7 +166,6 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         .series
         .write_csv(&args.out)
         .with_context(|| format!("writing the data set {}", args.out.display()))?;
-    let truth_path = args.out.with_extension("json");
     let truth = Truth {
         generator: format!("slipbayes {} simulate", env!("CARGO_PKG_VERSION")),
         data_file: args
@@ -167,5 +182,11 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let json = serde_json::to_string_pretty(&truth)?;
     write_atomically(&truth_path, json.as_bytes())
         .with_context(|| format!("writing the true values {}", truth_path.display()))?;
+    println!(
+        "wrote {} points to {} and the true values to {}",
+        simulated.series.len(),
+        args.out.display(),
+        truth_path.display()
+    );
     Ok(ExitCode::SUCCESS)
 }
