@@ -540,4 +540,8 @@ impl<O: Observer + ?Sized> Observer for StopOnly<'_, O> {
     fn stop_requested(&mut self) -> bool {
         self.0.stop_requested()
     }
+
+    fn shows_progress(&self) -> bool {
+        false
+    }
 }

@@ -49,10 +49,20 @@ pub trait Observer {
     fn stop_requested(&mut self) -> bool {
         false
     }
+    /// Whether [`on_step`](Self::on_step) shows the progress to someone: only then does the
+    /// sampler compute the R̂ of [`Progress::r_hat_max`] at checks of its stopping rule that
+    /// do not need it themselves.
+    fn shows_progress(&self) -> bool {
+        true
+    }
 }
 
 /// An observer that ignores everything.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Silent;
 
-impl Observer for Silent {}
+impl Observer for Silent {
+    fn shows_progress(&self) -> bool {
+        false
+    }
+}

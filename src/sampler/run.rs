@@ -629,7 +629,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             }
             let mut stop = false;
             if let Some(rule) = rule {
-                if self.step % rule.check_every == 0 && self.check_stop(&rule) {
+                if self.step % rule.check_every == 0
+                    && self.check_stop(&rule, observer.shows_progress())
+                {
                     stop = true;
                     stopped_by = StopReason::Converged;
                 }
@@ -999,14 +1001,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
     }
 
-    /// Applies the stopping rule; returns whether it holds and the current τ_max. Each window
+    /// Applies the stopping rule and returns whether it holds. Each window
     /// of `TAU_WINDOWS` is judged on its own τ: long enough (more than `tau_factor` τ_max
     /// steps from its start), settled (τ changed by less than the rule allows since the last
     /// check of the same window), and R̂ below the bound after the burn-in
     /// max(start, 2 τ_max, the slice move's tuning). The first window that passes stops the run.
-    /// Returns whether it holds; keeps τ_max and R̂ of the window closest to being long
-    /// enough for progress.
-    fn check_stop(&mut self, rule: &super::config::StopRule) -> bool {
+    /// Keeps τ_max of the window closest to being long enough for progress, and with
+    /// `show_r_hat` its R̂.
+    fn check_stop(&mut self, rule: &super::config::StopRule, show_r_hat: bool) -> bool {
         let windows = tau_windows(&self.history, self.ndim, self.step, self.config.parallel());
         // Every coordinate's τ, averaged over the ensembles (each estimates the same τ, and
         // the maximum change over ensembles × coordinates single estimates would mostly
@@ -1064,9 +1066,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .max((2.0 * tmax).ceil() as u64)
                 .max(self.min_burn_in());
             self.shown_tau = Some(tmax);
-            self.shown_r_hat =
-                rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel())
-                    .map(|r| r.into_iter().fold(f64::NEG_INFINITY, f64::max));
+            // A pass over the whole history: only for an observer that shows it.
+            self.shown_r_hat = show_r_hat
+                .then(|| {
+                    rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel())
+                })
+                .flatten()
+                .map(|r| r.into_iter().fold(f64::NEG_INFINITY, f64::max));
         }
         met
     }

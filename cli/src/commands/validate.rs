@@ -137,13 +137,20 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     write_report(&report, &limits, &args.out, &command)?;
     println!(
-        "{:<24} {:>8} {:>8} {:>10} {:>10}",
-        "quantity", "chi2", "p", "cover50", "cover95"
+        "{:<24} {:>8} {:>8} {:>10} {:>10} {:>10}",
+        "quantity", "chi2", "p", "p(quant)", "cover50", "cover95"
     );
     for q in &report.quantities {
         println!(
-            "{:<24} {:>8.1} {:>8.3} {:>10.3} {:>10.3}",
-            q.column, q.uniformity.chi2, q.uniformity.p_value, q.coverage50.rate, q.coverage95.rate
+            "{:<24} {:>8.1} {:>8.3} {:>10.3} {:>10.3} {:>10.3}",
+            q.column,
+            q.uniformity.chi2,
+            q.uniformity.p_value,
+            q.quantile_uniformity
+                .as_ref()
+                .map_or(f64::NAN, |u| u.p_value),
+            q.coverage50.rate,
+            q.coverage95.rate
         );
     }
     println!(

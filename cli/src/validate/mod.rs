@@ -505,6 +505,12 @@ pub struct QuantityCalibration {
     pub column: String,
     /// χ² test of uniform ranks.
     pub uniformity: Uniformity,
+    /// χ² test of uniform posterior quantiles of the truth (the fraction of all post-burn-in
+    /// draws below it, in 100 steps of 1 %): the same question without thinning, so it does
+    /// not depend on how far apart the L ranked draws are. Absent in reports of earlier
+    /// versions.
+    #[serde(default)]
+    pub quantile_uniformity: Option<Uniformity>,
     /// Coverage of the central 50 % interval.
     pub coverage50: Coverage,
     /// Coverage of the central 95 % interval.
@@ -629,6 +635,12 @@ pub fn summarise(settings: &SbcSettings, reps: &[Replication]) -> SbcReport {
             QuantityCalibration {
                 column: c.clone(),
                 uniformity: Uniformity::test(&ranks, settings.rank_draws),
+                quantile_uniformity: Some(Uniformity::test(
+                    &q.iter()
+                        .map(|&q| ((q * 100.0).floor() as usize).min(99))
+                        .collect::<Vec<_>>(),
+                    99,
+                )),
                 coverage50: Coverage::from_quantiles(0.5, &q),
                 coverage95: Coverage::from_quantiles(0.95, &q),
             }
@@ -842,7 +854,7 @@ fn markdown(r: &SbcReport, limits: &GrossLimits, command: &str) -> String {
     );
     let _ = writeln!(
         md,
-        "| quantity | bins | χ² | dof | p (uniform) | 50 % coverage [95 % Wilson] | 95 % coverage [95 % Wilson] |\n|---|---|---|---|---|---|---|"
+        "| quantity | bins | χ² | dof | p (uniform) | p (quantiles uniform) | 50 % coverage [95 % Wilson] | 95 % coverage [95 % Wilson] |\n|---|---|---|---|---|---|---|---|"
     );
     for q in &r.quantities {
         let c = |c: &Coverage| {
@@ -853,12 +865,15 @@ fn markdown(r: &SbcReport, limits: &GrossLimits, command: &str) -> String {
         };
         let _ = writeln!(
             md,
-            "| `{}` | {} | {:.1} | {} | {:.3} | {} | {} |",
+            "| `{}` | {} | {:.1} | {} | {:.3} | {} | {} | {} |",
             q.column,
             q.uniformity.counts.len(),
             q.uniformity.chi2,
             q.uniformity.dof,
             q.uniformity.p_value,
+            q.quantile_uniformity
+                .as_ref()
+                .map_or("n/a".into(), |u| format!("{:.3}", u.p_value)),
             c(&q.coverage50),
             c(&q.coverage95)
         );
