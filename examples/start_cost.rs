@@ -24,10 +24,13 @@ use slipbayes::simulate::{simulate, SimulationSpec};
 const DURATION_S: f64 = 20_000.0;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let lengths: Vec<usize> = match std::env::args().skip(1).map(|a| a.parse()).collect() {
-        Ok(v) if !Vec::<usize>::is_empty(&v) => v,
-        _ => vec![10_000, 100_000, 1_000_000],
-    };
+    let mut lengths = std::env::args()
+        .skip(1)
+        .map(|a| a.parse::<usize>())
+        .collect::<Result<Vec<_>, _>>()?;
+    if lengths.is_empty() {
+        lengths = vec![10_000, 100_000, 1_000_000];
+    }
     let spec = ModelSpec::one_contact(&OneContact {
         first: PathBuf::from("first.csv"),
         repeat: Some(PathBuf::from("repeat.csv")),

@@ -1032,6 +1032,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         };
         let mut shown: Option<(f64, f64, u64)> = None;
         let mut met = false;
+        // Whether this check already computed an R̂ that progress can show.
+        let mut r_hat_computed = false;
         for (i, (from_step, tau)) in windows.into_iter().enumerate() {
             let previous = std::mem::replace(&mut self.last_tau[i], tau.clone());
             let Some(tau) = tau else {
@@ -1060,13 +1062,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             if !(long_enough && settled) {
                 continue;
             }
-            let burn_in = from_step
-                .max((2.0 * tmax).ceil() as u64)
-                .max(self.min_burn_in());
+            let burn_in = self.window_burn_in(from_step, tmax);
             let r_hat =
                 rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel());
             if let Some(r) = &r_hat {
                 self.shown_r_hat = Some(r.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+                r_hat_computed = true;
             }
             met = match r_hat {
                 Some(r) => r.iter().all(|&v| v < rule.rhat_max),
@@ -1084,10 +1085,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let due = self
             .shown_r_hat_at
             .is_none_or(|t| t.elapsed() >= SHOWN_R_HAT_EVERY);
-        if show_r_hat && due {
-            let burn_in = from_step
-                .max((2.0 * tmax).ceil() as u64)
-                .max(self.min_burn_in());
+        if show_r_hat && due && !r_hat_computed {
+            let burn_in = self.window_burn_in(from_step, tmax);
             if let Some(r) =
                 rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel())
             {
@@ -1096,6 +1095,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             self.shown_r_hat_at = Some(Instant::now());
         }
         met
+    }
+
+    /// The burn-in of a stopping-rule window that starts at `from_step` with τ_max `tmax`:
+    /// max(start, 2 τ_max, the slice move's tuning).
+    fn window_burn_in(&self, from_step: u64, tmax: f64) -> u64 {
+        from_step
+            .max((2.0 * tmax).ceil() as u64)
+            .max(self.min_burn_in())
     }
 
     fn progress(

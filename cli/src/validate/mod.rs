@@ -192,7 +192,6 @@ struct Tracked {
 /// quantities to rank.
 #[derive(Debug, Clone)]
 struct Design {
-    spec: ModelSpec,
     posterior: Posterior,
     /// Each run's instrument times.
     times: Vec<Vec<f64>>,
@@ -264,7 +263,6 @@ impl Design {
             })
             .collect();
         Ok(Self {
-            spec,
             posterior,
             times,
             tracked,
@@ -355,7 +353,7 @@ fn fit_and_rank(
     forces_n: Vec<Vec<f64>>,
     fit_seed: u64,
 ) -> Result<Replication, String> {
-    let spec = &design.spec;
+    let spec = design.posterior.spec();
     std::fs::create_dir_all(dir).map_err(|e| format!("creating {}: {e}", dir.display()))?;
     // The simulated slides are fitted from memory; only the chains go to disk.
     let data = forces_n
