@@ -371,14 +371,16 @@ fn pooled_t0_predicts_a_new_contact() {
     assert!(get(&s, "F_peak_new", "m").median.is_finite());
 }
 
-/// Default walkers: max(32, 4·d + 4, 2·f + 4). The demo's largest block has 3 coordinates and
-/// its shared blocks carry 7 and 6 followers: 32. A material of 15 contacts (first + repeat
-/// slide each) carries 45 followers under hierarchical updates, so its regressions get 94
-/// walkers; blocked updates carry none and keep 32.
+/// Default walkers: max(32, 4·d + 4), and 2·f + 4 more when the followers' regressions are
+/// fitted to the complement. The demo's largest block has 3 coordinates and its shared blocks
+/// carry 7 and 6 followers: 32. A material of 15 contacts (first + repeat slide each) carries
+/// 45 followers under hierarchical updates: its regressions fitted to the complement get 94
+/// walkers, tuned ones (the default for so many followers) need no more than 32; blocked
+/// updates carry none and keep 32.
 #[test]
 fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     use slipbayes::fit::SettingOverrides;
-    use slipbayes::sampler::Updates;
+    use slipbayes::sampler::{CarryFit, Updates};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let demo_text = std::fs::read_to_string(root.join("models/demo.toml"))
@@ -387,13 +389,15 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     let demo_path = dir.path().join("demo.toml");
     std::fs::write(&demo_path, demo_text).unwrap();
     let demo = Posterior::new(&ModelSpec::load(&demo_path).unwrap()).unwrap();
-    let walkers = |post: &Posterior, updates: Option<Updates>| {
+    let walkers_with = |post: &Posterior, updates: Option<Updates>, carry: Option<CarryFit>| {
         let overrides = SettingOverrides {
             updates,
+            carry,
             ..SettingOverrides::default()
         };
         FitSettings::for_model(post, &overrides).walkers
     };
+    let walkers = |post: &Posterior, updates: Option<Updates>| walkers_with(post, updates, None);
     assert_eq!(walkers(&demo, None), 32);
 
     let data = root.join("data");
@@ -418,6 +422,12 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
         .max()
         .unwrap();
     assert_eq!(followers, 45);
-    assert_eq!(walkers(&campaign, None), 94);
+    assert_eq!(walkers(&campaign, None), 32);
+    assert!(CarryFit::Auto.tunes(followers, 32));
+    assert!(!CarryFit::Auto.tunes(7, 32));
+    assert_eq!(
+        walkers_with(&campaign, None, Some(CarryFit::Complement)),
+        94
+    );
     assert_eq!(walkers(&campaign, Some(Updates::Blocked)), 32);
 }

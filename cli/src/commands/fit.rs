@@ -11,7 +11,7 @@ use clap::Args;
 use slipbayes::diagnostics::problem_lines;
 use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
-use slipbayes::sampler::{Mixture, Updates};
+use slipbayes::sampler::{CarryFit, Mixture, Updates};
 
 use super::import::ImportArgs;
 use super::{positive, EXIT_NOT_CONVERGED};
@@ -129,6 +129,12 @@ pub(super) struct RunArgs {
     /// the model file's, else hierarchical.
     #[arg(long)]
     updates: Option<Updates>,
+    /// How hierarchical updates carry a shared block's followers: `complement` (a regression
+    /// fitted to the complementary half at every half-step), `tuned` (fitted to the
+    /// ensemble's draws of the first 100 steps, then fixed) or `auto` (tuned where the
+    /// complement is smaller than the followers); default: the model file's, else auto.
+    #[arg(long)]
+    carry: Option<CarryFit>,
 }
 
 /// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
@@ -215,6 +221,7 @@ impl RunArgs {
             overwrite: self.overwrite || overwrite,
             moves: self.moves.as_ref().map(|m| m.moves().to_vec()),
             updates: self.updates,
+            carry: self.carry,
         }
     }
 }
