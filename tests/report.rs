@@ -31,7 +31,7 @@ fn quick_fit() -> &'static Path {
             stiff: false,
             normal_force_n: Some(0.05),
             window_s: None,
-            bins: None,
+            likelihood_tolerance: None,
             import: ImportOptions::default(),
         })
         .unwrap();

@@ -594,25 +594,43 @@ pub struct Provenance {
     pub format: String,
     /// Data rows read from the file.
     pub points_read: usize,
-    /// Points entering the likelihood (bins when binned).
+    /// Observations entering the likelihood (after the window).
     pub points_used: usize,
     /// Rows dropped because they held no finite number (explicit `drop_invalid`).
     pub dropped_invalid: usize,
     /// Time window kept (s), if any.
     pub window_s: Option<[f64; 2]>,
-    /// Binning, if any.
+    /// The bins of sufficient statistics a long run's likelihood is evaluated on, if any.
     pub binning: Option<Binning>,
     /// Unit conversions applied.
     pub conversions: Vec<String>,
 }
 
-/// Binning of a run's points into bins of consecutive points.
+/// A long run's likelihood evaluated on sufficient statistics of bins of consecutive points
+/// (docs/model.md §5, "Long records"): every point still enters it, the model within a bin
+/// is its interpolant of degree `degree`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Binning {
     /// Number of bins.
     pub bins: usize,
     /// Mean number of points per bin.
     pub points_per_bin: f64,
+    /// Observations outside every bin, evaluated one by one (around kinks, where the model
+    /// curves too fast, the last one).
+    pub exact_points: usize,
+    /// Model evaluations per likelihood evaluation (q + 1 per bin, one per exact point).
+    pub evaluations: usize,
+    /// Degree q of the polynomial within a bin.
+    pub degree: usize,
+    /// Largest error of the log-likelihood asked for.
+    pub tolerance: f64,
+    /// The bound on the error of the log-likelihood that the bins' estimated interpolation
+    /// errors give, wherever the residuals' RMS (σ integrated out) or σ (sampled) is at
+    /// least `noise_n`.
+    pub bound: f64,
+    /// The noise level the bound is stated at: half the record's noise estimate from second
+    /// differences (N).
+    pub noise_n: f64,
 }
 
 #[cfg(test)]

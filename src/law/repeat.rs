@@ -38,6 +38,11 @@ impl RepeatSlide {
         }
     }
 
+    /// The time (s) where the loading line reaches F_end: the kink of the slide.
+    pub fn loading_ends(&self) -> f64 {
+        self.f_end / self.kv
+    }
+
     /// F(t) = min(kvt, F_end), zero before t = 0.
     #[inline]
     pub fn force(&self, time_s: f64) -> f64 {

@@ -1,8 +1,7 @@
-//! A run's data prepared for the likelihood: imported, validated, windowed, optionally binned.
+//! A run's data prepared for the likelihood: imported, validated, windowed.
 
 use std::path::{Path, PathBuf};
 
-use crate::data::import::Binning;
 use crate::data::{import, DataError, Imported, Provenance, Series};
 use crate::law::Scene;
 
@@ -46,11 +45,6 @@ pub struct RunData {
     pub n_obs: usize,
     /// Normal force (N) per observation, when recorded.
     pub normal_force: Option<Vec<f64>>,
-    /// Points averaged into each observation when binned: the noise of observation j is
-    /// `σ/√weights[j]`. `None`: one point each.
-    pub weights: Option<Vec<f64>>,
-    /// ½ Σ ln wⱼ, fixed once the data are binned: every log-density call adds it.
-    half_log_weights: f64,
     /// Where the data came from and what was done to them.
     pub provenance: Provenance,
 }
@@ -60,13 +54,11 @@ pub struct RunData {
 pub struct Selection {
     /// Time window [start, end] (s of instrument time), inclusive.
     pub window_s: Option<[f64; 2]>,
-    /// Average consecutive points into this many bins.
-    pub bins: Option<usize>,
 }
 
 impl RunData {
     /// Imports the data of run `run` of `spec` with its format, column mapping and interval
-    /// choice, and keeps its window and binning.
+    /// choice, and keeps its window.
     ///
     /// # Errors
     /// [`RunDataError`] naming the file and line: unreadable or malformed file, a missing
@@ -78,25 +70,20 @@ impl RunData {
         let imported = import(&path, &spec.import_options(run))?;
         let selection = Selection {
             window_s: r.window_s,
-            bins: r.bins,
         };
         Self::prepare(imported, &path, &r.name, &r.data, selection, r.scene)
     }
 
     /// The data of run `run` of `spec` from a series already in memory (the run's data file
-    /// is not read): the run's window and binning apply as they would to the file.
+    /// is not read): the run's window applies as it would to the file.
     ///
     /// # Errors
-    /// As [`RunData::from_series`], and a binning that does not fit the points kept.
+    /// As [`RunData::from_series`].
     pub fn for_series(spec: &ModelSpec, run: usize, series: Series) -> Result<Self, RunDataError> {
         let r = &spec.file.runs[run];
         let path = spec.data_path(run);
         let mut data = Self::from_series(series, &path, r.window_s, r.scene)?;
         data.provenance.run = r.name.clone();
-        if let Some(bins) = r.bins {
-            data.bin(bins, &path)?;
-        }
-        data.provenance.points_used = data.n_obs;
         Ok(data)
     }
 
@@ -106,14 +93,11 @@ impl RunData {
     /// As [`RunData::for_run`].
     pub fn load(path: &Path, window: Option<[f64; 2]>, scene: Scene) -> Result<Self, RunDataError> {
         let imported = import(path, &crate::data::ImportOptions::default())?;
-        let selection = Selection {
-            window_s: window,
-            bins: None,
-        };
+        let selection = Selection { window_s: window };
         Self::prepare(imported, path, "", path, selection, scene)
     }
 
-    /// Windows and bins an imported file; `run` and `file` name it in the record.
+    /// Windows an imported file; `run` and `file` name it in the record.
     ///
     /// # Errors
     /// As [`RunData::for_run`].
@@ -152,9 +136,6 @@ impl RunData {
                 other => other,
             })?;
         data.provenance = provenance;
-        if let Some(bins) = selection.bins {
-            data.bin(bins, path)?;
-        }
         data.provenance.points_used = data.n_obs;
         Ok(data)
     }
@@ -252,8 +233,6 @@ impl RunData {
             force,
             n_obs,
             normal_force,
-            weights: None,
-            half_log_weights: 0.0,
             provenance: Provenance {
                 run: String::new(),
                 file: path.display().to_string(),
@@ -268,62 +247,6 @@ impl RunData {
         })
     }
 
-    /// Replaces the observations by the means of `bins` runs of consecutive points (sizes
-    /// differing by at most one); the weight of a bin is its number of points, since the mean
-    /// of n points with noise σ has noise σ/√n.
-    fn bin(&mut self, bins: usize, path: &Path) -> Result<(), RunDataError> {
-        let n = self.n_obs;
-        if bins < MIN_POINTS || bins >= n {
-            return Err(RunDataError::Unusable {
-                path: path.to_owned(),
-                line: 1,
-                message: format!(
-                    "{bins} bins for {n} points: give between {MIN_POINTS} and {} bins, or no \
-                     binning",
-                    n - 1
-                ),
-            });
-        }
-        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-        let edges: Vec<usize> = (0..=bins).map(|b| b * n / bins).collect();
-        let times = &self.model_times[..n];
-        let mut model_times: Vec<f64> =
-            edges.windows(2).map(|e| mean(&times[e[0]..e[1]])).collect();
-        let force = edges
-            .windows(2)
-            .map(|e| mean(&self.force[e[0]..e[1]]))
-            .collect();
-        let normal_force = self
-            .normal_force
-            .as_ref()
-            .map(|v| edges.windows(2).map(|e| mean(&v[e[0]..e[1]])).collect());
-        let weights: Vec<f64> = edges.windows(2).map(|e| (e[1] - e[0]) as f64).collect();
-        self.half_log_weights = 0.5 * weights.iter().map(|w| w.ln()).sum::<f64>();
-        // The model time where F_end is read (first slides) stays after the observations.
-        model_times.extend_from_slice(&self.model_times[n..]);
-        self.model_times = model_times;
-        self.force = force;
-        self.normal_force = normal_force;
-        self.weights = Some(weights);
-        self.n_obs = bins;
-        self.provenance.binning = Some(Binning {
-            bins,
-            points_per_bin: n as f64 / bins as f64,
-        });
-        Ok(())
-    }
-
-    /// Weight of observation j (points averaged into it).
-    pub fn weight(&self, j: usize) -> f64 {
-        self.weights.as_ref().map_or(1.0, |w| w[j])
-    }
-
-    /// ½ Σ ln wⱼ: the normalising constant the weights add to the log-likelihood (computed
-    /// once, when the data are binned, not on every log-density call).
-    pub fn half_log_weights(&self) -> f64 {
-        self.half_log_weights
-    }
-
     fn times(&self) -> &[f64] {
         &self.model_times[..self.n_obs]
     }
@@ -335,17 +258,28 @@ impl RunData {
             .map(|v| v.iter().sum::<f64>() / v.len() as f64)
     }
 
-    /// Noise estimate of one point: RMS of successive differences, each scaled by its
-    /// standard deviation in units of σ, √(1/wⱼ + 1/wⱼ₊₁) (√2 unbinned); insensitive to a
+    /// Noise estimate of one point: RMS of successive differences over √2; insensitive to a
     /// smooth trend.
     pub fn noise_estimate(&self) -> f64 {
         let d: f64 = (1..self.force.len())
-            .map(|j| {
-                let scale = 1.0 / self.weight(j - 1) + 1.0 / self.weight(j);
-                (self.force[j] - self.force[j - 1]).powi(2) / scale
-            })
+            .map(|j| (self.force[j] - self.force[j - 1]).powi(2) / 2.0)
             .sum();
         (d / (self.force.len() - 1) as f64).sqrt()
+    }
+
+    /// Noise estimate of one point from second differences: RMS of y_(j+1) − 2y_j + y_(j−1)
+    /// over √6. A linear trend cancels, so a steep, densely sampled rise (where successive
+    /// differences see the slope) does not inflate it.
+    pub fn noise_estimate_detrended(&self) -> f64 {
+        let f = &self.force;
+        if f.len() < 3 {
+            return self.noise_estimate();
+        }
+        let d: f64 = f
+            .windows(3)
+            .map(|w| (w[2] - 2.0 * w[1] + w[0]).powi(2) / 6.0)
+            .sum();
+        (d / (f.len() - 2) as f64).sqrt()
     }
 
     /// Mean force over the last tenth of the record.

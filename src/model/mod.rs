@@ -4,6 +4,8 @@
 //! - [`spec`]: model files (`models/*.toml`), validated at load with errors naming the key.
 //! - [`prior`]: prior distributions and their log-scale Jacobians.
 //! - [`data`]: a run's data loaded, checked and windowed for the likelihood.
+//! - [`sufficient`]: a long run's likelihood from sufficient statistics of bins of its points,
+//!   exact to a stated bound.
 //! - [`posterior`]: the posterior as a [`crate::density::LogDensity`], with every reported
 //!   quantity (parameters in SI, peaks, μ_s, predictions) as derived values.
 //!
@@ -15,7 +17,8 @@ mod one_contact;
 pub mod posterior;
 pub mod prior;
 pub mod spec;
+pub mod sufficient;
 
 pub use one_contact::OneContact;
 pub use posterior::{Band, Posterior, PosteriorError, PriorDraw, PriorDrawError};
-pub use spec::{Blocking, ModelFile, ModelSpec, PopulationUpdates, SpecError};
+pub use spec::{Blocking, LikelihoodSpec, ModelFile, ModelSpec, PopulationUpdates, SpecError};

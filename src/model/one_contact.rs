@@ -26,8 +26,9 @@ pub struct OneContact {
     pub normal_force_n: Option<f64>,
     /// Fit the first slide only within [start, end] s of instrument time.
     pub window_s: Option<[f64; 2]>,
-    /// Average consecutive points of every slide into this many bins.
-    pub bins: Option<usize>,
+    /// Largest error of each long slide's log-likelihood when it is evaluated on sufficient
+    /// statistics (0: every point exactly); the model file's default when `None`.
+    pub likelihood_tolerance: Option<f64>,
     /// Format, column mapping, moment arm, intervals and drop rule of every file.
     pub import: ImportOptions,
 }
@@ -53,15 +54,15 @@ impl ModelSpec {
             std::path::absolute(p)
                 .map_err(|e| invalid(key, format!("resolving {}: {e}", p.display())))
         };
-        // The mapping, binning and drop rule apply to every file; the window to the first
-        // slide only.
+        // The mapping, drop rule and likelihood tolerance apply to every file; the window to
+        // the first slide only.
         let read_like_every_file = |mut run: RunSpec| {
             run.format = q.import.format;
             run.columns = q.import.columns.clone();
             run.moment_arm_m = Some(q.import.moment_arm_m);
             run.interval = Some(q.import.intervals.clone());
             run.drop_invalid = q.import.drop_invalid;
-            run.bins = q.bins;
+            run.likelihood_tolerance = q.likelihood_tolerance;
             run
         };
         let scene = if q.stiff {
@@ -114,6 +115,7 @@ impl ModelSpec {
             pooling: PoolingSpec::default(),
             priors: Default::default(),
             sampler: SamplerSpec::default(),
+            likelihood: Default::default(),
         };
         ModelSpec::validate(file, PathBuf::from("."), PathBuf::from(COMMAND_LINE))
     }

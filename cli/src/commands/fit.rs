@@ -14,7 +14,7 @@ use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::sampler::{CarryFit, Mixture, Updates};
 
 use super::import::ImportArgs;
-use super::{positive, EXIT_NOT_CONVERGED};
+use super::{non_negative, positive, EXIT_NOT_CONVERGED};
 use crate::interrupt::{self, EXIT_INTERRUPTED};
 use crate::lock::RunLock;
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
@@ -68,9 +68,11 @@ pub(super) struct FitArgs {
     /// Quick path: fit the first slide only within START,END (s of instrument time).
     #[arg(long = "window-s", value_parser = parse_window, requires = "first")]
     window_s: Option<[f64; 2]>,
-    /// Quick path: average consecutive points into N bins (a fast exploratory fit).
-    #[arg(long, requires = "first")]
-    bins: Option<usize>,
+    /// Quick path: largest error of each long slide's log-likelihood when it is evaluated on
+    /// sufficient statistics of bins of its points (0: every point exactly; default 0.01 for
+    /// slides of more than 10,000 points).
+    #[arg(long = "likelihood-tolerance", value_parser = non_negative, requires = "first")]
+    likelihood_tolerance: Option<f64>,
     /// Quick path: how to read the data files.
     #[command(flatten)]
     import: ImportArgs,
@@ -204,7 +206,7 @@ fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
         stiff: args.stiff,
         normal_force_n: args.normal_force,
         window_s: args.window_s,
-        bins: args.bins,
+        likelihood_tolerance: args.likelihood_tolerance,
         import: args.import.options(),
     })?)
 }

@@ -94,6 +94,15 @@ pub(crate) fn positive(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A number ≥ 0 (and finite), for flags such as `--likelihood-tolerance`.
+pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        Ok(_) => Err("it must be a number >= 0".to_owned()),
+        Err(_) => Err("not a number".to_owned()),
+    }
+}
+
 fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         #[cfg(feature = "parquet")]
@@ -135,5 +144,8 @@ mod tests {
         assert_eq!(positive("1e-9"), Ok(1e-9));
         assert!(positive("-1e-9").unwrap_err().contains("> 0"));
         assert!(positive("0").is_err() && positive("inf").is_err() && positive("x").is_err());
+        assert_eq!(non_negative("0"), Ok(0.0));
+        assert!(non_negative("-0.1").unwrap_err().contains(">= 0"));
+        assert!(non_negative("nan").is_err() && non_negative("x").is_err());
     }
 }

@@ -379,6 +379,7 @@ impl<'a> Builder<'a> {
             sigma,
             follows: spec.run_follows[i],
             normal_force,
+            reduction: None,
         }
     }
 

@@ -12,6 +12,7 @@ use super::Posterior;
 use crate::density::LogDensityError;
 use crate::law::{Elastic, Law, LawError, ObservedSlide, RepeatSlide, Scene};
 use crate::model::data::RunData;
+use crate::model::sufficient::Reduction;
 
 /// Log of √(2π).
 pub(super) const LN_SQRT_2PI: f64 = 0.918_938_533_204_672_8;
@@ -46,10 +47,13 @@ pub(super) struct RunModel {
     pub follows: Option<usize>,
     /// Normal force F_N (N), when known.
     pub normal_force: Option<f64>,
+    /// A long run's observations as bins of sufficient statistics (`long_records`); `None`:
+    /// every observation is evaluated.
+    pub reduction: Option<Reduction>,
 }
 
-/// The fit of one run at a point: its weighted sum of squared residuals and the model force at
-/// its last model time (F_end, for the repeat slide that follows it).
+/// The fit of one run at a point: its sum of squared residuals and the model force at its last
+/// model time (F_end, for the repeat slide that follows it).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct RunResiduals {
     pub ssr: f64,
@@ -88,8 +92,7 @@ impl RunModel {
     ) -> Result<(), LawError> {
         match self.scene {
             Scene::Repeat => {
-                let end = f_end.unwrap_or_else(|| x[self.f_d].exp());
-                let slide = RepeatSlide::from_elastic(self.elastic(x)?, end)?;
+                let slide = self.repeat_slide(x, f_end)?;
                 for (i, &t) in self.data.model_times.iter().enumerate() {
                     visit(i, slide.force(t));
                 }
@@ -102,18 +105,20 @@ impl RunModel {
         }
     }
 
-    /// Weighted sum of squared residuals at `x` (a bin mean of w points has variance σ²/w)
-    /// and the force at the last model time.
+    /// Sum of squared residuals at `x` and the force at the last model time: from every
+    /// observation, or from the bins' sufficient statistics of a reduced run.
     pub fn residuals(&self, x: &[f64], f_end: Option<f64>) -> Result<RunResiduals, LawError> {
+        if let Some(reduction) = &self.reduction {
+            return self.reduced_residuals(reduction, x, f_end);
+        }
         let obs = &self.data.force;
         let n = self.data.n_obs;
-        let weights = self.data.weights.as_deref();
         let mut ssr = 0.0;
         let mut last = 0.0;
         self.visit_forces(x, f_end, |j, f| {
             if j < n {
                 let e = obs[j] - f;
-                ssr += weights.map_or(1.0, |w| w[j]) * e * e;
+                ssr += e * e;
             }
             last = f;
         })?;
@@ -122,6 +127,73 @@ impl RunModel {
             last_force: last,
         })
     }
+
+    /// [`residuals`](Self::residuals) of a reduced run: the model at its bins' Chebyshev
+    /// points and its exact observations; a bin that a kink of the model at `x` falls in is
+    /// evaluated point by point.
+    fn reduced_residuals(
+        &self,
+        reduction: &Reduction,
+        x: &[f64],
+        f_end: Option<f64>,
+    ) -> Result<RunResiduals, LawError> {
+        let obs_times = &self.data.model_times[..self.data.n_obs];
+        let (ssr, last) = match self.scene {
+            Scene::Repeat => {
+                let slide = self.repeat_slide(x, f_end)?;
+                let layout = reduction.layout(obs_times, &repeat_kinks(&slide));
+                let mut sum = reduction.accumulator(&layout, &self.data.force);
+                for &t in layout.times() {
+                    sum.visit(slide.force(t));
+                }
+                sum.finish()
+            }
+            Scene::First | Scene::StiffFast => {
+                let slide = ObservedSlide::new(self.law(x)?, self.elastic(x)?);
+                let layout = reduction.layout(obs_times, &slide_kinks(&slide));
+                let mut sum = reduction.accumulator(&layout, &self.data.force);
+                slide.for_each_force(layout.times(), |_, _, f| sum.visit(f))?;
+                sum.finish()
+            }
+        };
+        Ok(RunResiduals {
+            ssr,
+            last_force: last,
+        })
+    }
+
+    /// The repeat slide at `x`, loading up to `f_end` (`None`: F_d).
+    pub fn repeat_slide(&self, x: &[f64], f_end: Option<f64>) -> Result<RepeatSlide, LawError> {
+        let end = f_end.unwrap_or_else(|| x[self.f_d].exp());
+        RepeatSlide::from_elastic(self.elastic(x)?, end)
+    }
+
+    /// Instrument times where this run's model at `x` has a kink (NaN: none).
+    pub fn kinks(&self, x: &[f64], f_end: Option<f64>) -> Result<[f64; 2], LawError> {
+        match self.scene {
+            Scene::Repeat => Ok(repeat_kinks(&self.repeat_slide(x, f_end)?)),
+            Scene::First | Scene::StiffFast => Ok(slide_kinks(&ObservedSlide::new(
+                self.law(x)?,
+                self.elastic(x)?,
+            ))),
+        }
+    }
+}
+
+/// A first slide's kinks: t0, where the force leaves zero, and (through a spring) the end of
+/// the elastic loading that takes up the law's jump at t0 (docs/model.md §3). A slide
+/// declared stiff jumps at t0.
+fn slide_kinks(slide: &ObservedSlide) -> [f64; 2] {
+    let t0 = slide.law().t0();
+    match slide.elastic() {
+        Elastic::Spring { kv } => [t0, t0 + slide.law().force(t0) / kv],
+        Elastic::Stiff => [t0, f64::NAN],
+    }
+}
+
+/// A repeat slide's kinks: its start, and where the loading line meets the plateau.
+fn repeat_kinks(slide: &RepeatSlide) -> [f64; 2] {
+    [0.0, slide.loading_ends()]
 }
 
 /// A law that cannot be evaluated rejects the point, under the label of the reason.
@@ -133,8 +205,8 @@ fn law_rejection(e: LawError) -> LogDensityError {
 }
 
 impl Posterior {
-    /// Fits run `i` at `x` into `ssr[i]` and `last[i]` (its weighted sum of squared residuals
-    /// and F_end), reading the F_end of the slide it follows from `last`: a repeat slide must
+    /// Fits run `i` at `x` into `ssr[i]` and `last[i]` (its sum of squared residuals and
+    /// F_end), reading the F_end of the slide it follows from `last`: a repeat slide must
     /// come after the slide it follows (see `order`).
     pub(super) fn fit_run(
         &self,
@@ -152,14 +224,12 @@ impl Posterior {
         Ok(())
     }
 
-    /// The likelihood's terms that need no σ integrated out, given every run's weighted sum
-    /// of squared residuals `ssr` (indexed by run): ½ Σ ln w of binned runs and the Gaussian
-    /// term of runs with a sampled σ. Summed in run order, so that a full evaluation and a
-    /// block update give the same bits.
+    /// The likelihood's terms that need no σ integrated out, given every run's sum of squared
+    /// residuals `ssr` (indexed by run): the Gaussian term of runs with a sampled σ. Summed in
+    /// run order, so that a full evaluation and a block update give the same bits.
     pub(super) fn run_terms(&self, x: &[f64], ssr: &[f64]) -> f64 {
         let mut ll = 0.0;
         for (r, &ssr) in self.runs.iter().zip(ssr) {
-            ll += r.data.half_log_weights();
             if let SigmaSource::Coord(s) = r.sigma {
                 // x[s] is ln σ already.
                 let sigma = x[s].exp();
@@ -170,7 +240,7 @@ impl Posterior {
         ll
     }
 
-    /// (weighted sum of squared residuals, observations) of marginalised σ group `g`, over
+    /// (sum of squared residuals, observations) of marginalised σ group `g`, over
     /// its runs in run order.
     pub(super) fn group_fit(&self, g: usize, ssr: &[f64]) -> (f64, usize) {
         let mut fit = (0.0, 0);
@@ -197,7 +267,13 @@ impl Posterior {
             if r.scene == Scene::First {
                 let slide = ObservedSlide::new(r.law(x)?, r.elastic(x)?);
                 let mut last = 0.0;
-                slide.for_each_force(&r.data.model_times, |_, _, f| last = f)?;
+                // A reduced run's F_end alone (its record may hold 10⁶ points); a short run
+                // is solved along all its times, as its likelihood solves it.
+                let times = match r.reduction {
+                    Some(_) => &r.data.model_times[r.data.model_times.len() - 1..],
+                    None => &r.data.model_times[..],
+                };
+                slide.for_each_force(times, |_, _, f| last = f)?;
                 f_end[i] = Some(last);
             }
         }

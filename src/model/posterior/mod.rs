@@ -11,6 +11,7 @@
 //! - `sigma`: σ integrated out of the likelihood and drawn from its conditional posterior.
 //! - `derived`: the reported values of a draw (SI parameters, peaks, a new contact's peak).
 //! - `start`: the optimiser's start from rough features of the data (computed on first use).
+//! - `long_records`: long runs reduced to sufficient statistics of bins of their points.
 //! - `predictive`: curves of single runs and the posterior predictive bands.
 //! - `prior_predictive`: parameters and data drawn from the prior (simulation-based
 //!   calibration).
@@ -21,6 +22,7 @@ mod blocks;
 mod derived;
 mod layout;
 mod likelihood;
+mod long_records;
 mod predictive;
 mod prior_predictive;
 mod sigma;
@@ -83,8 +85,8 @@ pub enum PosteriorError {
 }
 
 impl Posterior {
-    /// Loads every run's data (with its format, columns, window and binning) and builds the
-    /// posterior over them.
+    /// Loads every run's data (with its format, columns and window) and builds the posterior
+    /// over them; a long run is reduced to sufficient statistics (`long_records`).
     ///
     /// # Errors
     /// [`PosteriorError`] naming the file, line or key at fault.
@@ -127,7 +129,7 @@ impl Posterior {
             layout.sigma_groups.len(),
             group,
         );
-        Ok(Self {
+        let mut posterior = Self {
             spec: spec.clone(),
             coords: layout.coords,
             quantities: layout.quantities,
@@ -140,7 +142,9 @@ impl Posterior {
             materials: layout.materials,
             contact_fd: layout.contact_fd,
             start: OnceLock::new(),
-        })
+        };
+        posterior.reduce_long_runs();
+        Ok(posterior)
     }
 
     /// Whether block `b` holds populations (each a pooled parameter's μ and ln s in a material).

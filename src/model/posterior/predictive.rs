@@ -45,6 +45,44 @@ impl Posterior {
         Ok(out)
     }
 
+    /// Model forces of run `run` at every `stride`-th data time, given where every first
+    /// slide stopped. A reduced run is solved at those times alone (a band of a 10⁶-point
+    /// record needs a few hundred of them); a short run along all its times, as its
+    /// likelihood solves it, so that its bands keep their bits.
+    fn forces_every(
+        &self,
+        x: &[f64],
+        f_end: &[Option<f64>],
+        run: usize,
+        stride: usize,
+    ) -> Result<Vec<f64>, LawError> {
+        let r = &self.runs[run];
+        if r.reduction.is_none() {
+            return Ok(self
+                .forces_after(x, f_end, run)?
+                .into_iter()
+                .step_by(stride)
+                .collect());
+        }
+        let times: Vec<f64> = r.data.model_times[..r.data.n_obs]
+            .iter()
+            .step_by(stride)
+            .copied()
+            .collect();
+        let mut out = Vec::with_capacity(times.len());
+        match r.scene {
+            Scene::Repeat => {
+                let slide = r.repeat_slide(x, r.follows.and_then(|j| f_end[j]))?;
+                out.extend(times.iter().map(|&t| slide.force(t)));
+            }
+            Scene::First | Scene::StiffFast => {
+                ObservedSlide::new(r.law(x)?, r.elastic(x)?)
+                    .for_each_force(&times, |_, _, f| out.push(f))?;
+            }
+        }
+        Ok(out)
+    }
+
     /// The first or fast slide of run `run` at the sampler coordinates `x`: its law in
     /// interface time and the machine's elasticity, so that a report can redraw curves the
     /// data do not sample (interface time, sliding distance, the peak against t0). `None` for
@@ -95,18 +133,12 @@ impl Posterior {
                         .position(|s| *s == Source::Sigma(g))
                         .map_or(f64::NAN, |k| derived[k]),
                 };
-                let f: Vec<f64> = self
-                    .forces_after(x, &f_end, i)?
-                    .into_iter()
-                    .step_by(stride)
-                    .collect();
-                // A bin mean of w points scatters by σ/√w.
+                let f = self.forces_every(x, &f_end, i, stride)?;
                 let z: Vec<f64> = f
                     .iter()
-                    .enumerate()
-                    .map(|(k, v)| {
+                    .map(|v| {
                         let e: f64 = StandardNormal.sample(&mut rng);
-                        v + sigma / r.data.weight(k * stride).sqrt() * e
+                        v + sigma * e
                     })
                     .collect();
                 model[i].push(f);

@@ -325,7 +325,7 @@ impl Posterior {
             let ok = ObservedSlide::new(law, elastic).for_each_force(&times, |m, _, f| {
                 let j = picked.as_ref().map_or(m, |p| p[m]);
                 if j < d.n_obs {
-                    sum += d.weight(j) * (obs[j] - f).powi(2);
+                    sum += (obs[j] - f).powi(2);
                 }
             });
             if ok.is_err() {
