@@ -1,6 +1,6 @@
 //! Instrument files in: the column mapping and its units, the RheoCompass export fitted end to
-//! end, every validation error naming file, line and column, binning, and the bit-exact read
-//! back of what `simulate` writes.
+//! end, every validation error naming file, line and column, and the bit-exact read back of
+//! what `simulate` writes.
 
 use std::path::{Path, PathBuf};
 
@@ -232,8 +232,14 @@ fn model_file_errors_name_the_key() {
     );
     let e = spec_error("moment_arm_m = 0", "1e-9");
     assert!(e.contains("run[0].moment_arm_m"), "{e}");
-    let e = spec_error("bins = 3", "1e-9");
-    assert!(e.contains("run[0].bins"), "{e}");
+    // Means of consecutive points are refused, with what to do instead.
+    let e = spec_error("bins = 300", "1e-9");
+    assert!(
+        e.contains("run[0].bins") && e.contains("likelihood_tolerance"),
+        "{e}"
+    );
+    let e = spec_error("likelihood_tolerance = -1", "1e-9");
+    assert!(e.contains("run[0].likelihood_tolerance"), "{e}");
     let e = spec_error("interval = 0", "1e-9");
     assert!(e.contains("interval"), "{e}");
 }

@@ -207,7 +207,10 @@ fn data_provenance_is_rendered_when_present() {
     summary["data"] = serde_json::json!([
         {"run": "first", "file": "data/ptfe-c1-first.txt", "format": "rheocompass",
          "points_read": 3012, "points_used": 3000, "dropped_invalid": 12,
-         "window_s": [0.0, 30000.0], "binning": {"bins": 429, "points_per_bin": 6.99},
+         "window_s": [0.0, 30000.0],
+         "binning": {"bins": 66, "points_per_bin": 15150.3, "exact_points": 21,
+                     "evaluations": 550, "degree": 7, "tolerance": 0.01,
+                     "bound": 0.00281, "noise_n": 5e-5},
          "conversions": ["torque mN·m / 7 mm → force N", "decimal commas"]},
         {"run": "repeat", "file": "data/ptfe-c1-repeat.csv", "format": "csv",
          "points_read": 358, "points_used": 358, "dropped_invalid": 0,
@@ -218,7 +221,7 @@ fn data_provenance_is_rendered_when_present() {
     let md = fs::read_to_string(copy.join("report.md")).unwrap();
     assert!(md.contains("## Data\n"), "{md}");
     assert!(md.contains(
-        "| **first** ⚠ | data/ptfe-c1-first.txt | rheocompass | 3012 | 3000 | 12 | 0 – 30000 s | 429 bins of 6.99 points | torque mN·m / 7 mm → force N; decimal commas |"
+        "| **first** ⚠ | data/ptfe-c1-first.txt | rheocompass | 3012 | 3000 | 12 | 0 – 30000 s | 66 bins of 15150 points (degree 7), 21 points exact; \\|Δ log L\\| ≤ 0.0028 (asked ≤ 0.010) | torque mN·m / 7 mm → force N; decimal commas |"
     ), "{md}");
     assert!(md.contains(
         "| repeat | data/ptfe-c1-repeat.csv | csv | 358 | 358 | 0 | all | none | none |"

@@ -425,9 +425,14 @@ fn data_section(ctx: &Context) -> Vec<Block> {
                     || "none".to_owned(),
                     |b| {
                         format!(
-                            "{} bins of {} points",
+                            "{} bins of {} points (degree {}), {} points exact; |Δ log L| ≤ {} \
+                             (asked ≤ {})",
                             b.bins,
-                            significant(b.points_per_bin, 3)
+                            significant(b.points_per_bin, 3),
+                            b.degree,
+                            b.exact_points,
+                            significant(b.bound, 2),
+                            significant(b.tolerance, 2)
                         )
                     },
                 ),

@@ -312,6 +312,15 @@ fn print_summary(outcome: &FitOutcome) {
     for line in problem_lines(&m.problems, m.steps, m.burn_in) {
         println!("  problem: {line}");
     }
+    for d in &s.data {
+        if let Some(b) = &d.binning {
+            println!(
+                "run `{}`: likelihood on sufficient statistics of {} bins (degree {}), {} model \
+                 times per evaluation for {} points; |Δ log L| ≤ {:.2e} (tolerance {})",
+                d.run, b.bins, b.degree, b.evaluations, d.points_used, b.bound, b.tolerance
+            );
+        }
+    }
     for note in &s.notes {
         println!("  note: {note}");
     }

@@ -77,9 +77,6 @@ pub(super) struct ValidateArgs {
     /// With --hard: only this case (repeatable).
     #[arg(long = "case", requires = "hard")]
     cases: Vec<String>,
-    /// With --hard: steps of the 10^6-point fit (it costs about 0.1 s per evaluation).
-    #[arg(long, default_value_t = 40, requires = "hard")]
-    million_steps: u64,
     /// With --hard: the fits' moves instead of the default mixture, as `fit --moves` writes
     /// them (e.g. `student-t=0.4,de=0.4,slice=0.2`).
     #[arg(long, requires = "hard")]
@@ -190,7 +187,6 @@ fn hard(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
         &out,
         &args.cases,
         args.seed,
-        args.million_steps,
         crate::validate::hard::FitOverrides {
             moves: args.moves.as_ref().map(Mixture::moves),
             max_steps: args.max_steps,

@@ -222,9 +222,9 @@ impl Design {
                     )))
                 }
             }
-            if r.window_s.is_some() || r.bins.is_some() {
+            if r.window_s.is_some() {
                 return Err(bad(format!(
-                    "run `{}`: drop `window_s` and `bins`: the simulated record is the fitted one",
+                    "run `{}`: drop `window_s`: the simulated record is the fitted one",
                     r.name
                 )));
             }

@@ -5,9 +5,9 @@
 //!
 //! The bins are chosen where the model's interpolation error is small at *reference*
 //! parameters: first the rough start (each slide fitted alone on about 5,000 of its points),
-//! then, once a mode of the reduced posterior is known, the start together with draws from
-//! the Laplace approximation there and the same draws pushed twice as far from their mean:
-//! the region the posterior can reach. At every evaluation a bin that a kink of the model at
+//! then, once a mode of that reduced posterior is known, draws from the Laplace approximation
+//! there and the same draws pushed twice as far from their mean: the region the posterior
+//! can reach. At every evaluation a bin that a kink of the model at
 //! the evaluated parameters enters (t0, the end of the elastic loading, a repeat slide's
 //! plateau) is evaluated point by point.
 
@@ -56,33 +56,33 @@ const REFERENCE_SEED: u64 = 0x10_4e_c0_2d;
 
 impl Posterior {
     /// Reduces every long run to sufficient statistics (a no-op when none is long): bins chosen
-    /// at the rough start, then again at the start and the Laplace draws around the mode of
-    /// the first reduction. Leaves the rough start computed. A run whose bins cannot be
+    /// at the rough start, then again at the Laplace draws around the mode of the first
+    /// reduction. Leaves the rough start computed. A run whose bins cannot be
     /// chosen (no reference point where its model can be evaluated, no noise) stays exact.
     pub(super) fn reduce_long_runs(&mut self) {
+        let points: Vec<usize> = self.runs.iter().map(|r| r.data.n_obs).collect();
         let long: Vec<(usize, f64)> = self
-            .runs
-            .iter()
+            .spec
+            .reduction_tolerances(&points)
+            .into_iter()
             .enumerate()
-            .filter_map(|(i, r)| {
-                self.spec
-                    .reduction_tolerance(i, r.data.n_obs)
-                    .map(|tolerance| (i, tolerance))
-            })
+            .filter_map(|(i, tolerance)| tolerance.map(|t| (i, t)))
             .collect();
         if long.is_empty() {
             return;
         }
         let start = self.heuristic_start();
-        let mut references = vec![start.clone()];
-        self.install_reductions(&long, &references);
+        self.install_reductions(&long, std::slice::from_ref(&start));
         let dim = self.coords.len();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(REFERENCE_SEED);
         if let Ok(found) = initial_around_optimum(&*self, &start, REFERENCE_DRAWS, 1, &mut rng) {
+            // The posterior's region only: the rough start may lie far from it, and a kink
+            // there (a repeat slide's plateau, seconds off) would keep many points exact.
             let draws = &found.walkers[0];
             let mean: Vec<f64> = (0..dim)
                 .map(|c| draws.iter().map(|w| w[c]).sum::<f64>() / draws.len() as f64)
                 .collect();
+            let mut references = Vec::with_capacity(2 * draws.len());
             for w in draws {
                 references.push(w.clone());
                 references.push(
