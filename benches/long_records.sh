@@ -17,35 +17,47 @@
 #    sd is about 0.04 posterior sd at an interval end, at 4,000 steps about 0.012.
 # 3. The start against the record's length (examples/start_cost.rs).
 #
-#   bash benches/long_records.sh OUT_DIR    # from the repository root; ~30 min on 2 idle cores
+#   bash benches/long_records.sh OUT_DIR [PARTS]   # from the repository root
 #
-# Writes OUT_DIR/results.md (the numbers quoted in README and reports/long_records.md) and the
-# run directories; the data (about 35 MB) stay in OUT_DIR, nothing is written to the repository.
+# PARTS is any of `million`, `subsample` and `start`, comma-separated (default all three: about
+# 30 min on 2 idle cores, most of it the exact subsample fit); STEPS (environment, default 4000)
+# sets the subsample fits' length. The data are simulated once per OUT_DIR.
+#
+# Writes OUT_DIR/results-HHMMSS.md (the numbers quoted in README, "Long records") and the run
+# directories; the data (about 35 MB) and a copy of the binaries stay in OUT_DIR (so a build
+# during the run does not change what is measured), nothing is written to the repository.
 set -euo pipefail
-out=${1:?usage: bash benches/long_records.sh OUT_DIR}
+out=$(realpath -m "${1:?usage: bash benches/long_records.sh OUT_DIR [million,subsample,start]}")
+parts=,${2:-million,subsample,start},
+steps=${STEPS:-4000}
 repo=$(pwd)
 cargo build --release --quiet --bin slipbayes --example long_record_check --example start_cost
-bin=$repo/target/release/slipbayes
 mkdir -p "$out"
+cp "$repo/target/release/slipbayes" "$repo/target/release/examples/long_record_check" \
+  "$repo/target/release/examples/start_cost" "$out/"
+bin=$out/slipbayes
 cd "$out"
-results=$out/results.md
+results=$out/results-$(date -u +%H%M%S).md
 {
   echo "# Long records: results of benches/long_records.sh"
   echo
   echo "- date: $(date -u '+%Y-%m-%d %H:%M UTC'); commit $(git -C "$repo" rev-parse --short HEAD)"
   echo "- machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
+  echo "- parts: ${parts:1:-1}"
   echo "- load average at the start: $(cut -d' ' -f1-3 /proc/loadavg)"
   echo
 } > "$results"
 
 truth=(--alpha 0.92e6 --a 6.2e-3 --f-d 10e-3 --t0 14.8 --k 1.2e4 --velocity 1e-9 --sigma 1e-4)
-"$bin" simulate --scene first "${truth[@]}" --duration 20000 --interval 0.02 --seed 1 \
-  --out first.csv --overwrite > /dev/null
-"$bin" simulate --scene repeat "${truth[@]}" --after-first 20000 --duration 2000 \
-  --interval 0.02 --seed 2 --out repeat.csv --overwrite > /dev/null
-# Every 10th point (the header kept).
-awk 'NR == 1 || (NR - 2) % 10 == 0' first.csv > first-sub.csv
-awk 'NR == 1 || (NR - 2) % 10 == 0' repeat.csv > repeat-sub.csv
+if [[ ! -f repeat-sub.csv ]]; then
+  "$bin" simulate --scene first "${truth[@]}" --duration 20000 --interval 0.02 --seed 1 \
+    --out first.csv --overwrite > /dev/null
+  "$bin" simulate --scene repeat "${truth[@]}" --after-first 20000 --duration 2000 \
+    --interval 0.02 --seed 2 --out repeat.csv --overwrite > /dev/null
+  # Every 10th point (the header kept).
+  awk 'NR == 1 || (NR - 2) % 10 == 0' first.csv > first-sub.csv
+  awk 'NR == 1 || (NR - 2) % 10 == 0' repeat.csv > repeat-sub.csv
+fi
 
 # Runs a command, appending its wall time and peak memory to the results.
 timed() { # label, log, command...
@@ -79,6 +91,8 @@ for d in s["data"]:
 EOF
 }
 
+status=0
+if [[ $parts == *,million,* ]]; then
 echo "## 10^6 points: first slide 1,000,001 + repeat slide 100,001" >> "$results"
 echo >> "$results"
 timed "\`slipbayes fit --first first.csv --repeat repeat.csv --velocity 1e-9 --strict\`" \
@@ -88,26 +102,30 @@ account million
 echo >> "$results"
 echo "Checked against the exact likelihood at its posterior draws:" >> "$results"
 echo >> "$results"
-"$repo/target/release/examples/long_record_check" million 200 | sed 's/^/    /' >> "$results"
+"$out/long_record_check" million 200 | sed 's/^/    /' >> "$results"
 echo >> "$results"
+fi
 
+if [[ $parts == *,subsample,* ]]; then
 echo "## Subsample, every 10th point: 100,001 + 10,001 points" >> "$results"
 echo >> "$results"
-sub=(--first first-sub.csv --repeat repeat-sub.csv --velocity 1e-9 --steps 4000 --quiet --overwrite)
-timed "exact (\`--likelihood-tolerance 0 --steps 4000\`)" exact.log \
+sub=(--first first-sub.csv --repeat repeat-sub.csv --velocity 1e-9 --steps "$steps" --quiet --overwrite)
+timed "exact (\`--likelihood-tolerance 0 --steps $steps\`)" exact.log \
   "$bin" fit "${sub[@]}" --likelihood-tolerance 0 --out sub-exact
 account sub-exact
-timed "on sufficient statistics (the default, \`--steps 4000\`)" reduced.log "$bin" fit "${sub[@]}" --out sub-reduced
+timed "on sufficient statistics (the default, \`--steps $steps\`)" reduced.log "$bin" fit "${sub[@]}" --out sub-reduced
 account sub-reduced
 echo >> "$results"
-status=0
 python3 "$repo/benches/compare_fits.py" sub-exact sub-reduced 0.05 >> "$results" || status=$?
 echo >> "$results"
+fi
 
+if [[ $parts == *,start,* ]]; then
 echo "## The start against the record's length (examples/start_cost.rs)" >> "$results"
 echo >> "$results"
-"$repo/target/release/examples/start_cost" >> "$results"
+"$out/start_cost" >> "$results"
 echo >> "$results"
+fi
 echo "- load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)" >> "$results"
 cat "$results"
 exit $status
