@@ -266,15 +266,6 @@ pub(crate) enum Eval {
     Fatal(String),
 }
 
-/// Evaluates `density` and sorts the result into finite, rejected or fatal.
-pub(crate) fn classify<D: LogDensity + ?Sized>(
-    density: &D,
-    x: &[f64],
-    derived: &mut [f64],
-) -> Eval {
-    sort(density.log_density(x, derived))
-}
-
 /// Sorts the result of an evaluation into finite, rejected or fatal.
 pub(crate) fn sort(result: Result<f64, LogDensityError>) -> Eval {
     match result {

@@ -13,12 +13,13 @@
 pub mod laplace;
 pub mod lbfgs;
 pub mod nelder_mead;
+mod probe;
 
 pub use laplace::{
     find_mode, initial_around_optimum, laplace_covariance, laplace_walkers, Optimum, Start,
     FALLBACK_SPREAD, MAX_DRAW_ATTEMPTS,
 };
-pub use lbfgs::{lbfgs, LbfgsOptions};
+pub use lbfgs::{lbfgs, LbfgsOptions, Objective};
 pub use nelder_mead::{nelder_mead, NelderMeadOptions};
 
 /// Why no mode, or no walkers around it, could be found; each names the point at fault.
