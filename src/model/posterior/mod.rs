@@ -35,7 +35,7 @@ use likelihood::RunModel;
 
 use super::data::RunData;
 use super::spec::{Blocking, ModelSpec, PopulationUpdates};
-use crate::density::{BlockLinks, LogDensity, LogDensityError, Quantity, SearchMap};
+use crate::density::{BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap};
 use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
@@ -239,6 +239,20 @@ impl LogDensity for Posterior {
 
     fn param_names(&self) -> Vec<String> {
         self.coords.iter().map(|c| c.name.clone()).collect()
+    }
+
+    /// Every coordinate is u = ln θ of the quantity reported from it.
+    fn param_units(&self) -> Vec<ColumnUnit> {
+        let mut units = vec![ColumnUnit::default(); self.coords.len()];
+        for (q, source) in self.quantities.iter().zip(&self.sources) {
+            if let Source::Coord(i) = *source {
+                units[i] = ColumnUnit {
+                    unit: q.unit.clone(),
+                    log: true,
+                };
+            }
+        }
+        units
     }
 
     fn derived_names(&self) -> Vec<String> {
