@@ -403,3 +403,102 @@ fn validate_miscalibrated_has_its_own_exit_code() {
         assert!(help.contains("4") && help.contains("miscalibrat"), "{help}");
     }
 }
+
+/// When no start can be found, the error names the run and contact, the parameter, the value
+/// the data give and the prior that excludes it, and what to change in the model file, instead
+/// of a vector of log-coordinates; an absurd data value is refused where it is written.
+#[cfg(feature = "parquet")]
+#[test]
+fn no_start_names_the_run_the_parameter_and_the_prior_or_value_at_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = |priors: &str| {
+        let path = dir.path().join("m.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "[[material]]\nname = \"PTFE\"\n[[contact]]\nname = \"c1\"\nmaterial = \"PTFE\"\n\
+                 [[run]]\nname = \"c1-first\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+                 velocity_m_per_s = 1e-9\nscene = \"first\"\nbins = 100\n\
+                 [[run]]\nname = \"c1-repeat\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+                 velocity_m_per_s = 1e-9\nscene = \"repeat\"\nbins = 100\n\
+                 [priors]\n{priors}\n",
+                repo("data/ptfe-c1-first.csv").display(),
+                repo("data/ptfe-c1-repeat.csv").display()
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let fit = |model: &Path| {
+        slipbayes()
+            .arg("fit")
+            .arg(model)
+            .args(["--steps", "50", "--quiet", "--overwrite", "--out"])
+            .arg(dir.path().join("fit"))
+            .output()
+            .unwrap()
+    };
+    let check = |err: &str, parts: &[&str]| {
+        for part in parts {
+            assert!(err.contains(part), "`{part}` not in:\n{err}");
+        }
+        // No vector of coordinates, no second line repeating the optimiser's error.
+        assert!(!err.contains("start [") && !err.contains("mode ["), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    };
+    // The noise of the data (about 1e-4 N) is what a σ prior of 1e-20 N excludes: the
+    // posterior is too narrow to draw walkers in.
+    let m = model("sigma = { dist = \"log-uniform\", low = 1e-20, high = 2e-20 }");
+    let out = fit(&m);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    check(
+        &err,
+        &[
+            "the noise of run c1-first of contact c1 is about ",
+            "log-uniform on [1e-20, 2e-20] N, excludes",
+            &format!(
+                "in {}, change the prior of `sigma` under `[priors]`",
+                m.display()
+            ),
+        ],
+    );
+    // A σ sampled explicitly whose prior has no density where the data put it.
+    let m = model("sigma = { dist = \"half-normal\", sd = 1e-200 }");
+    let out = fit(&m);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    check(
+        &err,
+        &[
+            "sigma[c1-repeat] (run c1-repeat of contact c1) = ",
+            "is outside its prior, half-normal(sd 1e-200) N (the data say about ",
+            "change the prior of `sigma`",
+        ],
+    );
+    // A force of 1e308 N in the data: refused at its line and column.
+    let text = std::fs::read_to_string(repo("data/ptfe-c1-first.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let mut cells: Vec<&str> = lines[10].split(',').collect();
+    cells[1] = "1e308";
+    lines[10] = cells.join(",");
+    let huge = dir.path().join("huge.csv");
+    std::fs::write(&huge, lines.join("\n")).unwrap();
+    let out = slipbayes()
+        .arg("fit")
+        .arg("--first")
+        .arg(&huge)
+        .args(["--velocity", "1e-9", "--quiet", "--out"])
+        .arg(dir.path().join("huge"))
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    check(
+        &err,
+        &[
+            &format!("{}:11:2: column `force_N` (force): 1e308", huge.display()),
+            "beyond ±1e100",
+        ],
+    );
+}

@@ -459,10 +459,10 @@ pub fn run_fit<D: LogDensity + ?Sized>(
             settings.ensembles,
             &mut rng,
         )
-        .map_err(|source| FitError::Start {
+        .map_err(|optimizer| FitError::Start {
             start: start.to_vec(),
             why: density.explain(start),
-            source,
+            optimizer,
         })?;
         let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {
             FitError::Sampler {

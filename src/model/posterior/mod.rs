@@ -19,6 +19,7 @@
 
 mod blocks;
 mod derived;
+mod explain;
 mod layout;
 mod likelihood;
 mod predictive;
@@ -63,7 +64,7 @@ pub struct Posterior {
     /// Per contact: coordinate of ln F_d.
     contact_fd: Vec<Option<usize>>,
     /// The optimiser's start, computed on first use (it fits every slide on its own).
-    start: OnceLock<Vec<f64>>,
+    start: OnceLock<start::StartPoint>,
 }
 
 /// Errors building a posterior.
@@ -208,7 +209,7 @@ impl Posterior {
     /// A starting point for the optimiser, from rough features of the data; computed the
     /// first time it is asked for.
     pub fn start(&self) -> &[f64] {
-        self.start.get_or_init(|| self.heuristic_start())
+        &self.start.get_or_init(|| self.heuristic_start()).point
     }
 }
 
