@@ -21,9 +21,9 @@ pub enum RunDataError {
         model: PathBuf,
         /// The run whose `data` it is.
         run: String,
-        /// What is wrong with the file.
+        /// What is wrong with the file (boxed: errors travel in every `Result` of a fit).
         #[source]
-        source: DataError,
+        source: Box<DataError>,
     },
     /// The data cannot be fitted as they are.
     #[error("{path}:{line}: {message}")]
@@ -90,7 +90,7 @@ impl RunData {
             import(&path, &spec.import_options(run)).map_err(|source| RunDataError::Run {
                 model: spec.source.clone(),
                 run: r.name.clone(),
-                source,
+                source: Box::new(source),
             })?;
         let selection = Selection {
             window_s: r.window_s,

@@ -62,7 +62,7 @@ impl Posterior {
                 ));
                 priors.insert(q.name.clone());
             } else if let Some(v) =
-                estimate(c).filter(|&v| !(prior.ln_density(v) > f64::NEG_INFINITY))
+                estimate(c).filter(|&v| prior.ln_density(v) == f64::NEG_INFINITY)
             {
                 failures.push(format!(
                     "the data say {} ({}) is about {v:.3e} {unit}, which its prior, {prior_text}, \
