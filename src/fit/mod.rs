@@ -40,8 +40,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::data::Provenance;
-use crate::density::ColumnUnit;
-use crate::density::{LogDensity, Quantity};
+use crate::density::{ColumnUnit, LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
     CarryFit, EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError,
