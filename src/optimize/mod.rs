@@ -77,6 +77,24 @@ pub enum OptimizeError {
     },
 }
 
+impl OptimizeError {
+    /// What went wrong, in words, without the points (for a caller that names them itself).
+    pub fn summary(&self) -> &'static str {
+        match self {
+            Self::Shape { .. } => "the start has the wrong number of coordinates",
+            Self::StartNotFinite { .. } => "the log-density is not finite at the start",
+            Self::NoFiniteMode { .. } => "the mode search ended where the density is not finite",
+            Self::NoWalkerInSupport { .. } => {
+                "no walker could be drawn inside the support around the mode"
+            }
+            Self::DegenerateWalkers { .. } => {
+                "the walkers drawn around the mode coincide: the posterior there is narrower \
+                 than its coordinates can resolve"
+            }
+        }
+    }
+}
+
 /// A point for a message: every coordinate of a small one, the first few of a large one.
 fn shown(x: &[f64]) -> String {
     const SHOWN: usize = 8;
