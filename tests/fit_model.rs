@@ -11,6 +11,7 @@ use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary}
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
+use slipbayes::storage::ColumnKind;
 
 const TRUTH: (f64, f64, f64, f64, f64) = (0.92e6, 0.62, 10e-3, 14.8, 1.2e4);
 
@@ -86,6 +87,43 @@ fn one_contact_posterior_covers_the_truth() {
     );
     // The record reaches well past the peak: nothing to say about it.
     assert!(s.notes.is_empty(), "{:?}", s.notes);
+    // The chains describe themselves: the units and scale of the sampled ln θ and of the
+    // reported values, the seed and shape, and the burn-in the summary used.
+    let meta = outcome
+        .dir
+        .chain_reader()
+        .unwrap()
+        .metadata()
+        .unwrap()
+        .expect("the chain parts carry metadata");
+    assert_eq!(meta.burn_in, Some(s.sampler.burn_in));
+    assert_eq!(
+        (
+            meta.seed,
+            meta.ensembles,
+            meta.walkers,
+            meta.thin,
+            meta.steps.clone()
+        ),
+        (Some(7), Some(4), Some(24), Some(1), 0..1500)
+    );
+    for (column, kind, unit, log) in [
+        ("ln_alpha[c]", ColumnKind::Parameter, "1/m", true),
+        ("ln_k[c]", ColumnKind::Parameter, "N/m", true),
+        ("ln_a_over_F_d[c]", ColumnKind::Parameter, "1", true),
+        ("k[c]", ColumnKind::Derived, "N/m", false),
+        ("F_peak[first]", ColumnKind::Derived, "N", false),
+        ("log_density", ColumnKind::LogDensity, "1", true),
+    ] {
+        let c = meta
+            .column(column)
+            .unwrap_or_else(|| panic!("{column}: {meta:?}"));
+        assert_eq!(
+            (c.kind, c.unit.as_str(), c.log),
+            (kind, unit, log),
+            "{column}"
+        );
+    }
     // The 95 % posterior predictive band holds about 95 % of the observations.
     let draws = kept_draws(&outcome, &post.param_names(), 200).unwrap();
     let bands = post.predictive_bands(&draws, 1, 3).unwrap();

@@ -6,8 +6,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use slipbayes::data::write_atomically;
+use slipbayes::storage::metadata::{LAYOUT, METADATA_FORMAT};
 use slipbayes::storage::{
-    read_chains, ChainSink, Chains, ParquetSink, SinkOptions, StepView, StorageError,
+    read_chains, read_part_metadata, ChainDescription, ChainReader, ChainSink, Chains, ColumnKind,
+    ColumnUnit, ParquetSink, SinkOptions, StepView, StorageError,
 };
 
 /// The chain store of a run directory, laid out as a fit's run directory lays it out.
@@ -163,7 +165,7 @@ fn uninterrupted_run_reads_back_every_value_in_order() {
             .map(|i| format!("part-{i:06}.parquet"))
             .collect::<Vec<_>>()
     );
-    assert_eq!(names_in(tmp.path()), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(tmp.path()), vec!["chains", "checkpoint.bin"]);
     // Row order: step, then ensemble, then walker; values as produced.
     let mut row = 0;
     for step in 0..TOTAL_STEPS {
@@ -199,6 +201,115 @@ fn uninterrupted_run_reads_back_every_value_in_order() {
     ));
 }
 
+/// Every part describes itself in its Parquet footer: its format, the layout and which index
+/// is a chain for which diagnostic, every column's kind, unit and scale, its steps, the seed
+/// and shape. The burn-in is `pending` while the run goes on; once set, `finish` writes it
+/// into every part, and the values read back unchanged.
+#[test]
+fn parts_describe_themselves_and_carry_the_burn_in_once_finished() {
+    let reference_dir = tempfile::tempdir().expect("tmp");
+    let reference = uninterrupted(reference_dir.path());
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
+    let unit = |unit: &str, log| ColumnUnit {
+        unit: unit.into(),
+        log,
+    };
+    sink.describe(ChainDescription {
+        seed: 42,
+        ensembles: ENSEMBLES,
+        walkers: WALKERS,
+        thin: 1,
+        param_units: vec![unit("1", true), unit("1/s", true)],
+        derived_units: vec![unit("s", false)],
+    });
+    produce(&mut sink, 0, 2 * CHECKPOINT_EVERY);
+    let part = |i: usize| files(dir).chains.join(format!("part-{i:06}.parquet"));
+    let running = read_part_metadata(&part(1))
+        .expect("readable")
+        .expect("written");
+    assert_eq!(running.format, METADATA_FORMAT);
+    assert_eq!(running.layout, LAYOUT);
+    assert!(
+        running.layout.contains("for R-hat a chain is one ensemble")
+            && running
+                .layout
+                .contains("for ESS a chain is one walker of one ensemble"),
+        "{}",
+        running.layout
+    );
+    assert_eq!(running.steps, CHECKPOINT_EVERY..2 * CHECKPOINT_EVERY);
+    assert_eq!((running.burn_in, running.is_kept(30)), (None, None));
+    assert_eq!(
+        (
+            running.seed,
+            running.ensembles,
+            running.walkers,
+            running.thin
+        ),
+        (Some(42), Some(ENSEMBLES), Some(WALKERS), Some(1))
+    );
+    let described: Vec<(&str, ColumnKind, &str, bool)> = running
+        .columns
+        .iter()
+        .map(|c| (c.name.as_str(), c.kind, c.unit.as_str(), c.log))
+        .collect();
+    assert_eq!(
+        described,
+        [
+            ("ensemble", ColumnKind::Index, "1", false),
+            ("walker", ColumnKind::Index, "1", false),
+            ("step", ColumnKind::Step, "1", false),
+            ("alpha", ColumnKind::Parameter, "1", true),
+            ("beta_per_s", ColumnKind::Parameter, "1/s", true),
+            ("log_density", ColumnKind::LogDensity, "1", true),
+            ("t0_s", ColumnKind::Derived, "s", false),
+        ]
+    );
+
+    produce(&mut sink, 2 * CHECKPOINT_EVERY, TOTAL_STEPS);
+    sink.set_burn_in(30);
+    sink.finish().expect("finish");
+    let parts = (TOTAL_STEPS / CHECKPOINT_EVERY) as usize;
+    for i in 0..parts {
+        let m = read_part_metadata(&part(i)).unwrap().unwrap();
+        let first = i as u64 * CHECKPOINT_EVERY;
+        assert_eq!(m.steps, first..first + CHECKPOINT_EVERY, "part {i}");
+        assert_eq!(m.burn_in, Some(30), "part {i}");
+        assert_eq!(m.columns, running.columns, "part {i}");
+        // Any Parquet reader finds the keys in the footer, beside the Arrow schema.
+        let footer =
+            polars_parquet::read::read_metadata(&mut fs::File::open(part(i)).unwrap()).unwrap();
+        let keys: Vec<(&str, Option<&str>)> = footer
+            .key_value_metadata
+            .as_ref()
+            .unwrap()
+            .iter()
+            .map(|kv| (kv.key.as_str(), kv.value.as_deref()))
+            .collect();
+        assert!(
+            keys.contains(&("slipbayes.burn_in", Some("30"))),
+            "{keys:?}"
+        );
+        assert!(keys.iter().any(|(k, _)| *k == "ARROW:schema"), "{keys:?}");
+    }
+    let whole = ChainReader::open(&files(dir).chains)
+        .unwrap()
+        .metadata()
+        .unwrap()
+        .unwrap();
+    assert_eq!(whole.steps, 0..TOTAL_STEPS);
+    assert_eq!(
+        (whole.is_kept(29), whole.is_kept(30)),
+        (Some(false), Some(true))
+    );
+    // The footers were rewritten, the values not; nothing is left beside the parts.
+    assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
+}
+
 #[test]
 fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     let reference_dir = tempfile::tempdir().expect("tmp");
@@ -218,7 +329,7 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     // The part in progress is visibly partial and outside chains/.
     assert_eq!(
         names_in(dir),
-        vec!["chains", "checkpoint.json", "part-000002.parquet.partial"]
+        vec!["chains", "checkpoint.bin", "part-000002.parquet.partial"]
     );
     assert_eq!(
         read_chains(&files(dir).chains).expect("read").len(),
@@ -235,7 +346,7 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     );
     assert_eq!(sink.steps(), 40);
     assert_eq!(sink.durable_parts(), 2);
-    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
     sink.check_columns(&params(), &derived())
         .expect("same model");
     produce(&mut sink, state.next_step, TOTAL_STEPS);
@@ -256,6 +367,44 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     }
 }
 
+/// A run checkpointed by an earlier release (JSON, `checkpoint.json`) resumes, and its first
+/// new checkpoint replaces the JSON one by the binary one; the chains equal an uninterrupted run.
+#[test]
+fn a_json_checkpoint_of_an_earlier_release_resumes() {
+    let reference_dir = tempfile::tempdir().expect("tmp");
+    let reference = uninterrupted(reference_dir.path());
+
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
+    produce(&mut sink, 0, 55);
+    drop(sink);
+    // Rewrite the checkpoint as the earlier release wrote it: one JSON object, the state
+    // inside under `state`, format version 1.
+    let bytes = fs::read(dir.join("checkpoint.bin")).expect("checkpoint");
+    let mut reader = std::io::Cursor::new(&bytes[..]);
+    let mut header: serde_json::Value = rmp_serde::from_read(&mut reader).expect("header");
+    let state: serde_json::Value =
+        rmp_serde::from_slice(&bytes[reader.position() as usize..]).expect("state");
+    header["format"] = "slipbayes-chains/1".into();
+    header["state"] = state;
+    fs::write(
+        dir.join("checkpoint.json"),
+        serde_json::to_vec_pretty(&header).expect("json"),
+    )
+    .expect("write json");
+    fs::remove_file(dir.join("checkpoint.bin")).expect("remove binary");
+
+    let (mut sink, state) = ParquetSink::resume::<FakeState>(&files(dir)).expect("resume");
+    assert_eq!(state.next_step, 40);
+    assert_eq!(sink.steps(), 40);
+    produce(&mut sink, state.next_step, TOTAL_STEPS);
+    sink.finish().expect("finish");
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
+    assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
+}
+
 #[test]
 fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     let reference_dir = tempfile::tempdir().expect("tmp");
@@ -266,14 +415,14 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     let mut sink =
         ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     produce(&mut sink, 0, 40);
-    let checkpoint_at_40 = fs::read(dir.join("checkpoint.json")).expect("checkpoint");
+    let checkpoint_at_40 = fs::read(dir.join("checkpoint.bin")).expect("checkpoint");
     produce(&mut sink, 40, 70);
     drop(sink);
     // The crash hit checkpoint 60 after part 2 was renamed into chains/ but before
-    // checkpoint.json was replaced: the old checkpoint is still there.
-    fs::write(dir.join("checkpoint.json"), &checkpoint_at_40).expect("restore");
+    // checkpoint.bin was replaced: the old checkpoint is still there.
+    fs::write(dir.join("checkpoint.bin"), &checkpoint_at_40).expect("restore");
     // ... and while a new checkpoint was half written, and part 3 half written.
-    fs::write(dir.join(".checkpoint.json.tmp"), b"{\"format\": \"slipb").expect("tmp");
+    fs::write(dir.join(".checkpoint.bin.tmp"), b"{\"format\": \"slipb").expect("tmp");
     let partial = dir.join("part-000003.parquet.partial");
     let full = fs::read(dir.join("chains/part-000001.parquet")).expect("part");
     fs::write(&partial, &full[..full.len() / 2]).expect("half part");
@@ -288,7 +437,7 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
 
     let (mut sink, state) = ParquetSink::resume::<FakeState>(&files(dir)).expect("resume");
     assert_eq!(state.next_step, 40);
-    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
     assert_eq!(
         names_in(&dir.join("chains")),
         vec!["part-000000.parquet", "part-000001.parquet"]

@@ -40,13 +40,13 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::data::Provenance;
-use crate::density::{LogDensity, Quantity};
+use crate::density::{ColumnUnit, LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
     CarryFit, EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError,
     SamplerState, Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
-use crate::storage::{ChainReader, ParquetSink, SinkOptions};
+use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 
 pub use error::FitError;
 pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
@@ -458,10 +458,10 @@ pub fn run_fit<D: LogDensity + ?Sized>(
             settings.ensembles,
             &mut rng,
         )
-        .map_err(|source| FitError::Start {
+        .map_err(|optimizer| FitError::Start {
             start: start.to_vec(),
             why: density.explain(start),
-            source,
+            optimizer,
         })?;
         let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {
             FitError::Sampler {
@@ -472,6 +472,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         (sampler, sink, settings.steps)
     };
 
+    sink.describe(chain_description(density, spec, settings));
     dir.remove_summaries()?;
     // Quiet hides progress, but a request to stop must still reach the sampler.
     let mut stop_only = StopOnly(observer);
@@ -544,6 +545,8 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     report.steps_run = sampler.step() - first_step;
     summary.sampler.steps_run = report.steps_run;
     summary.sampler.stopped_by = report.stopped_by;
+    // The parts' footers get the burn-in the summary used, now that it is final.
+    sink.set_burn_in(summary.sampler.burn_in);
     sink.finish()
         .map_err(storage(format!("finishing the chains in {shown}")))?;
     dir.write_summary(&summary)?;
@@ -569,6 +572,42 @@ fn kept_rows_of<'c>(
                 step,
                 source: Box::new(e),
             })
+    }
+}
+
+/// What the chain parts' footers say about a fit: seed, shape, and the units of every value
+/// column (the density's own for its coordinates, else those of the quantity reported from a
+/// column).
+fn chain_description<D: LogDensity + ?Sized>(
+    density: &D,
+    spec: &SummarySpec,
+    settings: &FitSettings,
+) -> ChainDescription {
+    let reported = |name: &String| {
+        spec.quantities
+            .iter()
+            .find(|q| q.column == *name)
+            .map(|q| ColumnUnit {
+                unit: q.unit.clone(),
+                log: false,
+            })
+            .unwrap_or_default()
+    };
+    let declared = density.param_units();
+    let param_units = density
+        .param_names()
+        .iter()
+        .enumerate()
+        .map(|(i, name)| declared.get(i).cloned().unwrap_or_else(|| reported(name)))
+        .collect();
+    ChainDescription {
+        seed: settings.seed,
+        ensembles: settings.ensembles,
+        walkers: settings.walkers,
+        // The sink records every step; only the sampler's in-memory history is thinned.
+        thin: 1,
+        param_units,
+        derived_units: density.derived_names().iter().map(reported).collect(),
     }
 }
 

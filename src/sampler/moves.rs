@@ -1070,7 +1070,7 @@ impl Followers {
 }
 
 /// The followers' regression on a block fitted to an ensemble's own draws over the tuning
-/// steps, then frozen (see [`Followers`]): the cross moments being gathered, and the last
+/// steps, then frozen (see `Followers`): the cross moments being gathered, and the last
 /// frozen coefficients. Saved with the ensemble, so a resumed run continues the same tuning.
 ///
 /// The moments are sums of deviations from the first draw gathered (a shift that keeps

@@ -19,6 +19,10 @@ use crate::interrupt::{self, EXIT_INTERRUPTED};
 use crate::lock::RunLock;
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
 
+/// Where `demo` writes by default: a user's results, ignored by git (`/runs/` in
+/// `.gitignore`), so that the main command leaves a clone clean.
+pub(crate) const DEMO_OUT: &str = "runs/demo";
+
 fn parse_window(text: &str) -> Result<[f64; 2], String> {
     let parts: Vec<&str> = text.split(',').collect();
     match parts.as_slice() {
@@ -139,15 +143,20 @@ pub(super) struct RunArgs {
     carry: Option<CarryFit>,
 }
 
-/// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
-/// replacing an earlier demo there (unless --resume).
+/// Run the main job: fit `models/demo.toml` (the bundled data) into `runs/demo/`, your own
+/// results (git-ignored), replacing an earlier demo there (unless --resume).
+///
+/// The committed example report `reports/demo/` is not touched. Regenerating it is a
+/// maintainer's step of its own, run from the repository root:
+///   slipbayes demo --out reports/demo
 #[derive(Debug, Args)]
+#[command(verbatim_doc_comment)]
 pub(super) struct DemoArgs {
     /// The demo model file.
     #[arg(long, default_value = "models/demo.toml")]
     model: PathBuf,
-    /// Output directory.
-    #[arg(long, default_value = "reports/demo")]
+    /// Output (run) directory; `reports/demo` regenerates the committed example report.
+    #[arg(long, default_value = DEMO_OUT)]
     out: PathBuf,
     #[command(flatten)]
     run: RunArgs,

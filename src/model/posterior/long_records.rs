@@ -72,10 +72,12 @@ impl Posterior {
             return;
         }
         let start = self.heuristic_start();
-        self.install_reductions(&long, std::slice::from_ref(&start));
+        self.install_reductions(&long, std::slice::from_ref(&start.point));
         let dim = self.coords.len();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(REFERENCE_SEED);
-        if let Ok(found) = initial_around_optimum(&*self, &start, REFERENCE_DRAWS, 1, &mut rng) {
+        if let Ok(found) =
+            initial_around_optimum(&*self, &start.point, REFERENCE_DRAWS, 1, &mut rng)
+        {
             // The posterior's region only: the rough start may lie far from it, and a kink
             // there (a repeat slide's plateau, seconds off) would keep many points exact.
             let draws = &found.walkers[0];
