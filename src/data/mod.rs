@@ -6,20 +6,31 @@
 //! [`write_atomically`], so no half-written file is ever left looking complete.
 //!
 //! Users' instrument files come in through [`mod@import`]: CSV and Parquet tables (through polars,
-//! feature `tabular`) and Anton Paar RheoCompass text exports ([`rheocompass`]), with a column
-//! mapping by name and unit ([`units`]), converted to SI and checked before any fit.
+//! feature `tabular`) and the exports of rotational rheometers — Anton Paar RheoCompass
+//! ([`rheocompass`], in any interface language), TA Instruments TRIOS ([`trios`]) and Malvern
+//! rSpace ([`rspace`]) — recognised by their structure ([`text`] decodes them and reads their
+//! numbers in any locale, [`labels`] knows their column labels in several languages). Columns
+//! are mapped by name and unit ([`units`]), converted to SI and checked before any fit.
 //!
 //! This module knows nothing of the friction law.
 
 pub mod atomic;
+mod blocks;
 pub mod import;
+pub mod labels;
 pub mod rheocompass;
+pub mod rspace;
+mod table;
 #[cfg(feature = "tabular")]
 mod tabular;
+pub mod text;
+pub mod trios;
 pub mod units;
 
 pub use atomic::write_atomically;
-pub use import::{import, ColumnMap, ColumnRef, Format, ImportOptions, Imported, Provenance};
+pub use import::{
+    import, Clock, ColumnMap, ColumnRef, Detection, Format, ImportOptions, Imported, Provenance,
+};
 pub use rheocompass::IntervalChoice;
 
 use std::fmt::Write as _;
