@@ -224,7 +224,7 @@ fn a_recognised_export_without_time_or_torque_lists_its_columns() {
     let text = "Intervalle et points de données:\t1\t2\n\
         Interval données:\tPoint No.\tTemps\tContrainte de Cisaillement\n\
         \t\t[s]\t[Pa]\n\t1\t1\t5,5\n\t2\t2\t5,6\n";
-    let message = import_error(&text, "fr.txt");
+    let message = import_error(text, "fr.txt");
     assert!(
         message.contains(
             "fr.txt:2:1: no force or torque column among the columns `Point No.`, `Temps` \
