@@ -72,6 +72,12 @@ pub trait LogDensity: Sync {
         (0..self.dim()).map(|i| format!("x{i}")).collect()
     }
 
+    /// Units of the sampled parameters, in the order of [`param_names`](Self::param_names),
+    /// stored with the chains; empty (the default) when the density does not declare them.
+    fn param_units(&self) -> Vec<ColumnUnit> {
+        Vec::new()
+    }
+
     /// Names of the derived quantities written by [`log_density`](Self::log_density); none
     /// by default.
     fn derived_names(&self) -> Vec<String> {
@@ -266,15 +272,6 @@ pub(crate) enum Eval {
     Fatal(String),
 }
 
-/// Evaluates `density` and sorts the result into finite, rejected or fatal.
-pub(crate) fn classify<D: LogDensity + ?Sized>(
-    density: &D,
-    x: &[f64],
-    derived: &mut [f64],
-) -> Eval {
-    sort(density.log_density(x, derived))
-}
-
 /// Sorts the result of an evaluation into finite, rejected or fatal.
 pub(crate) fn sort(result: Result<f64, LogDensityError>) -> Eval {
     match result {
@@ -305,6 +302,16 @@ impl QuantityKind {
             Self::Derived => "derived",
         }
     }
+}
+
+/// The unit of a column of a density's draws, as stored with the chains.
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub struct ColumnUnit {
+    /// SI unit of the quantity (`1` dimensionless); empty when not declared.
+    pub unit: String,
+    /// Whether the column holds the natural logarithm of the quantity in `unit` (a
+    /// coordinate u = ln θ) rather than the quantity itself.
+    pub log: bool,
 }
 
 /// One reported quantity: which column of a density's draws holds it (a sampled coordinate or

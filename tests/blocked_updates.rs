@@ -13,7 +13,8 @@ use sampler_util::{assert_within, mean_and_mcse};
 use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
-    EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, Silent, Steps, Updates,
+    CarryFit, EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, Silent, Steps,
+    Updates, CARRY_FIT_STEPS,
 };
 
 /// Allowed distance from the truth in Monte-Carlo standard errors.
@@ -194,18 +195,29 @@ fn blocked_sampler(
     seed: u64,
     updates: Updates,
 ) -> EnsembleSampler<'_, Hierarchy> {
+    carried_sampler(h, moves, walkers, seed, (updates, CarryFit::Auto))
+}
+
+fn carried_sampler(
+    h: &Hierarchy,
+    moves: Vec<(Move, f64)>,
+    walkers: usize,
+    seed: u64,
+    (updates, carry): (Updates, CarryFit),
+) -> EnsembleSampler<'_, Hierarchy> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let start = initial_around_optimum(h, &vec![0.3; h.dim()], walkers, 4, &mut rng).unwrap();
     let config = SamplerConfig::new(walkers, 4, seed)
         .unwrap()
         .with_moves(moves)
         .unwrap()
-        .with_updates(updates);
+        .with_updates(updates)
+        .with_carry(carry);
     EnsembleSampler::new(h, config, start.walkers).unwrap()
 }
 
-/// A labelled sampler setting: its moves and updates.
-type Case = (&'static str, Vec<(Move, f64)>, Updates);
+/// A labelled sampler setting: its moves, updates and how the followers are carried.
+type Case = (&'static str, Vec<(Move, f64)>, (Updates, CarryFit));
 
 /// Means, variances and the μ–θ covariance of the blocked chains match the exact posterior,
 /// for the stretch move and for the Student-t independence mixture, with plain blocked
@@ -217,33 +229,49 @@ fn blocked_updates_sample_a_hierarchical_gaussian() {
     let (mean, cov) = h.exact();
     let t_and = |m: Move| vec![(Move::student_t(), 0.5), (m, 0.5)];
     let cases: Vec<Case> = vec![
-        ("stretch", vec![(Move::stretch(), 1.0)], Updates::Blocked),
+        (
+            "stretch",
+            vec![(Move::stretch(), 1.0)],
+            (Updates::Blocked, CarryFit::Auto),
+        ),
         (
             "student-t=0.9,stretch=0.1",
             vec![(Move::student_t(), 0.9), (Move::stretch(), 0.1)],
-            Updates::Blocked,
+            (Updates::Blocked, CarryFit::Auto),
         ),
         (
             "hierarchical student-t=0.5,de=0.5",
             t_and(Move::differential_evolution()),
-            Updates::Hierarchical,
+            (Updates::Hierarchical, CarryFit::Auto),
+        ),
+        // The followers' regressions fitted to the complement of each half-step (12
+        // followers, 6 walkers in the complement: Auto tunes them).
+        (
+            "hierarchical student-t=0.5,de=0.5, complement",
+            t_and(Move::differential_evolution()),
+            (Updates::Hierarchical, CarryFit::Complement),
+        ),
+        (
+            "hierarchical slice, complement",
+            vec![(Move::slice(), 1.0)],
+            (Updates::Hierarchical, CarryFit::Complement),
         ),
         (
             "hierarchical student-t=0.5,stretch=0.5",
             t_and(Move::stretch()),
-            Updates::Hierarchical,
+            (Updates::Hierarchical, CarryFit::Auto),
         ),
         // The slice move in each block's subspace, and with μ carrying the θ_j along by
         // regression (a line in the whole space).
         (
             "blocked slice",
             vec![(Move::slice(), 1.0)],
-            Updates::Blocked,
+            (Updates::Blocked, CarryFit::Auto),
         ),
         (
             "hierarchical slice",
             vec![(Move::slice(), 1.0)],
-            Updates::Hierarchical,
+            (Updates::Hierarchical, CarryFit::Auto),
         ),
         (
             "hierarchical student-t=0.4,de=0.4,slice=0.2",
@@ -252,18 +280,18 @@ fn blocked_updates_sample_a_hierarchical_gaussian() {
                 (Move::differential_evolution(), 0.4),
                 (Move::slice(), 0.2),
             ],
-            Updates::Hierarchical,
+            (Updates::Hierarchical, CarryFit::Auto),
         ),
     ];
     for (label, moves, updates) in cases {
         // Fewer walkers than 2 × 14 dimensions: blocked updates need only 2 × the largest
         // block.
-        let mut sampler = blocked_sampler(&h, moves, 12, 11, updates);
+        let mut sampler = carried_sampler(&h, moves, 12, 11, updates);
         let mut sink = MemorySink::new();
         sampler
             .run(Steps::Fixed(3000), &mut sink, &mut Silent)
             .unwrap();
-        let burn = 300;
+        let burn = 300.max(CARRY_FIT_STEPS as usize);
         for p in 0..h.dim() {
             assert_within(
                 &format!("{label}: mean of x{p}"),
@@ -288,6 +316,69 @@ fn blocked_updates_sample_a_hierarchical_gaussian() {
             K_MCSE,
         );
     }
+}
+
+/// A shared block with far more followers than the complement has walkers (40 groups, 80
+/// followers, 8 walkers in the complement): its regression tuned on the ensembles' own draws
+/// and then frozen targets the exact posterior, and mixes where one fitted to each half-step's
+/// complement barely moves μ (its errors in 80 coefficients add up in μ's acceptance ratio).
+#[test]
+fn a_tuned_carry_samples_many_groups_exactly_and_mixes() {
+    let h = Hierarchy::new(40);
+    let (mean, cov) = h.exact();
+    let moves = vec![
+        (Move::student_t(), 0.5),
+        (Move::differential_evolution(), 0.5),
+    ];
+    let steps = 3000;
+    // τ of μ0 (in steps, averaged over the ensembles) for each way of carrying.
+    let mut tau_mu = Vec::new();
+    for carry in [CarryFit::Tuned, CarryFit::Complement] {
+        let mut sampler =
+            carried_sampler(&h, moves.clone(), 16, 21, (Updates::Hierarchical, carry));
+        let mut sink = MemorySink::new();
+        let report = sampler
+            .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+            .unwrap();
+        let tau = report.tau.expect("a τ estimate after 3000 steps");
+        tau_mu.push(tau.per_ensemble.iter().map(|t| t[0]).sum::<f64>() / 4.0);
+        if carry != CarryFit::Tuned {
+            continue;
+        }
+        let burn = 2 * CARRY_FIT_STEPS as usize;
+        for p in [0, 1, 2, 3, 40, 81] {
+            assert_within(
+                &format!("tuned: mean of x{p}"),
+                mean_and_mcse(&sink.chains, burn, |x| x[p]),
+                mean[p],
+                K_MCSE,
+            );
+            let m = mean[p];
+            assert_within(
+                &format!("tuned: variance of x{p}"),
+                mean_and_mcse(&sink.chains, burn, |x| (x[p] - m).powi(2)),
+                cov[(p, p)],
+                K_MCSE,
+            );
+        }
+        let (m0, m2) = (mean[0], mean[2]);
+        assert_within(
+            "tuned: covariance of μ0 and θ1,0",
+            mean_and_mcse(&sink.chains, burn, |x| (x[0] - m0) * (x[2] - m2)),
+            cov[(0, 2)],
+            K_MCSE,
+        );
+    }
+    eprintln!(
+        "τ of μ0: tuned {:.1}, complement {:.1}",
+        tau_mu[0], tau_mu[1]
+    );
+    assert!(
+        tau_mu[0] < 0.5 * tau_mu[1],
+        "τ of μ0: tuned {} against complement {}",
+        tau_mu[0],
+        tau_mu[1]
+    );
 }
 
 /// After blocked steps every walker's stored log-density and derived values are exactly a

@@ -16,7 +16,7 @@ use slipbayes::fit::{
     run_fit, ComparisonSpec, FitError, FitOutcome, FitSettings, RunDir, SummarySpec,
 };
 use slipbayes::sampler::{
-    Move, Observer, Progress, SamplerError, Silent, Steps, StopReason, StopRule, Updates,
+    CarryFit, Move, Observer, Progress, SamplerError, Silent, Steps, StopReason, StopRule, Updates,
 };
 use statrs::function::erf::erfc;
 
@@ -110,6 +110,7 @@ fn settings(steps: u64) -> FitSettings {
         overwrite: false,
         moves: vec![(Move::stretch(), 1.0)],
         updates: Updates::Joint,
+        carry: CarryFit::Auto,
         max_time_s: None,
     }
 }

@@ -11,6 +11,7 @@ use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary}
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
+use slipbayes::storage::ColumnKind;
 
 const TRUTH: (f64, f64, f64, f64, f64) = (0.92e6, 0.62, 10e-3, 14.8, 1.2e4);
 
@@ -86,6 +87,43 @@ fn one_contact_posterior_covers_the_truth() {
     );
     // The record reaches well past the peak: nothing to say about it.
     assert!(s.notes.is_empty(), "{:?}", s.notes);
+    // The chains describe themselves: the units and scale of the sampled ln θ and of the
+    // reported values, the seed and shape, and the burn-in the summary used.
+    let meta = outcome
+        .dir
+        .chain_reader()
+        .unwrap()
+        .metadata()
+        .unwrap()
+        .expect("the chain parts carry metadata");
+    assert_eq!(meta.burn_in, Some(s.sampler.burn_in));
+    assert_eq!(
+        (
+            meta.seed,
+            meta.ensembles,
+            meta.walkers,
+            meta.thin,
+            meta.steps.clone()
+        ),
+        (Some(7), Some(4), Some(24), Some(1), 0..1500)
+    );
+    for (column, kind, unit, log) in [
+        ("ln_alpha[c]", ColumnKind::Parameter, "1/m", true),
+        ("ln_k[c]", ColumnKind::Parameter, "N/m", true),
+        ("ln_a_over_F_d[c]", ColumnKind::Parameter, "1", true),
+        ("k[c]", ColumnKind::Derived, "N/m", false),
+        ("F_peak[first]", ColumnKind::Derived, "N", false),
+        ("log_density", ColumnKind::LogDensity, "1", true),
+    ] {
+        let c = meta
+            .column(column)
+            .unwrap_or_else(|| panic!("{column}: {meta:?}"));
+        assert_eq!(
+            (c.kind, c.unit.as_str(), c.log),
+            (kind, unit, log),
+            "{column}"
+        );
+    }
     // The 95 % posterior predictive band holds about 95 % of the observations.
     let draws = kept_draws(&outcome, &post.param_names(), 200).unwrap();
     let bands = post.predictive_bands(&draws, 1, 3).unwrap();
@@ -371,14 +409,16 @@ fn pooled_t0_predicts_a_new_contact() {
     assert!(get(&s, "F_peak_new", "m").median.is_finite());
 }
 
-/// Default walkers: max(32, 4·d + 4, 2·f + 4). The demo's largest block has 3 coordinates and
-/// its shared blocks carry 7 and 6 followers: 32. A material of 15 contacts (first + repeat
-/// slide each) carries 45 followers under hierarchical updates, so its regressions get 94
-/// walkers; blocked updates carry none and keep 32.
+/// Default walkers: max(32, 4·d + 4), and 2·f + 4 more when the followers' regressions are
+/// fitted to the complement. The demo's largest block has 3 coordinates and its shared blocks
+/// carry 7 and 6 followers: 32. A material of 15 contacts (first + repeat slide each) carries
+/// 45 followers under hierarchical updates: its regressions fitted to the complement get 94
+/// walkers, tuned ones (the default for so many followers) need no more than 32; blocked
+/// updates carry none and keep 32.
 #[test]
 fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     use slipbayes::fit::SettingOverrides;
-    use slipbayes::sampler::Updates;
+    use slipbayes::sampler::{CarryFit, Updates};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let demo_text = std::fs::read_to_string(root.join("models/demo.toml"))
@@ -387,13 +427,15 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     let demo_path = dir.path().join("demo.toml");
     std::fs::write(&demo_path, demo_text).unwrap();
     let demo = Posterior::new(&ModelSpec::load(&demo_path).unwrap()).unwrap();
-    let walkers = |post: &Posterior, updates: Option<Updates>| {
+    let walkers_with = |post: &Posterior, updates: Option<Updates>, carry: Option<CarryFit>| {
         let overrides = SettingOverrides {
             updates,
+            carry,
             ..SettingOverrides::default()
         };
         FitSettings::for_model(post, &overrides).walkers
     };
+    let walkers = |post: &Posterior, updates: Option<Updates>| walkers_with(post, updates, None);
     assert_eq!(walkers(&demo, None), 32);
 
     let data = root.join("data");
@@ -418,6 +460,12 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
         .max()
         .unwrap();
     assert_eq!(followers, 45);
-    assert_eq!(walkers(&campaign, None), 94);
+    assert_eq!(walkers(&campaign, None), 32);
+    assert!(CarryFit::Auto.tunes(followers, 32));
+    assert!(!CarryFit::Auto.tunes(7, 32));
+    assert_eq!(
+        walkers_with(&campaign, None, Some(CarryFit::Complement)),
+        94
+    );
     assert_eq!(walkers(&campaign, Some(Updates::Blocked)), 32);
 }

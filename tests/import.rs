@@ -157,7 +157,7 @@ fn validation_names_file_line_and_column() {
             "time_s,force_N\n0,1\n\n1,inf\n",
             "i.csv",
             &o,
-            &["i.csv:4:2:", "not finite"],
+            &["i.csv:4:2:", "inf is not a finite number"],
         ),
         (
             "time_s,force_N\n0,1\n2,1\n1,1\n",
@@ -362,9 +362,89 @@ fn overflow_in_conversion_is_invalid() {
     };
     let message = error(text, "o.txt", &o);
     assert!(
-        message.contains("o.txt:5:1:") && message.contains("out of range"),
+        message.contains("o.txt:5:1:") && message.contains("beyond ±1e100"),
         "{message}"
     );
+}
+
+/// A finite but absurd value (1e308 N: its square overflows, and the fit then found no
+/// finite start and printed a vector of log-coordinates) is refused where it is written.
+#[test]
+fn an_absurdly_large_value_is_refused_at_its_line_and_column() {
+    let text = "time_s,force_N\n0,1e-3\n10,1e308\n20,1e-3\n";
+    let message = error(text, "a.csv", &options());
+    assert!(
+        message.contains("a.csv:3:2:")
+            && message.contains("1e308")
+            && message.contains("beyond ±1e100")
+            && message.contains("drop_invalid"),
+        "{message}"
+    );
+    // Dropping such points is explicit, and counted, as for text in a numeric cell.
+    let o = ImportOptions {
+        drop_invalid: true,
+        ..options()
+    };
+    let imported = import_bytes(text.as_bytes(), Path::new("a.csv"), &o).unwrap();
+    assert_eq!((imported.points_read, imported.dropped_invalid), (3, 1));
+    // The same value in a series handed over in memory.
+    let series = slipbayes::data::Series {
+        time_s: (0..10).map(f64::from).collect(),
+        force_n: (0..10)
+            .map(|i| if i == 4 { -1e300 } else { 1e-3 })
+            .collect(),
+        normal_force_n: None,
+    };
+    let e = slipbayes::model::data::RunData::from_series(
+        series,
+        Path::new("m.csv"),
+        None,
+        Scene::First,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("m.csv:6:") && e.contains("-1e300"), "{e}");
+}
+
+/// Only RheoCompass exports have intervals: an interval asked of a table is an error naming
+/// what the file is, where it used to be ignored and the whole table fitted.
+#[test]
+fn an_interval_of_a_table_without_intervals_is_refused() {
+    let o = ImportOptions {
+        intervals: IntervalChoice::Numbers(vec![2]),
+        ..options()
+    };
+    let message = error("time_s,force_N\n0,1\n1,2\n", "t.csv", &o);
+    assert!(
+        message.contains("t.csv: no interval 2")
+            && message.contains("csv table of 2 data rows")
+            && message.contains("remove `interval`"),
+        "{message}"
+    );
+}
+
+/// A model file naming an interval the export does not have: the error names the model file,
+/// the run, the interval asked and the intervals there are with their points.
+#[test]
+fn a_missing_interval_names_the_model_run_and_the_intervals_there_are() {
+    let text = format!(
+        "[[material]]\nname = \"m\"\n[[contact]]\nname = \"c\"\nmaterial = \"m\"\n\
+         [[run]]\nname = \"c-repeat\"\ncontact = \"c\"\ndata = \"{}\"\n\
+         velocity_m_per_s = 1e-9\nscene = \"first\"\ninterval = 7\n\
+         columns = {{ time = {{ name = \"Interval Time\" }}, force = {{ name = \"Torque\" }} }}\n",
+        repo("data/rheocompass-ptfe-c1.txt").display()
+    );
+    let spec = ModelSpec::parse(&text, Path::new("dir/model.toml")).unwrap();
+    let e = slipbayes::model::Posterior::new(&spec)
+        .unwrap_err()
+        .to_string();
+    for part in [
+        "dir/model.toml: run `c-repeat`:",
+        "rheocompass-ptfe-c1.txt: no interval 7",
+        "intervals 1 (300 points), 2 (541 points), 3 (501 points)",
+    ] {
+        assert!(e.contains(part), "`{part}` not in `{e}`");
+    }
 }
 
 /// Inputs on which the fuzz targets (fuzz/) once panicked, read with every combination of

@@ -330,3 +330,40 @@ fn the_posterior_names_what_fails_at_a_point() {
     let mut derived = vec![0.0; post.derived_names().len()];
     assert!(post.log_density(&x, &mut derived).is_err());
 }
+
+/// A prior that excludes what the data say is named, with the value the data give and what to
+/// change: k's prior ends at 20 N/m while the repeat slide's loading slope says about
+/// 1.2e4 N/m (the start then takes 19.8 N/m, inside the prior).
+#[test]
+fn a_prior_that_excludes_what_the_data_say_is_named_with_their_value() {
+    let tmp = tempfile::tempdir().unwrap();
+    let model = tmp.path().join("k.toml");
+    let data = |file: &str| root().join("data").join(file).display().to_string();
+    std::fs::write(
+        &model,
+        format!(
+            "[[material]]\nname = \"PTFE\"\n[[contact]]\nname = \"c1\"\nmaterial = \"PTFE\"\n\
+             [[run]]\nname = \"c1-first\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"first\"\n\
+             [[run]]\nname = \"c1-repeat\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"repeat\"\n\
+             [priors]\nk = {{ dist = \"log-uniform\", low = 10, high = 20 }}\n",
+            data("ptfe-c1-first.csv"),
+            data("ptfe-c1-repeat.csv")
+        ),
+    )
+    .unwrap();
+    let post = Posterior::new(&ModelSpec::load(&model).unwrap()).unwrap();
+    let start = post.start().to_vec();
+    let why = post.explain(&start).expect("a reason");
+    for part in [
+        "the data say k[c1] (contact c1) is about 1.",
+        "e4 N/m, which its prior, log-uniform on [1e1, 2e1] N/m, excludes",
+        &format!(
+            "in {}, change the prior of `k` under `[priors]`",
+            model.display()
+        ),
+    ] {
+        assert!(why.contains(part), "`{part}` not in `{why}`");
+    }
+}

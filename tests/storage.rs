@@ -6,8 +6,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 use slipbayes::data::write_atomically;
+use slipbayes::storage::metadata::{LAYOUT, METADATA_FORMAT};
 use slipbayes::storage::{
-    read_chains, ChainSink, Chains, ParquetSink, SinkOptions, StepView, StorageError,
+    read_chains, read_part_metadata, ChainDescription, ChainReader, ChainSink, Chains, ColumnKind,
+    ColumnUnit, ParquetSink, SinkOptions, StepView, StorageError,
 };
 
 /// The chain store of a run directory, laid out as a fit's run directory lays it out.
@@ -197,6 +199,115 @@ fn uninterrupted_run_reads_back_every_value_in_order() {
         chains.column("gamma"),
         Err(StorageError::ColumnMissing { column, .. }) if column == "gamma"
     ));
+}
+
+/// Every part describes itself in its Parquet footer: its format, the layout and which index
+/// is a chain for which diagnostic, every column's kind, unit and scale, its steps, the seed
+/// and shape. The burn-in is `pending` while the run goes on; once set, `finish` writes it
+/// into every part, and the values read back unchanged.
+#[test]
+fn parts_describe_themselves_and_carry_the_burn_in_once_finished() {
+    let reference_dir = tempfile::tempdir().expect("tmp");
+    let reference = uninterrupted(reference_dir.path());
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
+    let unit = |unit: &str, log| ColumnUnit {
+        unit: unit.into(),
+        log,
+    };
+    sink.describe(ChainDescription {
+        seed: 42,
+        ensembles: ENSEMBLES,
+        walkers: WALKERS,
+        thin: 1,
+        param_units: vec![unit("1", true), unit("1/s", true)],
+        derived_units: vec![unit("s", false)],
+    });
+    produce(&mut sink, 0, 2 * CHECKPOINT_EVERY);
+    let part = |i: usize| files(dir).chains.join(format!("part-{i:06}.parquet"));
+    let running = read_part_metadata(&part(1))
+        .expect("readable")
+        .expect("written");
+    assert_eq!(running.format, METADATA_FORMAT);
+    assert_eq!(running.layout, LAYOUT);
+    assert!(
+        running.layout.contains("for R-hat a chain is one ensemble")
+            && running
+                .layout
+                .contains("for ESS a chain is one walker of one ensemble"),
+        "{}",
+        running.layout
+    );
+    assert_eq!(running.steps, CHECKPOINT_EVERY..2 * CHECKPOINT_EVERY);
+    assert_eq!((running.burn_in, running.is_kept(30)), (None, None));
+    assert_eq!(
+        (
+            running.seed,
+            running.ensembles,
+            running.walkers,
+            running.thin
+        ),
+        (Some(42), Some(ENSEMBLES), Some(WALKERS), Some(1))
+    );
+    let described: Vec<(&str, ColumnKind, &str, bool)> = running
+        .columns
+        .iter()
+        .map(|c| (c.name.as_str(), c.kind, c.unit.as_str(), c.log))
+        .collect();
+    assert_eq!(
+        described,
+        [
+            ("ensemble", ColumnKind::Index, "1", false),
+            ("walker", ColumnKind::Index, "1", false),
+            ("step", ColumnKind::Step, "1", false),
+            ("alpha", ColumnKind::Parameter, "1", true),
+            ("beta_per_s", ColumnKind::Parameter, "1/s", true),
+            ("log_density", ColumnKind::LogDensity, "1", true),
+            ("t0_s", ColumnKind::Derived, "s", false),
+        ]
+    );
+
+    produce(&mut sink, 2 * CHECKPOINT_EVERY, TOTAL_STEPS);
+    sink.set_burn_in(30);
+    sink.finish().expect("finish");
+    let parts = (TOTAL_STEPS / CHECKPOINT_EVERY) as usize;
+    for i in 0..parts {
+        let m = read_part_metadata(&part(i)).unwrap().unwrap();
+        let first = i as u64 * CHECKPOINT_EVERY;
+        assert_eq!(m.steps, first..first + CHECKPOINT_EVERY, "part {i}");
+        assert_eq!(m.burn_in, Some(30), "part {i}");
+        assert_eq!(m.columns, running.columns, "part {i}");
+        // Any Parquet reader finds the keys in the footer, beside the Arrow schema.
+        let footer =
+            polars_parquet::read::read_metadata(&mut fs::File::open(part(i)).unwrap()).unwrap();
+        let keys: Vec<(&str, Option<&str>)> = footer
+            .key_value_metadata
+            .as_ref()
+            .unwrap()
+            .iter()
+            .map(|kv| (kv.key.as_str(), kv.value.as_deref()))
+            .collect();
+        assert!(
+            keys.contains(&("slipbayes.burn_in", Some("30"))),
+            "{keys:?}"
+        );
+        assert!(keys.iter().any(|(k, _)| *k == "ARROW:schema"), "{keys:?}");
+    }
+    let whole = ChainReader::open(&files(dir).chains)
+        .unwrap()
+        .metadata()
+        .unwrap()
+        .unwrap();
+    assert_eq!(whole.steps, 0..TOTAL_STEPS);
+    assert_eq!(
+        (whole.is_kept(29), whole.is_kept(30)),
+        (Some(false), Some(true))
+    );
+    // The footers were rewritten, the values not; nothing is left beside the parts.
+    assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
 }
 
 #[test]

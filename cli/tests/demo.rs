@@ -1,15 +1,76 @@
-//! The README's first command: `slipbayes demo` writes the committed `reports/demo/`, and
-//! `slipbayes report DIR` rebuilds a report from a run directory.
+//! The README's first command: `slipbayes demo`, run in a fresh copy of the repository,
+//! writes `runs/demo/` and leaves the copy clean; what it writes is the committed example
+//! report `reports/demo/`; `slipbayes report DIR` rebuilds a report from a run directory.
 #![cfg(feature = "report")]
 
 use std::fs;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
 
 fn slipbayes() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_slipbayes"));
-    cmd.current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(".."));
+    cmd.current_dir(repo_root());
     cmd
+}
+
+fn git(dir: &Path, args: &[&str]) -> String {
+    let out = Command::new("git")
+        .arg("-C")
+        .arg(dir)
+        .args(args)
+        .output()
+        .expect("git runs (the demo test checks a copy of the repository with it)");
+    assert!(
+        out.status.success(),
+        "git {args:?} in {}: {}",
+        dir.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// A fresh clone, as far as the demo can tell: the repository's tracked files that it reads
+/// or that it might overwrite (`.gitignore`, `models/`, `data/`, `reports/demo/`) copied into
+/// `dir`, there committed to a new git repository.
+fn fresh_clone(dir: &Path) {
+    let root = repo_root();
+    let tracked = git(
+        &root,
+        &[
+            "ls-files",
+            "--",
+            ".gitignore",
+            "models",
+            "data",
+            "reports/demo",
+        ],
+    );
+    for file in tracked.lines() {
+        let to = dir.join(file);
+        fs::create_dir_all(to.parent().unwrap()).unwrap();
+        fs::copy(root.join(file), &to).unwrap();
+    }
+    git(dir, &["init", "--quiet"]);
+    git(dir, &["add", "--all"]);
+    git(
+        dir,
+        &[
+            "-c",
+            "user.name=slipbayes test",
+            "-c",
+            "user.email=test@slipbayes.invalid",
+            "commit",
+            "--quiet",
+            "--no-gpg-sign",
+            "--no-verify",
+            "-m",
+            "fresh clone",
+        ],
+    );
 }
 
 fn run_ok(cmd: &mut Command) -> String {
@@ -49,19 +110,52 @@ fn deterministic(text: &str) -> String {
         .join("\n")
 }
 
-/// The committed `reports/demo/` must be what `slipbayes demo` produces now: the demo is run
-/// again (about 2 minutes) and every deterministic output compared, byte for byte.
+/// The README's main command, `slipbayes demo` from the root of a fresh clone, writes
+/// `runs/demo/` and leaves the clone clean (it used to rewrite the tracked `reports/demo/`).
+/// What it writes must be the committed `reports/demo/`: every deterministic output is
+/// compared, byte for byte (the demo runs once, about a minute).
 #[test]
-fn committed_demo_report_is_current() {
-    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("../reports/demo");
-    let tmp = tempfile::tempdir().unwrap();
-    let fresh = tmp.path().join("demo");
-    run_ok(slipbayes().args(["demo", "--quiet", "--out"]).arg(&fresh));
+fn demo_leaves_a_fresh_clone_clean_and_the_committed_report_is_current() {
+    let committed = repo_root().join("reports/demo");
+    let clone = tempfile::tempdir().unwrap();
+    fresh_clone(clone.path());
+    let out = Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .args(["demo", "--quiet"])
+        .current_dir(clone.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "demo failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let fresh = clone.path().join("runs/demo");
+    assert!(
+        String::from_utf8_lossy(&out.stdout)
+            .contains(&format!("written to {}", Path::new("runs/demo").display())),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let status = git(
+        clone.path(),
+        &["status", "--porcelain", "--untracked-files=all"],
+    );
+    assert!(
+        status.is_empty(),
+        "`slipbayes demo` left the clone dirty:\n{status}"
+    );
+    let stale = |file: &str| {
+        format!(
+            "reports/demo/{file} is stale: regenerate the committed report with \
+             `cargo run --release -- demo --out reports/demo`"
+        )
+    };
     for file in ["summary.csv", "predictive.csv", "model.toml"] {
         assert_eq!(
             fs::read_to_string(committed.join(file)).unwrap(),
             fs::read_to_string(fresh.join(file)).unwrap(),
-            "reports/demo/{file} is stale: regenerate with `cargo run --release -- demo`"
+            "{}",
+            stale(file)
         );
     }
     for file in ["report.md", "report.html"] {
@@ -69,10 +163,7 @@ fn committed_demo_report_is_current() {
             fs::read_to_string(committed.join(file)).unwrap(),
             fs::read_to_string(fresh.join(file)).unwrap(),
         );
-        assert!(
-            deterministic(&a) == deterministic(&b),
-            "reports/demo/{file} is stale: regenerate with `cargo run --release -- demo`"
-        );
+        assert!(deterministic(&a) == deterministic(&b), "{}", stale(file));
     }
     let md = fs::read_to_string(fresh.join("report.md")).unwrap();
     let linked = figures_linked(&md);
@@ -99,7 +190,8 @@ fn committed_demo_report_is_current() {
         assert!(
             fs::read(committed.join("figures").join(&file)).unwrap()
                 == fs::read(fresh.join("figures").join(&file)).unwrap(),
-            "reports/demo/figures/{file} is stale: regenerate with `cargo run --release -- demo`"
+            "{}",
+            stale(&format!("figures/{file}"))
         );
     }
 }

@@ -264,6 +264,9 @@ fn report_of_a_run_without_its_chains_says_how_to_regenerate_them() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("chains") && err.contains("missing"), "{err}");
     assert!(err.contains("slipbayes demo"), "{err}");
+    // The command names the directory (a `demo` recorded without --out wrote to the default
+    // of its day, which is no longer demo's default).
+    assert!(err.contains("demo") && err.contains(" --out "), "{err}");
     assert!(!err.contains("no checkpoint"), "{err}");
 }
 
@@ -327,4 +330,175 @@ fn an_io_error_prints_its_cause_once() {
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+}
+
+/// A model file asking for an interval of a table that has none: it used to be ignored and
+/// the whole table fitted (exit 0); now nothing is fitted and the message names the model
+/// file, the run, the interval asked and what the file holds.
+#[cfg(feature = "parquet")]
+#[test]
+fn an_interval_the_data_do_not_have_is_an_error_naming_the_model_and_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("m.toml");
+    std::fs::write(
+        &model,
+        format!(
+            "[[material]]\nname = \"PTFE\"\n[[contact]]\nname = \"c1\"\nmaterial = \"PTFE\"\n\
+             [[run]]\nname = \"c1-first\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"first\"\ninterval = 4\nbins = 100\n",
+            repo("data/ptfe-c1-first.csv").display()
+        ),
+    )
+    .unwrap();
+    let out = slipbayes()
+        .arg("fit")
+        .arg(&model)
+        .args(["--steps", "100", "--quiet", "--out"])
+        .arg(dir.path().join("fit"))
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    for part in [
+        &format!("{}: run `c1-first`:", model.display()),
+        "no interval 4",
+        "csv table of 3001 data rows without intervals",
+        "remove `interval`",
+    ] {
+        assert!(err.contains(part), "`{part}` not in:\n{err}");
+    }
+    assert!(!dir.path().join("fit/chains").exists(), "{err}");
+}
+
+/// `validate` finding miscalibration exits with 4, not clap's 2 for an invalid command line.
+#[cfg(feature = "parquet")]
+#[test]
+fn validate_miscalibrated_has_its_own_exit_code() {
+    let dir = tempfile::tempdir().unwrap();
+    // No coverage reaches 101 %: two short replications are judged miscalibrated.
+    let out = slipbayes()
+        .arg("validate")
+        .arg("--model")
+        .arg(repo("models/sbc.toml"))
+        .args([
+            "--replications",
+            "2",
+            "--steps",
+            "60",
+            "--min-coverage95",
+            "1.01",
+            "--quiet",
+            "--out",
+        ])
+        .arg(dir.path().join("sbc"))
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(4), "{err}");
+    assert!(err.contains("miscalibrated: "), "{err}");
+    assert!(dir.path().join("sbc/validation.md").exists(), "{err}");
+    for args in [&["--help"][..], &["validate", "--help"]] {
+        let help = slipbayes().args(args).output().unwrap();
+        let help = String::from_utf8_lossy(&help.stdout);
+        assert!(help.contains("4") && help.contains("miscalibrat"), "{help}");
+    }
+}
+
+/// When no start can be found, the error names the run and contact, the parameter, the value
+/// the data give and the prior that excludes it, and what to change in the model file, instead
+/// of a vector of log-coordinates; an absurd data value is refused where it is written.
+#[cfg(feature = "parquet")]
+#[test]
+fn no_start_names_the_run_the_parameter_and_the_prior_or_value_at_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = |priors: &str| {
+        let path = dir.path().join("m.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "[[material]]\nname = \"PTFE\"\n[[contact]]\nname = \"c1\"\nmaterial = \"PTFE\"\n\
+                 [[run]]\nname = \"c1-first\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+                 velocity_m_per_s = 1e-9\nscene = \"first\"\nbins = 100\n\
+                 [[run]]\nname = \"c1-repeat\"\ncontact = \"c1\"\ndata = \"{}\"\n\
+                 velocity_m_per_s = 1e-9\nscene = \"repeat\"\nbins = 100\n\
+                 [priors]\n{priors}\n",
+                repo("data/ptfe-c1-first.csv").display(),
+                repo("data/ptfe-c1-repeat.csv").display()
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let fit = |model: &Path| {
+        slipbayes()
+            .arg("fit")
+            .arg(model)
+            .args(["--steps", "50", "--quiet", "--overwrite", "--out"])
+            .arg(dir.path().join("fit"))
+            .output()
+            .unwrap()
+    };
+    let check = |err: &str, parts: &[&str]| {
+        for part in parts {
+            assert!(err.contains(part), "`{part}` not in:\n{err}");
+        }
+        // No vector of coordinates, no second line repeating the optimiser's error.
+        assert!(!err.contains("start [") && !err.contains("mode ["), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    };
+    // The noise of the data (about 1e-4 N) is what a σ prior of 1e-20 N excludes: the
+    // posterior is too narrow to draw walkers in.
+    let m = model("sigma = { dist = \"log-uniform\", low = 1e-20, high = 2e-20 }");
+    let out = fit(&m);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    check(
+        &err,
+        &[
+            "the noise of run c1-first of contact c1 is about ",
+            "log-uniform on [1e-20, 2e-20] N, excludes",
+            &format!(
+                "in {}, change the prior of `sigma` under `[priors]`",
+                m.display()
+            ),
+        ],
+    );
+    // A σ sampled explicitly whose prior has no density where the data put it.
+    let m = model("sigma = { dist = \"half-normal\", sd = 1e-200 }");
+    let out = fit(&m);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    check(
+        &err,
+        &[
+            "sigma[c1-repeat] (run c1-repeat of contact c1) = ",
+            "is outside its prior, half-normal(sd 1e-200) N (the data say about ",
+            "change the prior of `sigma`",
+        ],
+    );
+    // A force of 1e308 N in the data: refused at its line and column.
+    let text = std::fs::read_to_string(repo("data/ptfe-c1-first.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let mut cells: Vec<&str> = lines[10].split(',').collect();
+    cells[1] = "1e308";
+    lines[10] = cells.join(",");
+    let huge = dir.path().join("huge.csv");
+    std::fs::write(&huge, lines.join("\n")).unwrap();
+    let out = slipbayes()
+        .arg("fit")
+        .arg("--first")
+        .arg(&huge)
+        .args(["--velocity", "1e-9", "--quiet", "--out"])
+        .arg(dir.path().join("huge"))
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    check(
+        &err,
+        &[
+            &format!("{}:11:2: column `force_N` (force): 1e308", huge.display()),
+            "beyond ±1e100",
+        ],
+    );
 }

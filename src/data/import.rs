@@ -1,8 +1,9 @@
 //! Import of instrument files: a table of named columns (from CSV, Parquet or a RheoCompass
 //! export) is mapped to time and friction force by name and unit, converted to SI and checked
-//! before anything is fitted. Nothing is dropped silently: a point with text, an empty cell or
-//! a non-finite number in a mapped column is an error naming file, line and column, unless the
-//! caller asks to drop such points, and then they are counted.
+//! before anything is fitted. Nothing is dropped silently: a point with text, an empty cell, a
+//! non-finite number or an absurdly large one (beyond [`MAX_MAGNITUDE_SI`]) in a mapped column
+//! is an error naming file, line and column, unless the caller asks to drop such points, and
+//! then they are counted.
 
 use std::fmt;
 use std::path::Path;
@@ -224,8 +225,25 @@ pub fn import_bytes(
         Format::Csv => read_csv_table(bytes, path)?,
         Format::Parquet => read_parquet_table(bytes, path)?,
     };
+    // Only RheoCompass exports have intervals: an interval asked of any other file would
+    // otherwise be ignored and the whole table fitted.
+    if let (Format::Csv | Format::Parquet, IntervalChoice::Numbers(numbers)) =
+        (format, &options.intervals)
+    {
+        return Err(DataError::NoSuchInterval {
+            path: path.to_owned(),
+            asked: numbers[0],
+            intervals: Vec::new(),
+            table: Some((format, table.lines.len())),
+        });
+    }
     map_table(&table, path, format, options)
 }
+
+/// Largest magnitude of a time (s) or force (N) read from a file: no measurement comes near
+/// it, and below it the sum of squared residuals over any record stays finite (a single
+/// value of 1e155 already squares to infinity).
+pub const MAX_MAGNITUDE_SI: f64 = 1e100;
 
 #[cfg(feature = "tabular")]
 fn read_csv_table(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
@@ -513,14 +531,19 @@ fn map_table(
         for (slot, r) in mapped.iter().enumerate() {
             let cell = &table.cells[r.index][row];
             let bad = match cell {
-                Cell::Number(v) if v.is_finite() && (v * r.to_si).is_finite() => {
+                Cell::Number(v) if (v * r.to_si).abs() <= MAX_MAGNITUDE_SI => {
                     values[slot] = v * r.to_si;
                     continue;
                 }
-                Cell::Number(v) if v.is_finite() => format!("{v} (out of range in SI units)"),
-                Cell::Number(v) => format!("{v} (not finite)"),
-                Cell::Text(t) if t.is_empty() => "an empty cell".to_owned(),
-                Cell::Text(t) => format!("`{t}`"),
+                Cell::Number(v) if v.is_finite() => format!(
+                    "{v:e} ({:e} in {}) is beyond ±{MAX_MAGNITUDE_SI:e}: not a measurement \
+                     (and its square would overflow the likelihood)",
+                    v * r.to_si,
+                    if r.role == "time" { "s" } else { "N" }
+                ),
+                Cell::Number(v) => format!("{v} is not a finite number"),
+                Cell::Text(t) if t.is_empty() => "an empty cell is not a finite number".to_owned(),
+                Cell::Text(t) => format!("`{t}` is not a finite number"),
             };
             if options.drop_invalid {
                 dropped_invalid += 1;
@@ -531,9 +554,9 @@ fn map_table(
                 line,
                 column: r.index + 1,
                 message: format!(
-                    "{bad} in column `{}` ({}) is not a finite number; fix the point, or drop \
-                     such points explicitly (model file: `drop_invalid = true`; command line: \
-                     --drop-invalid) and they are counted in the report",
+                    "column `{}` ({}): {bad}; fix the point, or drop such points explicitly \
+                     (model file: `drop_invalid = true`; command line: --drop-invalid) and \
+                     they are counted in the report",
                     table.names[r.index], r.role
                 ),
             });

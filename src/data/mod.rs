@@ -66,12 +66,45 @@ pub enum DataError {
         /// What is wrong and what to do.
         message: String,
     },
+    /// An interval was asked for that the file does not have: a RheoCompass export without
+    /// that interval number, or a table (CSV, Parquet) that has no intervals at all.
+    #[error("{path}: no interval {asked}; {}", interval_list(intervals, *table))]
+    NoSuchInterval {
+        /// The file.
+        path: PathBuf,
+        /// The first interval number asked for that the file does not have.
+        asked: usize,
+        /// The intervals the export has: (number, data points), in file order.
+        intervals: Vec<(usize, usize)>,
+        /// For a file without intervals: its format and data rows.
+        table: Option<(Format, usize)>,
+    },
     /// Columns of a series differ in length.
     #[error("series columns differ in length: {what}")]
     Ragged {
         /// Which columns.
         what: String,
     },
+}
+
+/// What a file holds instead of the interval asked for, and what to write.
+fn interval_list(intervals: &[(usize, usize)], table: Option<(Format, usize)>) -> String {
+    if let Some((format, rows)) = table {
+        return format!(
+            "the file is a {format} table of {rows} data rows without intervals (intervals \
+             are those of RheoCompass exports): remove `interval` (command line: --interval), \
+             or give `format = \"rheocompass\"` if the file is such an export"
+        );
+    }
+    let listed: Vec<String> = intervals
+        .iter()
+        .map(|&(n, points)| format!("{n} ({points} point{})", if points == 1 { "" } else { "s" }))
+        .collect();
+    format!(
+        "the file has intervals {}: give one of them (model file: `interval = N` or a list; \
+         command line: --interval N)",
+        listed.join(", ")
+    )
 }
 
 /// A recorded slide: force against instrument time, SI units.

@@ -176,7 +176,8 @@ struct Interval {
 /// # Errors
 /// [`DataError::Malformed`] naming the line for an interval without column names, data before
 /// any interval, or intervals to be joined whose columns differ; [`DataError::Unsupported`]
-/// when no interval is found or a chosen interval is not in the file.
+/// when no interval is found; [`DataError::NoSuchInterval`] when a chosen interval is not in
+/// the file.
 pub fn parse(bytes: &[u8], path: &Path, choice: &IntervalChoice) -> Result<Table, DataError> {
     let (text, encoding) = decode(bytes);
     let malformed = |line: usize, column: usize, message: String| DataError::Malformed {
@@ -333,16 +334,11 @@ pub fn parse(bytes: &[u8], path: &Path, choice: &IntervalChoice) -> Result<Table
                 intervals
                     .iter()
                     .find(|i| i.number == n)
-                    .ok_or_else(|| DataError::Unsupported {
+                    .ok_or_else(|| DataError::NoSuchInterval {
                         path: path.to_owned(),
-                        message: format!(
-                            "no interval {n}; the file has intervals {}",
-                            intervals
-                                .iter()
-                                .map(|i| i.number.to_string())
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
+                        asked: n,
+                        intervals: intervals.iter().map(|i| (i.number, i.rows.len())).collect(),
+                        table: None,
                     })
             })
             .collect::<Result<_, _>>()?,
@@ -451,7 +447,11 @@ mod tests {
             &IntervalChoice::Numbers(vec![3]),
         )
         .unwrap_err();
-        assert!(err.to_string().contains("intervals 1, 2"), "{err}");
+        assert!(
+            err.to_string()
+                .contains("intervals 1 (2 points), 2 (1 point)"),
+            "{err}"
+        );
     }
 
     #[test]

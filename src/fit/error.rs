@@ -34,10 +34,15 @@ pub enum FitError {
     /// The sampler settings were refused.
     #[error("invalid sampler settings")]
     Config(#[source] SamplerError),
-    /// No starting walkers could be found around the optimum.
+    /// No starting walkers could be found around the optimum. Where the density can say what
+    /// fails in its own terms, the message is that (the optimiser's error, with its vectors of
+    /// coordinates, stays in `optimizer`); else it is the optimiser's error.
     #[error(
-        "cannot find starting walkers{}",
-        why.as_ref().map(|w| format!(": at the start, {w}")).unwrap_or_default()
+        "cannot find starting walkers: {}",
+        match why {
+            Some(w) => format!("{w} ({})", optimizer.summary()),
+            None => optimizer.to_string(),
+        }
     )]
     Start {
         /// The start point given.
@@ -45,9 +50,8 @@ pub enum FitError {
         /// What the density says fails at the start
         /// ([`LogDensity::explain`](crate::density::LogDensity::explain)), when it can say.
         why: Option<String>,
-        /// Why.
-        #[source]
-        source: crate::optimize::OptimizeError,
+        /// What the optimiser met.
+        optimizer: crate::optimize::OptimizeError,
     },
     /// Sampling (or setting up the sampler) failed.
     #[error("{context}")]

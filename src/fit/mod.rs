@@ -40,13 +40,13 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::data::Provenance;
-use crate::density::{LogDensity, Quantity};
+use crate::density::{ColumnUnit, LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
-    EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError, SamplerState, Steps,
-    StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
+    CarryFit, EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError,
+    SamplerState, Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
-use crate::storage::{ChainReader, ParquetSink, SinkOptions};
+use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 
 pub use error::FitError;
 pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
@@ -100,17 +100,23 @@ pub fn default_updates() -> Updates {
     Updates::Hierarchical
 }
 
-/// The default walkers per ensemble of a fit of `density` with `updates`: max(32, 4·d + 4,
-/// 2·f + 4), where d is the number of coordinates one update moves (the dimension, or the
-/// largest block when the updates are blocked and the density has two blocks or more, as the
-/// sampler decides): the independence proposals are fitted to half the walkers, and a fit of
-/// d dimensions from barely d + 1 points proposes poorly (on the demo, 32 walkers for blocks
-/// of 9 gave τ ≈ 26 steps, 38 walkers τ ≈ 17). With hierarchical updates f is the largest
-/// number of followers a block carries: each follower's regression on the block is fitted to
-/// the complement, and the errors of all f add up in the acceptance ratio of the shared
-/// block, so τ grows as f over the walkers (10 contacts, 30 followers: τ 25 at 32 walkers, 11
-/// at 64).
-pub fn default_walkers<D: LogDensity + ?Sized>(density: &D, updates: Updates) -> usize {
+/// The default walkers per ensemble of a fit of `density` with `updates` and `carry`:
+/// max(32, 4·d + 4), where d is the number of coordinates one update moves (the dimension, or
+/// the largest block when the updates are blocked and the density has two blocks or more, as
+/// the sampler decides): the independence proposals are fitted to half the walkers, and a fit
+/// of d dimensions from barely d + 1 points proposes poorly (on the demo, 32 walkers for
+/// blocks of 9 gave τ ≈ 26 steps, 38 walkers τ ≈ 17). With hierarchical updates whose
+/// followers are carried by regressions fitted to the complement
+/// ([`CarryFit::Complement`]), also at least 2·f + 4, f the largest number of followers a
+/// block carries: the errors of all f coefficients add up in the acceptance ratio of the
+/// shared block, so τ grew as f over the walkers (10 contacts, 30 followers: τ 25 at 32
+/// walkers, 11 at 64). Under the default ([`CarryFit::Auto`]) a block with that many
+/// followers is carried by a tuned regression instead, which needs no more walkers.
+pub fn default_walkers<D: LogDensity + ?Sized>(
+    density: &D,
+    updates: Updates,
+    carry: CarryFit,
+) -> usize {
     let blocks = match updates {
         Updates::Joint => Vec::new(),
         Updates::Blocked | Updates::Hierarchical => density.blocks(),
@@ -120,13 +126,14 @@ pub fn default_walkers<D: LogDensity + ?Sized>(density: &D, updates: Updates) ->
         (density.dim(), 0)
     } else {
         let followers = match updates {
-            Updates::Hierarchical => density
+            // A tuned regression is precise whatever the number of followers.
+            Updates::Hierarchical if carry == CarryFit::Complement => density
                 .block_links()
                 .iter()
                 .map(|l| l.followers.len())
                 .max()
                 .unwrap_or(0),
-            Updates::Joint | Updates::Blocked => 0,
+            Updates::Joint | Updates::Blocked | Updates::Hierarchical => 0,
         };
         (blocks.iter().map(Vec::len).max().unwrap_or(0), followers)
     };
@@ -212,6 +219,10 @@ pub struct FitSettings {
     /// Joint or blocked updates (settings written before blocked updates existed: joint).
     #[serde(default)]
     pub updates: Updates,
+    /// How hierarchical updates carry a block's followers (settings written before this
+    /// choice existed: fitted to the complement, as then).
+    #[serde(default = "complement_carry")]
+    pub carry: CarryFit,
     /// Wall-time budget of the fit (s), from its start; none by default. A run that hits it
     /// keeps what it sampled and reports `stopped_by: TimeCap`.
     #[serde(default)]
@@ -234,9 +245,14 @@ impl Default for FitSettings {
             overwrite: false,
             moves: default_moves(),
             updates: default_updates(),
+            carry: CarryFit::default(),
             max_time_s: None,
         }
     }
+}
+
+fn complement_carry() -> CarryFit {
+    CarryFit::Complement
 }
 
 fn invalid(name: &'static str, value: impl std::fmt::Display, req: &str) -> FitError {
@@ -280,7 +296,7 @@ impl FitSettings {
         SamplerConfig::new(self.walkers, self.ensembles, self.seed)
             .and_then(|c| c.with_checkpoint_every(self.checkpoint_every))
             .and_then(|c| c.with_moves(self.moves.clone()))
-            .map(|c| c.with_updates(self.updates))
+            .map(|c| c.with_updates(self.updates).with_carry(self.carry))
             .map_err(FitError::Config)
     }
 }
@@ -401,14 +417,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
             .map_err(storage(format!("reading the chains of {shown}")))?;
         let step = state.step;
         state
-            .rebuild_history(&config, |p| {
-                chains
-                    .column(&param_names[p])
-                    .map_err(|e| SamplerError::Sink {
-                        step,
-                        source: Box::new(e),
-                    })
-            })
+            .rebuild_history_rows(&config, kept_rows_of(&chains, &param_names, step))
             .map_err(|source| FitError::Sampler {
                 context: format!("restoring the sampler's history from the chains of {shown}"),
                 source,
@@ -449,10 +458,10 @@ pub fn run_fit<D: LogDensity + ?Sized>(
             settings.ensembles,
             &mut rng,
         )
-        .map_err(|source| FitError::Start {
+        .map_err(|optimizer| FitError::Start {
             start: start.to_vec(),
             why: density.explain(start),
-            source,
+            optimizer,
         })?;
         let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {
             FitError::Sampler {
@@ -463,6 +472,7 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         (sampler, sink, settings.steps)
     };
 
+    sink.describe(chain_description(density, spec, settings));
     dir.remove_summaries()?;
     // Quiet hides progress, but a request to stop must still reach the sampler.
     let mut stop_only = StopOnly(observer);
@@ -490,6 +500,9 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     if report.stopped_by == StopReason::Interrupted {
         return Err(interrupted(&report));
     }
+    // The summaries read every recorded draw; the stopping rule's history (in the chains
+    // too) makes room for them, and comes back only if the run goes on.
+    sampler.release_history();
     let mut summary =
         plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
 
@@ -503,12 +516,21 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         {
             let now = sampler.step();
             let more = (now / 2).max(rule.check_every).min(rule.max_steps - now);
+            let chains = dir.chain_reader()?;
+            sampler
+                .restore_history(kept_rows_of(&chains, &param_names, now))
+                .map_err(|source| FitError::Sampler {
+                    context: format!("restoring the sampler's history from {shown}"),
+                    source,
+                })?;
+            drop(chains);
             report = sampler
                 .run(Steps::Fixed(more), &mut sink, observer)
                 .map_err(sampling)?;
             if report.stopped_by == StopReason::Interrupted {
                 return Err(interrupted(&report));
             }
+            sampler.release_history();
             summary =
                 plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
         }
@@ -523,6 +545,8 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     report.steps_run = sampler.step() - first_step;
     summary.sampler.steps_run = report.steps_run;
     summary.sampler.stopped_by = report.stopped_by;
+    // The parts' footers get the burn-in the summary used, now that it is final.
+    sink.set_burn_in(summary.sampler.burn_in);
     sink.finish()
         .map_err(storage(format!("finishing the chains in {shown}")))?;
     dir.write_summary(&summary)?;
@@ -531,6 +555,60 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         summary,
         dir: dir.clone(),
     })
+}
+
+/// The recorded values of parameter `p` (named by `param_names`) at the given rows of
+/// `chains`, read one row group at a time: how the sampler's history is restored from the
+/// chains of a run at step `step`.
+fn kept_rows_of<'c>(
+    chains: &'c ChainReader,
+    param_names: &'c [String],
+    step: u64,
+) -> impl FnMut(usize, &[usize]) -> Result<Vec<f64>, SamplerError> + 'c {
+    move |p, rows| {
+        chains
+            .rows_of(&param_names[p], rows)
+            .map_err(|e| SamplerError::Sink {
+                step,
+                source: Box::new(e),
+            })
+    }
+}
+
+/// What the chain parts' footers say about a fit: seed, shape, and the units of every value
+/// column (the density's own for its coordinates, else those of the quantity reported from a
+/// column).
+fn chain_description<D: LogDensity + ?Sized>(
+    density: &D,
+    spec: &SummarySpec,
+    settings: &FitSettings,
+) -> ChainDescription {
+    let reported = |name: &String| {
+        spec.quantities
+            .iter()
+            .find(|q| q.column == *name)
+            .map(|q| ColumnUnit {
+                unit: q.unit.clone(),
+                log: false,
+            })
+            .unwrap_or_default()
+    };
+    let declared = density.param_units();
+    let param_units = density
+        .param_names()
+        .iter()
+        .enumerate()
+        .map(|(i, name)| declared.get(i).cloned().unwrap_or_else(|| reported(name)))
+        .collect();
+    ChainDescription {
+        seed: settings.seed,
+        ensembles: settings.ensembles,
+        walkers: settings.walkers,
+        // The sink records every step; only the sampler's in-memory history is thinned.
+        thin: 1,
+        param_units,
+        derived_units: density.derived_names().iter().map(reported).collect(),
+    }
 }
 
 /// Forwards only [`Observer::stop_requested`]: the observer of a quiet fit.

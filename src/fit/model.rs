@@ -11,7 +11,7 @@ use super::{
 use crate::density::LogDensity;
 use crate::law::Scene;
 use crate::model::Posterior;
-use crate::sampler::{Move, Observer, Steps, Updates};
+use crate::sampler::{CarryFit, Move, Observer, Steps, Updates};
 
 /// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
 /// to cost seconds.
@@ -43,6 +43,8 @@ pub struct SettingOverrides {
     pub moves: Option<Vec<(Move, f64)>>,
     /// Joint or blocked updates.
     pub updates: Option<Updates>,
+    /// How hierarchical updates carry a block's followers.
+    pub carry: Option<CarryFit>,
 }
 
 impl FitSettings {
@@ -54,10 +56,11 @@ impl FitSettings {
             .updates
             .or(s.updates)
             .unwrap_or_else(default_updates);
+        let carry = overrides.carry.or(s.carry).unwrap_or_default();
         let walkers = overrides
             .walkers
             .or(s.walkers)
-            .unwrap_or_else(|| default_walkers(posterior, updates));
+            .unwrap_or_else(|| default_walkers(posterior, updates, carry));
         let max_steps = overrides.max_steps.unwrap_or(s.max_steps);
         let steps = match overrides.steps.or(s.steps) {
             Some(n) => Steps::Fixed(n),
@@ -77,6 +80,7 @@ impl FitSettings {
                 .or_else(|| s.moves.as_ref().map(|m| m.moves().to_vec()))
                 .unwrap_or_else(default_moves),
             updates,
+            carry,
             max_time_s: overrides.max_time_s.or(s.max_time_s),
             ..Self::default()
         }

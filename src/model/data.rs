@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::data::import::Binning;
+use crate::data::import::{Binning, MAX_MAGNITUDE_SI};
 use crate::data::{import, DataError, Imported, Provenance, Series};
 use crate::law::Scene;
 
@@ -14,6 +14,17 @@ pub enum RunDataError {
     /// The file could not be read or parsed.
     #[error(transparent)]
     Data(#[from] DataError),
+    /// The data file of a run of a model file could not be read or parsed.
+    #[error("{}: run `{run}`: {source}", model.display())]
+    Run {
+        /// The model file (`<command line>` for the quick path).
+        model: PathBuf,
+        /// The run whose `data` it is.
+        run: String,
+        /// What is wrong with the file (boxed: errors travel in every `Result` of a fit).
+        #[source]
+        source: Box<DataError>,
+    },
     /// The data cannot be fitted as they are.
     #[error("{path}:{line}: {message}")]
     Unusable {
@@ -75,7 +86,12 @@ impl RunData {
     pub fn for_run(spec: &ModelSpec, run: usize) -> Result<Self, RunDataError> {
         let r = &spec.file.runs[run];
         let path = spec.data_path(run);
-        let imported = import(&path, &spec.import_options(run))?;
+        let imported =
+            import(&path, &spec.import_options(run)).map_err(|source| RunDataError::Run {
+                model: spec.source.clone(),
+                run: r.name.clone(),
+                source: Box::new(source),
+            })?;
         let selection = Selection {
             window_s: r.window_s,
             bins: r.bins,
@@ -178,17 +194,22 @@ impl RunData {
         for i in 0..n {
             let line = i + 2;
             let (t, f) = (series.time_s[i], series.force_n[i]);
-            if !t.is_finite() {
-                return Err(unusable(
-                    line,
-                    format!("time_s = {t} is not finite; remove the row or fix the value"),
-                ));
-            }
-            if !f.is_finite() {
-                return Err(unusable(
-                    line,
-                    format!("force_N = {f} is not finite; remove the row or fix the value"),
-                ));
+            for (name, v) in [("time_s", t), ("force_N", f)] {
+                if !v.is_finite() {
+                    return Err(unusable(
+                        line,
+                        format!("{name} = {v} is not finite; remove the row or fix the value"),
+                    ));
+                }
+                if v.abs() > MAX_MAGNITUDE_SI {
+                    return Err(unusable(
+                        line,
+                        format!(
+                            "{name} = {v:e} is beyond ±{MAX_MAGNITUDE_SI:e}: not a measurement \
+                             (its square would overflow the likelihood); fix the value"
+                        ),
+                    ));
+                }
             }
             if let Some(normal) = &series.normal_force_n {
                 if !normal[i].is_finite() {

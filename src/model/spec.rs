@@ -11,7 +11,7 @@ use super::prior::Prior;
 use crate::data::units::{parse_unit, KNOWN_UNITS};
 use crate::data::{ColumnMap, Format, ImportOptions, IntervalChoice};
 use crate::law::Scene;
-use crate::sampler::{Mixture, Updates};
+use crate::sampler::{CarryFit, Mixture, Updates};
 
 /// Errors loading a model file.
 #[derive(Debug, thiserror::Error)]
@@ -313,6 +313,10 @@ pub struct SamplerSpec {
     /// contacts' and shared ones together).
     #[serde(default)]
     pub blocks: Blocking,
+    /// How hierarchical updates carry a shared block's followers: `"auto"` (the fit's
+    /// default when absent), `"complement"` or `"tuned"` (see [`CarryFit`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub carry: Option<CarryFit>,
     /// How a pooled parameter's population moves under blocked or hierarchical updates.
     #[serde(default, skip_serializing_if = "PopulationUpdates::is_default")]
     pub populations: PopulationUpdates,
@@ -387,6 +391,7 @@ impl Default for SamplerSpec {
             moves: None,
             updates: None,
             blocks: Blocking::default(),
+            carry: None,
             populations: PopulationUpdates::default(),
         }
     }

@@ -10,10 +10,11 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-use super::lbfgs::{lbfgs, LbfgsOptions};
+use super::lbfgs::{lbfgs, LbfgsOptions, Objective};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
+use super::probe::Probe;
 use super::OptimizeError;
-use crate::density::{classify, Eval, LogDensity, LogDensityError, SearchMap};
+use crate::density::{LogDensity, LogDensityError, SearchMap};
 use crate::diagnostics::{blockwise_condition_number, WALKER_CONDITION_LIMIT};
 
 /// Covariance of the Laplace approximation at `mode` of the log-density `log_f`, from a
@@ -26,12 +27,7 @@ pub fn laplace_covariance<F: FnMut(&[f64]) -> f64>(
     mode: &[f64],
     fallback_sd: f64,
 ) -> (Vec<f64>, bool) {
-    let n = mode.len();
-    // ε^(1/4): balances truncation (h²) against rounding (ε/h²) of the second difference.
-    let h: Vec<f64> = mode
-        .iter()
-        .map(|x| f64::EPSILON.powf(0.25) * x.abs().max(1.0))
-        .collect();
+    let h = hessian_steps(mode);
     let f0 = log_f(mode);
     let mut x = mode.to_vec();
     let mut at = |x: &mut Vec<f64>, moves: &[(usize, f64)]| {
@@ -39,24 +35,72 @@ pub fn laplace_covariance<F: FnMut(&[f64]) -> f64>(
             x[i] += d;
         }
         let v = log_f(x);
-        for &(i, d) in moves {
-            x[i] -= d;
-        }
         x.copy_from_slice(mode);
         v
     };
+    let n = mode.len();
+    let axis: Vec<[f64; 2]> = (0..n)
+        .map(|i| [at(&mut x, &[(i, h[i])]), at(&mut x, &[(i, -h[i])])])
+        .collect();
+    let pairs: Vec<Vec<[f64; 4]>> = (0..n)
+        .map(|i| {
+            (0..i)
+                .map(|j| {
+                    [
+                        at(&mut x, &[(i, h[i]), (j, h[j])]),
+                        at(&mut x, &[(i, h[i]), (j, -h[j])]),
+                        at(&mut x, &[(i, -h[i]), (j, h[j])]),
+                        at(&mut x, &[(i, -h[i]), (j, -h[j])]),
+                    ]
+                })
+                .collect()
+        })
+        .collect();
+    covariance_from_differences(mode, f0, &axis, &pairs, fallback_sd)
+}
+
+/// The steps of the second differences: ε^(1/4) balances truncation (h²) against rounding
+/// (ε/h²).
+fn hessian_steps(mode: &[f64]) -> Vec<f64> {
+    mode.iter()
+        .map(|x| f64::EPSILON.powf(0.25) * x.abs().max(1.0))
+        .collect()
+}
+
+/// [`laplace_covariance`] of a density, each difference point evaluated by the block of the
+/// coordinates moved and in parallel ([`Probe`]): the same numbers.
+fn probe_covariance<D: LogDensity + ?Sized>(
+    probe: &Probe<'_, D>,
+    mode: &[f64],
+    fallback_sd: f64,
+) -> (Vec<f64>, bool) {
+    let h = hessian_steps(mode);
+    let f0 = probe.value(mode);
+    let axis = probe.axis(mode, &h);
+    let pairs = probe.pairs(mode, &h);
+    covariance_from_differences(mode, f0, &axis, &pairs, fallback_sd)
+}
+
+/// The covariance from the central second differences of `log f` at `mode`: `f0 = f(mode)`,
+/// `axis[i] = [f(+h_i), f(−h_i)]`, `pairs[i][j] = f` at (±h_i, ±h_j) for `j < i` in the order
+/// (+, +), (+, −), (−, +), (−, −).
+fn covariance_from_differences(
+    mode: &[f64],
+    f0: f64,
+    axis: &[[f64; 2]],
+    pairs: &[Vec<[f64; 4]>],
+    fallback_sd: f64,
+) -> (Vec<f64>, bool) {
+    let n = mode.len();
+    let h = hessian_steps(mode);
     let mut hess = DMatrix::<f64>::zeros(n, n);
     let mut finite = f0.is_finite();
     for i in 0..n {
-        let fp = at(&mut x, &[(i, h[i])]);
-        let fm = at(&mut x, &[(i, -h[i])]);
+        let [fp, fm] = axis[i];
         finite &= fp.is_finite() && fm.is_finite();
         hess[(i, i)] = -(fp - 2.0 * f0 + fm) / (h[i] * h[i]);
         for j in 0..i {
-            let fpp = at(&mut x, &[(i, h[i]), (j, h[j])]);
-            let fpm = at(&mut x, &[(i, h[i]), (j, -h[j])]);
-            let fmp = at(&mut x, &[(i, -h[i]), (j, h[j])]);
-            let fmm = at(&mut x, &[(i, -h[i]), (j, -h[j])]);
+            let [fpp, fpm, fmp, fmm] = pairs[i][j];
             finite &= fpp.is_finite() && fpm.is_finite() && fmp.is_finite() && fmm.is_finite();
             let v = -(fpp - fpm - fmp + fmm) / (4.0 * h[i] * h[j]);
             hess[(i, j)] = v;
@@ -125,29 +169,20 @@ pub const FALLBACK_SPREAD: f64 = 1e-3;
 /// Attempts to draw a walker inside the support before giving up.
 pub const MAX_DRAW_ATTEMPTS: usize = 1000;
 
-/// The log-density as a plain function for the optimisers: refused points are −∞, and every
-/// call is counted.
-struct Counted<'a, D: LogDensity + ?Sized> {
-    density: &'a D,
-    scratch: Vec<f64>,
-    evaluations: usize,
-}
+/// The negative log-density that L-BFGS minimises, its axis points evaluated by the probe.
+struct Minus<'p, 'd, D: ?Sized>(&'p Probe<'d, D>);
 
-impl<'a, D: LogDensity + ?Sized> Counted<'a, D> {
-    fn new(density: &'a D) -> Self {
-        Self {
-            density,
-            scratch: vec![0.0; density.derived_names().len()],
-            evaluations: 0,
-        }
+impl<D: LogDensity + ?Sized> Objective for Minus<'_, '_, D> {
+    fn value(&mut self, x: &[f64]) -> f64 {
+        -self.0.value(x)
     }
 
-    fn log_f(&mut self, x: &[f64]) -> f64 {
-        self.evaluations += 1;
-        match classify(self.density, x, &mut self.scratch) {
-            Eval::Finite(v) => v,
-            _ => f64::NEG_INFINITY,
-        }
+    fn axis_values(&mut self, x: &[f64], h: &[f64]) -> Vec<[f64; 2]> {
+        self.0
+            .axis(x, h)
+            .into_iter()
+            .map(|v| v.map(|f| -f))
+            .collect()
     }
 }
 
@@ -175,8 +210,8 @@ pub fn find_mode<D: LogDensity + ?Sized>(
             got: start.len(),
         });
     }
-    let mut f = Counted::new(density);
-    if !f.log_f(start).is_finite() {
+    let probe = Probe::new(density);
+    if !probe.value(start).is_finite() {
         return Err(OptimizeError::StartNotFinite {
             start: start.to_vec(),
         });
@@ -195,8 +230,8 @@ pub fn find_mode<D: LogDensity + ?Sized>(
     let mut mode = start.to_vec();
     let mut neg = f64::INFINITY;
     for _ in 0..MODE_ROUNDS {
-        let (near, _) = lbfgs(|x| -f.log_f(x), &mode, &LbfgsOptions::default());
-        let (polished, value, _) = nelder_mead(|x| -f.log_f(x), &near, &polish);
+        let (near, _) = lbfgs(Minus(&probe), &mode, &LbfgsOptions::default());
+        let (polished, value, _) = nelder_mead(|x| -probe.value(x), &near, &polish);
         let gain = neg - value;
         if value < neg {
             (mode, neg) = (polished, value);
@@ -212,14 +247,13 @@ pub fn find_mode<D: LogDensity + ?Sized>(
             log_density: -neg,
         });
     }
-    let (covariance, positive_definite) =
-        laplace_covariance(|x| f.log_f(x), &mode, FALLBACK_SPREAD);
+    let (covariance, positive_definite) = probe_covariance(&probe, &mode, FALLBACK_SPREAD);
     Ok(Optimum {
         x: mode,
         log_density: -neg,
         covariance,
         positive_definite,
-        evaluations: f.evaluations,
+        evaluations: probe.evaluations(),
     })
 }
 
@@ -239,7 +273,7 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
 ) -> Result<Vec<Vec<Vec<f64>>>, OptimizeError> {
     let mode = &optimum.x;
     let n = mode.len();
-    let mut f = Counted::new(density);
+    let probe = Probe::new(density);
     let eig = SymmetricEigen::new(DMatrix::from_row_slice(n, n, &optimum.covariance));
     // Σ = V Λ Vᵀ, so x = mode + V Λ^{1/2} z with z standard normal.
     let root =
@@ -266,7 +300,7 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
                 let shrink = 0.5_f64.powi((attempts * 10 / MAX_DRAW_ATTEMPTS) as i32);
                 let d = (&root * &z) * shrink;
                 let x: Vec<f64> = mode.iter().zip(d.iter()).map(|(m, d)| m + d).collect();
-                if f.log_f(&x).is_finite() {
+                if probe.value(&x).is_finite() {
                     break x;
                 }
                 if attempts >= MAX_DRAW_ATTEMPTS {

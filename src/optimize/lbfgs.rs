@@ -27,19 +27,70 @@ impl Default for LbfgsOptions {
     }
 }
 
+/// What [`lbfgs`] minimises: a function of a point, and its values one step along each axis
+/// for the finite differences (by default one call per point; an objective that can evaluate
+/// such points more cheaply, or in parallel, says so here). Any `FnMut(&[f64]) -> f64` is one.
+pub trait Objective {
+    /// The value at `x` (+∞ or NaN where refused).
+    fn value(&mut self, x: &[f64]) -> f64;
+
+    /// `[f(x + h_i e_i), f(x − h_i e_i)]` for every coordinate `i`.
+    fn axis_values(&mut self, x: &[f64], h: &[f64]) -> Vec<[f64; 2]> {
+        let mut p = x.to_vec();
+        (0..x.len())
+            .map(|i| {
+                p[i] = x[i] + h[i];
+                let fp = self.value(&p);
+                p[i] = x[i] - h[i];
+                let fm = self.value(&p);
+                p[i] = x[i];
+                [fp, fm]
+            })
+            .collect()
+    }
+}
+
+impl<F: FnMut(&[f64]) -> f64> Objective for F {
+    fn value(&mut self, x: &[f64]) -> f64 {
+        self(x)
+    }
+}
+
+/// Refused points (NaN) as +∞, which the line search backs off from.
+struct Refusing<O>(O);
+
+fn refused(v: f64) -> f64 {
+    if v.is_nan() {
+        f64::INFINITY
+    } else {
+        v
+    }
+}
+
+impl<O: Objective> Objective for Refusing<O> {
+    fn value(&mut self, x: &[f64]) -> f64 {
+        refused(self.0.value(x))
+    }
+
+    fn axis_values(&mut self, x: &[f64], h: &[f64]) -> Vec<[f64; 2]> {
+        let mut v = self.0.axis_values(x, h);
+        for pair in &mut v {
+            *pair = pair.map(refused);
+        }
+        v
+    }
+}
+
 /// Central finite-difference gradient of `f` at `x` (one-sided where a side is refused).
 /// Returns `None` when neither side gives a finite value along some axis.
-fn gradient<F: FnMut(&[f64]) -> f64>(f: &mut F, x: &[f64], fx: f64, out: &mut [f64]) -> Option<()> {
-    let mut p = x.to_vec();
-    for i in 0..x.len() {
-        // ε^(1/3) balances truncation (h²) against rounding (ε/h) of a central difference.
-        let h = f64::EPSILON.cbrt() * x[i].abs().max(1.0);
-        p[i] = x[i] + h;
-        let fp = f(&p);
-        p[i] = x[i] - h;
-        let fm = f(&p);
-        p[i] = x[i];
-        out[i] = match (fp.is_finite(), fm.is_finite()) {
+fn gradient<O: Objective>(f: &mut O, x: &[f64], fx: f64, out: &mut [f64]) -> Option<()> {
+    // ε^(1/3) balances truncation (h²) against rounding (ε/h) of a central difference.
+    let h: Vec<f64> = x
+        .iter()
+        .map(|v| f64::EPSILON.cbrt() * v.abs().max(1.0))
+        .collect();
+    for ((o, [fp, fm]), h) in out.iter_mut().zip(f.axis_values(x, &h)).zip(h) {
+        *o = match (fp.is_finite(), fm.is_finite()) {
             (true, true) => (fp - fm) / (2.0 * h),
             (true, false) => (fp - fx) / h,
             (false, true) => (fx - fm) / h,
@@ -52,29 +103,20 @@ fn gradient<F: FnMut(&[f64]) -> f64>(f: &mut F, x: &[f64], fx: f64, out: &mut [f
 /// 1/|∂²f/∂x_i²| by central second differences (the magnitude: far from the optimum the
 /// curvature may have either sign, but its size still sets the scale), or `None` when one is
 /// zero or not finite.
-fn diagonal_inverse_curvature<F: FnMut(&[f64]) -> f64>(
-    f: &mut F,
-    x: &[f64],
-    fx: f64,
-) -> Option<Vec<f64>> {
-    let mut p = x.to_vec();
-    let mut out = Vec::with_capacity(x.len());
-    for i in 0..x.len() {
-        // ε^(1/4) balances truncation (h²) against rounding (ε/h²) of a second difference.
-        let h = f64::EPSILON.powf(0.25) * x[i].abs().max(1.0);
-        p[i] = x[i] + h;
-        let fp = f(&p);
-        p[i] = x[i] - h;
-        let fm = f(&p);
-        p[i] = x[i];
-        let c = (fp - 2.0 * fx + fm) / (h * h);
-        let c = c.abs();
-        if !(c.is_finite() && c > 0.0) {
-            return None;
-        }
-        out.push(1.0 / c);
-    }
-    Some(out)
+fn diagonal_inverse_curvature<O: Objective>(f: &mut O, x: &[f64], fx: f64) -> Option<Vec<f64>> {
+    // ε^(1/4) balances truncation (h²) against rounding (ε/h²) of a second difference.
+    let h: Vec<f64> = x
+        .iter()
+        .map(|v| f64::EPSILON.powf(0.25) * v.abs().max(1.0))
+        .collect();
+    f.axis_values(x, &h)
+        .into_iter()
+        .zip(h)
+        .map(|([fp, fm], h)| {
+            let c = ((fp - 2.0 * fx + fm) / (h * h)).abs();
+            (c.is_finite() && c > 0.0).then(|| 1.0 / c)
+        })
+        .collect()
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -83,22 +125,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Minimises `f` from `start`. `f` may return +∞ or NaN for points it refuses; the line
 /// search backs off from them. Returns the best point and its value.
-pub fn lbfgs<F: FnMut(&[f64]) -> f64>(
-    mut f: F,
-    start: &[f64],
-    options: &LbfgsOptions,
-) -> (Vec<f64>, f64) {
+pub fn lbfgs<O: Objective>(f: O, start: &[f64], options: &LbfgsOptions) -> (Vec<f64>, f64) {
     let n = start.len();
-    let mut f = |x: &[f64]| {
-        let v = f(x);
-        if v.is_nan() {
-            f64::INFINITY
-        } else {
-            v
-        }
-    };
+    let mut f = Refusing(f);
     let mut x = start.to_vec();
-    let mut fx = f(&x);
+    let mut fx = f.value(&x);
     let mut g = vec![0.0; n];
     if !fx.is_finite() || gradient(&mut f, &x, fx, &mut g).is_none() {
         return (x, fx);
@@ -173,7 +204,7 @@ pub fn lbfgs<F: FnMut(&[f64]) -> f64>(
             for i in 0..n {
                 x_new[i] = x[i] + step * d[i];
             }
-            f_new = f(&x_new);
+            f_new = f.value(&x_new);
             if f_new.is_finite() && f_new <= fx + 1e-4 * step * slope {
                 break;
             }

@@ -13,12 +13,13 @@
 pub mod laplace;
 pub mod lbfgs;
 pub mod nelder_mead;
+mod probe;
 
 pub use laplace::{
     find_mode, initial_around_optimum, laplace_covariance, laplace_walkers, Optimum, Start,
     FALLBACK_SPREAD, MAX_DRAW_ATTEMPTS,
 };
-pub use lbfgs::{lbfgs, LbfgsOptions};
+pub use lbfgs::{lbfgs, LbfgsOptions, Objective};
 pub use nelder_mead::{nelder_mead, NelderMeadOptions};
 
 /// Why no mode, or no walkers around it, could be found; each names the point at fault.
@@ -74,6 +75,24 @@ pub enum OptimizeError {
         /// Condition number of the centred walker matrix.
         condition: f64,
     },
+}
+
+impl OptimizeError {
+    /// What went wrong, in words, without the points (for a caller that names them itself).
+    pub fn summary(&self) -> &'static str {
+        match self {
+            Self::Shape { .. } => "the start has the wrong number of coordinates",
+            Self::StartNotFinite { .. } => "the log-density is not finite at the start",
+            Self::NoFiniteMode { .. } => "the mode search ended where the density is not finite",
+            Self::NoWalkerInSupport { .. } => {
+                "no walker could be drawn inside the support around the mode"
+            }
+            Self::DegenerateWalkers { .. } => {
+                "the walkers drawn around the mode coincide: the posterior there is narrower \
+                 than its coordinates can resolve"
+            }
+        }
+    }
 }
 
 /// A point for a message: every coordinate of a small one, the first few of a large one.

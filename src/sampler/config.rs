@@ -10,7 +10,7 @@ pub const DEFAULT_ENSEMBLES: usize = 4;
 /// Default seed; saved with the results so a run can be repeated.
 pub const DEFAULT_SEED: u64 = 20_240_517;
 /// Default maximum number of thinned rows kept per walker for the τ and R̂ estimates.
-pub const DEFAULT_HISTORY_ROWS: usize = 2048;
+pub const DEFAULT_HISTORY_ROWS: usize = 1024;
 /// Memory the thinned history may take before it keeps fewer rows than `history_rows`: a
 /// campaign of many contacts (hundreds of walkers × tens of parameters) would otherwise hold
 /// hundreds of MB for it.
@@ -32,6 +32,73 @@ pub struct SamplerConfig {
     parallel: bool,
     history_rows: usize,
     updates: Updates,
+    carry: CarryFit,
+}
+
+/// How a block's followers are carried along under hierarchical updates: by their
+/// regression on the block, fitted to what (see `Followers` in the sampler's moves).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CarryFit {
+    /// Tuned where the complementary half is too small for the block's followers (fewer than
+    /// [`CARRY_FIT_MIN_COMPLEMENT`] walkers per follower), fitted to the complement
+    /// elsewhere (the default).
+    #[default]
+    Auto,
+    /// Fitted to the complementary half of the ensemble at every half-step: follows the
+    /// posterior from the first step, but with half the walkers of one step its error grows
+    /// with the number of followers, and every follower's error adds to the block's
+    /// acceptance ratio.
+    Complement,
+    /// Fitted to the ensemble's own draws of the first
+    /// [`CARRY_FIT_STEPS`](super::CARRY_FIT_STEPS) steps (in two windows, the second using
+    /// the first's fit), then fixed: precise whatever the number of followers, at the price
+    /// of a burn-in that covers those steps.
+    Tuned,
+}
+
+/// Under [`CarryFit::Auto`], walkers of the complementary half per follower below which a
+/// block's regression is tuned rather than fitted to the complement. The complement's errors
+/// in each follower's coefficients add up in the acceptance ratio of the block (10 contacts,
+/// 30 followers: τ 25 steps with 16 walkers in the complement, 11 with 32).
+pub const CARRY_FIT_MIN_COMPLEMENT: f64 = 1.0;
+
+impl CarryFit {
+    /// `"auto"`, `"complement"` or `"tuned"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Complement => "complement",
+            Self::Tuned => "tuned",
+        }
+    }
+
+    /// Whether a block with `followers` is carried by a tuned regression when the
+    /// ensembles have `walkers` walkers.
+    pub fn tunes(self, followers: usize, walkers: usize) -> bool {
+        match self {
+            Self::Complement => false,
+            Self::Tuned => followers > 0,
+            Self::Auto => {
+                followers > 0
+                    && ((walkers / 2) as f64) < CARRY_FIT_MIN_COMPLEMENT * (followers + 2) as f64
+            }
+        }
+    }
+}
+
+impl std::str::FromStr for CarryFit {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "complement" => Ok(Self::Complement),
+            "tuned" => Ok(Self::Tuned),
+            other => Err(format!(
+                "unknown carry {other:?}: use \"auto\", \"complement\" or \"tuned\""
+            )),
+        }
+    }
 }
 
 /// Which coordinates one update of a walker moves.
@@ -92,6 +159,8 @@ struct RawConfig {
     history_rows: usize,
     #[serde(default)]
     updates: Updates,
+    #[serde(default)]
+    carry: CarryFit,
 }
 
 impl TryFrom<RawConfig> for SamplerConfig {
@@ -102,7 +171,7 @@ impl TryFrom<RawConfig> for SamplerConfig {
             .with_checkpoint_every(r.checkpoint_every)?
             .with_parallel(r.parallel)
             .with_history_rows(r.history_rows)
-            .map(|c| c.with_updates(r.updates))
+            .map(|c| c.with_updates(r.updates).with_carry(r.carry))
     }
 }
 
@@ -137,7 +206,14 @@ impl SamplerConfig {
             parallel: true,
             history_rows: DEFAULT_HISTORY_ROWS,
             updates: Updates::Joint,
+            carry: CarryFit::Auto,
         })
+    }
+
+    /// How the followers of hierarchical updates are carried (see [`CarryFit`]).
+    pub fn with_carry(mut self, carry: CarryFit) -> Self {
+        self.carry = carry;
+        self
     }
 
     /// Joint or blocked updates (see [`Updates`]).
@@ -231,6 +307,11 @@ impl SamplerConfig {
     /// Joint or blocked updates.
     pub fn updates(&self) -> Updates {
         self.updates
+    }
+
+    /// How the followers of hierarchical updates are carried.
+    pub fn carry(&self) -> CarryFit {
+        self.carry
     }
 
     /// Whether densities are evaluated in parallel.

@@ -11,7 +11,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{Followers, HalfStepFit, Move, SliceDirections, SLICE_MAX_STEPS_OUT};
+use super::moves::{
+    CarryTuning, Followers, HalfStepFit, Move, SliceDirections, SLICE_MAX_STEPS_OUT,
+};
 use super::slice::{update_along_line, update_coordinate, LineError, SliceError};
 use crate::density::{sort, BlockLinks, Eval, LogDensity};
 
@@ -49,6 +51,9 @@ pub(crate) struct UpdateBlock {
     /// A conditional block whose carried move is dropped after the tuning steps if it moved
     /// the block far less than the exact draw did (see `EnsembleSampler::keeps_carried_move`).
     pub carry_measured: bool,
+    /// The followers are carried by a regression tuned on the ensemble's own draws and then
+    /// frozen ([`CarryTuning`]), not by one fitted to the complement.
+    pub tuned_carry: bool,
 }
 
 /// The density's map carrying a block's followers along (see
@@ -86,6 +91,10 @@ pub struct EnsembleState {
     /// always move and are left out of the acceptance fraction.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub slice_updates: u64,
+    /// Per block, the tuning of the regression that carries its followers (`None` for a
+    /// block whose regression is fitted to the complement); empty when no block is tuned.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub carry_fits: Vec<Option<CarryTuning>>,
 }
 
 fn is_zero(v: &u64) -> bool {
@@ -419,11 +428,15 @@ impl Ensemble {
         &mut self,
         mv: &Move,
         h: usize,
-        block: Option<(&UpdateBlock, Option<CarryMap>)>,
+        block: Option<(usize, &UpdateBlock, Option<CarryMap>)>,
         out: ProposalBuffers,
     ) {
+        let followers = match block {
+            Some((slot, b, None)) => self.followers(h, slot, b),
+            _ => None,
+        };
         let (block, carry) = match block {
-            Some((b, c)) => (Some(b), c),
+            Some((_, b, c)) => (Some(b), c),
             None => (None, None),
         };
         let ndim = self.ndim;
@@ -466,17 +479,6 @@ impl Ensemble {
             complement,
             block.map(|b| (&b.coords[..], given)),
         );
-        let followers = block
-            .filter(|b| !b.links.followers.is_empty() && carry.is_none())
-            .and_then(|b| {
-                Followers::new(
-                    &s.positions,
-                    ndim,
-                    complement,
-                    &b.coords,
-                    &b.links.followers,
-                )
-            });
         let (nd, nc) = (*nderived, *cache_len);
         let (sd, sc) = (nd.max(1), nc.max(1));
         for (k, &w) in active.iter().enumerate() {
@@ -632,12 +634,52 @@ impl Ensemble {
         let positions = &self.s.positions;
         SliceContext {
             directions: SliceDirections::new(gaussian, positions, ndim, complement, coords),
-            followers: block
-                .filter(|b| !b.links.followers.is_empty() && !b.density_carries)
-                .and_then(|b| {
-                    Followers::new(positions, ndim, complement, &b.coords, &b.links.followers)
-                }),
+            followers: block.and_then(|b| self.followers(h, slot, b)),
             mu: self.s.slice_scales[slot],
+        }
+    }
+
+    /// The regression carrying the followers of `block` (update slot `slot`) in half `h`,
+    /// unless the density carries them itself or there are none: the tuned one once frozen,
+    /// else the one fitted to the complement.
+    fn followers(&self, h: usize, slot: usize, block: &UpdateBlock) -> Option<Followers> {
+        if block.links.followers.is_empty() || block.density_carries {
+            return None;
+        }
+        let frozen = self
+            .s
+            .carry_fits
+            .get(slot)
+            .and_then(Option::as_ref)
+            .and_then(Followers::frozen);
+        frozen.or_else(|| {
+            let (_, complement) = Self::halves(&self.perm, h);
+            Followers::new(
+                &self.s.positions,
+                self.ndim,
+                complement,
+                &block.coords,
+                &block.links.followers,
+            )
+        })
+    }
+
+    /// Gathers this step's walkers into the tuning of every tuned block, and when `freeze`
+    /// ends the window (see [`CarryTuning`]).
+    pub fn tune_carry(&mut self, blocks: &[UpdateBlock], freeze: bool) {
+        let ndim = self.ndim;
+        let EnsembleState {
+            positions,
+            carry_fits,
+            ..
+        } = &mut self.s;
+        for (tuning, b) in carry_fits.iter_mut().zip(blocks) {
+            if let Some(t) = tuning {
+                t.gather(positions, ndim, &b.coords, &b.links.followers);
+                if freeze {
+                    t.freeze();
+                }
+            }
         }
     }
 

@@ -81,6 +81,12 @@ pub enum SamplerError {
         /// What does not match.
         detail: String,
     },
+    /// The sampler's history was released and not restored before another run.
+    #[error(
+        "the sampler's history was released: restore it from the chains (restore_history) \
+         before running on"
+    )]
+    HistoryReleased,
     /// An earlier run of this sampler stopped on an error mid-step.
     #[error("the sampler stopped on an error mid-step; resume from the last checkpoint instead")]
     Poisoned,

@@ -172,8 +172,9 @@ impl RowHistory {
 }
 
 /// The [`History`] an uninterrupted run of `steps` steps holds with `max_rows` rows, restored
-/// from the recorded chains: `column(p)` gives parameter `p` of every row (step, then
-/// ensemble, then walker). Which steps are kept follows from running the thinning rule of
+/// from the recorded chains: `column(p, rows)` gives parameter `p` at the recorded `rows`
+/// (indices in the chains' order: step, then ensemble, then walker; increasing), which are
+/// those of the kept steps. Which steps are kept follows from running the thinning rule of
 /// [`RowHistory`] itself over the step count: kept row `r` is step `r · thin`.
 ///
 /// # Errors
@@ -182,7 +183,7 @@ pub(crate) fn rebuild<E: From<SamplerError>>(
     steps: u64,
     max_rows: usize,
     (ensembles, walkers, ndim): (usize, usize, usize),
-    mut column: impl FnMut(usize) -> Result<Vec<f64>, E>,
+    mut column: impl FnMut(usize, &[usize]) -> Result<Vec<f64>, E>,
 ) -> Result<History, E> {
     let mut rule = RowHistory::new(1, 0, max_rows);
     for step in 0..steps {
@@ -191,23 +192,27 @@ pub(crate) fn rebuild<E: From<SamplerError>>(
         }
     }
     let mut series = vec![vec![Vec::with_capacity(rule.rows); walkers * ndim]; ensembles];
-    let rows = steps as usize * ensembles * walkers;
+    let block = ensembles * walkers;
+    let wanted: Vec<usize> = (0..rule.rows)
+        .flat_map(|r| {
+            let first = rule.step_of(r) as usize * block;
+            first..first + block
+        })
+        .collect();
     for p in 0..ndim {
-        let values = column(p)?;
-        if values.len() != rows {
+        let values = column(p, &wanted)?;
+        if values.len() != wanted.len() {
             return Err(SamplerError::Shape {
-                what: format!("chains of parameter {p} for the history"),
-                expected: rows,
+                what: format!("kept rows of parameter {p} for the history"),
+                expected: wanted.len(),
                 got: values.len(),
             }
             .into());
         }
         for (e, columns) in series.iter_mut().enumerate() {
             for w in 0..walkers {
-                columns[w * ndim + p].extend(
-                    (0..rule.rows)
-                        .map(|r| values[(rule.step_of(r) as usize * ensembles + e) * walkers + w]),
-                );
+                columns[w * ndim + p]
+                    .extend((0..rule.rows).map(|r| values[(r * ensembles + e) * walkers + w]));
             }
         }
     }

@@ -68,18 +68,20 @@ pub mod sink;
 mod slice;
 
 pub use config::{
-    SamplerConfig, Steps, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
-    HISTORY_BUDGET_BYTES, MIN_BUDGET_ROWS,
+    CarryFit, SamplerConfig, Steps, StopRule, Updates, CARRY_FIT_MIN_COMPLEMENT, DEFAULT_ENSEMBLES,
+    DEFAULT_HISTORY_ROWS, DEFAULT_SEED, HISTORY_BUDGET_BYTES, MIN_BUDGET_ROWS,
 };
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;
 pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
-pub use moves::{Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0};
+pub use moves::{
+    CarryTuning, Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0,
+};
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{
-    EnsembleSampler, SamplerState, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS, RESUME_RTOL,
-    STATE_VERSION,
+    EnsembleSampler, SamplerState, CARRY_FIT_STEPS, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS,
+    RESUME_RTOL, STATE_VERSION,
 };
 pub use sink::{ChainSink, StepView};

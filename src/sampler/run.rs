@@ -11,7 +11,7 @@ use super::ensemble::{
 };
 use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
-use super::moves::{Move, SLICE_ADAPT_STEPS, SLICE_MU0};
+use super::moves::{CarryTuning, Move, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
 use super::report::{
     chosen_tau_report, rhat_from_history, tau_windows, EnsembleReport, RunReport, StopReason,
@@ -81,7 +81,35 @@ impl SamplerState {
     pub fn rebuild_history<E: From<SamplerError>>(
         &mut self,
         config: &SamplerConfig,
-        column: impl FnMut(usize) -> Result<Vec<f64>, E>,
+        mut column: impl FnMut(usize) -> Result<Vec<f64>, E>,
+    ) -> Result<(), E> {
+        let rows = self.step as usize * self.ensembles.len() * self.walkers;
+        self.rebuild_history_rows(config, |p, wanted| {
+            let values = column(p)?;
+            if values.len() != rows {
+                return Err(SamplerError::Shape {
+                    what: format!("chains of parameter {p} for the history"),
+                    expected: rows,
+                    got: values.len(),
+                }
+                .into());
+            }
+            Ok(wanted.iter().map(|&r| values[r]).collect())
+        })
+    }
+
+    /// [`rebuild_history`](Self::rebuild_history) from the rows it keeps alone:
+    /// `column(p, rows)` gives parameter `p` at the recorded `rows` (increasing indices in
+    /// the chains' order), so that a long run's history is restored without reading whole
+    /// columns.
+    ///
+    /// # Errors
+    /// What `column` returns, or [`SamplerError::Shape`] when it gives the wrong number of
+    /// values.
+    pub fn rebuild_history_rows<E: From<SamplerError>>(
+        &mut self,
+        config: &SamplerConfig,
+        column: impl FnMut(usize, &[usize]) -> Result<Vec<f64>, E>,
     ) -> Result<(), E> {
         let shape = (self.ensembles.len(), self.walkers, self.ndim);
         let max_rows = config.history_rows_for(self.ndim);
@@ -136,6 +164,9 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// so at most every [`SHOWN_R_HAT_EVERY`]).
     shown_r_hat_at: Option<Instant>,
     poisoned: bool,
+    /// The history was released ([`release_history`](Self::release_history)) and must be
+    /// restored before the next run.
+    history_released: bool,
 }
 
 impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
@@ -257,6 +288,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 evaluations: walkers as u64,
                 slice_scales: vec![SLICE_MU0; slice_slots(&config, &blocks)],
                 slice_updates: 0,
+                carry_fits: fresh_carry_fits(&blocks),
             });
             caches.push(cache);
         }
@@ -350,6 +382,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 || s.walker_rngs.len() != walkers
                 || s.accepted.len() != walkers
                 || s.slice_scales.len() != slice_slots(&config, &blocks)
+                || !carry_fits_match(&s.carry_fits, &blocks)
             {
                 return mismatch(format!("arrays of ensemble {e} have the wrong sizes"));
             }
@@ -449,6 +482,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             shown_r_hat: None,
             shown_r_hat_at: None,
             poisoned: false,
+            history_released: false,
         }
     }
 
@@ -464,11 +498,59 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             updates: self.config.updates(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
-            history: Some(self.history.to_history()),
+            history: (!self.history_released).then(|| self.history.to_history()),
             last_tau: self.last_tau[0].clone(),
             last_tau_later: self.last_tau[1..].to_vec(),
             carry_jumps: self.carry_jumps.clone(),
         }
+    }
+
+    /// Frees the thinned history of the stopping rule (its rows are in the chains), so that
+    /// what the caller does between runs (summaries of every recorded draw, say) has its
+    /// memory; [`restore_history`](Self::restore_history) brings it back before the next
+    /// run, which refuses to start without it. A state taken meanwhile has no history, like a
+    /// checkpoint.
+    pub fn release_history(&mut self) {
+        if self.history_released {
+            return;
+        }
+        let h = &self.history;
+        let mut empty = RowHistory::new(0, h.width, h.max_rows);
+        (empty.thin, empty.rows) = (h.thin, h.rows);
+        self.history = empty;
+        self.history_released = true;
+    }
+
+    /// Restores a released history from the recorded chains: `column(p, rows)` gives
+    /// parameter `p` at the recorded `rows` (increasing indices in the chains' order: step,
+    /// then ensemble, then walker). The rows are those the history held, bit for bit. Does
+    /// nothing when the history was not released.
+    ///
+    /// # Errors
+    /// What `column` returns; [`SamplerError::Shape`] when it gives the wrong number of
+    /// values.
+    pub fn restore_history<E: From<SamplerError>>(
+        &mut self,
+        column: impl FnMut(usize, &[usize]) -> Result<Vec<f64>, E>,
+    ) -> Result<(), E> {
+        if !self.history_released {
+            return Ok(());
+        }
+        let shape = (self.ensembles.len(), self.config.walkers(), self.ndim);
+        let (thin, rows, max_rows) = (self.history.thin, self.history.rows, self.history.max_rows);
+        let restored = rebuild(self.step, max_rows, shape, column)?;
+        if (restored.thin, restored.rows) != (thin, rows) {
+            return Err(SamplerError::Shape {
+                what: format!("history restored at step {} (thinning {thin})", self.step),
+                expected: rows,
+                got: restored.rows,
+            }
+            .into());
+        }
+        self.history = RowHistory::from_history(&restored, self.config.walkers() * self.ndim);
+        self.history.max_rows = max_rows;
+        self.history_released = false;
+        Ok(())
     }
 
     /// Stops every later run at `deadline` (with [`StopReason::TimeCap`]), or never.
@@ -541,7 +623,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         } else {
             CARRY_TUNE_STEPS
         };
-        slice.max(carry)
+        let fit = if self.blocks.iter().any(|b| b.tuned_carry) {
+            CARRY_FIT_STEPS
+        } else {
+            0
+        };
+        slice.max(carry).max(fit)
     }
 
     /// Steps completed so far.
@@ -589,6 +676,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ) -> Result<RunReport, SamplerError> {
         if self.poisoned {
             return Err(SamplerError::Poisoned);
+        }
+        if self.history_released {
+            return Err(SamplerError::HistoryReleased);
         }
         let first = self.step;
         let (last, rule) = match steps {
@@ -725,6 +815,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 Ok(())
             })
         };
+        if result.is_ok() && step_no < CARRY_FIT_STEPS && blocks.iter().any(|b| b.tuned_carry) {
+            let freeze = step_no + 1 == CARRY_FIT_STEPS / 2 || step_no + 1 == CARRY_FIT_STEPS;
+            for ens in &mut self.ensembles {
+                ens.tune_carry(&blocks, freeze);
+            }
+        }
         self.blocks = blocks;
         result.map_err(|(e, f)| {
             self.poisoned = true;
@@ -785,9 +881,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                         Some((b, ub)) if ub.density_carries => {
                             let carry =
                                 |from: &[f64], to: &mut [f64]| density.carry_followers(b, from, to);
-                            ens.draw(mv, h, Some((ub, Some(&carry))), out);
+                            ens.draw(mv, h, Some((b, ub, Some(&carry))), out);
                         }
-                        _ => ens.draw(mv, h, block.map(|b| (b.1, None)), out),
+                        _ => ens.draw(mv, h, block.map(|(b, ub)| (b, ub, None)), out),
                     }
                 }
             }
@@ -1284,6 +1380,12 @@ impl Serialize for StateView<'_> {
 /// density makes it optional, [`LogDensity::carried_move_optional`]).
 pub const CARRY_TUNE_STEPS: u64 = 50;
 
+/// Steps over which a regression carrying a block's followers is tuned (where it is, see
+/// [`CarryFit`](super::CarryFit)): fitted to the ensemble's draws of the first half of them
+/// (while the complement's regression carries the followers), then refitted to those of
+/// the second half (carried by the first fit), then fixed. The suggested burn-in covers them.
+pub const CARRY_FIT_STEPS: u64 = 100;
+
 /// The carried move of such a block is kept when its squared jumps over the tuning steps are
 /// at least this fraction of the exact draws' (measured: 2.2–2.8 on the centred eight schools,
 /// where it is needed; at most 0.03 on the pooled friction posteriors, where it is not).
@@ -1376,8 +1478,44 @@ fn blocks_of<D: LogDensity + ?Sized>(
                 && conditional.contains(&b)
                 && density.carries_followers(b)
                 && density.carried_move_optional(b),
+            tuned_carry: false,
+        })
+        .map(|mut b| {
+            b.tuned_carry = hierarchical
+                && !b.density_carries
+                && config
+                    .carry()
+                    .tunes(b.links.followers.len(), config.walkers());
+            b
         })
         .collect())
+}
+
+/// A fresh tuning for every block whose followers are carried by a tuned regression; none
+/// when no block is.
+fn fresh_carry_fits(blocks: &[UpdateBlock]) -> Vec<Option<CarryTuning>> {
+    if !blocks.iter().any(|b| b.tuned_carry) {
+        return Vec::new();
+    }
+    blocks
+        .iter()
+        .map(|b| {
+            b.tuned_carry
+                .then(|| CarryTuning::new(b.coords.len(), b.links.followers.len()))
+        })
+        .collect()
+}
+
+/// Whether a stored state's tunings are those `blocks` need.
+fn carry_fits_match(fits: &[Option<CarryTuning>], blocks: &[UpdateBlock]) -> bool {
+    if !blocks.iter().any(|b| b.tuned_carry) {
+        return fits.is_empty();
+    }
+    fits.len() == blocks.len()
+        && fits.iter().zip(blocks).all(|(f, b)| match f {
+            Some(t) => b.tuned_carry && t.fits(b.coords.len(), b.links.followers.len()),
+            None => !b.tuned_carry,
+        })
 }
 
 /// Update slots with a slice scale μ of their own: one for joint updates, one per block

@@ -20,6 +20,10 @@
 //!   per parameter (named), `log_density` (f64), then one f64 column per derived value, all
 //!   non-nullable, Snappy-compressed, in row groups of at most [`SinkOptions::row_group_rows`]
 //!   rows. Rows are in recording order: step, then ensemble, then walker.
+//! - Every part's footer carries key–value metadata (keys `slipbayes.*`, see [`metadata`]):
+//!   the row layout and which index is a chain for R̂ and for ESS, every column's kind, SI
+//!   unit and scale (ln or natural), the part's steps, the seed, ensembles, walkers and
+//!   thinning, and, once the run has finished, its burn-in (`pending` before).
 //! - A part is written under a `.partial` name in `<dir>` and renamed into `<chains>` only
 //!   when complete (footer written, file fsynced, then `<chains>` fsynced), so `<chains>`
 //!   never holds a half-written file and can be read as one table by polars
@@ -34,6 +38,7 @@
 //! Memory held by a sink is one row group of buffered rows plus per-row-group footer metadata,
 //! whatever the length of the run.
 
+pub mod metadata;
 mod read;
 mod sink;
 
@@ -41,6 +46,9 @@ use crate::data::atomic as io;
 use std::path::{Path, PathBuf};
 
 pub use crate::sampler::sink::{ChainSink, StepView};
+pub use metadata::{
+    read_part_metadata, ChainDescription, ChainMetadata, ColumnInfo, ColumnKind, ColumnUnit,
+};
 pub use read::{read_chains, ChainReader, Chains};
 pub use sink::{ParquetSink, SinkOptions, ROW_GROUP_BYTES};
 

@@ -13,6 +13,7 @@ use polars_parquet::read::{
 };
 use polars_utils::mmap::{MemReader, MemSlice};
 
+use super::metadata::{read_part_metadata, ChainMetadata};
 use super::sink::list_parts;
 use super::{StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN};
 
@@ -288,6 +289,16 @@ impl Part {
         self.metadata.num_rows
     }
 
+    /// Steps held by the part, `first..last + 1` (rows are in step order); empty for a part
+    /// without rows.
+    pub(super) fn step_range(&self) -> Result<std::ops::Range<u64>, StorageError> {
+        let steps = self.column::<u64>(STEP_COLUMN)?;
+        Ok(match (steps.first(), steps.last()) {
+            (Some(&first), Some(&last)) => first..last + 1,
+            _ => 0..0,
+        })
+    }
+
     fn open_file(&self) -> Result<File, StorageError> {
         File::open(&self.path).map_err(|e| StorageError::io("open", &self.path, e))
     }
@@ -468,6 +479,39 @@ impl ChainReader {
     /// Steps recorded.
     pub fn steps(&self) -> u64 {
         self.steps
+    }
+
+    /// The metadata every part carries in its footer (layout, columns with units, seed,
+    /// burn-in: see [`mod@super::metadata`]), for the whole store: the first part's, with the
+    /// steps of all parts. `None` when a part was written without it (by an older version).
+    ///
+    /// # Errors
+    /// [`StorageError::Io`] or [`StorageError::Parquet`] when a footer cannot be read or
+    /// holds unreadable metadata; [`StorageError::Inconsistent`] when the parts disagree on
+    /// the burn-in.
+    pub fn metadata(&self) -> Result<Option<ChainMetadata>, StorageError> {
+        let mut whole: Option<ChainMetadata> = None;
+        for part in &self.store.parts {
+            let Some(m) = read_part_metadata(&part.path)? else {
+                return Ok(None);
+            };
+            match &mut whole {
+                None => whole = Some(m),
+                Some(w) if w.burn_in != m.burn_in => {
+                    return Err(StorageError::Inconsistent {
+                        dir: self.dir.clone(),
+                        problem: format!(
+                            "{} records burn-in {:?}, an earlier part {:?}",
+                            part.path.display(),
+                            m.burn_in,
+                            w.burn_in
+                        ),
+                    })
+                }
+                Some(w) => w.steps.end = m.steps.end,
+            }
+        }
+        Ok(whole)
     }
 
     /// Number of rows (steps × ensembles × walkers).

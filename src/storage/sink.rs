@@ -15,6 +15,7 @@ use polars_parquet::write::{
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
+use super::metadata::{column_infos, key_values, rewrite_footer, ChainDescription, ColumnInfo};
 use super::read::{chains_schema, check_schema, Part};
 use super::{
     is_leftover_name, parse_part_name, part_name, partial_name, ChainFiles, ChainSink, StepView,
@@ -139,6 +140,14 @@ pub struct ParquetSink {
     files: ChainFiles,
     param_names: Vec<String>,
     derived_names: Vec<String>,
+    /// What the parts' footers say about the run, when the caller described it.
+    description: Option<ChainDescription>,
+    /// Every column with its kind and unit, for the parts' footers.
+    columns: Vec<ColumnInfo>,
+    /// First kept step, once the caller knows it (see [`ParquetSink::set_burn_in`]).
+    burn_in: Option<u64>,
+    /// First step of the part being written (steps of one part are contiguous).
+    part_first_step: u64,
     schema: Arc<ArrowSchema>,
     row_group_rows: usize,
     buffer: RowBuffer,
@@ -303,6 +312,7 @@ impl ParquetSink {
         sink.durable_rows = checkpoint.rows;
         sink.rows = checkpoint.rows;
         sink.steps = checkpoint.steps;
+        sink.part_first_step = checkpoint.steps;
         sink.last_state = checkpoint.state;
         Ok((sink, state))
     }
@@ -323,8 +333,12 @@ impl ParquetSink {
         Self {
             files: files.clone(),
             buffer: RowBuffer::with_capacity(row_group_rows, value_columns),
+            columns: column_infos(&param_names, &derived_names, None),
             param_names,
             derived_names,
+            description: None,
+            burn_in: None,
+            part_first_step: 0,
             schema,
             row_group_rows,
             part: None,
@@ -360,6 +374,20 @@ impl ParquetSink {
             expected: list(param_names, derived_names),
             found: list(&self.param_names, &self.derived_names),
         })
+    }
+
+    /// Describes the run for the metadata of every part written from now on (the seed,
+    /// ensembles, walkers, thinning and the units of the value columns; see
+    /// [`mod@super::metadata`]). Without it the parts still name their layout and columns.
+    pub fn describe(&mut self, description: ChainDescription) {
+        self.columns = column_infos(&self.param_names, &self.derived_names, Some(&description));
+        self.description = Some(description);
+    }
+
+    /// The first kept step (rows of earlier steps are burn-in), known once the run's summary
+    /// has decided it: [`ParquetSink::finish`] then writes it into the footer of every part.
+    pub fn set_burn_in(&mut self, step: u64) {
+        self.burn_in = Some(step);
     }
 
     /// Where the chains and the checkpoint are.
@@ -409,12 +437,29 @@ impl ParquetSink {
     }
 
     /// Closes the last part and marks the run finished in `checkpoint.json`, keeping the state
-    /// of the last checkpoint.
+    /// of the last checkpoint. With a burn-in set ([`ParquetSink::set_burn_in`]), every part's
+    /// footer is first rewritten to carry it (each part copied with its new footer and renamed
+    /// over itself; a kill before the checkpoint is marked leaves a resumable run).
     ///
     /// # Errors
-    /// When the last part or the checkpoint cannot be written.
+    /// When the last part, a footer or the checkpoint cannot be written.
     pub fn finish(mut self) -> Result<(), StorageError> {
         self.close_part()?;
+        if self.burn_in.is_some() {
+            let chains_dir = &self.files.chains;
+            for index in 0..self.durable_parts {
+                let path = chains_dir.join(part_name(index));
+                let steps = Part::open(path.clone())?.step_range()?;
+                let pairs = key_values(
+                    &self.columns,
+                    self.description.as_ref(),
+                    steps,
+                    self.burn_in,
+                );
+                rewrite_footer(&path, &self.files.dir.join(partial_name(index)), pairs)?;
+            }
+            sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
+        }
         self.write_checkpoint(true)
     }
 
@@ -461,8 +506,15 @@ impl ParquetSink {
             return Ok(());
         };
         let path = part.path;
+        let steps = self.part_first_step..self.steps;
+        let pairs = key_values(
+            &self.columns,
+            self.description.as_ref(),
+            steps,
+            self.burn_in,
+        );
         part.writer
-            .end(None)
+            .end(Some(pairs))
             .map_err(|e| StorageError::parquet(&path, e))?;
         let file = part
             .writer
@@ -478,6 +530,7 @@ impl ParquetSink {
         sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         self.durable_parts += 1;
         self.durable_rows += part.rows;
+        self.part_first_step = self.steps;
         Ok(())
     }
 

@@ -19,7 +19,7 @@ use slipbayes::fit::{
     default_updates, default_walkers, run_fit, FitError, FitOutcome, FitSettings, RunDir,
     SummarySpec,
 };
-use slipbayes::sampler::Silent;
+use slipbayes::sampler::{CarryFit, Silent};
 
 use models::{
     ArK, EightSchoolsCentered, EightSchoolsNoncentered, Garch11, GaussMix, LotkaVolterra, OneComp,
@@ -243,7 +243,7 @@ pub fn cases() -> Vec<Case> {
 /// strict standard) and seed, 4 ensembles, the default walker rule; quiet.
 pub fn default_settings(density: &dyn LogDensity) -> FitSettings {
     FitSettings {
-        walkers: default_walkers(density, default_updates()),
+        walkers: default_walkers(density, default_updates(), CarryFit::default()),
         quiet: true,
         overwrite: true,
         ..FitSettings::default()

@@ -11,13 +11,17 @@ use clap::Args;
 use slipbayes::diagnostics::problem_lines;
 use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
-use slipbayes::sampler::{Mixture, Updates};
+use slipbayes::sampler::{CarryFit, Mixture, Updates};
 
 use super::import::ImportArgs;
 use super::{positive, EXIT_NOT_CONVERGED};
 use crate::interrupt::{self, EXIT_INTERRUPTED};
 use crate::lock::RunLock;
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
+
+/// Where `demo` writes by default: a user's results, ignored by git (`/runs/` in
+/// `.gitignore`), so that the main command leaves a clone clean.
+pub(crate) const DEMO_OUT: &str = "runs/demo";
 
 fn parse_window(text: &str) -> Result<[f64; 2], String> {
     let parts: Vec<&str> = text.split(',').collect();
@@ -129,17 +133,28 @@ pub(super) struct RunArgs {
     /// the model file's, else hierarchical.
     #[arg(long)]
     updates: Option<Updates>,
+    /// How hierarchical updates carry a shared block's followers: `complement` (a regression
+    /// fitted to the complementary half at every half-step), `tuned` (fitted to the
+    /// ensemble's draws of the first 100 steps, then fixed) or `auto` (tuned where the
+    /// complement is smaller than the followers); default: the model file's, else auto.
+    #[arg(long)]
+    carry: Option<CarryFit>,
 }
 
-/// Run the main job: fit `models/demo.toml` (the bundled data) into `reports/demo/`,
-/// replacing an earlier demo there (unless --resume).
+/// Run the main job: fit `models/demo.toml` (the bundled data) into `runs/demo/`, your own
+/// results (git-ignored), replacing an earlier demo there (unless --resume).
+///
+/// The committed example report `reports/demo/` is not touched. Regenerating it is a
+/// maintainer's step of its own, run from the repository root:
+///   slipbayes demo --out reports/demo
 #[derive(Debug, Args)]
+#[command(verbatim_doc_comment)]
 pub(super) struct DemoArgs {
     /// The demo model file.
     #[arg(long, default_value = "models/demo.toml")]
     model: PathBuf,
-    /// Output directory.
-    #[arg(long, default_value = "reports/demo")]
+    /// Output (run) directory; `reports/demo` regenerates the committed example report.
+    #[arg(long, default_value = DEMO_OUT)]
     out: PathBuf,
     #[command(flatten)]
     run: RunArgs,
@@ -215,6 +230,7 @@ impl RunArgs {
             overwrite: self.overwrite || overwrite,
             moves: self.moves.as_ref().map(|m| m.moves().to_vec()),
             updates: self.updates,
+            carry: self.carry,
         }
     }
 }

@@ -19,6 +19,9 @@ use clap::{Parser, Subcommand};
 /// Exit status of `fit`/`demo --strict` when the results are written but the run has not
 /// converged (distinct from clap's 2 for an invalid command line).
 pub(crate) const EXIT_NOT_CONVERGED: u8 = 3;
+/// Exit status of `validate` when the calibration is grossly off or a hard case failed (the
+/// report is written either way); distinct from clap's 2.
+pub(crate) const EXIT_MISCALIBRATED: u8 = 4;
 
 const EXIT_CODES: &str = "\
 Exit codes:
@@ -26,6 +29,7 @@ Exit codes:
   1    error (the message says what and what to do)
   2    invalid command line
   3    fit/demo --strict: results written, but the run has not converged
+  4    validate: miscalibrated, or a hard case failed (the report is written)
   130  fit/demo interrupted by Ctrl-C (resumable with the --resume command printed)";
 
 /// Bayesian inference of the onset of frictional slip.

@@ -59,7 +59,18 @@ fn missing_chains(dir: &RunDir) -> Option<String> {
         .filter(|r| !r.command.is_empty())
         .map_or_else(
             || "the fit that wrote it".to_owned(),
-            |r| format!("`{}`", r.command.join(" ")),
+            |r| {
+                // A `demo` recorded without --out wrote to the default of its day
+                // (`reports/demo` before it became `runs/demo`): name the directory.
+                let mut command = r.command;
+                if !command
+                    .iter()
+                    .any(|a| a == "--out" || a.starts_with("--out="))
+                {
+                    command.extend(["--out".to_owned(), dir.path().display().to_string()]);
+                }
+                format!("`{}`", command.join(" "))
+            },
         );
     Some(format!(
         "the chains of {} are missing ({} holds no Parquet files; chains are not kept in git): \

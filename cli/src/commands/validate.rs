@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use anyhow::Context;
 use clap::Args;
 
+use super::EXIT_MISCALIBRATED;
 use crate::validate::{run_sbc, summarise, write_report, GrossLimits, SbcSettings};
 use slipbayes::sampler::Mixture;
 
@@ -16,8 +17,9 @@ use slipbayes::sampler::Mixture;
 /// Writes to --out: replications/NNNNN.json (one per replication, written as each finishes;
 /// re-running the same command continues where it stopped), validation.json,
 /// rank_histograms.svg and validation.md (χ² uniformity test and 50 %/95 % coverage per
-/// quantity). Exit code 2 on gross miscalibration (95 % coverage below --min-coverage95, 50 %
-/// coverage outside [20 %, 80 %], χ² p < 1e-4, or more than 5 % failed fits).
+/// quantity). Exit code 4 ("miscalibrated") on gross miscalibration (95 % coverage below
+/// --min-coverage95, 50 % coverage outside [20 %, 80 %], χ² p < 1e-4, or more than 5 % failed
+/// fits), and with --hard when a case fails; 2 is an invalid command line, 1 an error.
 #[derive(Debug, Args)]
 #[command(verbatim_doc_comment)]
 pub(super) struct ValidateArgs {
@@ -166,7 +168,7 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
     Ok(if problems.is_empty() {
         ExitCode::SUCCESS
     } else {
-        ExitCode::from(2)
+        ExitCode::from(EXIT_MISCALIBRATED)
     })
 }
 
@@ -203,6 +205,6 @@ fn hard(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
     Ok(if outcomes.iter().all(|o| o.passed) {
         ExitCode::SUCCESS
     } else {
-        ExitCode::from(2)
+        ExitCode::from(EXIT_MISCALIBRATED)
     })
 }

@@ -19,6 +19,7 @@
 
 mod blocks;
 mod derived;
+mod explain;
 mod layout;
 mod likelihood;
 mod predictive;
@@ -35,7 +36,7 @@ use likelihood::RunModel;
 
 use super::data::RunData;
 use super::spec::{Blocking, ModelSpec, PopulationUpdates};
-use crate::density::{BlockLinks, LogDensity, LogDensityError, Quantity, SearchMap};
+use crate::density::{BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap};
 use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
@@ -63,7 +64,7 @@ pub struct Posterior {
     /// Per contact: coordinate of ln F_d.
     contact_fd: Vec<Option<usize>>,
     /// The optimiser's start, computed on first use (it fits every slide on its own).
-    start: OnceLock<Vec<f64>>,
+    start: OnceLock<start::StartPoint>,
 }
 
 /// Errors building a posterior.
@@ -208,7 +209,7 @@ impl Posterior {
     /// A starting point for the optimiser, from rough features of the data; computed the
     /// first time it is asked for.
     pub fn start(&self) -> &[f64] {
-        self.start.get_or_init(|| self.heuristic_start())
+        &self.start.get_or_init(|| self.heuristic_start()).point
     }
 }
 
@@ -239,6 +240,20 @@ impl LogDensity for Posterior {
 
     fn param_names(&self) -> Vec<String> {
         self.coords.iter().map(|c| c.name.clone()).collect()
+    }
+
+    /// Every coordinate is u = ln θ of the quantity reported from it.
+    fn param_units(&self) -> Vec<ColumnUnit> {
+        let mut units = vec![ColumnUnit::default(); self.coords.len()];
+        for (q, source) in self.quantities.iter().zip(&self.sources) {
+            if let Source::Coord(i) = *source {
+                units[i] = ColumnUnit {
+                    unit: q.unit.clone(),
+                    log: true,
+                };
+            }
+        }
+        units
     }
 
     fn derived_names(&self) -> Vec<String> {

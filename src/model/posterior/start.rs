@@ -13,6 +13,17 @@ use crate::density::LogDensity;
 use crate::law::{Elastic, Law, LawError, ObservedSlide, Scene};
 use crate::optimize::{nelder_mead, NelderMeadOptions};
 
+/// The optimiser's start and what the data said about each coordinate on the way.
+#[derive(Debug, Clone)]
+pub(super) struct StartPoint {
+    /// The start, on the sampled scale (inside every prior).
+    pub point: Vec<f64>,
+    /// Per coordinate, the natural-scale value the runs' rough features and fits alone gave,
+    /// before it was kept inside its prior (NaN where no run voted): where it lies outside the
+    /// prior, the prior excludes what the data say.
+    pub estimates: Vec<f64>,
+}
+
 /// Estimates from one slide fitted alone (a start for the joint fit).
 #[derive(Debug, Clone, Copy)]
 struct RunAlone {
@@ -31,7 +42,7 @@ impl Posterior {
     /// fitted on its own (α, a/F_d, t0, F_d and, without a repeat slide, k; σ profiled out)
     /// from a few values of α spanning the record, and the results combined by level
     /// (geometric means for shared parameters).
-    pub(super) fn heuristic_start(&self) -> Vec<f64> {
+    pub(super) fn heuristic_start(&self) -> StartPoint {
         // Shared parameters collect one estimate per run and take the geometric mean.
         let mut votes: Vec<Vec<f64>> = vec![Vec::new(); self.coords.len()];
         let mut k_known = vec![None; self.spec.file.contacts.len()];
@@ -101,18 +112,20 @@ impl Posterior {
                 })
                 .collect()
         };
-        let start = self.coordinates(by_level(mean_of_logs));
-        if self.finite_at(&start) {
-            return start;
+        let estimates = by_level(mean_of_logs);
+        let point = self.coordinates(estimates.clone());
+        if self.finite_at(&point) {
+            return StartPoint { point, estimates };
         }
         // A slide fitted alone can end far off (a ratio of e^13, a t0 of e^-20 in a campaign
         // of 50 contacts), and a geometric mean takes such an outlier in: the median of the
         // runs' estimates does not.
-        let mut start = self.coordinates(by_level(median_of_logs));
-        if !self.finite_at(&start) {
-            self.repair_contacts(&mut start);
+        let estimates = by_level(median_of_logs);
+        let mut point = self.coordinates(estimates.clone());
+        if !self.finite_at(&point) {
+            self.repair_contacts(&mut point);
         }
-        start
+        StartPoint { point, estimates }
     }
 
     /// Whether the density is finite at `x`.
@@ -222,35 +235,6 @@ impl Posterior {
         }
     }
 
-    /// What fails at `x`: coordinates outside their prior, then runs whose model cannot be
-    /// evaluated, each named with its contact and the law's reason (at most five, then a
-    /// count).
-    pub(super) fn failures_at(&self, x: &[f64]) -> Option<String> {
-        let mut failures: Vec<String> = self
-            .coords
-            .iter()
-            .zip(x)
-            .filter(|(c, &v)| !c.prior_contains(v))
-            .map(|(c, v)| format!("{} = {v:.4} is outside its prior", c.name))
-            .collect();
-        for (i, fit) in self.fits_at(&self.order, x) {
-            if let Err(e) = fit {
-                let r = &self.runs[i];
-                failures.push(format!(
-                    "run {} of contact {}: {e}",
-                    r.name, self.spec.file.contacts[r.contact].name
-                ));
-            }
-        }
-        const SHOWN: usize = 5;
-        let more = failures.len().saturating_sub(SHOWN);
-        failures.truncate(SHOWN);
-        if more > 0 {
-            failures.push(format!("and {more} more"));
-        }
-        (!failures.is_empty()).then(|| failures.join("; "))
-    }
-
     /// Σ ln SSR of `runs` (in evaluation order) at `x`: infinite where a run cannot be
     /// evaluated or a coordinate leaves its prior.
     fn contact_ln_ssr(&self, runs: &[usize], x: &[f64]) -> f64 {
@@ -272,7 +256,7 @@ impl Posterior {
 
     /// Each of `runs` (in evaluation order) fitted at `x`; a repeat slide loads from where
     /// the slide it follows stopped, or from F_d when that slide is not among `runs` or failed.
-    fn fits_at<'s>(
+    pub(super) fn fits_at<'s>(
         &'s self,
         runs: &'s [usize],
         x: &'s [f64],
