@@ -390,7 +390,7 @@ mod tests {
         assert!(area.y1 - plot.rect.y1 >= m.bottom);
         assert!(area.x1 - plot.rect.x1 >= m.right);
         assert!(yt.labels.len() >= 3, "{yt:?}");
-        let mut canvas = Canvas::new("t", (560, 380));
+        let mut canvas = Canvas::new((560, 380));
         draw_axes(&mut canvas, &plot, (&x, &xt), (&y, &yt));
         let svg = canvas.finish();
         assert!(svg.contains(">10.000</text>"), "{svg}");

@@ -78,7 +78,7 @@ mod tests {
 
     #[test]
     fn a_figure_is_svg_with_its_text() {
-        let svg = svg_figure("test", PANEL, |c| {
+        let svg = svg_figure(PANEL, |c| {
             let mut p = Panel::new(
                 "a caption",
                 Axis::linear((0.0, 1.0), "time t (s)"),
@@ -92,9 +92,7 @@ mod tests {
             p.markers(vec![(0.5, 1.0)], Marker::Circle, ink(0), Some("data"));
             let whole = c.bounds();
             p.draw(c, whole);
-            Ok(())
-        })
-        .unwrap();
+        });
         assert!(svg.starts_with("<svg"), "{}", &svg[..60]);
         for text in ["a caption", "time t (s)", "force F (mN)", "median", "data"] {
             assert!(svg.contains(text), "{text} missing");
@@ -104,7 +102,7 @@ mod tests {
 
     #[test]
     fn a_failed_drawing_names_its_figure() {
-        let err = svg_figure("fig.svg", PANEL, |c| Err(c.error("no data"))).unwrap_err();
+        let err = DrawError::new("fig.svg", "no data");
         assert_eq!(err.to_string(), "drawing figure fig.svg: no data");
     }
 

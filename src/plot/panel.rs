@@ -215,7 +215,7 @@ mod tests {
     use crate::plot::style::{ink, series_stroke};
 
     fn svg_of(panel: &Panel) -> String {
-        let mut canvas = Canvas::new("t", (560, 380));
+        let mut canvas = Canvas::new((560, 380));
         panel.draw(&mut canvas, Rect::new(0.0, 0.0, 560.0, 380.0));
         canvas.finish()
     }
@@ -233,7 +233,7 @@ mod tests {
             series_stroke(0, 2.0),
             Some("top"),
         );
-        let mut canvas = Canvas::new("t", (560, 380));
+        let mut canvas = Canvas::new((560, 380));
         let plot = p.draw(&mut canvas, Rect::new(0.0, 0.0, 560.0, 380.0));
         let svg = canvas.finish();
         let legend_y: f64 = svg
@@ -263,7 +263,7 @@ mod tests {
             Fill::solid(ink(3)),
             Some("all"),
         );
-        let mut canvas = Canvas::new("t", (560, 380));
+        let mut canvas = Canvas::new((560, 380));
         let plot = full.draw(&mut canvas, Rect::new(0.0, 0.0, 560.0, 380.0));
         let check = crate::plot::check::check_svg(&canvas.finish());
         assert!(

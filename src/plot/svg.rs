@@ -11,7 +11,6 @@ use std::fmt::Write as _;
 use super::geometry::{Point, Rect};
 use super::style::{Rgb, FONT};
 use super::text::{text_box, Anchor, Rotation};
-use super::DrawError;
 
 /// How a line is stroked.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -142,14 +141,13 @@ impl Font {
 /// `-0.5ex` (resting on the point), rotated by a `transform`.
 #[derive(Debug)]
 pub struct Canvas {
-    name: String,
     size: (f64, f64),
     svg: String,
 }
 
 impl Canvas {
-    /// A blank white canvas for the figure `name`.
-    pub fn new(name: &str, (width, height): (u32, u32)) -> Self {
+    /// A blank white canvas of `width` × `height` pixels.
+    pub fn new((width, height): (u32, u32)) -> Self {
         let mut svg = String::with_capacity(64 * 1024);
         let _ = writeln!(
             svg,
@@ -160,25 +158,14 @@ impl Canvas {
             "<rect x=\"0\" y=\"0\" width=\"{width}\" height=\"{height}\" fill=\"#FFFFFF\" stroke=\"none\"/>"
         );
         Self {
-            name: name.to_owned(),
             size: (f64::from(width), f64::from(height)),
             svg,
         }
     }
 
-    /// The figure's name (for errors).
-    pub fn name(&self) -> &str {
-        &self.name
-    }
-
     /// The whole canvas.
     pub fn bounds(&self) -> Rect {
         Rect::of_size(self.size)
-    }
-
-    /// A failure to draw this figure.
-    pub fn error(&self, message: impl Into<String>) -> DrawError {
-        DrawError::new(&self.name, message)
     }
 
     /// The finished document.
@@ -294,18 +281,13 @@ impl Canvas {
     }
 }
 
-/// Draws a figure of `size` pixels named `name` into an SVG string.
-///
-/// # Errors
-/// Whatever `draw` returns.
-pub fn svg_figure(
-    name: &str,
-    size: (u32, u32),
-    draw: impl FnOnce(&mut Canvas) -> Result<(), DrawError>,
-) -> Result<String, DrawError> {
-    let mut canvas = Canvas::new(name, size);
-    draw(&mut canvas)?;
-    Ok(canvas.finish())
+/// Draws a figure of `size` pixels into an SVG string. Drawing cannot fail: a figure that
+/// needs data it may lack checks for them before it draws, and says so with a
+/// [`DrawError`](super::DrawError).
+pub fn svg_figure(size: (u32, u32), draw: impl FnOnce(&mut Canvas)) -> String {
+    let mut canvas = Canvas::new(size);
+    draw(&mut canvas);
+    canvas.finish()
 }
 
 fn point_list(points: &[Point]) -> String {
@@ -358,16 +340,14 @@ mod tests {
 
     #[test]
     fn elements_are_written_in_order_and_escaped() {
-        let svg = svg_figure("t.svg", (100, 50), |c| {
+        let svg = svg_figure((100, 50), |c| {
             c.polyline(&[(0.0, 0.0), (10.25, 5.0)], Stroke::solid(Rgb::BLACK, 1.0));
             c.text(
                 "a<b & c",
                 (50.0, 10.0),
                 Font::new(12.0, Anchor::new(HPos::Center, VPos::Top)),
             );
-            Ok(())
-        })
-        .unwrap();
+        });
         assert!(svg.starts_with("<svg width=\"100\" height=\"50\""));
         assert!(svg.contains("points=\"0,0 10.3,5\""), "{svg}");
         assert!(svg.contains(">a&lt;b &amp; c</text>"));

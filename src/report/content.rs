@@ -18,7 +18,7 @@ use crate::diagnostics::{problem_lines, quantile, Summary, ESS_MIN, RHAT_MAX};
 use crate::fit::{kept_rows, AggregateSummary, QuantitySummary};
 use crate::law::Scene;
 use crate::model::{Band, ModelSpec, Posterior};
-use crate::plot::{extend_bounds, DrawError};
+use crate::plot::extend_bounds;
 use crate::storage::{ChainReader, StorageError};
 
 /// Posterior draws behind every redrawn curve (as many as `predictive.csv` uses).
@@ -474,15 +474,6 @@ fn figure(file: String, caption: String, svg: String) -> Block {
     Block::Figure { file, caption, svg }
 }
 
-/// A figure block named `file`, drawn by `draw` (which gets the name for its errors).
-fn drawn_figure(
-    file: &str,
-    caption: String,
-    draw: impl FnOnce(&str) -> Result<String, DrawError>,
-) -> Result<Block, ReportError> {
-    Ok(figure(file.to_owned(), caption, draw(file)?))
-}
-
 fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     let mut blocks = vec![
         heading(1, "fit", "Fit to the data"),
@@ -492,7 +483,7 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     ];
     for (i, run) in ctx.runs.iter().enumerate() {
         let file = format!("fit-{}.svg", run.name);
-        let svg = fit_figure(&file, run, ctx.predictive[i], ctx.curves[i].as_ref())?;
+        let svg = fit_figure(run, ctx.predictive[i], ctx.curves[i].as_ref());
         let caption = match run.scene {
             Scene::Repeat => format!(
                 "{}: repeat slide at {}; elastic loading up to where the previous slide stopped.",
@@ -527,7 +518,7 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             .collect();
         let file = format!("distance-{contact}.svg");
         // Data that never slide (no positive distance) have nothing to show on a log axis.
-        let Ok(svg) = distance_figure(&file, contact, &slides) else {
+        let Some(svg) = distance_figure(contact, &slides) else {
             continue;
         };
         blocks.push(figure(
@@ -623,20 +614,20 @@ fn peak_section(
         rows,
         flagged,
     ));
-    blocks.push(drawn_figure(
-        "peak-density.svg",
+    blocks.push(figure(
+        "peak-density.svg".to_owned(),
         "Posterior density of the peak static friction per run and, where a material has several first slides, of their mean per draw: the shade is the 95 % interval, the dashed line the median.".to_owned(),
-        |file| peak_density_figure(file, &density),
-    )?);
+        peak_density_figure(&density),
+    ));
     if !versus_t0.is_empty() {
-        blocks.push(drawn_figure(
-            "peak-t0.svg",
+        blocks.push(figure(
+            "peak-t0.svg".to_owned(),
             format!(
                 "The peak against t0, as in the paper's Fig. 4: for each slide, t0 is varied over {T0_SPAN}× below and above its 95 % interval while αv, a and F_d come from {} posterior draws (line: median, shade: 95 %); the markers are the posterior draws of (t0, F_peak) themselves. F_peak grows as ln(1/t0): an uncertain t0 widens the peak's interval.",
                 draws.len()
             ),
-            |file| peak_t0_figure(file, &versus_t0),
-        )?);
+            peak_t0_figure(&versus_t0),
+        ));
     }
     Ok(blocks)
 }
@@ -713,8 +704,8 @@ fn materials_section(
         });
     }
     if !panels.is_empty() {
-        blocks.push(drawn_figure(
-            "forest.svg",
+        blocks.push(figure(
+            "forest.svg".to_owned(),
             "Forest plot: for each quantity, per material (black) and per contact or run (grey), \
              the 50 % interval as a thick bar, the 95 % interval as a thin bar and the median as \
              a white dot; the numbers beside each row are the median and the 95 % interval (where \
@@ -722,8 +713,8 @@ fn materials_section(
              and F_peak are not material parameters; their material rows are the mean of the \
              material's contacts and the mean of its first slides, per draw."
                 .to_owned(),
-            |file| forest_figure(file, &panels),
-        )?);
+            forest_figure(&panels),
+        ));
     }
     if !comparisons.is_empty() {
         let rows: Vec<Vec<String>> = comparisons
@@ -858,7 +849,7 @@ fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     let shown = chains.walkers().min(TRACE_WALKERS);
     for (k, chunk) in panels.chunks(TRACES_PER_FIGURE).enumerate() {
         let file = format!("trace-{}.svg", k + 1);
-        let svg = trace_figure(&file, chunk, s.burn_in, chains.ensembles())?;
+        let svg = trace_figure(chunk, s.burn_in, chains.ensembles());
         let ranks = if chains.ensembles() > 1 {
             format!(
                 " Right: rank plots (ArviZ's plot_rank): each kept draw is ranked among the kept draws of all {} ensembles, and each ensemble's ranks are counted in {RANK_BINS} bins; when the ensembles sample the same distribution every bar is near the dashed line (what uniform ranks give), while an ensemble stuck high or low piles its bars at one end.",

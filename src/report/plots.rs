@@ -67,17 +67,9 @@ const RESIDUAL_HEIGHT: u32 = 230;
 /// Data in observed time with the posterior median and the 50 %/95 % predictive bands; for a
 /// slide with a law, a second panel in interface time with the elastic part removed; under
 /// them the residuals.
-///
-/// # Errors
-/// [`DrawError`] never in practice (the type is shared by every figure).
-pub fn fit_figure(
-    name: &str,
-    run: &RunView,
-    predictive: &Band,
-    curve: Option<&InterfaceCurve>,
-) -> Result<String, DrawError> {
+pub fn fit_figure(run: &RunView, predictive: &Band, curve: Option<&InterfaceCurve>) -> String {
     let panels = if curve.is_some() { 2 } else { 1 };
-    svg_figure(name, (PANEL.0 * panels, PANEL.1 + RESIDUAL_HEIGHT), |c| {
+    svg_figure((PANEL.0 * panels, PANEL.1 + RESIDUAL_HEIGHT), |c| {
         let (top, bottom) = c.bounds().split_top(f64::from(PANEL.1));
         let areas = top.grid(1, panels as usize);
         let p = predictive;
@@ -155,7 +147,6 @@ pub fn fit_figure(
             interface.draw(c, areas[1]);
         }
         residual_panel(c, bottom.split_left(f64::from(PANEL.0)).0, p);
-        Ok(())
     })
 }
 
@@ -195,15 +186,13 @@ fn residual_panel(c: &mut Canvas, area: Rect, p: &Band) {
 
 /// The slides of one contact against sliding distance x = vτ on a logarithmic axis (the
 /// paper's Fig. 2): the rise, the peak and the relaxation to F_d each get their decades, and
-/// slides at different velocities fall on one curve when the law holds.
-///
-/// # Errors
-/// [`DrawError`] when no slide has a positive sliding distance.
+/// slides at different velocities fall on one curve when the law holds. `None` when no data
+/// point has a positive sliding distance (data that never slide have nothing to show on a
+/// logarithmic axis).
 pub fn distance_figure(
-    name: &str,
     contact: &str,
     slides: &[(&RunView, &Band, &InterfaceCurve)],
-) -> Result<String, DrawError> {
+) -> Option<String> {
     let data: Vec<Vec<(f64, f64)>> = slides
         .iter()
         .map(|(run, p, c)| {
@@ -229,7 +218,7 @@ pub fn distance_figure(
         .fold(f64::INFINITY, f64::min)
         .max(end * 1e-6);
     if !(first.is_finite() && end > first) {
-        return Err(DrawError::new(name, "no positive sliding distance to show"));
+        return None;
     }
     let ys: Vec<f64> = data
         .iter()
@@ -237,7 +226,7 @@ pub fn distance_figure(
         .map(|&(_, f)| f)
         .chain(std::iter::once(0.0))
         .collect();
-    svg_figure(name, (PANEL.0 + 140, PANEL.1 + 20), |c| {
+    Some(svg_figure((PANEL.0 + 140, PANEL.1 + 20), |c| {
         let mut panel = Panel::new(
             &format!("contact {contact}: against sliding distance (log scale)"),
             Axis::log((first, end), "sliding distance x = vτ (µm, log scale)"),
@@ -265,8 +254,7 @@ pub fn distance_figure(
         }
         let whole = c.bounds();
         panel.draw(c, whole);
-        Ok(())
-    })
+    }))
 }
 
 /// One panel of the peak density figure: title, the density of the F_peak draws in mN
@@ -283,13 +271,10 @@ pub fn peak_density(draws_n: &[f64]) -> (Vec<f64>, Vec<f64>) {
 /// Posterior density of the peak static friction, one panel per run and per material mean:
 /// the density, its 95 % interval shaded under it, and the median as a dashed line. The
 /// density leaves the top third of each panel free for the legend.
-///
-/// # Errors
-/// [`DrawError`] never in practice.
-pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, DrawError> {
+pub fn peak_density_figure(panels: &[PeakDraws]) -> String {
     let (rows, cols) = panel_grid(panels.len(), 3);
     let (w, h) = (390u32, 300u32);
-    svg_figure(name, (w * cols as u32, h * rows as u32), |c| {
+    svg_figure((w * cols as u32, h * rows as u32), |c| {
         let areas = c.bounds().grid(rows, cols);
         for ((title, (grid_x, dens), q), &area) in panels.iter().zip(&areas) {
             let top = dens.iter().copied().fold(0.0_f64, f64::max);
@@ -320,83 +305,70 @@ pub fn peak_density_figure(name: &str, panels: &[PeakDraws]) -> Result<String, D
             );
             panel.draw(c, area);
         }
-        Ok(())
     })
 }
 
 /// The peak against t0 (the paper's Fig. 4) per material: for each slide, the median and
 /// 95 % band of F_peak when t0 is varied with the other parameters drawn from the posterior,
 /// and the posterior draws of (t0, F_peak) themselves.
-///
-/// # Errors
-/// [`DrawError`] never in practice.
-pub fn peak_t0_figure(
-    name: &str,
-    materials: &[(String, Vec<(String, PeakVsT0)>)],
-) -> Result<String, DrawError> {
+pub fn peak_t0_figure(materials: &[(String, Vec<(String, PeakVsT0)>)]) -> String {
     let (rows, cols) = panel_grid(materials.len(), 2);
-    svg_figure(
-        name,
-        (PANEL.0 * cols as u32, (PANEL.1 + 40) * rows as u32),
-        |c| {
-            let areas = c.bounds().grid(rows, cols);
-            for ((material, runs), &area) in materials.iter().zip(&areas) {
-                let t0s = runs.iter().flat_map(|(_, c)| c.t0_s.iter());
-                let (lo, hi) = t0s.fold((f64::INFINITY, 0.0_f64), |(lo, hi), &t| {
-                    (lo.min(t), hi.max(t))
-                });
-                let ys: Vec<f64> = runs
-                    .iter()
-                    .flat_map(|(_, c)| c.peak_n[0].iter().chain(&c.peak_n[2]).map(|f| f * MN))
-                    .collect();
-                let mut panel = Panel::new(
-                    &format!("{material}: F_peak against t0"),
-                    Axis::log((lo, hi), "t0, short-time cut-off (s, log scale)"),
-                    Axis::linear(
-                        range_of(ys.iter(), 0.05),
-                        "peak static friction F_peak (mN)",
-                    ),
+    svg_figure((PANEL.0 * cols as u32, (PANEL.1 + 40) * rows as u32), |c| {
+        let areas = c.bounds().grid(rows, cols);
+        for ((material, runs), &area) in materials.iter().zip(&areas) {
+            let t0s = runs.iter().flat_map(|(_, c)| c.t0_s.iter());
+            let (lo, hi) = t0s.fold((f64::INFINITY, 0.0_f64), |(lo, hi), &t| {
+                (lo.min(t), hi.max(t))
+            });
+            let ys: Vec<f64> = runs
+                .iter()
+                .flat_map(|(_, c)| c.peak_n[0].iter().chain(&c.peak_n[2]).map(|f| f * MN))
+                .collect();
+            let mut panel = Panel::new(
+                &format!("{material}: F_peak against t0"),
+                Axis::log((lo, hi), "t0, short-time cut-off (s, log scale)"),
+                Axis::linear(
+                    range_of(ys.iter(), 0.05),
+                    "peak static friction F_peak (mN)",
+                ),
+            );
+            for (k, (run, curve)) in runs.iter().enumerate() {
+                let fill = tint(k);
+                panel.band(
+                    curve.t0_s.clone(),
+                    scaled(&curve.peak_n[0], MN),
+                    scaled(&curve.peak_n[2], MN),
+                    fill,
+                    None,
                 );
-                for (k, (run, curve)) in runs.iter().enumerate() {
-                    let fill = tint(k);
-                    panel.band(
-                        curve.t0_s.clone(),
-                        scaled(&curve.peak_n[0], MN),
-                        scaled(&curve.peak_n[2], MN),
-                        fill,
-                        None,
-                    );
-                    let median: Vec<(f64, f64)> = curve
-                        .t0_s
-                        .iter()
-                        .copied()
-                        .zip(scaled(&curve.peak_n[1], MN))
-                        .collect();
-                    let stroke = series_stroke(k, 2.0);
-                    panel.add(
-                        Series::Line {
-                            points: median,
-                            stroke,
-                        },
-                        Some(LegendEntry::new(
-                            format!("{run}: t0 varied (95 % band)"),
-                            Swatch::LineOnFill(stroke, fill),
-                        )),
-                    );
-                    let own: Vec<(f64, f64)> =
-                        curve.draws.iter().map(|&(t, f)| (t, f * MN)).collect();
-                    panel.markers(
-                        own,
-                        Marker::of(k),
-                        ink(k),
-                        Some(&format!("{run}: posterior draws")),
-                    );
-                }
-                panel.draw(c, area);
+                let median: Vec<(f64, f64)> = curve
+                    .t0_s
+                    .iter()
+                    .copied()
+                    .zip(scaled(&curve.peak_n[1], MN))
+                    .collect();
+                let stroke = series_stroke(k, 2.0);
+                panel.add(
+                    Series::Line {
+                        points: median,
+                        stroke,
+                    },
+                    Some(LegendEntry::new(
+                        format!("{run}: t0 varied (95 % band)"),
+                        Swatch::LineOnFill(stroke, fill),
+                    )),
+                );
+                let own: Vec<(f64, f64)> = curve.draws.iter().map(|&(t, f)| (t, f * MN)).collect();
+                panel.markers(
+                    own,
+                    Marker::of(k),
+                    ink(k),
+                    Some(&format!("{run}: posterior draws")),
+                );
             }
-            Ok(())
-        },
-    )
+            panel.draw(c, area);
+        }
+    })
 }
 
 /// One row of a forest panel: a group's median, 50 % and 95 % intervals, in display units.
@@ -440,10 +412,7 @@ const CONTACT_GREY: Rgb = Rgb(125, 125, 125);
 /// The forest plot: per quantity, each material and contact (or run) as a thick 50 % bar, a
 /// thin 95 % bar and a white dot at the median; materials black, contacts and runs grey; the
 /// numbers (median [95 %]) beside each row.
-///
-/// # Errors
-/// [`DrawError`] never in practice.
-pub fn forest_figure(name: &str, panels: &[ForestPanel]) -> Result<String, DrawError> {
+pub fn forest_figure(panels: &[ForestPanel]) -> String {
     let legend = vec![
         LegendEntry::new(
             "median",
@@ -467,14 +436,13 @@ pub fn forest_figure(name: &str, panels: &[ForestPanel]) -> Result<String, DrawE
         .map(|p| FOREST_FRAME_PX + FOREST_ROW_PX * p.rows.len() as f64)
         .collect();
     let total = strip + heights.iter().sum::<f64>();
-    svg_figure(name, (FOREST_WIDTH, total.ceil() as u32), |c| {
+    svg_figure((FOREST_WIDTH, total.ceil() as u32), |c| {
         draw_row(c, &Rect::new(10.0, GAP_PX, width - 10.0, strip), &legend);
         let mut y = strip;
         for (panel, &h) in panels.iter().zip(&heights) {
             forest_panel(c, Rect::new(0.0, y, width, y + h), panel);
             y += h;
         }
-        Ok(())
     })
 }
 
@@ -634,15 +602,7 @@ const TRACE_SPLIT: f64 = 0.62;
 /// every ensemble (ensembles told apart by ink), the burn-in marked; on the right each
 /// ensemble's histogram of ranks among all ensembles' kept draws, a dashed line at what
 /// uniform ranks give. All rows share the step axis and the rank axis, labelled at the bottom.
-///
-/// # Errors
-/// [`DrawError`] never in practice.
-pub fn trace_figure(
-    name: &str,
-    panels: &[TracePanel],
-    burn_in: u64,
-    ensembles: usize,
-) -> Result<String, DrawError> {
+pub fn trace_figure(panels: &[TracePanel], burn_in: u64, ensembles: usize) -> String {
     let mut legend: Vec<LegendEntry> = (0..ensembles)
         .map(|e| {
             LegendEntry::new(
@@ -671,7 +631,7 @@ pub fn trace_figure(
     // Room under the last row for the shared axes' labels and descriptions.
     let foot = TICK_FOOT + 3.0 * line;
     let height = strip + panels.len() as f64 * TRACE_ROW_PX + foot;
-    svg_figure(name, (FIGURE_WIDTH as u32, height.ceil() as u32), |c| {
+    svg_figure((FIGURE_WIDTH as u32, height.ceil() as u32), |c| {
         draw_row(
             c,
             &Rect::new(10.0, GAP_PX, FIGURE_WIDTH - 10.0, strip),
@@ -776,7 +736,6 @@ pub fn trace_figure(
                 );
             }
         }
-        Ok(())
     })
 }
 
@@ -953,96 +912,98 @@ pub fn corner_figure(name: &str, data: &CornerData) -> Result<String, DrawError>
     } else {
         (size.0, size.1 + legend_h + 10.0)
     };
-    svg_figure(name, (size.0.ceil() as u32, size.1.ceil() as u32), |c| {
-        let rect_of = |i: usize, j: usize| {
-            let x0 = left + j as f64 * (cell + CORNER_GAP);
-            let y0 = top + i as f64 * (cell + CORNER_ROW_GAP);
-            Rect::new(x0, y0, x0 + cell, y0 + cell)
-        };
-        for i in 0..n {
-            for j in 0..=i {
-                let rect = rect_of(i, j);
-                let (cx, cy) = (&cols[j], &cols[i]);
-                let x_show = if i == n - 1 {
-                    Show::Labels
-                } else {
-                    Show::Ticks
-                };
-                let x_axis = Axis {
-                    scale: Scale::linear(cx.range),
-                    desc: String::new(),
-                    show: x_show,
-                };
-                if i == j {
-                    let top_count = cx.hist.iter().copied().fold(0.0, f64::max).max(1.0);
-                    let plot = Plot {
-                        rect,
-                        x: Scale::linear(cx.range),
-                        y: Scale::linear((0.0, 1.1 * top_count)),
+    Ok(svg_figure(
+        (size.0.ceil() as u32, size.1.ceil() as u32),
+        |c| {
+            let rect_of = |i: usize, j: usize| {
+                let x0 = left + j as f64 * (cell + CORNER_GAP);
+                let y0 = top + i as f64 * (cell + CORNER_ROW_GAP);
+                Rect::new(x0, y0, x0 + cell, y0 + cell)
+            };
+            for i in 0..n {
+                for j in 0..=i {
+                    let rect = rect_of(i, j);
+                    let (cx, cy) = (&cols[j], &cols[i]);
+                    let x_show = if i == n - 1 {
+                        Show::Labels
+                    } else {
+                        Show::Ticks
                     };
-                    let off = Axis::linear((0.0, 1.0), "").showing(Show::Off);
-                    draw_series(c, &plot, &diagonal_series(cx, truths));
-                    draw_axes(c, &plot, (&x_axis, &x_ticks[j]), (&off, &y_ticks[i]));
-                    let title = [cx.name.clone(), median_with_errors(cx.quantiles)];
-                    for (k, t) in title.iter().enumerate() {
-                        c.text(
-                            t,
-                            (
-                                0.5 * (rect.x0 + rect.x1),
-                                rect.y0 - GAP_PX - (1 - k) as f64 * line,
-                            ),
-                            Font::new(TEXT_PX, Anchor::new(HPos::Center, VPos::Bottom)),
-                        );
-                    }
-                } else {
-                    let plot = Plot {
-                        rect,
-                        x: Scale::linear(cx.range),
-                        y: Scale::linear(cy.range),
-                    };
-                    let y_axis = Axis {
-                        scale: Scale::linear(cy.range),
+                    let x_axis = Axis {
+                        scale: Scale::linear(cx.range),
                         desc: String::new(),
-                        show: if j == 0 { Show::Labels } else { Show::Ticks },
+                        show: x_show,
                     };
-                    draw_series(c, &plot, &pair_series(data.pair(i, j), cx, cy, truths));
-                    draw_axes(c, &plot, (&x_axis, &x_ticks[j]), (&y_axis, &y_ticks[i]));
-                }
-                // Descriptions: under the bottom row, left of the left column.
-                if i == n - 1 {
-                    let mut below = rect.y1 + crate::plot::TICK_PX + GAP_PX + line;
-                    if has_x_note {
-                        below += GAP_PX + line;
+                    if i == j {
+                        let top_count = cx.hist.iter().copied().fold(0.0, f64::max).max(1.0);
+                        let plot = Plot {
+                            rect,
+                            x: Scale::linear(cx.range),
+                            y: Scale::linear((0.0, 1.1 * top_count)),
+                        };
+                        let off = Axis::linear((0.0, 1.0), "").showing(Show::Off);
+                        draw_series(c, &plot, &diagonal_series(cx, truths));
+                        draw_axes(c, &plot, (&x_axis, &x_ticks[j]), (&off, &y_ticks[i]));
+                        let title = [cx.name.clone(), median_with_errors(cx.quantiles)];
+                        for (k, t) in title.iter().enumerate() {
+                            c.text(
+                                t,
+                                (
+                                    0.5 * (rect.x0 + rect.x1),
+                                    rect.y0 - GAP_PX - (1 - k) as f64 * line,
+                                ),
+                                Font::new(TEXT_PX, Anchor::new(HPos::Center, VPos::Bottom)),
+                            );
+                        }
+                    } else {
+                        let plot = Plot {
+                            rect,
+                            x: Scale::linear(cx.range),
+                            y: Scale::linear(cy.range),
+                        };
+                        let y_axis = Axis {
+                            scale: Scale::linear(cy.range),
+                            desc: String::new(),
+                            show: if j == 0 { Show::Labels } else { Show::Ticks },
+                        };
+                        draw_series(c, &plot, &pair_series(data.pair(i, j), cx, cy, truths));
+                        draw_axes(c, &plot, (&x_axis, &x_ticks[j]), (&y_axis, &y_ticks[i]));
                     }
-                    for (k, l) in x_descs[j].iter().enumerate() {
-                        c.text(
-                            l,
-                            (0.5 * (rect.x0 + rect.x1), below + GAP_PX + k as f64 * line),
-                            Font::new(TEXT_PX, Anchor::new(HPos::Center, VPos::Top)),
-                        );
+                    // Descriptions: under the bottom row, left of the left column.
+                    if i == n - 1 {
+                        let mut below = rect.y1 + crate::plot::TICK_PX + GAP_PX + line;
+                        if has_x_note {
+                            below += GAP_PX + line;
+                        }
+                        for (k, l) in x_descs[j].iter().enumerate() {
+                            c.text(
+                                l,
+                                (0.5 * (rect.x0 + rect.x1), below + GAP_PX + k as f64 * line),
+                                Font::new(TEXT_PX, Anchor::new(HPos::Center, VPos::Top)),
+                            );
+                        }
                     }
-                }
-                if j == 0 && i > 0 {
-                    let lines = &y_descs[i];
-                    for (k, l) in lines.iter().enumerate() {
-                        let x = 10.0 + (k as f64 + 0.5) * line;
-                        c.text(
-                            l,
-                            (x, 0.5 * (rect.y0 + rect.y1)),
-                            Font::new(TEXT_PX, Anchor::new(HPos::Center, VPos::Center))
-                                .rotated(crate::plot::text::Rotation::ThreeQuarters),
-                        );
+                    if j == 0 && i > 0 {
+                        let lines = &y_descs[i];
+                        for (k, l) in lines.iter().enumerate() {
+                            let x = 10.0 + (k as f64 + 0.5) * line;
+                            c.text(
+                                l,
+                                (x, 0.5 * (rect.y0 + rect.y1)),
+                                Font::new(TEXT_PX, Anchor::new(HPos::Center, VPos::Center))
+                                    .rotated(crate::plot::text::Rotation::ThreeQuarters),
+                            );
+                        }
                     }
                 }
             }
-        }
-        if legend_inside {
-            draw_box(c, (triangle.x1 - legend_w, triangle.y0), &legend);
-        } else {
-            draw_box(c, (left, size.1 - legend_h - 6.0), &legend);
-        }
-        Ok(())
-    })
+            if legend_inside {
+                draw_box(c, (triangle.x1 - legend_w, triangle.y0), &legend);
+            } else {
+                draw_box(c, (left, size.1 - legend_h - 6.0), &legend);
+            }
+        },
+    ))
 }
 
 /// The diagonal: histogram as steps, quantile lines, the true value.

@@ -67,7 +67,7 @@ fn draw(
         y0 = y0.min(y(p));
         y1 = y1.max(y(p));
     }
-    svg_figure(name, SIZE, |c| {
+    Ok(svg_figure(SIZE, |c| {
         let mut panel = Panel::new(
             title,
             Axis::log((x0 / 1.5, x1 * 1.5), "wall time (s)"),
@@ -122,8 +122,7 @@ fn draw(
         );
         let whole = c.bounds();
         panel.draw(c, whole);
-        Ok(())
-    })
+    }))
 }
 
 #[cfg(test)]
