@@ -165,7 +165,7 @@ fn uninterrupted_run_reads_back_every_value_in_order() {
             .map(|i| format!("part-{i:06}.parquet"))
             .collect::<Vec<_>>()
     );
-    assert_eq!(names_in(tmp.path()), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(tmp.path()), vec!["chains", "checkpoint.bin"]);
     // Row order: step, then ensemble, then walker; values as produced.
     let mut row = 0;
     for step in 0..TOTAL_STEPS {
@@ -307,7 +307,7 @@ fn parts_describe_themselves_and_carry_the_burn_in_once_finished() {
     );
     // The footers were rewritten, the values not; nothing is left beside the parts.
     assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
-    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
 }
 
 #[test]
@@ -329,7 +329,7 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     // The part in progress is visibly partial and outside chains/.
     assert_eq!(
         names_in(dir),
-        vec!["chains", "checkpoint.json", "part-000002.parquet.partial"]
+        vec!["chains", "checkpoint.bin", "part-000002.parquet.partial"]
     );
     assert_eq!(
         read_chains(&files(dir).chains).expect("read").len(),
@@ -346,7 +346,7 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     );
     assert_eq!(sink.steps(), 40);
     assert_eq!(sink.durable_parts(), 2);
-    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
     sink.check_columns(&params(), &derived())
         .expect("same model");
     produce(&mut sink, state.next_step, TOTAL_STEPS);
@@ -367,6 +367,44 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
     }
 }
 
+/// A run checkpointed by an earlier release (JSON, `checkpoint.json`) resumes, and its first
+/// new checkpoint replaces the JSON one by the binary one; the chains equal an uninterrupted run.
+#[test]
+fn a_json_checkpoint_of_an_earlier_release_resumes() {
+    let reference_dir = tempfile::tempdir().expect("tmp");
+    let reference = uninterrupted(reference_dir.path());
+
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path();
+    let mut sink =
+        ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
+    produce(&mut sink, 0, 55);
+    drop(sink);
+    // Rewrite the checkpoint as the earlier release wrote it: one JSON object, the state
+    // inside under `state`, format version 1.
+    let bytes = fs::read(dir.join("checkpoint.bin")).expect("checkpoint");
+    let mut reader = std::io::Cursor::new(&bytes[..]);
+    let mut header: serde_json::Value = rmp_serde::from_read(&mut reader).expect("header");
+    let state: serde_json::Value =
+        rmp_serde::from_slice(&bytes[reader.position() as usize..]).expect("state");
+    header["format"] = "slipbayes-chains/1".into();
+    header["state"] = state;
+    fs::write(
+        dir.join("checkpoint.json"),
+        serde_json::to_vec_pretty(&header).expect("json"),
+    )
+    .expect("write json");
+    fs::remove_file(dir.join("checkpoint.bin")).expect("remove binary");
+
+    let (mut sink, state) = ParquetSink::resume::<FakeState>(&files(dir)).expect("resume");
+    assert_eq!(state.next_step, 40);
+    assert_eq!(sink.steps(), 40);
+    produce(&mut sink, state.next_step, TOTAL_STEPS);
+    sink.finish().expect("finish");
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
+    assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
+}
+
 #[test]
 fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     let reference_dir = tempfile::tempdir().expect("tmp");
@@ -377,14 +415,14 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     let mut sink =
         ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     produce(&mut sink, 0, 40);
-    let checkpoint_at_40 = fs::read(dir.join("checkpoint.json")).expect("checkpoint");
+    let checkpoint_at_40 = fs::read(dir.join("checkpoint.bin")).expect("checkpoint");
     produce(&mut sink, 40, 70);
     drop(sink);
     // The crash hit checkpoint 60 after part 2 was renamed into chains/ but before
-    // checkpoint.json was replaced: the old checkpoint is still there.
-    fs::write(dir.join("checkpoint.json"), &checkpoint_at_40).expect("restore");
+    // checkpoint.bin was replaced: the old checkpoint is still there.
+    fs::write(dir.join("checkpoint.bin"), &checkpoint_at_40).expect("restore");
     // ... and while a new checkpoint was half written, and part 3 half written.
-    fs::write(dir.join(".checkpoint.json.tmp"), b"{\"format\": \"slipb").expect("tmp");
+    fs::write(dir.join(".checkpoint.bin.tmp"), b"{\"format\": \"slipb").expect("tmp");
     let partial = dir.join("part-000003.parquet.partial");
     let full = fs::read(dir.join("chains/part-000001.parquet")).expect("part");
     fs::write(&partial, &full[..full.len() / 2]).expect("half part");
@@ -399,7 +437,7 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
 
     let (mut sink, state) = ParquetSink::resume::<FakeState>(&files(dir)).expect("resume");
     assert_eq!(state.next_step, 40);
-    assert_eq!(names_in(dir), vec!["chains", "checkpoint.json"]);
+    assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
     assert_eq!(
         names_in(&dir.join("chains")),
         vec!["part-000000.parquet", "part-000001.parquet"]

@@ -108,7 +108,7 @@ fn ctrl_c_stops_after_a_checkpoint_and_the_printed_command_resumes() {
     let err = seen.join("\n");
     assert_eq!(code, Some(130), "{err}");
     assert!(err.contains("interrupted at step"), "{err}");
-    assert!(run.join("checkpoint.json").exists(), "{err}");
+    assert!(run.join("checkpoint.bin").exists(), "{err}");
     assert!(!run.join("summary.json").exists(), "{err}");
     // The line after "resume with:" is the command that continues the run.
     let resume = seen

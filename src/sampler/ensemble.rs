@@ -68,7 +68,10 @@ pub struct EnsembleState {
     pub positions: Vec<f64>,
     /// Log-density of each walker.
     pub log_density: Vec<f64>,
-    /// Derived values, `walkers × nderived`, row-major.
+    /// Derived values, `walkers × nderived`, row-major. Not stored in checkpoints (they were
+    /// three quarters of a campaign's): the resume's full evaluation of every walker gives
+    /// them again, bit for bit.
+    #[serde(default, skip_serializing)]
     pub derived: Vec<f64>,
     /// Generator for the split and the move choice.
     pub ensemble_rng: ChaCha8Rng,

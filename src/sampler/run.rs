@@ -375,10 +375,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
         let mut scratch = vec![0.0; nderived];
         let mut caches = Vec::with_capacity(state.ensembles.len());
-        for (e, s) in state.ensembles.iter().enumerate() {
+        for (e, s) in state.ensembles.iter_mut().enumerate() {
             if s.positions.len() != walkers * ndim
                 || s.log_density.len() != walkers
-                || s.derived.len() != walkers * nderived
+                || !(s.derived.is_empty() || s.derived.len() == walkers * nderived)
                 || s.walker_rngs.len() != walkers
                 || s.accepted.len() != walkers
                 || s.slice_scales.len() != slice_slots(&config, &blocks)
@@ -386,14 +386,18 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             {
                 return mismatch(format!("arrays of ensemble {e} have the wrong sizes"));
             }
-            // The caches are not stored: the check's full evaluation rebuilds them.
+            // The caches and derived values are not stored: the check's full evaluation
+            // rebuilds them.
             let mut cache = vec![0.0; walkers * cache_len];
+            s.derived = vec![0.0; walkers * nderived];
             for w in 0..walkers {
                 let x = &s.positions[w * ndim..(w + 1) * ndim];
                 let stored = s.log_density[w];
                 let c = &mut cache[w * cache_len..(w + 1) * cache_len];
                 match sort(density.log_density_cached(x, &mut scratch, c)) {
-                    Eval::Finite(v) if (v - stored).abs() <= RESUME_RTOL * v.abs().max(1.0) => {}
+                    Eval::Finite(v) if (v - stored).abs() <= RESUME_RTOL * v.abs().max(1.0) => {
+                        s.derived[w * nderived..(w + 1) * nderived].copy_from_slice(&scratch);
+                    }
                     other => {
                         return mismatch(format!(
                             "walker {w} of ensemble {e} at {x:?} has stored log-density {stored} but the \
@@ -1354,7 +1358,9 @@ impl Serialize for StateView<'_> {
                 ser.collect_seq(self.0.iter().map(|e| &e.s))
             }
         }
-        let mut st = ser.serialize_struct("SamplerState", 12)?;
+        // The exact count of fields written: binary formats write it ahead of them.
+        let fields = 11 + usize::from(!self.carry_jumps.is_empty());
+        let mut st = ser.serialize_struct("SamplerState", fields)?;
         st.serialize_field("version", &STATE_VERSION)?;
         st.serialize_field("seed", &self.seed)?;
         st.serialize_field("ndim", &self.ndim)?;

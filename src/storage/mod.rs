@@ -194,7 +194,7 @@ pub enum StorageError {
         /// The message of the Parquet layer.
         message: String,
     },
-    /// `checkpoint.json` cannot be parsed (or its state does not fit the requested type).
+    /// The checkpoint cannot be parsed (or its state does not fit the requested type).
     #[error(
         "checkpoint {} is unreadable: {source}; it was written by another version or for \
          another sampler: start a new run with --overwrite",
@@ -203,13 +203,13 @@ pub enum StorageError {
     BadCheckpoint {
         /// The checkpoint file.
         path: PathBuf,
-        /// The JSON error.
+        /// The decoding error.
         #[source]
-        source: serde_json::Error,
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The sampler state cannot be serialised.
     #[error("cannot serialise the sampler state for the checkpoint: {0}")]
-    State(#[source] serde_json::Error),
+    State(#[source] Box<dyn std::error::Error + Send + Sync>),
     /// The files of a run contradict each other.
     #[error("the run in {} is inconsistent: {problem}; start a new run with --overwrite", dir.display())]
     Inconsistent {

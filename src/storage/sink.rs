@@ -23,8 +23,12 @@ use super::{
 };
 use crate::data::atomic::{sync_dir, write_atomically};
 
-/// Tag of the checkpoint format, checked on resume.
-const CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
+/// Tag of the checkpoint format, checked on resume: version 2 is binary (MessagePack), version
+/// 1 the JSON of earlier releases, still read.
+const CHECKPOINT_FORMAT: &str = "slipbayes-chains/2";
+const JSON_CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
+/// Where earlier releases wrote their JSON checkpoint, beside the binary one.
+const JSON_CHECKPOINT: &str = "checkpoint.json";
 
 /// How a [`ParquetSink`] writes.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -54,9 +58,9 @@ impl Default for SinkOptions {
     }
 }
 
-/// Content of `checkpoint.json`.
+/// What a checkpoint says of the chains (the sampler state follows it in the file).
 #[derive(Debug, Serialize, Deserialize)]
-struct CheckpointFile {
+struct CheckpointHeader {
     format: String,
     param_names: Vec<String>,
     derived_names: Vec<String>,
@@ -69,7 +73,42 @@ struct CheckpointFile {
     /// One past the largest step recorded in those parts: where a resumed run continues.
     steps: u64,
     finished: bool,
-    /// The sampler state given to the last checkpoint (null when none was given).
+}
+
+/// The sampler state of a checkpoint, as stored.
+#[derive(Debug, Clone, Default)]
+enum StoredState {
+    /// None given yet.
+    #[default]
+    None,
+    /// MessagePack (named fields), as written now.
+    Binary(Vec<u8>),
+    /// The JSON of a checkpoint written by an earlier release.
+    Json(serde_json::Value),
+}
+
+impl StoredState {
+    fn decode<S: DeserializeOwned>(&self) -> Result<S, Box<dyn std::error::Error + Send + Sync>> {
+        match self {
+            Self::None => Err("the checkpoint holds no sampler state".into()),
+            Self::Binary(bytes) => Ok(rmp_serde::from_slice(bytes)?),
+            Self::Json(value) => Ok(serde::Deserialize::deserialize(value)?),
+        }
+    }
+}
+
+/// A checkpoint: binary, `header` then the state, both MessagePack.
+#[derive(Debug)]
+struct CheckpointFile {
+    header: CheckpointHeader,
+    state: StoredState,
+}
+
+/// A checkpoint of an earlier release: JSON with the state inside.
+#[derive(Deserialize)]
+struct JsonCheckpointFile {
+    #[serde(flatten)]
+    header: CheckpointHeader,
     state: serde_json::Value,
 }
 
@@ -156,7 +195,7 @@ pub struct ParquetSink {
     durable_rows: u64,
     rows: u64,
     steps: u64,
-    last_state: serde_json::Value,
+    last_state: StoredState,
 }
 
 impl std::fmt::Debug for ParquetSink {
@@ -237,13 +276,14 @@ impl ParquetSink {
     pub fn resume<S: DeserializeOwned>(files: &ChainFiles) -> Result<(Self, S), StorageError> {
         let dir = files.dir.as_path();
         let checkpoint_path = files.checkpoint.clone();
-        let checkpoint = match read_checkpoint(&checkpoint_path)? {
-            Some(c) => c,
-            None => {
-                return Err(StorageError::NoCheckpoint {
-                    dir: dir.to_path_buf(),
-                })
-            }
+        let Some(CheckpointFile {
+            header: checkpoint,
+            state: stored,
+        }) = read_checkpoint(files)?
+        else {
+            return Err(StorageError::NoCheckpoint {
+                dir: dir.to_path_buf(),
+            });
         };
         if checkpoint.finished {
             return Err(StorageError::AlreadyFinished {
@@ -251,12 +291,12 @@ impl ParquetSink {
             });
         }
         validate_names(&checkpoint.param_names, &checkpoint.derived_names)?;
-        let state: S = serde_json::from_value(checkpoint.state.clone()).map_err(|source| {
-            StorageError::BadCheckpoint {
+        let state: S = stored
+            .decode()
+            .map_err(|source| StorageError::BadCheckpoint {
                 path: checkpoint_path.clone(),
                 source,
-            }
-        })?;
+            })?;
 
         remove_leftovers(files)?;
         let chains_dir = &files.chains;
@@ -313,7 +353,7 @@ impl ParquetSink {
         sink.rows = checkpoint.rows;
         sink.steps = checkpoint.steps;
         sink.part_first_step = checkpoint.steps;
-        sink.last_state = checkpoint.state;
+        sink.last_state = stored;
         Ok((sink, state))
     }
 
@@ -346,7 +386,7 @@ impl ParquetSink {
             durable_rows: 0,
             rows: 0,
             steps: 0,
-            last_state: serde_json::Value::Null,
+            last_state: StoredState::None,
         }
     }
 
@@ -436,7 +476,7 @@ impl ParquetSink {
         self.buffer.capacity()
     }
 
-    /// Closes the last part and marks the run finished in `checkpoint.json`, keeping the state
+    /// Closes the last part and marks the run finished in the checkpoint, keeping the state
     /// of the last checkpoint. With a burn-in set ([`ParquetSink::set_burn_in`]), every part's
     /// footer is first rewritten to carry it (each part copied with its new footer and renamed
     /// over itself; a kill before the checkpoint is marked leaves a resumable run).
@@ -535,7 +575,7 @@ impl ParquetSink {
     }
 
     fn write_checkpoint(&self, finished: bool) -> Result<(), StorageError> {
-        let checkpoint = CheckpointFile {
+        let header = CheckpointHeader {
             format: CHECKPOINT_FORMAT.to_owned(),
             param_names: self.param_names.clone(),
             derived_names: self.derived_names.clone(),
@@ -544,12 +584,19 @@ impl ParquetSink {
             rows: self.durable_rows,
             steps: self.steps,
             finished,
-            state: self.last_state.clone(),
         };
         let path = &self.files.checkpoint;
-        let mut bytes = serde_json::to_vec_pretty(&checkpoint).map_err(StorageError::State)?;
-        bytes.push(b'\n');
-        write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))
+        let mut bytes =
+            rmp_serde::to_vec_named(&header).map_err(|e| StorageError::State(e.into()))?;
+        match &self.last_state {
+            StoredState::Binary(state) => bytes.extend_from_slice(state),
+            // A run resumed from a JSON checkpoint stores its state anew at its next one.
+            StoredState::Json(value) => bytes
+                .extend(rmp_serde::to_vec_named(value).map_err(|e| StorageError::State(e.into()))?),
+            StoredState::None => {}
+        }
+        write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))?;
+        remove_json_checkpoint(&self.files)
     }
 }
 
@@ -617,9 +664,9 @@ impl ChainSink for ParquetSink {
     }
 
     fn checkpoint<S: Serialize>(&mut self, state: &S) -> Result<(), StorageError> {
-        let state = serde_json::to_value(state).map_err(StorageError::State)?;
+        let state = rmp_serde::to_vec_named(state).map_err(|e| StorageError::State(e.into()))?;
         self.close_part()?;
-        self.last_state = state;
+        self.last_state = StoredState::Binary(state);
         self.write_checkpoint(false)
     }
 }
@@ -673,34 +720,106 @@ fn validate_names(param_names: &[String], derived_names: &[String]) -> Result<()
     Ok(())
 }
 
-/// Reads `checkpoint.json`; `None` when there is none.
-fn read_checkpoint(path: &Path) -> Result<Option<CheckpointFile>, StorageError> {
-    let bytes = match fs::read(path) {
-        Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(StorageError::io("read", path, e)),
-    };
-    let checkpoint: CheckpointFile =
-        serde_json::from_slice(&bytes).map_err(|source| StorageError::BadCheckpoint {
+/// Reads the checkpoint of `files` (or, without one, the JSON checkpoint an earlier release
+/// wrote beside it); `None` when there is neither.
+fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, StorageError> {
+    let path = &files.checkpoint;
+    let bad = |path: &Path, source: Box<dyn std::error::Error + Send + Sync>| {
+        StorageError::BadCheckpoint {
             path: path.to_path_buf(),
             source,
-        })?;
-    if checkpoint.format != CHECKPOINT_FORMAT {
-        return Err(StorageError::BadCheckpoint {
-            path: path.to_path_buf(),
-            source: serde::de::Error::custom(format!(
+        }
+    };
+    let checkpoint = match read_if_present(path)? {
+        Some(bytes) => {
+            let mut reader = std::io::Cursor::new(&bytes[..]);
+            let header: CheckpointHeader =
+                rmp_serde::from_read(&mut reader).map_err(|e| bad(path, e.into()))?;
+            let state = &bytes[reader.position() as usize..];
+            CheckpointFile {
+                header,
+                state: if state.is_empty() {
+                    StoredState::None
+                } else {
+                    StoredState::Binary(state.to_vec())
+                },
+            }
+        }
+        None => {
+            let path = &json_checkpoint(files);
+            let Some(bytes) = read_if_present(path)? else {
+                return Ok(None);
+            };
+            let json: JsonCheckpointFile =
+                serde_json::from_slice(&bytes).map_err(|e| bad(path, e.into()))?;
+            let state = if json.state.is_null() {
+                StoredState::None
+            } else {
+                StoredState::Json(json.state)
+            };
+            if json.header.format != JSON_CHECKPOINT_FORMAT {
+                return Err(bad(
+                    path,
+                    format!(
+                        "format {:?}, expected {JSON_CHECKPOINT_FORMAT:?}",
+                        json.header.format
+                    )
+                    .into(),
+                ));
+            }
+            return Ok(Some(CheckpointFile {
+                header: json.header,
+                state,
+            }));
+        }
+    };
+    if checkpoint.header.format != CHECKPOINT_FORMAT {
+        return Err(bad(
+            path,
+            format!(
                 "format {:?}, expected {CHECKPOINT_FORMAT:?}",
-                checkpoint.format
-            )),
-        });
+                checkpoint.header.format
+            )
+            .into(),
+        ));
     }
     Ok(Some(checkpoint))
 }
 
+fn read_if_present(path: &Path) -> Result<Option<Vec<u8>>, StorageError> {
+    match fs::read(path) {
+        Ok(b) => Ok(Some(b)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(StorageError::io("read", path, e)),
+    }
+}
+
+/// The JSON checkpoint of an earlier release, beside the binary one.
+fn json_checkpoint(files: &ChainFiles) -> PathBuf {
+    files
+        .checkpoint
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(JSON_CHECKPOINT)
+}
+
+/// Removes the JSON checkpoint of an earlier release, once a binary one replaces it.
+fn remove_json_checkpoint(files: &ChainFiles) -> Result<(), StorageError> {
+    let path = json_checkpoint(files);
+    if path == files.checkpoint {
+        return Ok(());
+    }
+    match fs::remove_file(&path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(StorageError::io("remove", &path, e)),
+    }
+}
+
 /// Whether `files` hold a run of ours: `Some(finished)`, or `None` when they hold none.
 fn existing_run(files: &ChainFiles) -> Result<Option<bool>, StorageError> {
-    match read_checkpoint(&files.checkpoint) {
-        Ok(Some(c)) => return Ok(Some(c.finished)),
+    match read_checkpoint(files) {
+        Ok(Some(c)) => return Ok(Some(c.header.finished)),
         Ok(None) => {}
         // An unreadable checkpoint still marks a run; only --overwrite may remove it.
         Err(StorageError::BadCheckpoint { .. }) => return Ok(Some(false)),
@@ -724,6 +843,7 @@ fn remove_run(files: &ChainFiles) -> Result<(), StorageError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
         Err(e) => return Err(StorageError::io("remove", checkpoint, e)),
     }
+    remove_json_checkpoint(files)?;
     if chains_dir.is_dir() {
         sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
     }

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use slipbayes::data::write_atomically;
 use slipbayes::density::LogDensity;
-use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
+use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT};
 use slipbayes::fit::{fit_stop_rule, kept_draws, peak_notes, RunDir, DEFAULT_MAX_STEPS};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::data::RunData;
@@ -421,7 +421,7 @@ fn fit_case(
         });
     }
     let _ = std::fs::remove_dir_all(fit_dir.file(CHAINS_DIR));
-    let _ = std::fs::remove_file(fit_dir.file(CHECKPOINT_JSON));
+    let _ = std::fs::remove_file(fit_dir.file(CHECKPOINT));
     Ok(())
 }
 

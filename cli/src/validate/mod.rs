@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 use slipbayes::data::write_atomically;
 use slipbayes::density::QuantityKind;
-use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT_JSON};
+use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT};
 use slipbayes::fit::{run_fit, FitSettings};
 use slipbayes::fit::{RunDir, SummarySpec};
 use slipbayes::law::Scene;
@@ -427,7 +427,7 @@ fn fit_and_rank(
     // The chains and the checkpoint (10 MB) have served; 200 replications of them would
     // fill the disk.
     let _ = std::fs::remove_dir_all(fit_dir.file(CHAINS_DIR));
-    let _ = std::fs::remove_file(fit_dir.file(CHECKPOINT_JSON));
+    let _ = std::fs::remove_file(fit_dir.file(CHECKPOINT));
     Ok(Replication {
         index: 0,
         truth: truth.clone(),

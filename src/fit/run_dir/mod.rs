@@ -7,7 +7,7 @@
 //! DIR/summary.csv         one row per parameter and derived quantity (ArviZ's columns)
 //! DIR/predictive.csv      posterior and posterior predictive bands at the data times
 //! DIR/chains/*.parquet    the draws (see crate::storage)
-//! DIR/checkpoint.json     the sampler state of the last checkpoint
+//! DIR/checkpoint.bin      the sampler state of the last checkpoint (MessagePack)
 //! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
 //! ```
 //!
@@ -44,8 +44,9 @@ pub const SUMMARY_CSV: &str = "summary.csv";
 pub const PREDICTIVE_CSV: &str = "predictive.csv";
 /// The folder of complete chain parts.
 pub const CHAINS_DIR: &str = "chains";
-/// The sampler state of the last checkpoint.
-pub const CHECKPOINT_JSON: &str = "checkpoint.json";
+/// The sampler state of the last checkpoint (binary; earlier releases wrote
+/// `checkpoint.json`, which a resume still reads).
+pub const CHECKPOINT: &str = "checkpoint.bin";
 /// The HTML report.
 pub const REPORT_HTML: &str = "report.html";
 /// The Markdown report.
@@ -128,7 +129,7 @@ impl RunDir {
         ChainFiles {
             dir: self.path.clone(),
             chains: self.file(CHAINS_DIR),
-            checkpoint: self.file(CHECKPOINT_JSON),
+            checkpoint: self.file(CHECKPOINT),
         }
     }
 
