@@ -24,7 +24,7 @@
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable) and
 //!   summarise; [`fit::run_dir`] names, writes and reads every file of a run directory
 //!   (feature `parquet`).
-//! - [`plot`]: the one plotting layer (SVG through plotters) of reports, `bench` and
+//! - [`plot`]: the one plotting layer (SVG written by the crate) of reports, `bench` and
 //!   `validate`: figures, charts, axes and ticks, lines, markers, bands, bars, legends, one
 //!   palette.
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run

@@ -463,6 +463,9 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     assert_eq!(walkers(&campaign, None), 32);
     assert!(CarryFit::Auto.tunes(followers, 32));
     assert!(!CarryFit::Auto.tunes(7, 32));
+    // Five contacts' followers tune; three contacts' (the pooled SBC model, 16 walkers) do not.
+    assert!(CarryFit::Auto.tunes(15, 32));
+    assert!(!CarryFit::Auto.tunes(9, 16));
     assert_eq!(
         walkers_with(&campaign, None, Some(CarryFit::Complement)),
         94

@@ -81,7 +81,7 @@ fn rheocompass_export_reads_as_written() {
         bytes.starts_with(&[0xFF, 0xFE]),
         "the example is UTF-16LE with BOM"
     );
-    assert_eq!(Format::detect(&path, &bytes), Format::Rheocompass);
+    assert_eq!(Format::detect(&bytes).format, Format::Rheocompass);
     // Without asking, the invalid point stops the import at its line and column.
     let err = import(&path, &options()).unwrap_err().to_string();
     assert!(err.contains("rheocompass-ptfe-c1.txt:146:4:"), "{err}");
@@ -157,7 +157,10 @@ fn validation_names_file_line_and_column() {
             "time_s,force_N\n0,1\n\n1,inf\n",
             "i.csv",
             &o,
-            &["i.csv:4:2:", "inf is not a finite number"],
+            &[
+                "i.csv:4:2:",
+                "inf in column `force_N` (force) is not a finite number",
+            ],
         ),
         (
             "time_s,force_N\n0,1\n2,1\n1,1\n",

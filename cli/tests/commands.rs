@@ -73,8 +73,8 @@ fn import_command_converts_and_reports() {
     assert!(output.status.success());
     let text = String::from_utf8(output.stdout).unwrap();
     for expected in [
-        "UTF-16LE with BOM",
-        "decimal commas",
+        "UTF-16LE with BOM, tab-separated, decimal comma",
+        "Anton Paar RheoCompass export, labels in English",
         "interval 3: 501 points",
         "Torque [µN·m]",
         "F = M / r",
@@ -87,4 +87,54 @@ fn import_command_converts_and_reports() {
     }
     let series = slipbayes::data::Series::read_csv(&out).unwrap();
     assert_eq!(series.len(), 840);
+}
+
+/// Issue 21 as reported: a French RheoCompass export with a `.csv` name, imported as a new
+/// user would. It is recognised (vendor, language, intervals listed), with or without
+/// `--format rheocompass`, and its errors are about the export, not about a library.
+#[test]
+fn a_french_export_imports_with_what_was_found() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.csv");
+    let file = repo("tests/fixtures/import/rheocompass-fr.csv");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+            .arg("import")
+            .arg(&file)
+            .args(extra)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let failed = run(&[]);
+    assert!(!failed.status.success());
+    let stderr = String::from_utf8(failed.stderr).unwrap();
+    assert!(
+        stderr.contains("rheocompass-fr.csv:76:2: the instrument marked point `1  (invalide)`"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("Schema") && !stderr.contains("truncate_ragged_lines"));
+    for extra in [
+        &["--interval", "1"][..],
+        &["--interval", "1", "--format", "rheocompass"],
+    ] {
+        let output = run(extra);
+        let stdout = String::from_utf8(output.stdout).unwrap();
+        assert!(output.status.success(), "{stdout}");
+        for expected in [
+            "Anton Paar RheoCompass export, labels in French",
+            "UTF-16LE with BOM, tab-separated, decimal comma",
+            "interval 1 (result `Glissement 1`, its interval 1): 60 points",
+            "columns used: time = `Temps` [s], force = `Couple` [mN·m]",
+            "60 read, 60 written",
+        ] {
+            assert!(
+                stdout.contains(expected),
+                "`{expected}` missing from:\n{stdout}"
+            );
+        }
+    }
+    let series = slipbayes::data::Series::read_csv(&out).unwrap();
+    assert_eq!(series.len(), 60);
 }

@@ -1,18 +1,27 @@
-//! Import of instrument files: a table of named columns (from CSV, Parquet or a RheoCompass
-//! export) is mapped to time and friction force by name and unit, converted to SI and checked
-//! before anything is fitted. Nothing is dropped silently: a point with text, an empty cell, a
-//! non-finite number or an absurdly large one (beyond [`MAX_MAGNITUDE_SI`]) in a mapped column
-//! is an error naming file, line and column, unless the caller asks to drop such points, and
-//! then they are counted.
+//! Import of instrument files: a table of named columns (from CSV, Parquet, or an Anton Paar
+//! RheoCompass, TA Instruments TRIOS or Malvern rSpace export) is mapped to time and friction
+//! force by name and unit, converted to SI and checked before anything is fitted. The format is
+//! recognised from the file's content, whatever its name; a file that is none of the exports
+//! is read as a plain table, and if that fails too, the error says what was tried and why each
+//! did not fit. Nothing is dropped silently: a point with text, an empty cell, a non-finite
+//! number or an absurdly large one (beyond [`MAX_MAGNITUDE_SI`]) in a mapped column is an error
+//! naming file, line and column, unless the caller asks to drop such points, and then they are
+//! counted.
 
+use std::borrow::Cow;
 use std::fmt;
 use std::path::Path;
+use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::rheocompass::{self, IntervalChoice};
+use super::labels::{Role, LANGUAGES};
+use super::rheocompass::IntervalChoice;
+use super::table::Bad;
+pub use super::table::{Cell, Table};
+use super::text::{decode, decode_owned, Encoding};
 use super::units::{parse_unit, Quantity, Unit, KNOWN_UNITS};
-use super::{DataError, Series};
+use super::{rheocompass, rspace, trios, DataError, Series};
 
 /// Default moment arm of a rheometer friction cell (m): the radius at which the sphere slides.
 pub const DEFAULT_MOMENT_ARM_M: f64 = 7e-3;
@@ -25,8 +34,34 @@ pub enum Format {
     Csv,
     /// Apache Parquet.
     Parquet,
-    /// Anton Paar RheoCompass text export (docs/model.md §9).
+    /// Anton Paar RheoCompass text export, in any language (docs/model.md §9).
     Rheocompass,
+    /// TA Instruments TRIOS export, text or CSV, with `[step]` blocks.
+    Trios,
+    /// Malvern (Netzsch) Kinexus rSpace CSV export.
+    Rspace,
+}
+
+/// What format detection found, and why the formats tried before it did not fit.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Detection {
+    /// The format to read the file in.
+    pub format: Format,
+    /// Formats tried first, each with the reason it does not fit.
+    pub tried: Vec<(Format, String)>,
+}
+
+impl Detection {
+    /// The tried formats and their reasons in one sentence, if any were tried.
+    pub fn explain(&self) -> Option<String> {
+        (!self.tried.is_empty()).then(|| {
+            self.tried
+                .iter()
+                .map(|(f, reason)| format!("not {}: {reason}", f.described()))
+                .collect::<Vec<_>>()
+                .join("; ")
+        })
+    }
 }
 
 impl Format {
@@ -36,28 +71,123 @@ impl Format {
             Self::Csv => "csv",
             Self::Parquet => "parquet",
             Self::Rheocompass => "rheocompass",
+            Self::Trios => "trios",
+            Self::Rspace => "rspace",
         }
     }
 
-    /// The format of a file from its extension and, for text, its first bytes.
-    pub fn detect(path: &Path, bytes: &[u8]) -> Self {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        if ext.as_deref() == Some("parquet") || bytes.starts_with(b"PAR1") {
-            return Self::Parquet;
+    /// The format in words, with an article.
+    fn described(self) -> &'static str {
+        match self {
+            Self::Csv => "a plain CSV table",
+            Self::Parquet => "a Parquet file",
+            Self::Rheocompass => "an Anton Paar RheoCompass export",
+            Self::Trios => "a TA Instruments TRIOS export",
+            Self::Rspace => "a Malvern rSpace export",
         }
-        if rheocompass::looks_like(bytes) {
-            return Self::Rheocompass;
+    }
+
+    /// The format of a file from its content (its name plays no part): Parquet by its magic
+    /// bytes, the instrument exports by their structure, anything else as a plain table.
+    pub fn detect(bytes: &[u8]) -> Detection {
+        if bytes.starts_with(b"PAR1") {
+            return Detection {
+                format: Self::Parquet,
+                tried: Vec::new(),
+            };
         }
-        Self::Csv
+        Self::detect_text(&decode(bytes).0)
+    }
+
+    fn detect_text(text: &str) -> Detection {
+        let mut tried = Vec::new();
+        for format in [Self::Rheocompass, Self::Trios, Self::Rspace] {
+            let recognised = match format {
+                Self::Rheocompass => rheocompass::recognise(text),
+                Self::Trios => trios::recognise(text),
+                _ => rspace::recognise(text),
+            };
+            match recognised {
+                Ok(_) => return Detection { format, tried },
+                Err(reason) => tried.push((format, reason)),
+            }
+        }
+        Detection {
+            format: Self::Csv,
+            tried,
+        }
     }
 }
 
 impl fmt::Display for Format {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+impl FromStr for Format {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        [
+            Self::Csv,
+            Self::Parquet,
+            Self::Rheocompass,
+            Self::Trios,
+            Self::Rspace,
+        ]
+        .into_iter()
+        .find(|f| f.name().eq_ignore_ascii_case(text.trim()))
+        .ok_or_else(|| {
+            format!(
+                "`{text}`: give csv, parquet, rheocompass, trios or rspace (or leave it out to \
+                 detect it)"
+            )
+        })
+    }
+}
+
+/// Which time an export's points are placed on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Clock {
+    /// The instrument's continuous time (RheoCompass `Time`, TRIOS `Time`, rSpace
+    /// `Time (sequence)`).
+    #[default]
+    Global,
+    /// The time of each interval, step or action, restarting in each (RheoCompass
+    /// `Interval Time`, TRIOS `Step time`, rSpace `Time (action)`).
+    Step,
+}
+
+impl Clock {
+    /// The name used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Global => "global",
+            Self::Step => "step",
+        }
+    }
+}
+
+impl fmt::Display for Clock {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Clock {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text.trim() {
+            "global" => Ok(Self::Global),
+            "step" => Ok(Self::Step),
+            _ => Err(format!(
+                "`{text}`: give global (the continuous time) or step (each interval's, step's \
+                 or action's own time)"
+            )),
+        }
     }
 }
 
@@ -106,8 +236,10 @@ pub struct ImportOptions {
     pub columns: Option<ColumnMap>,
     /// Moment arm (m) converting torque to force.
     pub moment_arm_m: f64,
-    /// Intervals of a RheoCompass export to keep.
+    /// Intervals (RheoCompass), steps (TRIOS) or actions (rSpace) of an export to keep.
     pub intervals: IntervalChoice,
+    /// The time an export's points are placed on, when `columns` does not name it.
+    pub clock: Clock,
     /// Drop points whose mapped cells are not finite numbers (and count them) instead of
     /// stopping at the first.
     pub drop_invalid: bool,
@@ -120,57 +252,9 @@ impl Default for ImportOptions {
             columns: None,
             moment_arm_m: DEFAULT_MOMENT_ARM_M,
             intervals: IntervalChoice::All,
+            clock: Clock::Global,
             drop_invalid: false,
         }
-    }
-}
-
-/// A cell as read: a number, or the text found where a number belongs.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Cell {
-    /// A number (possibly non-finite).
-    Number(f64),
-    /// Text, or the empty string for an empty or missing cell.
-    Text(String),
-}
-
-impl Cell {
-    /// Parses a text cell: a number with a decimal point or a decimal comma, else text.
-    pub fn parse(text: &str) -> Self {
-        let t = text.trim();
-        let parsed = if t.contains(',') && !t.contains('.') && t.matches(',').count() == 1 {
-            t.replacen(',', ".", 1).parse::<f64>()
-        } else {
-            t.parse::<f64>()
-        };
-        match parsed {
-            Ok(v) => Self::Number(v),
-            Err(_) => Self::Text(t.to_owned()),
-        }
-    }
-}
-
-/// A table read from a file, before mapping: named columns, the units the file declares,
-/// and where each row came from.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Table {
-    /// Column names.
-    pub names: Vec<String>,
-    /// Units declared by the file (a RheoCompass units row), per column.
-    pub units: Vec<Option<String>>,
-    /// 1-based line of each row in the file (the row number for Parquet).
-    pub lines: Vec<usize>,
-    /// Cells, column-major: `cells[column][row]`.
-    pub cells: Vec<Vec<Cell>>,
-    /// 1-based line of the header (where a missing column is reported).
-    pub header_line: usize,
-    /// What the reader found, for the user (intervals, separators, encodings).
-    pub found: Vec<String>,
-}
-
-impl Table {
-    fn position(&self, name: &str) -> Option<usize> {
-        self.names.iter().position(|n| n.trim() == name)
     }
 }
 
@@ -204,7 +288,7 @@ pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, DataErro
         path: path.to_owned(),
         source,
     })?;
-    import_bytes(&bytes, path, options)
+    import_text(Cow::Owned(bytes), path, options)
 }
 
 /// As [`import`] for the content of a file already in memory; `path` names it in messages
@@ -217,27 +301,99 @@ pub fn import_bytes(
     path: &Path,
     options: &ImportOptions,
 ) -> Result<Imported, DataError> {
-    let format = options
-        .format
-        .unwrap_or_else(|| Format::detect(path, bytes));
-    let table = match format {
-        Format::Rheocompass => rheocompass::parse(bytes, path, &options.intervals)?,
-        Format::Csv => read_csv_table(bytes, path)?,
-        Format::Parquet => read_parquet_table(bytes, path)?,
-    };
-    // Only RheoCompass exports have intervals: an interval asked of any other file would
-    // otherwise be ignored and the whole table fitted.
-    if let (Format::Csv | Format::Parquet, IntervalChoice::Numbers(numbers)) =
-        (format, &options.intervals)
+    import_text(Cow::Borrowed(bytes), path, options)
+}
+
+/// As [`import_bytes`]; a file read into memory is decoded without a copy when it is UTF-8.
+fn import_text(
+    bytes: Cow<'_, [u8]>,
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<Imported, DataError> {
+    if options.format == Some(Format::Parquet)
+        || (options.format.is_none() && bytes.starts_with(b"PAR1"))
     {
-        return Err(DataError::NoSuchInterval {
-            path: path.to_owned(),
-            asked: numbers[0],
-            intervals: Vec::new(),
-            table: Some((format, table.lines.len())),
-        });
+        let table = read_parquet_table(&bytes, path)?;
+        refuse_intervals(&table, path, Format::Parquet, options)?;
+        return map_table(&table, path, Format::Parquet, options);
     }
-    map_table(&table, path, format, options)
+    let (text, encoding) = decode_owned(bytes);
+    let detection = match options.format {
+        Some(format) => Detection {
+            format,
+            tried: Vec::new(),
+        },
+        None => Format::detect_text(&text),
+    };
+    let choice = &options.intervals;
+    let table = match detection.format {
+        Format::Rheocompass => rheocompass::parse(text, encoding, path, choice)?,
+        Format::Trios => trios::parse(text, encoding, path, choice)?,
+        Format::Rspace => rspace::parse(text, encoding, path, choice)?,
+        // Parquet, recognised by its magic bytes or named, was read above.
+        Format::Csv | Format::Parquet => {
+            let explained = detection.explain();
+            let mut table = read_csv_table(&text, encoding, path)
+                .map_err(|e| with_note(e, explained.as_deref()))?;
+            table.tried = explained;
+            table
+        }
+    };
+    refuse_intervals(&table, path, detection.format, options)?;
+    map_table(&table, path, detection.format, options)
+}
+
+/// Only exports have intervals (steps, actions): one asked of a plain table would otherwise be
+/// ignored and the whole table fitted.
+fn refuse_intervals(
+    table: &Table,
+    path: &Path,
+    format: Format,
+    options: &ImportOptions,
+) -> Result<(), DataError> {
+    match (format, &options.intervals) {
+        (Format::Csv | Format::Parquet, IntervalChoice::Numbers(numbers)) => {
+            Err(DataError::NoSuchInterval {
+                path: path.to_owned(),
+                kind: "interval",
+                asked: numbers[0],
+                intervals: Vec::new(),
+                table: Some((format, table.rows())),
+            })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Why a file was read as a plain table, for messages.
+fn read_as_csv(tried: &str) -> String {
+    format!("read as a plain CSV table because it is {tried}")
+}
+
+/// Adds to an error why the file was read as a plain table.
+fn with_note(error: DataError, tried: Option<&str>) -> DataError {
+    let Some(tried) = tried else {
+        return error;
+    };
+    let note = |message: String| format!("{message} — {}", read_as_csv(tried));
+    match error {
+        DataError::Malformed {
+            path,
+            line,
+            column,
+            message,
+        } => DataError::Malformed {
+            path,
+            line,
+            column,
+            message: note(message),
+        },
+        DataError::Unsupported { path, message } => DataError::Unsupported {
+            path,
+            message: note(message),
+        },
+        other => other,
+    }
 }
 
 /// Largest magnitude of a time (s) or force (N) read from a file: no measurement comes near
@@ -246,18 +402,14 @@ pub fn import_bytes(
 pub const MAX_MAGNITUDE_SI: f64 = 1e100;
 
 #[cfg(feature = "tabular")]
-fn read_csv_table(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
-    super::tabular::read_csv(bytes, path)
+fn read_csv_table(text: &str, encoding: Encoding, path: &Path) -> Result<Table, DataError> {
+    super::tabular::read_csv(text, encoding, path)
 }
 
 /// Without polars, CSV import reads slipbayes' own format only.
 #[cfg(not(feature = "tabular"))]
-fn read_csv_table(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| DataError::Unsupported {
-        path: path.to_owned(),
-        message: format!("not UTF-8 text ({e})"),
-    })?;
-    let series = Series::parse_csv(text, path)?;
+fn read_csv_table(text: &str, encoding: Encoding, path: &Path) -> Result<Table, DataError> {
+    let series = Series::parse_csv(text.trim_start_matches('\u{feff}'), path)?;
     let mut names = vec![
         super::TIME_COLUMN.to_owned(),
         super::FORCE_COLUMN.to_owned(),
@@ -270,16 +422,15 @@ fn read_csv_table(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
         names.push(super::NORMAL_FORCE_COLUMN.to_owned());
         cells.push(normal.iter().map(|&v| Cell::Number(v)).collect());
     }
-    Ok(Table {
-        units: vec![None; names.len()],
-        names,
-        // Blank lines are skipped by the simple parser; line numbers then shift, which only
-        // this build without polars accepts.
-        lines: (2..series.len() + 2).collect(),
-        cells,
-        header_line: 1,
-        found: vec!["CSV in slipbayes' own format (built without polars)".into()],
-    })
+    // Blank lines are skipped by the simple parser; line numbers then shift, which only
+    // this build without polars accepts.
+    let lines = (2..series.len() + 2).collect();
+    let units = vec![None; names.len()];
+    let mut table = Table::of_cells(names, units, lines, cells, 1);
+    table.found = vec![format!(
+        "CSV in slipbayes' own format, {encoding} (built without polars)"
+    )];
+    Ok(table)
 }
 
 #[cfg(feature = "tabular")]
@@ -296,49 +447,88 @@ fn read_parquet_table(_bytes: &[u8], path: &Path) -> Result<Table, DataError> {
     })
 }
 
-/// Usual names of the time, friction and normal force columns, in order of preference.
-const TIME_NAMES: [&str; 3] = ["time_s", "Time", "time"];
-const FORCE_NAMES: [&str; 6] = [
-    "force_N",
-    "Friction Force",
-    "Force",
-    "force",
-    "Torque",
-    "torque",
-];
-const NORMAL_NAMES: [&str; 3] = ["normal_force_N", "Normal Force", "normal_force"];
-
-fn default_map(table: &Table, path: &Path) -> Result<ColumnMap, DataError> {
-    let find = |names: &[&str]| {
-        names
-            .iter()
-            .find(|n| table.position(n).is_some())
-            .map(|n| ColumnRef::named(n))
-    };
-    let missing = |what: &str, names: &[&str]| DataError::Malformed {
-        path: path.to_owned(),
-        line: table.header_line,
-        column: 1,
-        message: format!(
-            "no {what} column: looked for {} among the columns {}; name the column with a \
-             mapping (model file: `columns = {{ time = {{ name = \"…\", unit = \"s\" }}, … }}`; \
-             command line: --time-column/--force-column)",
-            quoted(names.iter().copied()),
-            quoted(table.names.iter().map(String::as_str)),
-        ),
-    };
-    Ok(ColumnMap {
-        time: find(&TIME_NAMES).ok_or_else(|| missing("time", &TIME_NAMES))?,
-        force: find(&FORCE_NAMES).ok_or_else(|| missing("force or torque", &FORCE_NAMES))?,
-        normal_force: find(&NORMAL_NAMES),
-    })
-}
-
-fn quoted<'a>(names: impl Iterator<Item = &'a str>) -> String {
-    names
-        .map(|n| format!("`{n}`"))
+/// The table's columns with their units, for messages.
+fn columns_listed(table: &Table) -> String {
+    table
+        .names
+        .iter()
+        .zip(&table.units)
+        .map(|(n, u)| match u {
+            Some(u) if u.starts_with('[') => format!("`{n}` {u}"),
+            Some(u) => format!("`{n}` [{u}]"),
+            None => format!("`{n}`"),
+        })
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The columns the table's labels and units point to: time on the clock asked for, force (or
+/// else torque), and the normal force when there is one.
+fn default_map(table: &Table, path: &Path, clock: Clock) -> Result<ColumnMap, DataError> {
+    let roles = &table.roles;
+    let named = |c: usize| ColumnRef::named(&table.names[c]);
+    let (time_role, other) = match clock {
+        Clock::Global => (Role::Time, Role::StepTime),
+        Clock::Step => (Role::StepTime, Role::Time),
+    };
+    let languages = LANGUAGES
+        .iter()
+        .map(|l| l.name)
+        .collect::<Vec<_>>()
+        .join(", ");
+    let missing = |what: &str, hint: String| {
+        let tried = table
+            .tried
+            .as_deref()
+            .map(|t| format!(" — {}", read_as_csv(t)))
+            .unwrap_or_default();
+        let left_out = table
+            .left_out
+            .as_deref()
+            .map(|l| format!("; {l}"))
+            .unwrap_or_default();
+        DataError::Malformed {
+            path: path.to_owned(),
+            line: table.header_line,
+            column: 1,
+            message: format!(
+                "no {what} column among the columns {}: none has a {what} label known in \
+                 {languages}{hint}; name the column with a mapping (model file: `columns = \
+                 {{ time = {{ name = \"…\", unit = \"s\" }}, … }}`; command line: \
+                 --time-column/--force-column){left_out}{tried}",
+                columns_listed(table),
+            ),
+        }
+    };
+    let time = roles.column(time_role).ok_or_else(|| {
+        let hint = match (clock, roles.column(other)) {
+            (Clock::Global, Some(c)) => format!(
+                "; `{}` is the time of each interval or step: read the file with \
+                 --clock step (model file: `clock = \"step\"`) to use it",
+                table.names[c]
+            ),
+            (Clock::Step, Some(c)) => format!(
+                "; `{}` is the continuous time: leave out --clock step (model file: \
+                 `clock = \"global\"`) to use it",
+                table.names[c]
+            ),
+            _ => " or a time unit".to_owned(),
+        };
+        let what = match clock {
+            Clock::Global => "time",
+            Clock::Step => "step time",
+        };
+        missing(what, hint)
+    })?;
+    let force = roles
+        .column(Role::Force)
+        .or_else(|| roles.column(Role::Torque))
+        .ok_or_else(|| missing("force or torque", " or a torque unit".to_owned()))?;
+    Ok(ColumnMap {
+        time: named(time),
+        force: named(force),
+        normal_force: roles.column(Role::NormalForce).map(named),
+    })
 }
 
 /// A mapped column: where it is, its unit, and the factor to SI.
@@ -367,9 +557,14 @@ fn resolve(
         at_header(
             1,
             format!(
-                "no column `{}` (the {role} column); the file has {}",
+                "no column `{}` (the {role} column); the file has {}{}",
                 reference.name,
-                quoted(table.names.iter().map(String::as_str))
+                columns_listed(table),
+                table
+                    .left_out
+                    .as_deref()
+                    .map(|l| format!("; {l}"))
+                    .unwrap_or_default()
             ),
         )
     })?;
@@ -382,7 +577,16 @@ fn resolve(
         .rsplit_once('_')
         .map(|(_, s)| s)
         .filter(|s| parse_unit(s).is_some());
-    let written = reference.unit.as_deref().or(declared).or(suffix);
+    // `Time (s)`, `Force [mN]`: a unit in brackets or parentheses ending the name.
+    let embedded =
+        super::rspace::name_and_unit(&reference.name.replace('[', "(").replace(']', ")")).1;
+    let embedded = embedded.as_deref().filter(|s| parse_unit(s).is_some());
+    let written = reference
+        .unit
+        .as_deref()
+        .or(declared)
+        .or(suffix)
+        .or(embedded);
     let Some(written) = written else {
         return Err(at_header(
             index + 1,
@@ -479,19 +683,25 @@ fn map_table(
     format: Format,
     options: &ImportOptions,
 ) -> Result<Imported, DataError> {
-    let rows = table.lines.len();
+    let rows = table.rows();
     if rows == 0 {
+        let tried = table
+            .tried
+            .as_deref()
+            .map(|t| format!(" — {}", read_as_csv(t)))
+            .unwrap_or_default();
         return Err(DataError::Malformed {
             path: path.to_owned(),
             line: table.header_line,
             column: 1,
-            message: "the file has no data rows; export the measurement with its data points"
-                .into(),
+            message: format!(
+                "the file has no data rows; export the measurement with its data points{tried}"
+            ),
         });
     }
     let map = match &options.columns {
         Some(map) => map.clone(),
-        None => default_map(table, path)?,
+        None => default_map(table, path, options.clock)?,
     };
     let mut conversions = Vec::new();
     let arm = options.moment_arm_m;
@@ -519,46 +729,65 @@ fn map_table(
             .join(", ")
     ));
 
+    let indices: Vec<usize> = mapped.iter().map(|r| r.index).collect();
+    let extracted = table.extract(&indices);
+    let mut bad = extracted.bad.iter().peekable();
     let mut series = Series {
-        normal_force_n: map.normal_force.as_ref().map(|_| Vec::new()),
-        ..Series::default()
+        normal_force_n: map.normal_force.as_ref().map(|_| Vec::with_capacity(rows)),
+        time_s: Vec::with_capacity(rows),
+        force_n: Vec::with_capacity(rows),
     };
-    let mut lines = Vec::new();
+    let mut lines = Vec::with_capacity(rows);
     let mut dropped_invalid = 0;
     'rows: for row in 0..rows {
-        let line = table.lines[row];
+        let mut bad_here: [Option<&Bad>; 3] = [None; 3];
+        while let Some((_, slot, b)) = bad.next_if(|(r, _, _)| *r == row) {
+            bad_here[*slot] = Some(b);
+        }
         let mut values = [0.0; 3];
         for (slot, r) in mapped.iter().enumerate() {
-            let cell = &table.cells[r.index][row];
-            let bad = match cell {
-                Cell::Number(v) if (v * r.to_si).abs() <= MAX_MAGNITUDE_SI => {
+            let v = extracted.values[slot][row];
+            let problem = match bad_here[slot] {
+                Some(Bad::Flagged(point)) => Problem::Flagged(point),
+                Some(Bad::Empty) => Problem::Cell("an empty cell".to_owned()),
+                Some(Bad::Text(t)) => Problem::Cell(format!("`{t}`")),
+                None if (v * r.to_si).abs() <= MAX_MAGNITUDE_SI => {
                     values[slot] = v * r.to_si;
                     continue;
                 }
-                Cell::Number(v) if v.is_finite() => format!(
+                None if v.is_finite() => Problem::Beyond(format!(
                     "{v:e} ({:e} in {}) is beyond ±{MAX_MAGNITUDE_SI:e}: not a measurement \
                      (and its square would overflow the likelihood)",
                     v * r.to_si,
                     if r.role == "time" { "s" } else { "N" }
-                ),
-                Cell::Number(v) => format!("{v} is not a finite number"),
-                Cell::Text(t) if t.is_empty() => "an empty cell is not a finite number".to_owned(),
-                Cell::Text(t) => format!("`{t}` is not a finite number"),
+                )),
+                None => Problem::Cell(v.to_string()),
             };
             if options.drop_invalid {
                 dropped_invalid += 1;
                 continue 'rows;
             }
+            let drop_hint = "drop such points explicitly (model file: `drop_invalid = true`; \
+                             command line: --drop-invalid) and they are counted in the report";
             return Err(DataError::Malformed {
                 path: path.to_owned(),
-                line,
+                line: table.line(row),
                 column: r.index + 1,
-                message: format!(
-                    "column `{}` ({}): {bad}; fix the point, or drop such points explicitly \
-                     (model file: `drop_invalid = true`; command line: --drop-invalid) and \
-                     they are counted in the report",
-                    table.names[r.index], r.role
-                ),
+                message: match problem {
+                    Problem::Flagged(point) => format!(
+                        "the instrument marked point `{point}` invalid; choose intervals without \
+                         it, or {drop_hint}"
+                    ),
+                    Problem::Beyond(bad) => format!(
+                        "column `{}` ({}): {bad}; fix the point, or {drop_hint}",
+                        table.names[r.index], r.role
+                    ),
+                    Problem::Cell(bad) => format!(
+                        "{bad} in column `{}` ({}) is not a finite number; fix the point, or \
+                         {drop_hint}",
+                        table.names[r.index], r.role
+                    ),
+                },
             });
         }
         if let Some(&previous) = series.time_s.last() {
@@ -568,14 +797,22 @@ fn map_table(
                 } else {
                     "equal to"
                 };
+                let restart = match table.block_of(row) {
+                    Some(block) if block.rows.start == row => format!(
+                        "; it is the first point of {}: keep {}s whose times follow on \
+                         (model file: `interval = …`; command line: --interval)",
+                        block.name, block.kind
+                    ),
+                    _ => String::new(),
+                };
                 return Err(DataError::Malformed {
                     path: path.to_owned(),
-                    line,
+                    line: table.line(row),
                     column: mapped[0].index + 1,
                     message: format!(
                         "time {} s is {what} the previous point's {previous} s; times must \
                          strictly increase (sort the rows, remove duplicates, or map a \
-                         continuous time column rather than one that restarts per interval)",
+                         continuous time column rather than one that restarts per interval){restart}",
                         values[0]
                     ),
                 });
@@ -586,7 +823,7 @@ fn map_table(
         if let Some(normal) = series.normal_force_n.as_mut() {
             normal.push(values[2]);
         }
-        lines.push(line);
+        lines.push(table.line(row));
     }
     if series.is_empty() {
         return Err(DataError::Unsupported {
@@ -603,6 +840,16 @@ fn map_table(
         conversions,
         found,
     })
+}
+
+/// What is wrong with a mapped cell.
+enum Problem<'a> {
+    /// The instrument marked the point invalid.
+    Flagged(&'a str),
+    /// The cell, described.
+    Cell(String),
+    /// A number no measurement reaches, described.
+    Beyond(String),
 }
 
 /// Where a run's data came from and what was done to them: the `data` entries of

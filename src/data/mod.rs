@@ -6,20 +6,31 @@
 //! [`write_atomically`], so no half-written file is ever left looking complete.
 //!
 //! Users' instrument files come in through [`mod@import`]: CSV and Parquet tables (through polars,
-//! feature `tabular`) and Anton Paar RheoCompass text exports ([`rheocompass`]), with a column
-//! mapping by name and unit ([`units`]), converted to SI and checked before any fit.
+//! feature `tabular`) and the exports of rotational rheometers — Anton Paar RheoCompass
+//! ([`rheocompass`], in any interface language), TA Instruments TRIOS ([`trios`]) and Malvern
+//! rSpace ([`rspace`]) — recognised by their structure ([`text`] decodes them and reads their
+//! numbers in any locale, [`labels`] knows their column labels in several languages). Columns
+//! are mapped by name and unit ([`units`]), converted to SI and checked before any fit.
 //!
 //! This module knows nothing of the friction law.
 
 pub mod atomic;
+mod blocks;
 pub mod import;
+pub mod labels;
 pub mod rheocompass;
+pub mod rspace;
+mod table;
 #[cfg(feature = "tabular")]
 mod tabular;
+pub mod text;
+pub mod trios;
 pub mod units;
 
 pub use atomic::write_atomically;
-pub use import::{import, ColumnMap, ColumnRef, Format, ImportOptions, Imported, Provenance};
+pub use import::{
+    import, Clock, ColumnMap, ColumnRef, Detection, Format, ImportOptions, Imported, Provenance,
+};
 pub use rheocompass::IntervalChoice;
 
 use std::fmt::Write as _;
@@ -66,12 +77,14 @@ pub enum DataError {
         /// What is wrong and what to do.
         message: String,
     },
-    /// An interval was asked for that the file does not have: a RheoCompass export without
-    /// that interval number, or a table (CSV, Parquet) that has no intervals at all.
-    #[error("{path}: no interval {asked}; {}", interval_list(intervals, *table))]
+    /// An interval (TRIOS step, rSpace action) was asked for that the file does not have: an
+    /// export without that number, or a table (CSV, Parquet) that has no intervals at all.
+    #[error("{path}: no {kind} {asked}; {}", interval_list(kind, intervals, *table))]
     NoSuchInterval {
         /// The file.
         path: PathBuf,
+        /// What the export calls its blocks: `interval`, `step` or `action`.
+        kind: &'static str,
         /// The first interval number asked for that the file does not have.
         asked: usize,
         /// The intervals the export has: (number, data points), in file order.
@@ -88,12 +101,17 @@ pub enum DataError {
 }
 
 /// What a file holds instead of the interval asked for, and what to write.
-fn interval_list(intervals: &[(usize, usize)], table: Option<(Format, usize)>) -> String {
+fn interval_list(
+    kind: &str,
+    intervals: &[(usize, usize)],
+    table: Option<(Format, usize)>,
+) -> String {
     if let Some((format, rows)) = table {
         return format!(
-            "the file is a {format} table of {rows} data rows without intervals (intervals \
-             are those of RheoCompass exports): remove `interval` (command line: --interval), \
-             or give `format = \"rheocompass\"` if the file is such an export"
+            "the file is a {format} table of {rows} data rows without intervals (intervals, \
+             steps and actions are those of RheoCompass, TRIOS and rSpace exports): remove \
+             `interval` (command line: --interval), or give `format = \"rheocompass\"`, \
+             `\"trios\"` or `\"rspace\"` if the file is such an export"
         );
     }
     let listed: Vec<String> = intervals
@@ -101,7 +119,7 @@ fn interval_list(intervals: &[(usize, usize)], table: Option<(Format, usize)>) -
         .map(|&(n, points)| format!("{n} ({points} point{})", if points == 1 { "" } else { "s" }))
         .collect();
     format!(
-        "the file has intervals {}: give one of them (model file: `interval = N` or a list; \
+        "the file has {kind}s {}: give one of them (model file: `interval = N` or a list; \
          command line: --interval N)",
         listed.join(", ")
     )

@@ -1,17 +1,31 @@
-//! Anton Paar RheoCompass text exports (docs/model.md §9): a header block (`Project:`, `Test:`,
-//! `Result:`), then per interval a line `Interval and data points:<TAB>i<TAB>n`, a line
-//! `Interval data:` with the column names, a units row (`[s]`, `[mN·m]`, …) and data rows that
-//! start with an empty field. Tabs or commas separate fields; the text is UTF-8, UTF-16 with a
-//! byte-order mark, or Latin-1; numbers may use a decimal comma; invalid points carry text
-//! where numbers belong. The reader keeps every cell as found and leaves judging them to the
-//! mapping ([`mod@super::import`]).
+//! Anton Paar RheoCompass text exports (docs/model.md §9), recognised by their structure, not
+//! their words: RheoCompass writes its labels in the language of its interface and its numbers
+//! in the format of the computer, so an export is found by its shape —
+//!
+//! - a header block of `label:` lines (`Project:`, `Test:`, `Result:`; `Projet:`, …), a new
+//!   `Result:` starting each test of a multi-test export;
+//! - per interval, a line of a label, the interval number and its point count
+//!   (`Interval and data points:<TAB>1<TAB>300`, `Intervalle et points de données:<TAB>1<TAB>60`),
+//!   then a line of a label and the column names (`Interval data:`, `Interval données:`), maybe
+//!   rows qualifying the names (`Sinusoïdes`, `Fundamental`), a row of units in brackets
+//!   (`[s]`, `[mN·m]`), and data rows whose first field is empty;
+//! - a point the instrument marked invalid has its number written `12 (invalid)` (`(invalide)`);
+//!   rows without a point number are waveform samples of the point before (LAOS), not points;
+//! - tabs, semicolons or commas between fields; UTF-16 (either byte order, with or without a
+//!   byte-order mark), UTF-8 or Latin-1; numbers in the computer's format ([`super::text`]).
+//!
+//! Labels only tell the language and which column is which ([`super::labels`]). The reader keeps
+//! every cell as found and leaves judging them to the mapping ([`mod@super::import`]).
 
 use std::fmt;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::import::{Cell, Table};
+use super::blocks::{not_recognised, Block, Export};
+use super::labels::{normalise, LANGUAGES};
+use super::table::{Table, TextRow};
+use super::text::{is_blank, lines, split_fields, unquote, Encoding, NumberFormat};
 use super::DataError;
 
 /// Which intervals of an export to keep.
@@ -96,305 +110,427 @@ impl From<IntervalChoice> for IntervalSpec {
     }
 }
 
-const INTERVAL_MARK: &str = "Interval and data points:";
-const COLUMNS_MARK: &str = "Interval data:";
+/// The separators RheoCompass writes between fields, in the order they are tried.
+const SEPARATORS: [u8; 3] = [b'\t', b';', b','];
 
-/// Whether the bytes look like a RheoCompass export (its interval markers near the start).
-pub fn looks_like(bytes: &[u8]) -> bool {
-    let head = &bytes[..bytes.len().min(8192)];
-    let (text, _) = decode(head);
-    text.contains(INTERVAL_MARK) || text.contains(COLUMNS_MARK)
+/// How much of a file the recognisers look at (a RheoCompass header block is a few lines).
+const HEAD_LINES: usize = 200;
+
+/// A label line's label: a first field ending in `:` that is not a number.
+fn label(field: &str) -> Option<&str> {
+    let t = unquote(field);
+    (t.len() > 1 && t.ends_with(':') && !t.starts_with(|c: char| c.is_ascii_digit())).then_some(t)
 }
 
-/// Decodes the text and names the encoding found.
-pub(super) fn decode(bytes: &[u8]) -> (String, &'static str) {
-    let utf16 = |rest: &[u8], little: bool| {
-        let units = rest.chunks_exact(2).map(|p| {
-            if little {
-                u16::from_le_bytes([p[0], p[1]])
-            } else {
-                u16::from_be_bytes([p[0], p[1]])
-            }
-        });
-        char::decode_utf16(units)
-            .map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER))
-            .collect::<String>()
-    };
-    if let Some(rest) = bytes.strip_prefix(&[0xFF, 0xFE]) {
-        return (utf16(rest, true), "UTF-16LE with BOM");
+/// The interval header's shape: a label, the interval number, the point count, nothing else.
+fn interval_header<'a>(fields: &[&'a str]) -> Option<(&'a str, usize, usize)> {
+    let label = label(fields.first()?)?;
+    let number = unquote(fields.get(1)?).parse().ok()?;
+    let count = unquote(fields.get(2)?).parse().ok()?;
+    fields[3..]
+        .iter()
+        .all(|f| unquote(f).is_empty())
+        .then_some((label, number, count))
+}
+
+/// Whether a field reads as a number in either decimal format.
+fn numeric(field: &str) -> bool {
+    NumberFormat::DecimalPoint.parse(field).is_some()
+        || NumberFormat::DecimalComma.parse(field).is_some()
+}
+
+/// A row of units: only bracketed units (and empty fields) after the empty first field.
+fn units_row(fields: &[&str]) -> bool {
+    if !unquote(fields[0]).is_empty() {
+        return false;
     }
-    if let Some(rest) = bytes.strip_prefix(&[0xFE, 0xFF]) {
-        return (utf16(rest, false), "UTF-16BE with BOM");
-    }
-    if let Some(rest) = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]) {
-        if let Ok(text) = std::str::from_utf8(rest) {
-            return (text.to_owned(), "UTF-8 with BOM");
+    let values = fields.iter().skip(1).map(|f| unquote(f));
+    let mut any = false;
+    for v in values {
+        if v.is_empty() {
+            continue;
         }
+        if !(v.starts_with('[') && v.ends_with(']')) {
+            return false;
+        }
+        any = true;
     }
-    match std::str::from_utf8(bytes) {
-        Ok(text) => (text.to_owned(), "UTF-8"),
-        // Older Windows exports: one byte per character (µ = 0xB5).
-        Err(_) => (bytes.iter().map(|&b| char::from(b)).collect(), "Latin-1"),
-    }
+    any
 }
 
-/// Splits a line at `separator`, honouring double quotes (a status text may hold commas).
-fn split_fields(line: &str, separator: char) -> Vec<String> {
+/// Whether the first lines of a text have a RheoCompass export's shape; the reason if not.
+/// Returns the separator.
+pub fn recognise(text: &str) -> Result<u8, String> {
     let mut fields = Vec::new();
-    let mut field = String::new();
-    let mut quoted = false;
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match c {
-            '"' if quoted && chars.peek() == Some(&'"') => {
-                field.push('"');
-                chars.next();
+    for separator in SEPARATORS {
+        let mut header_at = None;
+        let mut columns_at = None;
+        for line in lines(text).take(HEAD_LINES) {
+            let raw = &text[line.start..line.end];
+            if is_blank(raw, separator) {
+                continue;
             }
-            '"' => quoted = !quoted,
-            c if c == separator && !quoted => fields.push(std::mem::take(&mut field)),
-            c => field.push(c),
+            split_fields(raw, separator, usize::MAX, &mut fields);
+            if columns_at.is_some() {
+                if units_row(&fields) {
+                    return Ok(separator);
+                }
+                // Rows qualifying the names may come first; anything else ends the search.
+                if unquote(fields[0]).is_empty() && !fields[1..].iter().any(|f| numeric(f)) {
+                    continue;
+                }
+                return Err(format!(
+                    "the column names at line {} are not followed by a row of units in brackets \
+                     ([s], [mN·m]) but by line {}",
+                    columns_at.unwrap_or(0),
+                    line.number
+                ));
+            }
+            if header_at.is_some() {
+                let names = fields[1..]
+                    .iter()
+                    .filter(|f| !unquote(f).is_empty())
+                    .count();
+                if label(fields[0]).is_some() && names >= 1 {
+                    columns_at = Some(line.number);
+                    continue;
+                }
+                return Err(format!(
+                    "the interval header at line {} is not followed by a line of a label and \
+                     column names",
+                    header_at.unwrap_or(0)
+                ));
+            }
+            if interval_header(&fields).is_some() {
+                header_at = Some(line.number);
+            }
+        }
+        if header_at.is_some() {
+            return Err("an interval header but no column names after it".into());
         }
     }
-    fields.push(field);
-    fields
+    Err(format!(
+        "no interval header in the first {HEAD_LINES} lines (a label ending in `:`, then the \
+         interval number and its point count, e.g. `Interval and data points:<TAB>1<TAB>300`)"
+    ))
 }
 
-/// One interval as found.
-#[derive(Debug, Default)]
-struct Interval {
-    number: usize,
-    declared: Option<usize>,
-    names: Vec<String>,
-    units: Vec<Option<String>>,
-    header_line: usize,
-    lines: Vec<usize>,
-    rows: Vec<Vec<Cell>>,
+/// Where the parser is within an interval.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    /// Outside any interval, or after its interval header.
+    Outside,
+    /// After the column names: qualifying rows or the units row may come.
+    Header,
+    /// In the data rows.
+    Data,
 }
 
-/// Parses an export and keeps the intervals `choice` names, concatenated.
+/// An interval being read, before its number is final.
+struct Found {
+    block: Block,
+    /// The interval number as written, and the test (result) it belongs to.
+    written: usize,
+    result: Option<String>,
+}
+
+/// How many data rows of each interval feed the number-format detection.
+const SAMPLE_ROWS: usize = 200;
+
+/// Parses an export and keeps the intervals `choice` names, joined.
 ///
 /// # Errors
-/// [`DataError::Malformed`] naming the line for an interval without column names, data before
-/// any interval, or intervals to be joined whose columns differ; [`DataError::Unsupported`]
-/// when no interval is found; [`DataError::NoSuchInterval`] when a chosen interval is not in
-/// the file.
-pub fn parse(bytes: &[u8], path: &Path, choice: &IntervalChoice) -> Result<Table, DataError> {
-    let (text, encoding) = decode(bytes);
+/// [`DataError::Malformed`] naming the line for an interval header without its number, column
+/// names without an interval, a second line of column names in one interval, or data before any
+/// column names; [`DataError::Unsupported`] when the text is not a RheoCompass export, has no
+/// interval, or a chosen interval is not in the file.
+pub fn parse(
+    text: String,
+    encoding: Encoding,
+    path: &Path,
+    choice: &IntervalChoice,
+) -> Result<Table, DataError> {
+    let separator =
+        recognise(&text).map_err(not_recognised(path, "an Anton Paar RheoCompass export"))?;
     let malformed = |line: usize, column: usize, message: String| DataError::Malformed {
         path: path.to_owned(),
         line,
         column,
         message,
     };
-    let separator = text
-        .lines()
-        .find(|l| l.trim_start_matches('\u{feff}').starts_with(COLUMNS_MARK))
-        .map_or('\t', |l| if l.contains('\t') { '\t' } else { ',' });
-    let mut found = vec![format!(
-        "RheoCompass export, {encoding}, {}-separated",
-        if separator == '\t' { "tab" } else { "comma" }
-    )];
-    let mut intervals: Vec<Interval> = Vec::new();
-    let mut expect_units = false;
-    let mut decimal_comma = false;
-    for (index, raw) in text.lines().enumerate() {
-        let line_no = index + 1;
-        let line = raw.trim_start_matches('\u{feff}').trim_end_matches('\r');
-        if line.trim().is_empty() {
-            continue;
-        }
-        let fields = split_fields(line, separator);
-        let first = fields[0].trim();
-        if first.starts_with(INTERVAL_MARK) {
-            let number = fields.get(1).and_then(|s| s.trim().parse::<usize>().ok());
-            let Some(number) = number else {
-                return Err(malformed(
-                    line_no,
-                    2,
-                    format!("`{INTERVAL_MARK}` must be followed by the interval number"),
-                ));
+    let mut found_lines = Vec::new();
+    let mut sections: Vec<String> = Vec::new();
+    let mut interval_label: Option<String> = None;
+    let mut columns_label: Option<String> = None;
+    let mut intervals: Vec<Found> = Vec::new();
+    let mut result: Option<String> = None;
+    let mut meta_since_interval: Vec<(String, String)> = Vec::new();
+    let mut state = State::Outside;
+    let mut fields = Vec::new();
+    let mut sample: Vec<String> = Vec::new();
+    let mut sampled = 0;
+    for line in lines(&text) {
+        let raw = &text[line.start..line.end];
+        let bytes = raw.as_bytes();
+        // Data rows start with the separator: the common case, handled without splitting.
+        if state == State::Data && bytes.first() == Some(&separator) {
+            let Some(current) = intervals.last_mut() else {
+                continue;
             };
-            intervals.push(Interval {
-                number,
-                declared: fields.get(2).and_then(|s| s.trim().parse().ok()),
-                ..Interval::default()
-            });
-            continue;
-        }
-        if first.starts_with(COLUMNS_MARK) {
-            let Some(interval) = intervals.last_mut() else {
-                return Err(malformed(
-                    line_no,
-                    1,
-                    format!("`{COLUMNS_MARK}` before any `{INTERVAL_MARK}` line"),
-                ));
-            };
-            // Rows already read have the first header's width (a fuzzing find).
-            if !interval.names.is_empty() {
-                return Err(malformed(
-                    line_no,
-                    1,
-                    format!(
-                        "a second `{COLUMNS_MARK}` line in interval {}; each interval has one \
-                         (was the file joined from two exports?)",
-                        interval.number
-                    ),
-                ));
-            }
-            interval.names = fields[1..].iter().map(|s| s.trim().to_owned()).collect();
-            interval.units = vec![None; interval.names.len()];
-            interval.header_line = line_no;
-            expect_units = true;
-            continue;
-        }
-        if !first.is_empty() {
-            // Header block (`Project:`, `Test:`, `Result:`, …): for the record.
-            if intervals.is_empty() && found.len() < 8 {
-                let value: Vec<&str> = fields[1..]
-                    .iter()
-                    .map(|s| s.trim())
-                    .filter(|s| !s.is_empty())
-                    .collect();
-                found.push(format!("{first} {}", value.join(" ")).trim().to_owned());
-            }
-            expect_units = false;
-            continue;
-        }
-        let Some(interval) = intervals.last_mut().filter(|i| !i.names.is_empty()) else {
-            return Err(malformed(
-                line_no,
-                1,
-                format!(
-                    "a data row before any `{COLUMNS_MARK}` line; is this a RheoCompass export? \
-                     (for a plain table use format = \"csv\")"
-                ),
-            ));
-        };
-        let values = &fields[1..];
-        if expect_units {
-            expect_units = false;
-            let is_units = values
-                .iter()
-                .all(|v| v.trim().is_empty() || v.trim().starts_with('['));
-            if is_units {
-                for (unit, v) in interval.units.iter_mut().zip(values) {
-                    let v = v.trim();
-                    *unit = (!v.is_empty()).then(|| v.to_owned());
+            let block = &mut current.block;
+            let rest = &raw[1..];
+            if block.point_field.is_some() {
+                let end = memchr::memchr(separator, rest.as_bytes()).unwrap_or(rest.len());
+                let point = unquote(&rest[..end]);
+                if point.is_empty() {
+                    // No point number: a waveform sample of the point before, or a blank row.
+                    if !is_blank(raw, separator) {
+                        block.skipped += 1;
+                    }
+                    continue;
                 }
+                let digits = point.bytes().take_while(u8::is_ascii_digit).count();
+                let flagged = digits > 0 && digits < point.len();
+                block.rows.push(TextRow {
+                    start: line.start,
+                    end: line.end,
+                    line: line.number,
+                    flagged,
+                });
+            } else {
+                if is_blank(raw, separator) {
+                    continue;
+                }
+                block.rows.push(TextRow {
+                    start: line.start,
+                    end: line.end,
+                    line: line.number,
+                    flagged: false,
+                });
+            }
+            if block.rows.len() <= SAMPLE_ROWS && sampled < 20 * SAMPLE_ROWS {
+                sampled += 1;
+                split_fields(raw, separator, usize::MAX, &mut fields);
+                sample.extend(fields.iter().skip(1).map(|f| (*f).to_owned()));
+            }
+            continue;
+        }
+        if is_blank(raw, separator) {
+            continue;
+        }
+        split_fields(raw, separator, usize::MAX, &mut fields);
+        let first = unquote(fields[0]);
+        if !first.is_empty() {
+            let is_interval = match &interval_label {
+                Some(l) => first == l,
+                None => interval_header(&fields).is_some(),
+            };
+            if is_interval {
+                let Some(number) = fields.get(1).and_then(|f| unquote(f).parse::<usize>().ok())
+                else {
+                    return Err(malformed(
+                        line.number,
+                        2,
+                        format!("`{first}` must be followed by the interval number"),
+                    ));
+                };
+                if interval_label.is_none() {
+                    sections.push(first.to_owned());
+                    interval_label = Some(first.to_owned());
+                }
+                // The result (test) this interval belongs to: the last `Result:`-like line since
+                // the interval before, else the last label line.
+                if !meta_since_interval.is_empty() {
+                    let results: Vec<String> =
+                        LANGUAGES.iter().map(|l| normalise(l.result)).collect();
+                    let named = meta_since_interval
+                        .iter()
+                        .rev()
+                        .find(|(l, _)| results.contains(&normalise(l)))
+                        .or(meta_since_interval.last());
+                    result = named.map(|(_, v)| v.clone()).filter(|v| !v.is_empty());
+                    meta_since_interval.clear();
+                }
+                intervals.push(Found {
+                    block: Block {
+                        declared: fields.get(2).and_then(|f| unquote(f).parse().ok()),
+                        ..Block::default()
+                    },
+                    written: number,
+                    result: result.clone(),
+                });
+                state = State::Outside;
                 continue;
             }
+            let is_columns = match &columns_label {
+                Some(l) => first == l,
+                None => {
+                    label(fields[0]).is_some()
+                        && intervals.last().is_some_and(|i| i.block.names.is_empty())
+                        && state == State::Outside
+                }
+            };
+            if is_columns {
+                let Some(current) = intervals.last_mut() else {
+                    return Err(malformed(
+                        line.number,
+                        1,
+                        format!("`{first}` (column names) before any interval header"),
+                    ));
+                };
+                // Rows already read have the first header's width (a fuzzing find).
+                if !current.block.names.is_empty() {
+                    return Err(malformed(
+                        line.number,
+                        1,
+                        format!(
+                            "a second `{first}` line in interval {}; each interval has one \
+                             (was the file joined from two exports?)",
+                            current.written
+                        ),
+                    ));
+                }
+                if columns_label.is_none() {
+                    sections.push(first.to_owned());
+                    columns_label = Some(first.to_owned());
+                }
+                let mut names: Vec<String> =
+                    fields[1..].iter().map(|f| unquote(f).to_owned()).collect();
+                while names.last().is_some_and(String::is_empty) {
+                    names.pop();
+                }
+                let block = &mut current.block;
+                block.units = vec![None; names.len()];
+                block.fields = (1..=names.len()).collect();
+                block.names = names;
+                block.header_line = line.number;
+                state = State::Header;
+                continue;
+            }
+            // Header block (`Project:`, `Test:`, `Result:`, …): for the record.
+            let value: Vec<&str> = fields[1..]
+                .iter()
+                .map(|f| unquote(f))
+                .filter(|s| !s.is_empty())
+                .collect();
+            if intervals.is_empty() && found_lines.len() < 7 {
+                found_lines.push(format!("{first} {}", value.join(" ")).trim().to_owned());
+            }
+            if label(fields[0]).is_some() && !sections.iter().any(|s| s == first) {
+                sections.push(first.to_owned());
+            }
+            meta_since_interval.push((first.to_owned(), value.join(" ")));
+            state = State::Outside;
+            continue;
         }
-        let row: Vec<Cell> = (0..interval.names.len())
-            .map(|c| {
-                let text = values.get(c).map_or("", |s| s.as_str());
-                decimal_comma |= separator != ',' && text.contains(',');
-                Cell::parse(text)
-            })
-            .collect();
-        interval.rows.push(row);
-        interval.lines.push(line_no);
+        let Some(current) = intervals.last_mut().filter(|i| !i.block.names.is_empty()) else {
+            return Err(malformed(
+                line.number,
+                1,
+                "a data row before any interval's column names (a line of a label such as \
+                 `Interval data:` and the names); is this a RheoCompass export? (for a plain \
+                 table use format = \"csv\")"
+                    .into(),
+            ));
+        };
+        let block = &mut current.block;
+        if state == State::Header {
+            if units_row(&fields) {
+                for (unit, f) in block.units.iter_mut().zip(&fields[1..]) {
+                    let v = unquote(f);
+                    *unit = (!v.is_empty()).then(|| v.to_owned());
+                }
+                // A first column without a unit is the point number.
+                block.point_field = block
+                    .units
+                    .first()
+                    .is_some_and(Option::is_none)
+                    .then_some(1);
+                state = State::Data;
+                continue;
+            }
+            if !fields[1..].iter().any(|f| numeric(f)) {
+                // A row qualifying the names (`Sinusoïdes`, `Fundamental`).
+                continue;
+            }
+            state = State::Data;
+        }
+        // A data row that did not start with the separator byte (spaces before it).
+        block.rows.push(TextRow {
+            start: line.start,
+            end: line.end,
+            line: line.number,
+            flagged: false,
+        });
     }
     if intervals.is_empty() {
         return Err(DataError::Unsupported {
             path: path.to_owned(),
-            message: format!(
-                "no `{INTERVAL_MARK}` line: not a RheoCompass export, or an empty one; export \
-                 the test with its data points"
-            ),
+            message: "no interval header: not a RheoCompass export, or an empty one; export the \
+                      test with its data points"
+                .into(),
         });
     }
-    if decimal_comma {
-        found.push("decimal commas".into());
-    }
-    for i in &intervals {
-        let declared = match i.declared {
-            Some(n) if n != i.rows.len() => format!(" (the file declares {n})"),
-            _ => String::new(),
-        };
-        found.push(format!(
-            "interval {}: {} points{declared}, columns {}",
-            i.number,
-            i.rows.len(),
-            i.names
-                .iter()
-                .zip(&i.units)
-                .map(|(n, u)| match u {
-                    Some(u) => format!("{n} {u}"),
-                    None => n.clone(),
-                })
-                .collect::<Vec<_>>()
-                .join(", ")
+    let numbers = NumberFormat::detect(sample.iter().map(String::as_str), separator);
+    let mut written: Vec<usize> = intervals.iter().map(|i| i.written).collect();
+    written.sort_unstable();
+    let repeated = written.windows(2).any(|w| w[0] == w[1]);
+    let results = {
+        let mut r: Vec<&Option<String>> = intervals.iter().map(|i| &i.result).collect();
+        r.dedup();
+        r.len()
+    };
+    if repeated {
+        found_lines.push(format!(
+            "{results} tests (results) whose interval numbers repeat: intervals are numbered \
+             1–{} in file order",
+            intervals.len()
         ));
     }
-    let chosen: Vec<&Interval> = match choice {
-        IntervalChoice::All => intervals.iter().collect(),
-        IntervalChoice::Numbers(numbers) => numbers
-            .iter()
-            .map(|&n| {
-                intervals
-                    .iter()
-                    .find(|i| i.number == n)
-                    .ok_or_else(|| DataError::NoSuchInterval {
-                        path: path.to_owned(),
-                        asked: n,
-                        intervals: intervals.iter().map(|i| (i.number, i.rows.len())).collect(),
-                        table: None,
-                    })
-            })
-            .collect::<Result<_, _>>()?,
-    };
-    let Some(&first) = chosen.first() else {
-        return Err(DataError::Unsupported {
-            path: path.to_owned(),
-            message: "no interval chosen; give `all` or interval numbers".into(),
-        });
-    };
-    if first.names.is_empty() {
-        return Err(DataError::Unsupported {
-            path: path.to_owned(),
-            message: format!(
-                "interval {} has no `{COLUMNS_MARK}` line with column names",
-                first.number
-            ),
-        });
+    for i in intervals.iter().filter(|i| i.block.names.is_empty()) {
+        found_lines.push(format!(
+            "interval {} has no column names (no data exported); left out",
+            i.written
+        ));
     }
-    for other in &chosen[1..] {
-        if other.names != first.names || other.units != first.units {
-            return Err(malformed(
-                other.header_line.max(1),
-                1,
-                format!(
-                    "interval {} has other columns or units than interval {}; choose one \
-                     interval (model file: `interval = N`; command line: --interval N)",
-                    other.number, first.number
-                ),
-            ));
-        }
-    }
-    found.push(format!("intervals kept: {choice}"));
-    let width = first.names.len();
-    let mut cells: Vec<Vec<Cell>> = vec![Vec::new(); width];
-    let mut lines = Vec::new();
-    for interval in &chosen {
-        for (row, &line) in interval.rows.iter().zip(&interval.lines) {
-            for (column, cell) in cells.iter_mut().zip(row) {
-                column.push(cell.clone());
+    let blocks = intervals
+        .into_iter()
+        .enumerate()
+        .map(|(index, i)| {
+            let mut block = i.block;
+            let test = i.result.as_deref().map(|r| format!("result `{r}`"));
+            if repeated {
+                block.number = index + 1;
+                block.label = Some(match test {
+                    Some(t) => format!("{t}, its interval {}", i.written),
+                    None => format!("its interval {}", i.written),
+                });
+            } else {
+                block.number = i.written;
+                block.label = if results > 1 { test } else { None };
             }
-            lines.push(line);
-        }
+            block
+        })
+        .filter(|b| !b.names.is_empty())
+        .collect();
+    Export {
+        vendor: "Anton Paar RheoCompass export",
+        kind: "interval",
+        text,
+        encoding,
+        separator,
+        numbers,
+        found: found_lines,
+        sections,
+        blocks,
     }
-    Ok(Table {
-        names: first.names.clone(),
-        units: first.units.clone(),
-        lines,
-        cells,
-        header_line: first.header_line.max(1),
-        found,
-    })
+    .into_table(choice, path)
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::table::Cell;
+    use super::super::text::decode;
     use super::*;
 
     fn utf16_with_bom(text: &str) -> Vec<u8> {
@@ -403,6 +539,11 @@ mod tests {
             bytes.extend_from_slice(&unit.to_le_bytes());
         }
         bytes
+    }
+
+    fn read(bytes: &[u8], choice: &IntervalChoice) -> Result<Table, DataError> {
+        let (text, encoding) = decode(bytes);
+        parse(text, encoding, Path::new("x.txt"), choice)
     }
 
     const EXPORT: &str = "Project:\tdemo\nTest:\tslide\nResult:\tslide 1\n\
@@ -419,38 +560,101 @@ mod tests {
     #[test]
     fn utf16_export_with_intervals() {
         let bytes = utf16_with_bom(EXPORT);
-        assert!(looks_like(&bytes));
-        let table = parse(&bytes, Path::new("x.txt"), &IntervalChoice::All).unwrap();
+        let table = read(&bytes, &IntervalChoice::All).unwrap();
         assert_eq!(
             table.names,
             ["Point No.", "Time", "Interval Time", "Torque", "Status"]
         );
         assert_eq!(table.units[3].as_deref(), Some("[µN·m]"));
-        assert_eq!(table.lines, [7, 8, 12]);
+        let lines: Vec<usize> = (0..table.rows()).map(|r| table.line(r)).collect();
+        assert_eq!(lines, [7, 8, 12]);
         assert_eq!(
-            table.cells[1],
+            table.column(1),
             [Cell::Number(10.0), Cell::Number(20.0), Cell::Number(30.0)]
         );
-        assert_eq!(table.cells[3][1], Cell::Text("Invalid".into()));
-        assert!(table.found[0].contains("UTF-16LE"), "{:?}", table.found);
+        assert_eq!(table.column(3)[1], Cell::Text("Invalid".into()));
+        assert!(
+            table.found.iter().any(|f| f.contains("UTF-16LE")),
+            "{:?}",
+            table.found
+        );
 
-        let second = parse(
-            &bytes,
-            Path::new("x.txt"),
-            &IntervalChoice::Numbers(vec![2]),
-        )
-        .unwrap();
-        assert_eq!(second.lines, [12]);
-        let err = parse(
-            &bytes,
-            Path::new("x.txt"),
-            &IntervalChoice::Numbers(vec![3]),
-        )
-        .unwrap_err();
+        let second = read(&bytes, &IntervalChoice::Numbers(vec![2])).unwrap();
+        assert_eq!(second.line(0), 12);
+        let err = read(&bytes, &IntervalChoice::Numbers(vec![3])).unwrap_err();
         assert!(
             err.to_string()
                 .contains("intervals 1 (2 points), 2 (1 point)"),
             "{err}"
+        );
+    }
+
+    /// The shapes of the real exports: French with rows qualifying the names, waveform rows
+    /// and flagged points; English comma-separated with blank lines of commas.
+    #[test]
+    fn recognised_by_shape_in_any_language() {
+        let french = "Projet:\tp\r\n\r\nRésultat:\tLAOS 1\r\n\r\n\
+            Intervalle et points de données:\t1\t3\r\n\
+            Interval données:\tPoint No.\tTemps\tCouple\tContrainte (sinusoïdale)\r\n\
+            \t\t\t\tSinusoïdes\r\n\
+            \t\t[s]\t[mN·m]\t[Pa]\r\n\
+            \t1\t250\t0,053306\t0,24376\r\n\
+            \t\t\t\t0,26373\r\n\
+            \t2  (invalide)\t\t\t\r\n\
+            \t3\t2,7E+02\t0,1\t\r\n";
+        assert_eq!(recognise(french), Ok(b'\t'));
+        let table = read(&utf16_with_bom(french), &IntervalChoice::All).unwrap();
+        assert_eq!(table.rows(), 3);
+        assert_eq!(table.roles.language.map(|l| l.name), Some("French"));
+        assert!(
+            table.found.iter().any(|f| f.contains("1 waveform row")),
+            "{:?}",
+            table.found
+        );
+        assert_eq!(table.column(1)[2], Cell::Number(270.0));
+        assert_eq!(table.column(2)[0], Cell::Number(0.053306));
+        assert_eq!(table.column(1)[1], Cell::Text("2  (invalide)".into()));
+
+        let english = "\u{feff}Project:,P,,,\n,,,,\nResult:,R,,,\n,,,,\n\
+            Interval and data points:,1,2,,\n\
+            Interval data:,Point No.,Time,Torque,Status\n\
+            ,,,Fundamental,\n\
+            ,,[s],[µN·m],\n\
+            ,1,0.1,-37.51,Dy_auto\n\
+            ,2,0.201,3.2195,Dy_auto\n,,,,\n";
+        assert_eq!(recognise(english), Ok(b','));
+        let table = read(english.as_bytes(), &IntervalChoice::All).unwrap();
+        assert_eq!(
+            table.column(2),
+            [Cell::Number(-37.51), Cell::Number(3.2195)]
+        );
+    }
+
+    #[test]
+    fn other_text_is_not_recognised_and_says_why() {
+        let reason = recognise("time_s,force_N\n0,1\n").unwrap_err();
+        assert!(reason.contains("no interval header"), "{reason}");
+        let reason = recognise("Interval and data points:\t1\t2\n\t1\t2\n").unwrap_err();
+        assert!(reason.contains("column names"), "{reason}");
+        let reason =
+            recognise("Interval and data points:\t1\t2\nInterval data:\tTime\n\t1\n").unwrap_err();
+        assert!(reason.contains("row of units"), "{reason}");
+    }
+
+    #[test]
+    fn repeated_interval_numbers_are_numbered_in_file_order() {
+        let text =
+            "Result:\ta\nInterval and data points:\t1\t1\nInterval data:\tTime\n\t[s]\n\t1\n\
+            Result:\tb\nInterval and data points:\t1\t1\nInterval data:\tTime\n\t[s]\n\t2\n";
+        let table = read(text.as_bytes(), &IntervalChoice::Numbers(vec![2])).unwrap();
+        assert_eq!(table.line(0), 10);
+        assert!(
+            table
+                .found
+                .iter()
+                .any(|f| f.contains("interval 2 (result `b`, its interval 1)")),
+            "{:?}",
+            table.found
         );
     }
 

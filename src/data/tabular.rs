@@ -12,8 +12,8 @@ use polars_io::csv::read::{CsvParseOptions, CsvReadOptions};
 use polars_io::parquet::read::ParquetReader;
 use polars_io::SerReader;
 
-use super::import::{Cell, Table};
-use super::rheocompass::decode;
+use super::table::{Cell, Table};
+use super::text::{lines, split_fields, Encoding};
 use super::DataError;
 
 fn unsupported(path: &Path, message: String) -> DataError {
@@ -23,13 +23,50 @@ fn unsupported(path: &Path, message: String) -> DataError {
     }
 }
 
+/// Why text polars could not read is not a table, in our words (polars' own message names
+/// options of polars, which a user cannot set): the first line whose field count differs from
+/// the header's.
+fn diagnose(text: &str, separator: u8, header_index: usize, path: &Path) -> DataError {
+    let mut fields = Vec::new();
+    let mut width = None;
+    for line in lines(text).skip(header_index) {
+        let raw = &text[line.start..line.end];
+        if raw.trim().is_empty() {
+            continue;
+        }
+        split_fields(raw, separator, usize::MAX, &mut fields);
+        match width {
+            None => width = Some((fields.len(), line.number)),
+            Some((w, header)) if fields.len() > w => {
+                return DataError::Malformed {
+                    path: path.to_owned(),
+                    line: line.number,
+                    column: w + 1,
+                    message: format!(
+                        "{} fields where the header (line {header}) has {w}; a plain table has \
+                         one header line and at most as many fields on every line (is this an \
+                         instrument export with a header block?)",
+                        fields.len()
+                    ),
+                };
+            }
+            Some(_) => {}
+        }
+    }
+    unsupported(
+        path,
+        "not a table slipbayes can read: no header line with the same fields as the data".into(),
+    )
+}
+
 /// Reads a delimited text table with one header line: comma, semicolon or tab separated
-/// (judged from the header), UTF-8 or UTF-16 with a byte-order mark.
+/// (judged from the header), from text already decoded.
 ///
 /// # Errors
-/// [`DataError`] naming the file for an empty file or text polars cannot split into a table.
-pub fn read_csv(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
-    let (text, encoding) = decode(bytes);
+/// [`DataError`] naming the file for an empty file, and the line for a row with more fields
+/// than the header.
+pub fn read_csv(text: &str, encoding: Encoding, path: &Path) -> Result<Table, DataError> {
+    let text = text.trim_start_matches('\u{feff}');
     let Some((header_index, header)) = text.lines().enumerate().find(|(_, l)| !l.trim().is_empty())
     else {
         return Err(DataError::Malformed {
@@ -57,9 +94,9 @@ pub fn read_csv(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
         .with_infer_schema_length(Some(0))
         .with_parse_options(parse_options)
         .with_n_threads(Some(1))
-        .into_reader_with_file_handle(Cursor::new(text.trim_start_matches('\u{feff}').as_bytes()))
+        .into_reader_with_file_handle(Cursor::new(text.as_bytes()))
         .finish()
-        .map_err(|e| unsupported(path, format!("not a readable CSV table: {e}")))?;
+        .map_err(|_| diagnose(text, separator, header_index, path))?;
     // Line of each row. Polars reads a blank line inside the data as a row of empty cells
     // (such rows are removed below); a quoted field spanning lines breaks the correspondence,
     // and then rows are counted from the header instead.
@@ -81,64 +118,78 @@ pub fn read_csv(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
     } else {
         (0..frame.height()).map(|r| header_index + r + 2).collect()
     };
-    let mut table = table_of(&frame, path, lines)?;
-    table.header_line = header_index + 1;
-    drop_blank_rows(&mut table);
-    table.found.insert(
-        0,
-        format!(
-            "CSV, {encoding}, separator `{}`, {} columns, {} rows",
-            if separator == b'\t' {
-                "\\t".to_owned()
-            } else {
-                char::from(separator).to_string()
-            },
-            table.names.len(),
-            frame.height()
-        ),
+    let (names, mut cells) = columns_of(&frame, path)?;
+    let lines = drop_blank_rows(lines, &mut cells);
+    let mut table = Table::of_cells(
+        names.clone(),
+        vec![None; names.len()],
+        lines,
+        cells,
+        header_index + 1,
     );
+    table.found.push(format!(
+        "CSV, {encoding}, separator `{}`, {} columns, {} rows",
+        if separator == b'\t' {
+            "\\t".to_owned()
+        } else {
+            char::from(separator).to_string()
+        },
+        table.names.len(),
+        frame.height()
+    ));
     Ok(table)
 }
 
 /// Reads a Parquet file; numeric columns are cast to f64, text columns parsed per cell.
 ///
 /// # Errors
-/// [`DataError::Unsupported`] naming the file when polars cannot read it.
+/// [`DataError::Unsupported`] naming the file when it is not a readable Parquet file.
 pub fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
     let frame = ParquetReader::new(Cursor::new(bytes))
         .finish()
-        .map_err(|e| unsupported(path, format!("not a readable Parquet file: {e}")))?;
-    let mut table = table_of(&frame, path, (1..=frame.height()).collect())?;
-    table.found.insert(
-        0,
-        format!(
-            "Parquet, {} columns, {} rows (positions below are row numbers)",
-            table.names.len(),
-            frame.height()
-        ),
+        .map_err(|_| {
+            unsupported(
+                path,
+                "not a readable Parquet file (its footer or column chunks are damaged or of a \
+                 kind polars cannot read)"
+                    .into(),
+            )
+        })?;
+    let (names, cells) = columns_of(&frame, path)?;
+    let mut table = Table::of_cells(
+        names.clone(),
+        vec![None; names.len()],
+        (1..=frame.height()).collect(),
+        cells,
+        1,
     );
+    table.found.push(format!(
+        "Parquet, {} columns, {} rows (positions below are row numbers)",
+        table.names.len(),
+        frame.height()
+    ));
     Ok(table)
 }
 
-/// Removes rows whose every cell is empty: blank lines, not data points.
-fn drop_blank_rows(table: &mut Table) {
+/// Removes rows whose every cell is empty: blank lines, not data points. Returns the lines of
+/// the rows kept.
+fn drop_blank_rows(lines: Vec<usize>, cells: &mut [Vec<Cell>]) -> Vec<usize> {
     let blank = |row: usize| {
-        table
-            .cells
+        cells
             .iter()
             .all(|c| matches!(&c[row], Cell::Text(t) if t.is_empty()))
     };
-    let keep: Vec<usize> = (0..table.lines.len()).filter(|&r| !blank(r)).collect();
-    if keep.len() == table.lines.len() {
-        return;
+    let keep: Vec<usize> = (0..lines.len()).filter(|&r| !blank(r)).collect();
+    if keep.len() == lines.len() {
+        return lines;
     }
-    table.lines = keep.iter().map(|&r| table.lines[r]).collect();
-    for column in &mut table.cells {
+    for column in cells.iter_mut() {
         *column = keep.iter().map(|&r| column[r].clone()).collect();
     }
+    keep.iter().map(|&r| lines[r]).collect()
 }
 
-fn table_of(frame: &DataFrame, path: &Path, lines: Vec<usize>) -> Result<Table, DataError> {
+fn columns_of(frame: &DataFrame, path: &Path) -> Result<(Vec<String>, Vec<Vec<Cell>>), DataError> {
     let names: Vec<String> = frame
         .get_column_names()
         .iter()
@@ -149,19 +200,19 @@ fn table_of(frame: &DataFrame, path: &Path, lines: Vec<usize>) -> Result<Table, 
         .iter()
         .map(|c| cells_of(c, path))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(Table {
-        units: vec![None; names.len()],
-        names,
-        lines,
-        cells,
-        header_line: 1,
-        found: Vec::new(),
-    })
+    Ok((names, cells))
 }
 
 fn cells_of(column: &Column, path: &Path) -> Result<Vec<Cell>, DataError> {
-    let fail = |e: polars_core::error::PolarsError| {
-        unsupported(path, format!("column `{}`: {e}", column.name()))
+    let fail = |_: polars_core::error::PolarsError| {
+        unsupported(
+            path,
+            format!(
+                "column `{}` holds values of type {} that are not numbers or text",
+                column.name(),
+                column.dtype()
+            ),
+        )
     };
     if column.dtype() == &DataType::String {
         let text = column.str().map_err(fail)?;

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::prior::Prior;
 use crate::data::units::{parse_unit, KNOWN_UNITS};
-use crate::data::{ColumnMap, Format, ImportOptions, IntervalChoice};
+use crate::data::{Clock, ColumnMap, Format, ImportOptions, IntervalChoice};
 use crate::law::Scene;
 use crate::sampler::{CarryFit, Mixture, Updates};
 
@@ -185,7 +185,8 @@ pub struct RunSpec {
     /// For a repeat slide: the run it follows (default: the contact's first slide).
     #[serde(default)]
     pub follows: Option<String>,
-    /// Data format (`csv`, `parquet`, `rheocompass`); detected from the file when absent.
+    /// Data format (`csv`, `parquet`, `rheocompass`, `trios`, `rspace`); detected from the
+    /// file's content when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub format: Option<Format>,
     /// Which columns hold time, force (or torque) and normal force, with their units; when
@@ -195,9 +196,15 @@ pub struct RunSpec {
     /// Moment arm (m) converting torque to force (default 7 mm).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub moment_arm_m: Option<f64>,
-    /// Intervals of a RheoCompass export: a number, a list, or `"all"` (the default).
+    /// Intervals of a RheoCompass export (steps of a TRIOS export, actions of an rSpace
+    /// export): a number, a list, or `"all"` (the default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub interval: Option<IntervalChoice>,
+    /// The time an export's points are placed on: `"global"` (the instrument's continuous
+    /// time, the default) or `"step"` (each interval's, step's or action's own time); unused
+    /// when `columns` names the time column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock: Option<Clock>,
     /// Drop points whose cells are not finite numbers (counted in the report) instead of
     /// stopping with an error.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -234,6 +241,7 @@ impl RunSpec {
             columns: None,
             moment_arm_m: None,
             interval: None,
+            clock: None,
             drop_invalid: false,
             bins: None,
             likelihood_tolerance: None,
@@ -824,6 +832,7 @@ impl ModelSpec {
             columns: r.columns.clone(),
             moment_arm_m: r.moment_arm_m.unwrap_or(defaults.moment_arm_m),
             intervals: r.interval.clone().unwrap_or_default(),
+            clock: r.clock.unwrap_or_default(),
             drop_invalid: r.drop_invalid,
         }
     }

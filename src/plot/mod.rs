@@ -1,45 +1,49 @@
-//! The crate's one plotting layer: SVG figures drawn with plotters, shared by the report, the
-//! speed-against-error plots of `bench` and the rank histograms of `validate`.
+//! The crate's one plotting layer: SVG figures shared by the report, the speed-against-error
+//! plots of `bench` and the rank histograms of `validate`.
 //!
-//! Figures are SVG text, drawn by plotters' SVG backend without font or image libraries: text
-//! is laid out with plotters' naive font metrics, so labels are kept short and given room.
-//! Every figure must still read when printed in grey: series differ by line style (solid,
-//! dashed, dotted, dash-dot) and marker shape, not by colour alone, and bands are grey fills
-//! of two weights.
+//! Figures are SVG text written here, without font or image libraries. Layout estimates how
+//! wide a text is in the browser's sans-serif ([`text`]) and leaves that much room: every
+//! axis of any range gets at least two tick labels (scaled or offset when plain numbers would
+//! be long, [`ticks`]), labels are never cut off at a figure's edge, and legends go where no
+//! data are. [`check`] reads a figure back and lists what breaks these rules; the report's
+//! tests run it on every figure. Every figure must still read when printed in grey: series
+//! differ by line style and marker shape, not by colour alone, and bands are grey fills of
+//! two weights.
 //!
-//! - [`svg_figure`] draws a whole figure into a string; [`panel_grid`] lays panels out.
-//! - [`chart`] and [`linear_chart`] set up a [`Chart`] (caption, axes, grid, ticks) in a
-//!   [`Frame`] on an [`Area`]; [`widen`], [`range_of`], [`tick`] and [`significant`] choose
-//!   ranges and write numbers.
-//! - [`line()`], [`styled_line`], [`markers`], [`band`], [`bars`] and [`legend`] draw series.
-//! - [`ink`], [`tint`], [`band_fills`], [`grid`], [`Dash`] and the fonts are the one palette.
+//! - [`svg_figure`] draws a figure on a [`Canvas`]; [`Rect`] lays out panels ([`panel_grid`]).
+//! - [`Panel`] is a captioned plot with two [`Axis`]es, [`Series`] and a legend, laid out and
+//!   drawn in one go; [`fit_axes`], [`draw_axes`], [`draw_grid`] and [`draw_series`] do the
+//!   same by hand for figures with a layout of their own (a corner plot).
+//! - [`ink`], [`tint`], [`band_fills`], [`grid`], [`Dash`] and the text sizes are the one
+//!   palette.
 //!
 //! Every failure to draw a figure is a [`DrawError`] naming it.
 
 mod axes;
+pub mod check;
+mod geometry;
+mod legend;
+mod panel;
 mod series;
 mod style;
-
-use plotters::coord::types::RangedCoordf64;
-use plotters::coord::Shift;
-use plotters::prelude::*;
+mod svg;
+pub mod text;
+pub mod ticks;
 
 pub use axes::{
-    chart, extend_bounds, linear_chart, padded, range_of, significant, tick, widen, Frame,
+    axis_margins, choose_ticks, draw_axes, draw_grid, fit_axes, Axis, Margins, Plot, Show, GAP_PX,
+    TICK_PX,
 };
-pub use series::{band, bars, legend, line, markers, styled_line};
+pub use geometry::{clip_polygon, clip_polyline, point_in_polygon, Point, Rect, Shape};
+pub use legend::{box_size, draw_box, draw_row, free_spot, row_height, LegendEntry, Swatch};
+pub use panel::{LegendAt, Panel};
+pub use series::{draw_series, Mark, Marker, Series};
 pub use style::{
-    band_fills, caption_font, grid, ink, label_font, small_font, tint, Dash, FONT, PANEL,
+    axis_stroke, band_fills, grid, ink, series_stroke, tint, Dash, Rgb, CAPTION_PX, FONT, MARK,
+    MAX_FIGURE_WIDTH, MIN_TEXT_PX, PANEL, TEXT_PX,
 };
-
-/// A drawing area of an SVG figure.
-pub type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
-
-/// A chart of an SVG figure with x coordinates `X` and y coordinates `Y`.
-pub type Chart<'a, 'b, X, Y> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<X, Y>>;
-
-/// A chart of an SVG figure with linear axes, as [`linear_chart`] makes.
-pub type LinearChart<'a, 'b> = Chart<'a, 'b, RangedCoordf64, RangedCoordf64>;
+pub use svg::{escape, svg_figure, Canvas, Fill, Font, Stroke};
+pub use ticks::{extend_bounds, padded, range_of, significant, tick, widen, Scale, Ticks};
 
 /// A figure could not be drawn.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -61,40 +65,6 @@ impl DrawError {
     }
 }
 
-/// Turns a plotters error into a [`DrawError`] naming the figure.
-pub trait Drawn<T> {
-    /// The value, or the error as a [`DrawError`] of `figure`.
-    ///
-    /// # Errors
-    /// [`DrawError`] when `self` is an error.
-    fn drawn(self, figure: &str) -> Result<T, DrawError>;
-}
-
-impl<T, E: std::fmt::Display> Drawn<T> for Result<T, E> {
-    fn drawn(self, figure: &str) -> Result<T, DrawError> {
-        self.map_err(|e| DrawError::new(figure, e.to_string()))
-    }
-}
-
-/// Draws a figure of `size` (pixels) named `name` into an SVG string, on a white background.
-///
-/// # Errors
-/// Whatever `draw` returns, or [`DrawError`] when the backend fails.
-pub fn svg_figure(
-    name: &str,
-    size: (u32, u32),
-    draw: impl FnOnce(&Area) -> Result<(), DrawError>,
-) -> Result<String, DrawError> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        root.fill(&WHITE).drawn(name)?;
-        draw(&root)?;
-        root.present().drawn(name)?;
-    }
-    Ok(svg)
-}
-
 /// Rows and columns of a grid of `panels` panels, at most `max_columns` wide: as wide as
 /// needed up to that, and never empty.
 pub fn panel_grid(panels: usize, max_columns: usize) -> (usize, usize) {
@@ -108,46 +78,32 @@ mod tests {
 
     #[test]
     fn a_figure_is_svg_with_its_text() {
-        let svg = svg_figure("test", PANEL, |root| {
-            let mut chart = linear_chart(
-                root,
-                "test",
+        let svg = svg_figure(PANEL, |c| {
+            let mut p = Panel::new(
                 "a caption",
-                (0.0, 1.0),
-                (0.0, 2.0),
-                "time t (s)",
-                "force F (mN)",
-            )?;
-            line(
-                &mut chart,
-                "test",
+                Axis::linear((0.0, 1.0), "time t (s)"),
+                Axis::linear((0.0, 2.0), "force F (mN)"),
+            );
+            p.line(
                 vec![(0.0, 0.0), (1.0, 2.0)],
-                1,
-                2,
+                series_stroke(1, 2.0),
                 Some("median"),
-            )?;
-            markers(&mut chart, "test", &[(0.5, 1.0)], 0, Some("data"))?;
-            legend(&mut chart, "test", SeriesLabelPosition::UpperLeft)
-        })
-        .unwrap();
+            );
+            p.markers(vec![(0.5, 1.0)], Marker::Circle, ink(0), Some("data"));
+            let whole = c.bounds();
+            p.draw(c, whole);
+        });
         assert!(svg.starts_with("<svg"), "{}", &svg[..60]);
         for text in ["a caption", "time t (s)", "force F (mN)", "median", "data"] {
             assert!(svg.contains(text), "{text} missing");
         }
+        assert!(check::check_svg(&svg).problems.is_empty());
     }
 
     #[test]
     fn a_failed_drawing_names_its_figure() {
-        let err = svg_figure("fig.svg", PANEL, |_| {
-            Err(DrawError::new("fig.svg", "no data"))
-        })
-        .unwrap_err();
+        let err = DrawError::new("fig.svg", "no data");
         assert_eq!(err.to_string(), "drawing figure fig.svg: no data");
-        let plotters: Result<(), &str> = Err("backend");
-        assert_eq!(
-            plotters.drawn("x").unwrap_err(),
-            DrawError::new("x", "backend")
-        );
     }
 
     #[test]

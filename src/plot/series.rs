@@ -1,237 +1,345 @@
-//! Series on a chart: lines, markers, filled bands, bars, and the legend naming them.
+//! Series on a plot: lines, markers, filled bands and areas, bars. Each is cut to the plot
+//! area (nothing is drawn over the axes) and becomes marks in pixels, which are drawn and
+//! which legends keep clear of.
 //!
-//! Points that are not finite are left out rather than failing the figure.
+//! Points that are not finite, or not positive on a log scale, are left out rather than
+//! failing the figure.
 
-use plotters::element::DashedPathElement;
-use plotters::prelude::*;
+use super::axes::Plot;
+use super::geometry::{clip_polygon, clip_polyline, Point, Rect, Shape};
+use super::style::{ink, Rgb};
+use super::svg::{Canvas, Fill, Stroke};
 
-use super::style::{ink, Dash, FONT, LEGEND_SIZE};
-use super::{DrawError, Drawn};
-
-/// A chart of an SVG figure in any coordinates of `(f64, f64)` points.
-type SvgChart<'a, 'b, CT> = ChartContext<'a, SVGBackend<'b>, CT>;
-
-/// Draws a line through `points` in the style of series `k` (its [`ink`] and [`Dash::of`]),
-/// `width` pixels wide, with a legend entry when `label` is given.
-///
-/// # Errors
-/// [`DrawError`] when the backend fails.
-pub fn line<CT>(
-    chart: &mut SvgChart<'_, '_, CT>,
-    name: &str,
-    points: Vec<(f64, f64)>,
-    k: usize,
-    width: u32,
-    label: Option<&str>,
-) -> Result<(), DrawError>
-where
-    CT: CoordTranslate<From = (f64, f64)>,
-{
-    styled_line(
-        chart,
-        name,
-        points,
-        ink(k).stroke_width(width),
-        Dash::of(k),
-        label,
-    )
+/// A marker shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    /// Open circle.
+    Circle,
+    /// Filled circle.
+    Disc,
+    /// White circle with an outline: visible on a dark bar.
+    Dot,
+    /// Open triangle.
+    Triangle,
+    /// Diagonal cross.
+    Cross,
+    /// Open square.
+    Square,
 }
 
-/// Draws a line through `points` in `style` and `dash`, with a legend entry when `label` is
-/// given: for lines that are not one of a figure's series (reference levels, fronts).
-///
-/// # Errors
-/// [`DrawError`] when the backend fails.
-pub fn styled_line<CT>(
-    chart: &mut SvgChart<'_, '_, CT>,
-    name: &str,
-    points: Vec<(f64, f64)>,
-    style: ShapeStyle,
-    dash: Dash,
-    label: Option<&str>,
-) -> Result<(), DrawError>
-where
-    CT: CoordTranslate<From = (f64, f64)>,
-{
-    let points: Vec<(f64, f64)> = points
-        .into_iter()
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .collect();
-    let anno = match dash.pattern() {
-        None => chart
-            .draw_series(LineSeries::new(points, style))
-            .drawn(name)?,
-        Some((dash, gap)) => chart
-            .draw_series(DashedLineSeries::new(points, dash, gap, style))
-            .drawn(name)?,
-    };
-    if let Some(label) = label {
-        match dash.pattern() {
-            None => {
-                anno.label(label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+impl Marker {
+    /// The marker of series `k`: open circle, triangle, cross, square (then again).
+    pub fn of(k: usize) -> Self {
+        [Self::Circle, Self::Triangle, Self::Cross, Self::Square][k % 4]
+    }
+
+    /// The marks of this marker of `radius` pixels in `color` at `c`.
+    fn marks(self, c: Point, radius: f64, color: Rgb) -> Vec<Mark> {
+        let stroke = Stroke::solid(color, 1.0);
+        let r = radius;
+        match self {
+            Self::Circle => vec![Mark::Circle(c, r, None, Some(stroke))],
+            Self::Disc => vec![Mark::Circle(c, r, Some(Fill::solid(color)), None)],
+            Self::Dot => vec![Mark::Circle(
+                c,
+                r,
+                Some(Fill::solid(Rgb::WHITE)),
+                Some(stroke),
+            )],
+            Self::Triangle => vec![Mark::Polygon(
+                vec![
+                    (c.0, c.1 - r),
+                    (c.0 + 0.87 * r, c.1 + 0.5 * r),
+                    (c.0 - 0.87 * r, c.1 + 0.5 * r),
+                ],
+                None,
+                Some(stroke),
+            )],
+            Self::Cross => {
+                let d = 0.8 * r;
+                vec![
+                    Mark::Polyline(vec![(c.0 - d, c.1 - d), (c.0 + d, c.1 + d)], stroke),
+                    Mark::Polyline(vec![(c.0 - d, c.1 + d), (c.0 + d, c.1 - d)], stroke),
+                ]
             }
-            Some((dash, gap)) => {
-                anno.label(label).legend(move |(x, y)| {
-                    DashedPathElement::new(vec![(x, y), (x + 24, y)], dash, gap, style)
-                });
+            Self::Square => {
+                let d = 0.8 * r;
+                vec![Mark::Rect(
+                    Rect::new(c.0 - d, c.1 - d, c.0 + d, c.1 + d),
+                    None,
+                    Some(stroke),
+                )]
             }
         }
     }
-    Ok(())
 }
 
-/// Draws `points` as markers of series `k`: open circle, triangle, cross, square (then
-/// again), in its [`ink`], with a legend entry when `label` is given.
-///
-/// # Errors
-/// [`DrawError`] when the backend fails.
-pub fn markers<CT>(
-    chart: &mut SvgChart<'_, '_, CT>,
-    name: &str,
-    points: &[(f64, f64)],
-    k: usize,
-    label: Option<&str>,
-) -> Result<(), DrawError>
-where
-    CT: CoordTranslate<From = (f64, f64)>,
-{
-    let style = ink(k).stroke_width(1);
-    let pts = points
-        .iter()
-        .copied()
-        .filter(|(x, y)| x.is_finite() && y.is_finite());
-    let anno =
-        match k % 4 {
-            0 => chart
-                .draw_series(pts.map(|p| Circle::new(p, 3, style)))
-                .drawn(name)?,
-            1 => chart
-                .draw_series(pts.map(|p| TriangleMarker::new(p, 4, style)))
-                .drawn(name)?,
-            2 => chart
-                .draw_series(pts.map(|p| Cross::new(p, 3, style)))
-                .drawn(name)?,
-            _ => chart
-                .draw_series(pts.map(|(x, y)| {
-                    EmptyElement::at((x, y)) + Rectangle::new([(-3, -3), (3, 3)], style)
-                }))
-                .drawn(name)?,
+/// One series, in data coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Series {
+    /// A line through the points.
+    Line {
+        /// The points.
+        points: Vec<(f64, f64)>,
+        /// How it is stroked.
+        stroke: Stroke,
+    },
+    /// A marker at each point.
+    Markers {
+        /// The points.
+        points: Vec<(f64, f64)>,
+        /// Shape.
+        marker: Marker,
+        /// Colour.
+        color: Rgb,
+        /// Radius in pixels.
+        radius: f64,
+    },
+    /// The area between `low` and `high` over `xs`.
+    Band {
+        /// Abscissae.
+        xs: Vec<f64>,
+        /// Lower edge.
+        low: Vec<f64>,
+        /// Upper edge.
+        high: Vec<f64>,
+        /// Fill.
+        fill: Fill,
+    },
+    /// A closed polygon.
+    Area {
+        /// Corners.
+        points: Vec<(f64, f64)>,
+        /// Fill.
+        fill: Option<Fill>,
+        /// Outline.
+        stroke: Option<Stroke>,
+    },
+    /// Bars from `base`: each `((left, right), height)`, one pixel narrower on each side so
+    /// that neighbours stay apart.
+    Bars {
+        /// The bars.
+        bars: Vec<((f64, f64), f64)>,
+        /// Where they start.
+        base: f64,
+        /// Fill.
+        fill: Fill,
+    },
+}
+
+impl Series {
+    /// A line of series `k` (its ink and dash), `width` pixels wide.
+    pub fn line_of(k: usize, points: Vec<(f64, f64)>, width: f64) -> Self {
+        Self::Line {
+            points,
+            stroke: super::style::series_stroke(k, width),
+        }
+    }
+
+    /// Markers of series `k` (its shape and ink).
+    pub fn markers_of(k: usize, points: Vec<(f64, f64)>) -> Self {
+        Self::Markers {
+            points,
+            marker: Marker::of(k),
+            color: ink(k),
+            radius: 3.5,
+        }
+    }
+
+    /// The marks this series leaves on `plot`, cut to its area.
+    pub fn marks(&self, plot: &Plot) -> Vec<Mark> {
+        let area = plot.rect;
+        let to_px = |pts: &mut dyn Iterator<Item = (f64, f64)>| -> Vec<Point> {
+            pts.map(|p| plot.px(p).unwrap_or((f64::NAN, f64::NAN)))
+                .collect()
         };
-    if let Some(label) = label {
-        let anno = anno.label(label);
-        match k % 4 {
-            0 => {
-                anno.legend(move |(x, y)| Circle::new((x + 12, y), 3, style));
+        match self {
+            Series::Line { points, stroke } => {
+                let px = to_px(&mut points.iter().copied());
+                clip_polyline(&px, &area)
+                    .into_iter()
+                    .map(|piece| Mark::Polyline(piece, *stroke))
+                    .collect()
             }
-            1 => {
-                anno.legend(move |(x, y)| TriangleMarker::new((x + 12, y), 4, style));
+            Series::Markers {
+                points,
+                marker,
+                color,
+                radius,
+            } => points
+                .iter()
+                .filter_map(|&p| plot.px(p))
+                .filter(|&c| area.contains(c))
+                .flat_map(|c| marker.marks(c, *radius, *color))
+                .collect(),
+            Series::Band {
+                xs,
+                low,
+                high,
+                fill,
+            } => {
+                // A band is cut where an edge is missing: each run of finite points a polygon.
+                let mut marks = Vec::new();
+                let mut run: Vec<(Point, Point)> = Vec::new();
+                let flush = |run: &mut Vec<(Point, Point)>, marks: &mut Vec<Mark>| {
+                    if run.len() >= 2 {
+                        let outline: Vec<Point> = run
+                            .iter()
+                            .map(|(l, _)| *l)
+                            .chain(run.iter().rev().map(|(_, h)| *h))
+                            .collect();
+                        let cut = clip_polygon(&outline, &area);
+                        if !cut.is_empty() {
+                            marks.push(Mark::Polygon(cut, Some(*fill), None));
+                        }
+                    }
+                    run.clear();
+                };
+                for j in 0..xs.len().min(low.len()).min(high.len()) {
+                    match (plot.px((xs[j], low[j])), plot.px((xs[j], high[j]))) {
+                        (Some(l), Some(h)) => run.push((l, h)),
+                        _ => flush(&mut run, &mut marks),
+                    }
+                }
+                flush(&mut run, &mut marks);
+                marks
             }
-            2 => {
-                anno.legend(move |(x, y)| Cross::new((x + 12, y), 3, style));
+            Series::Area {
+                points,
+                fill,
+                stroke,
+            } => {
+                let px: Vec<Point> = points.iter().filter_map(|&p| plot.px(p)).collect();
+                let cut = clip_polygon(&px, &area);
+                if cut.is_empty() {
+                    Vec::new()
+                } else {
+                    vec![Mark::Polygon(cut, *fill, *stroke)]
+                }
             }
-            _ => {
-                anno.legend(move |(x, y)| Rectangle::new([(x + 9, y - 3), (x + 15, y + 3)], style));
-            }
+            Series::Bars { bars, base, fill } => bars
+                .iter()
+                .filter_map(|&((l, r), h)| {
+                    let (a, b) = (plot.px((l, *base))?, plot.px((r, h))?);
+                    let bar = Rect::new(a.0 + 1.0, a.1, b.0 - 1.0, b.1);
+                    let cut = Rect::new(
+                        bar.x0.max(area.x0),
+                        bar.y0.max(area.y0),
+                        bar.x1.min(area.x1),
+                        bar.y1.min(area.y1),
+                    );
+                    (cut.width() > 0.0 && cut.height() > 0.0 && bar.overlaps(&area))
+                        .then_some(Mark::Rect(cut, Some(*fill), None))
+                })
+                .collect(),
         }
     }
-    Ok(())
 }
 
-/// Fills the band between `low` and `high` over `xs` with `fill` (e.g. one of
-/// [`band_fills`](super::band_fills) or a [`tint`](super::tint)), with a legend swatch when
-/// `label` is given. Nothing is drawn when fewer than three finite corners remain.
-///
-/// # Errors
-/// [`DrawError`] when the backend fails.
-pub fn band<CT>(
-    chart: &mut SvgChart<'_, '_, CT>,
-    name: &str,
-    xs: &[f64],
-    low: &[f64],
-    high: &[f64],
-    fill: RGBAColor,
-    label: Option<&str>,
-) -> Result<(), DrawError>
-where
-    CT: CoordTranslate<From = (f64, f64)>,
-{
-    let mut outline: Vec<(f64, f64)> = Vec::with_capacity(2 * xs.len());
-    for j in 0..xs.len() {
-        if xs[j].is_finite() && low[j].is_finite() {
-            outline.push((xs[j], low[j]));
+/// One element drawn on the canvas, in pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Mark {
+    /// An open polyline.
+    Polyline(Vec<Point>, Stroke),
+    /// A polygon.
+    Polygon(Vec<Point>, Option<Fill>, Option<Stroke>),
+    /// A circle: centre, radius.
+    Circle(Point, f64, Option<Fill>, Option<Stroke>),
+    /// A rectangle.
+    Rect(Rect, Option<Fill>, Option<Stroke>),
+}
+
+impl Mark {
+    /// What the mark covers.
+    pub fn shape(&self) -> Shape {
+        let half = |s: &Option<Stroke>| s.map_or(0.0, |s| s.width / 2.0);
+        match self {
+            Mark::Polyline(points, stroke) => Shape::Line {
+                points: points.clone(),
+                half_width: stroke.width / 2.0,
+            },
+            Mark::Polygon(points, Some(_), _) => Shape::Area(points.clone()),
+            Mark::Polygon(points, None, stroke) => {
+                let mut closed = points.clone();
+                closed.extend(points.first().copied());
+                Shape::Line {
+                    points: closed,
+                    half_width: half(stroke),
+                }
+            }
+            Mark::Circle(c, r, _, stroke) => Shape::Disc {
+                center: *c,
+                radius: r + half(stroke),
+            },
+            Mark::Rect(r, _, stroke) => Shape::Block(r.inflate(half(stroke))),
         }
     }
-    for j in (0..xs.len()).rev() {
-        if xs[j].is_finite() && high[j].is_finite() {
-            outline.push((xs[j], high[j]));
+
+    /// Draws the mark.
+    pub fn draw(&self, canvas: &mut Canvas) {
+        match self {
+            Mark::Polyline(points, stroke) => canvas.polyline(points, *stroke),
+            Mark::Polygon(points, fill, stroke) => canvas.polygon(points, *fill, *stroke),
+            Mark::Circle(c, r, fill, stroke) => canvas.circle(*c, *r, *fill, *stroke),
+            Mark::Rect(r, fill, stroke) => canvas.rect(r, *fill, *stroke),
         }
     }
-    if outline.len() < 3 {
-        return Ok(());
-    }
-    let anno = chart
-        .draw_series(std::iter::once(Polygon::new(outline, fill.filled())))
-        .drawn(name)?;
-    if let Some(label) = label {
-        anno.label(label)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 24, y + 5)], fill.filled()));
-    }
-    Ok(())
 }
 
-/// Draws bars from zero: each `((left, right), height)` a rectangle filled with `fill`, one
-/// pixel narrower on each side so that neighbouring bars stay apart, with a legend swatch
-/// when `label` is given.
-///
-/// # Errors
-/// [`DrawError`] when the backend fails.
-pub fn bars<CT>(
-    chart: &mut SvgChart<'_, '_, CT>,
-    name: &str,
-    bars: &[((f64, f64), f64)],
-    fill: RGBColor,
-    label: Option<&str>,
-) -> Result<(), DrawError>
-where
-    CT: CoordTranslate<From = (f64, f64)>,
-{
-    let anno = chart
-        .draw_series(
-            bars.iter()
-                .filter(|((l, r), h)| l.is_finite() && r.is_finite() && h.is_finite())
-                .map(|&((left, right), height)| {
-                    let mut bar = Rectangle::new([(left, 0.0), (right, height)], fill.filled());
-                    bar.set_margin(0, 0, 1, 1);
-                    bar
-                }),
-        )
-        .drawn(name)?;
-    if let Some(label) = label {
-        anno.label(label)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 24, y + 5)], fill.filled()));
+/// Draws `series` on `plot`, in order.
+pub fn draw_series(canvas: &mut Canvas, plot: &Plot, series: &[Series]) {
+    for s in series {
+        for mark in s.marks(plot) {
+            mark.draw(canvas);
+        }
     }
-    Ok(())
 }
 
-/// Draws the legend of `chart` at `position`: the labelled series, on a translucent white box.
-///
-/// # Errors
-/// [`DrawError`] when the backend fails.
-pub fn legend<'a, 'b: 'a, CT>(
-    chart: &mut SvgChart<'a, 'b, CT>,
-    name: &str,
-    position: SeriesLabelPosition,
-) -> Result<(), DrawError>
-where
-    CT: CoordTranslate<From = (f64, f64)>,
-{
-    chart
-        .configure_series_labels()
-        .position(position)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(120, 120, 120))
-        .label_font((FONT, LEGEND_SIZE))
-        .draw()
-        .drawn(name)
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plot::ticks::Scale;
+
+    fn plot() -> Plot {
+        Plot {
+            rect: Rect::new(10.0, 10.0, 110.0, 110.0),
+            x: Scale::linear((0.0, 1.0)),
+            y: Scale::log((1.0, 100.0)),
+        }
+    }
+
+    #[test]
+    fn series_stay_inside_the_plot_area() {
+        let p = plot();
+        let line = Series::line_of(0, vec![(0.0, 1.0), (0.5, 1000.0), (1.0, 10.0)], 2.0);
+        for m in line.marks(&p) {
+            assert!(p
+                .rect
+                .inflate(1e-9)
+                .encloses(&m.shape().bounds().inflate(-1.0), 0.0));
+        }
+        let markers = Series::markers_of(1, vec![(0.5, 10.0), (2.0, 10.0), (0.5, -1.0)]);
+        assert_eq!(markers.marks(&p).len(), 1);
+        let bars = Series::Bars {
+            bars: vec![((0.0, 0.5), 10.0), ((0.5, 1.0), 1e4)],
+            base: 1.0,
+            fill: Fill::solid(ink(1)),
+        };
+        let marks = bars.marks(&p);
+        assert_eq!(marks.len(), 2);
+        assert!(marks
+            .iter()
+            .all(|m| p.rect.encloses(&m.shape().bounds(), 0.0)));
+    }
+
+    #[test]
+    fn a_band_breaks_where_an_edge_is_missing() {
+        let band = Series::Band {
+            xs: vec![0.0, 0.2, 0.4, 0.6, 0.8],
+            low: vec![2.0, 2.0, f64::NAN, 2.0, 2.0],
+            high: vec![5.0, 5.0, 5.0, 5.0, 5.0],
+            fill: Fill::solid(Rgb::BLACK),
+        };
+        assert_eq!(band.marks(&plot()).len(), 2);
+    }
 }

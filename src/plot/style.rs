@@ -1,28 +1,54 @@
-//! The one palette: series inks, band and grid greys, line dashes and fonts.
+//! The one palette: series inks, band and grid greys, line dashes and text sizes.
 
-use plotters::prelude::*;
+use std::fmt;
 
+use super::svg::{Fill, Stroke};
+
+/// Font family of every text: the browser's sans-serif ([`text`](super::text) estimates its
+/// widths).
+pub const FONT: &str = "sans-serif";
+/// Size of tick labels, legends and axis descriptions (CSS pixels at scale 1): readable at 1×.
+pub const TEXT_PX: f64 = 12.0;
+/// Size of captions.
+pub const CAPTION_PX: f64 = 14.0;
+/// No text of a figure is smaller than this (CSS pixels at scale 1).
+pub const MIN_TEXT_PX: f64 = 11.0;
+/// The widest figure a report shows at its own size (the page's content width, pixels).
+pub const MAX_FIGURE_WIDTH: u32 = 1200;
 /// Width and height of one standard panel, in pixels.
 pub const PANEL: (u32, u32) = (560, 380);
-/// Font family of every text: plotters' naive metrics assume nothing more specific.
-pub const FONT: &str = "sans-serif";
-pub(super) const CAPTION_SIZE: u32 = 17;
-pub(super) const LABEL_SIZE: u32 = 14;
-pub(super) const LEGEND_SIZE: u32 = 13;
-const SMALL_SIZE: u32 = 12;
+
+/// A colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Rgb(pub u8, pub u8, pub u8);
+
+impl Rgb {
+    /// Black.
+    pub const BLACK: Rgb = Rgb(0, 0, 0);
+    /// White.
+    pub const WHITE: Rgb = Rgb(255, 255, 255);
+}
+
+impl fmt::Display for Rgb {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "#{:02X}{:02X}{:02X}", self.0, self.1, self.2)
+    }
+}
 
 /// Series inks: dark to light, so that they also differ in grey.
-const INKS: [RGBColor; 4] = [
-    RGBColor(0, 0, 0),
-    RGBColor(0, 90, 170),
-    RGBColor(205, 110, 0),
-    RGBColor(110, 110, 110),
+const INKS: [Rgb; 4] = [
+    Rgb(0, 0, 0),
+    Rgb(0, 90, 170),
+    Rgb(205, 110, 0),
+    Rgb(110, 110, 110),
 ];
 /// The 95 % band (light) and the 50 % band (darker).
-const BAND_95: RGBColor = RGBColor(215, 215, 215);
-const BAND_50: RGBColor = RGBColor(160, 160, 160);
-const GRID_LIGHT: RGBColor = RGBColor(246, 246, 246);
-const GRID_BOLD: RGBColor = RGBColor(215, 215, 215);
+const BAND_95: Rgb = Rgb(215, 215, 215);
+const BAND_50: Rgb = Rgb(160, 160, 160);
+const GRID_LIGHT: Rgb = Rgb(243, 243, 243);
+const GRID_BOLD: Rgb = Rgb(218, 218, 218);
+/// Ink of reference lines that are not data (the end of the burn-in, true values).
+pub const MARK: Rgb = Rgb(170, 0, 0);
 
 /// Line style of series `k`: solid, dashed, dotted, dash-dot (then again).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,47 +70,45 @@ impl Dash {
     }
 
     /// Dash length and gap in pixels; `None` for solid.
-    pub fn pattern(self) -> Option<(u32, u32)> {
+    pub fn pattern(self) -> Option<(f64, f64)> {
         match self {
             Self::Solid => None,
-            Self::Dashed => Some((9, 5)),
-            Self::Dotted => Some((2, 4)),
-            Self::Short => Some((5, 3)),
+            Self::Dashed => Some((9.0, 5.0)),
+            Self::Dotted => Some((2.0, 3.0)),
+            Self::Short => Some((5.0, 3.0)),
         }
     }
 }
 
 /// Ink of series `k` (four inks, then again; marker shapes and dashes repeat with them).
-pub fn ink(k: usize) -> RGBColor {
+pub fn ink(k: usize) -> Rgb {
     INKS[k % INKS.len()]
 }
 
+/// The stroke of series `k`: its ink and its dash, `width` pixels wide.
+pub fn series_stroke(k: usize, width: f64) -> Stroke {
+    Stroke::solid(ink(k), width).dashed(Dash::of(k))
+}
+
 /// A translucent fill of series `k`'s ink, for overlapping bands.
-pub fn tint(k: usize) -> RGBAColor {
-    ink(k).mix(0.16)
+pub fn tint(k: usize) -> Fill {
+    Fill::translucent(ink(k), 0.16)
 }
 
 /// The light (95 %) and darker (50 %) band fills.
-pub fn band_fills() -> (RGBAColor, RGBAColor) {
-    (BAND_95.to_rgba(), BAND_50.to_rgba())
+pub fn band_fills() -> (Fill, Fill) {
+    (Fill::solid(BAND_95), Fill::solid(BAND_50))
 }
 
-/// Grid line styles (light, bold).
-pub fn grid() -> (RGBColor, RGBColor) {
-    (GRID_LIGHT, GRID_BOLD)
+/// Grid line strokes (light, bold).
+pub fn grid() -> (Stroke, Stroke) {
+    (
+        Stroke::solid(GRID_LIGHT, 1.0),
+        Stroke::solid(GRID_BOLD, 1.0),
+    )
 }
 
-/// Font of small panels (corner plots, traces, rank histograms).
-pub fn small_font() -> (&'static str, u32) {
-    (FONT, SMALL_SIZE)
-}
-
-/// Font of captions.
-pub fn caption_font() -> (&'static str, u32) {
-    (FONT, CAPTION_SIZE)
-}
-
-/// Font of axis labels.
-pub fn label_font() -> (&'static str, u32) {
-    (FONT, LABEL_SIZE)
+/// Stroke of axis lines and tick marks.
+pub fn axis_stroke() -> Stroke {
+    Stroke::solid(Rgb::BLACK, 1.0)
 }

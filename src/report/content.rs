@@ -2,21 +2,23 @@
 
 use std::collections::BTreeMap;
 
+use super::contours::{bin, Histogram2d, BINS};
 use super::curves::{coordinate_draws, interface_curve, peak_vs_t0, InterfaceCurve, PeakVsT0};
 use super::document::Block;
 use super::inputs::{coverage_95, RunInputs};
 use super::plots::{
     corner_figure, distance_figure, fit_figure, forest_figure, peak_density, peak_density_figure,
-    peak_t0_figure, trace_figure, trace_stride, velocity_text, CornerColumn, ForestPanel,
-    ForestRow, PeakDraws, RunView, TracePanel,
+    peak_t0_figure, trace_figure, trace_stride, velocity_text, CornerColumn, CornerData,
+    ForestPanel, ForestRow, PeakDraws, RankCounts, RunView, TracePanel,
 };
+use super::truth::Truths;
 use super::units::{significant, DisplayUnit};
 use super::ReportError;
-use crate::diagnostics::{problem_lines, Summary, ESS_MIN, RHAT_MAX};
+use crate::diagnostics::{problem_lines, quantile, Summary, ESS_MIN, RHAT_MAX};
 use crate::fit::{kept_rows, AggregateSummary, QuantitySummary};
 use crate::law::Scene;
 use crate::model::{Band, ModelSpec, Posterior};
-use crate::plot::{extend_bounds, DrawError};
+use crate::plot::extend_bounds;
 use crate::storage::{ChainReader, StorageError};
 
 /// Posterior draws behind every redrawn curve (as many as `predictive.csv` uses).
@@ -27,8 +29,10 @@ const CURVE_POINTS: usize = 300;
 const T0_POINTS: usize = 40;
 /// t0 is varied this factor below and above the run's posterior range.
 const T0_SPAN: f64 = 30.0;
-/// Walkers per ensemble shown in the trace plots.
-const TRACE_WALKERS: usize = 3;
+/// Walkers per ensemble shown in the trace plots, spread evenly over the ensemble.
+const TRACE_WALKERS: usize = 8;
+/// Bins of a rank plot.
+const RANK_BINS: usize = 20;
 /// Parameters per trace figure.
 const TRACES_PER_FIGURE: usize = 8;
 /// Draws behind a figure's densities, spread evenly over the kept draws: all of them in runs
@@ -133,6 +137,8 @@ struct Context<'a> {
     quantities: Vec<&'a QuantitySummary>,
     /// Kept rows of the chains (all of them).
     kept: Vec<usize>,
+    /// True values of synthetic data, where the data files have them beside them.
+    truths: Truths,
 }
 
 impl Context<'_> {
@@ -205,6 +211,7 @@ pub fn build(inputs: &RunInputs, posterior: &Posterior) -> Result<Content, Repor
         curves,
         quantities: inputs.summary.quantities().collect(),
         kept: kept_rows(&inputs.chains, &inputs.summary.sampler, FIGURE_DRAWS),
+        truths: Truths::read(spec),
     };
     let run_name = inputs.dir.path().file_name().map_or_else(
         || inputs.dir.path().display().to_string(),
@@ -472,15 +479,6 @@ fn figure(file: String, caption: String, svg: String) -> Block {
     Block::Figure { file, caption, svg }
 }
 
-/// A figure block named `file`, drawn by `draw` (which gets the name for its errors).
-fn drawn_figure(
-    file: &str,
-    caption: String,
-    draw: impl FnOnce(&str) -> Result<String, DrawError>,
-) -> Result<Block, ReportError> {
-    Ok(figure(file.to_owned(), caption, draw(file)?))
-}
-
 fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     let mut blocks = vec![
         heading(1, "fit", "Fit to the data"),
@@ -490,7 +488,7 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     ];
     for (i, run) in ctx.runs.iter().enumerate() {
         let file = format!("fit-{}.svg", run.name);
-        let svg = fit_figure(&file, run, ctx.predictive[i], ctx.curves[i].as_ref())?;
+        let svg = fit_figure(run, ctx.predictive[i], ctx.curves[i].as_ref());
         let caption = match run.scene {
             Scene::Repeat => format!(
                 "{}: repeat slide at {}; elastic loading up to where the previous slide stopped.",
@@ -524,11 +522,14 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             .filter_map(|(i, r)| ctx.curves[i].as_ref().map(|c| (r, ctx.predictive[i], c)))
             .collect();
         let file = format!("distance-{contact}.svg");
-        let svg = distance_figure(&file, contact, &slides)?;
+        // Data that never slide (no positive distance) have nothing to show on a log axis.
+        let Some(svg) = distance_figure(contact, &slides) else {
+            continue;
+        };
         blocks.push(figure(
             file,
             format!(
-                "Contact {contact} against sliding distance x = vτ (the paper's Fig. 2 inset): slides at different velocities coincide when the state of the interface depends on distance alone."
+                "Contact {contact} against sliding distance x = vτ on a logarithmic axis (the paper's Fig. 2), from the first positive distance of the data to the end of the longest slide: the rise while the interface barely slides, the peak, and the relaxation to F_d. Slides at different velocities coincide when the state of the interface depends on distance alone."
             ),
             svg,
         ));
@@ -618,20 +619,20 @@ fn peak_section(
         rows,
         flagged,
     ));
-    blocks.push(drawn_figure(
-        "peak-density.svg",
+    blocks.push(figure(
+        "peak-density.svg".to_owned(),
         "Posterior density of the peak static friction per run and, where a material has several first slides, of their mean per draw: the shade is the 95 % interval, the dashed line the median.".to_owned(),
-        |file| peak_density_figure(file, &density),
-    )?);
+        peak_density_figure(&density),
+    ));
     if !versus_t0.is_empty() {
-        blocks.push(drawn_figure(
-            "peak-t0.svg",
+        blocks.push(figure(
+            "peak-t0.svg".to_owned(),
             format!(
                 "The peak against t0, as in the paper's Fig. 4: for each slide, t0 is varied over {T0_SPAN}× below and above its 95 % interval while αv, a and F_d come from {} posterior draws (line: median, shade: 95 %); the markers are the posterior draws of (t0, F_peak) themselves. F_peak grows as ln(1/t0): an uncertain t0 widens the peak's interval.",
                 draws.len()
             ),
-            |file| peak_t0_figure(file, &versus_t0),
-        )?);
+            peak_t0_figure(&versus_t0),
+        ));
     }
     Ok(blocks)
 }
@@ -665,11 +666,15 @@ fn materials_section(
         for q in ctx.quantities.iter().filter(|q| q.name == name) {
             let u = DisplayUnit::of_si(&q.unit);
             unit = q.unit.clone();
+            let quartiles = ctx
+                .kept_column(&q.column)
+                .map_or((f64::NAN, f64::NAN), quartiles);
             rows.push(ForestRow {
                 label: q.group.clone(),
                 median: u.show(q.stats.median),
                 low: u.show(q.stats.ci_low),
                 high: u.show(q.stats.ci_high),
+                quartiles: (u.show(quartiles.0), u.show(quartiles.1)),
                 material: ctx.materials.contains(&q.group),
             });
         }
@@ -679,11 +684,13 @@ fn materials_section(
         // F_d and F_peak are not material parameters: show the material's mean per draw.
         for agg in aggregates(ctx, name) {
             let u = DisplayUnit::of_si(&agg.unit);
+            let quartiles = mean_draws(ctx, &agg.of).map_or((f64::NAN, f64::NAN), quartiles);
             rows.push(ForestRow {
                 label: format!("{} (mean)", agg.group),
                 median: u.show(agg.stats.median),
                 low: u.show(agg.stats.ci_low),
                 high: u.show(agg.stats.ci_high),
+                quartiles: (u.show(quartiles.0), u.show(quartiles.1)),
                 material: true,
             });
         }
@@ -702,15 +709,17 @@ fn materials_section(
         });
     }
     if !panels.is_empty() {
-        blocks.push(drawn_figure(
-            "forest.svg",
-            "Forest plot: median (dot) and 95 % interval (bar) of each quantity per material \
-             (filled) and per contact or run (open). F_d and F_peak are not material parameters; \
-             their material rows are the mean of the material's contacts and the mean of its \
-             first slides, per draw."
+        blocks.push(figure(
+            "forest.svg".to_owned(),
+            "Forest plot: for each quantity, per material (black) and per contact or run (grey), \
+             the 50 % interval as a thick bar, the 95 % interval as a thin bar and the median as \
+             a white dot; the numbers beside each row are the median and the 95 % interval (where \
+             an interval is narrower than the dot, it is narrower than the figure can show). F_d \
+             and F_peak are not material parameters; their material rows are the mean of the \
+             material's contacts and the mean of its first slides, per draw."
                 .to_owned(),
-            |file| forest_figure(file, &panels),
-        )?);
+            forest_figure(&panels),
+        ));
     }
     if !comparisons.is_empty() {
         let rows: Vec<Vec<String>> = comparisons
@@ -831,23 +840,36 @@ fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         .filter(|q| q.name != "sigma")
     {
         let u = DisplayUnit::of_si(&q.unit);
-        let Ok(panel) = trace_panel(chains, &q.column, format!("{}{}", label(q), u.suffix()), &u)
+        let Ok(mut panel) =
+            trace_panel(chains, &q.column, format!("{}{}", label(q), u.suffix()), &u)
         else {
             continue;
         };
+        panel.ranks = rank_counts(ctx, &q.column);
         panels.push(panel);
     }
     let mut blocks = Vec::new();
     let figures = panels.len().div_ceil(TRACES_PER_FIGURE);
+    let s = &ctx.inputs.summary.sampler;
+    let shown = chains.walkers().min(TRACE_WALKERS);
     for (k, chunk) in panels.chunks(TRACES_PER_FIGURE).enumerate() {
         let file = format!("trace-{}.svg", k + 1);
-        let svg = trace_figure(&file, chunk, ctx.inputs.summary.sampler.burn_in)?;
+        let svg = trace_figure(chunk, s.burn_in, chains.ensembles());
+        let ranks = if chains.ensembles() > 1 {
+            format!(
+                " Right: rank plots (ArviZ's plot_rank): each kept draw is ranked among the kept draws of all {} ensembles, and each ensemble's ranks are counted in {RANK_BINS} bins; when the ensembles sample the same distribution every bar is near the dashed line (what uniform ranks give), while an ensemble stuck high or low piles its bars at one end.",
+                chains.ensembles()
+            )
+        } else {
+            String::new()
+        };
         blocks.push(figure(
             file,
             format!(
-                "Trace plots ({} of {figures}): {TRACE_WALKERS} walkers of each ensemble, ensembles told apart by shade; the vertical line ends the burn-in ({} steps). Noise levels σ are left out (they are drawn from their conditional posterior, not sampled).",
+                "Trace plots ({} of {figures}). Left: {shown} of the {} walkers of each ensemble (spread evenly over the ensemble), ensembles told apart by ink; the red line ends the burn-in ({} steps).{ranks} Noise levels σ are left out (they are drawn from their conditional posterior, not sampled).",
                 k + 1,
-                ctx.inputs.summary.sampler.burn_in
+                chains.walkers(),
+                s.burn_in
             ),
             svg,
         ));
@@ -855,29 +877,42 @@ fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     Ok(blocks)
 }
 
-/// The trace panel of column `column`: the first [`TRACE_WALKERS`] walkers of every
-/// ensemble, read one row group at a time, keeping the points drawn and the range of all
-/// (so that memory holds a few hundred points per walker, whatever the length of the run).
+/// The walkers a trace shows: [`TRACE_WALKERS`] of `walkers`, spread evenly (all of them
+/// when there are fewer).
+fn shown_walkers(walkers: usize) -> Vec<usize> {
+    let n = walkers.min(TRACE_WALKERS);
+    (0..n).map(|i| i * walkers / n.max(1)).collect()
+}
+
+/// The trace panel of column `column`: the [`shown_walkers`] of every ensemble, read one row
+/// group at a time, keeping the points drawn and the range of all (so that memory holds a
+/// few hundred points per walker, whatever the length of the run).
 fn trace_panel(
     chains: &ChainReader,
     column: &str,
     title: String,
     u: &DisplayUnit,
 ) -> Result<TracePanel, StorageError> {
-    let (ensembles, walkers) = (chains.ensembles(), chains.walkers().min(TRACE_WALKERS));
+    let ensembles = chains.ensembles();
+    let shown = shown_walkers(chains.walkers());
+    // Position of each walker among those shown.
+    let mut slot = vec![None; chains.walkers()];
+    for (i, &w) in shown.iter().enumerate() {
+        slot[w] = Some(i);
+    }
     let steps = chains.steps() as usize;
     let stride = trace_stride(steps);
-    let mut points = vec![vec![Vec::new(); walkers]; ensembles];
+    let mut points = vec![vec![Vec::new(); shown.len()]; ensembles];
     let empty = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut bounds = vec![vec![empty; walkers]; ensembles];
+    let mut bounds = vec![vec![empty; shown.len()]; ensembles];
     chains.for_each_chunk::<StorageError>(&[column], 0, |first, chunks| {
         for (k, &x) in chunks[0].iter().enumerate() {
             let (step, e, w) = chains.locate(first + k);
-            if w < walkers {
+            if let Some(i) = slot[w] {
                 let v = u.show(x);
-                bounds[e][w] = extend_bounds(bounds[e][w], v);
+                bounds[e][i] = extend_bounds(bounds[e][i], v);
                 if step as usize % stride == 0 {
-                    points[e][w].push((step as f64, v));
+                    points[e][i].push((step as f64, v));
                 }
             }
         }
@@ -892,7 +927,48 @@ fn trace_panel(
         steps,
         points,
         range,
+        ranks: None,
     })
+}
+
+/// The rank counts of `column` (ArviZ's rank plot): its kept draws, one column in memory,
+/// ranked among all ensembles' (ties share their mean rank), counted per ensemble in
+/// [`RANK_BINS`] bins. `None` with one ensemble or when the column cannot be read.
+fn rank_counts(ctx: &Context, column: &str) -> Option<RankCounts> {
+    let chains = &ctx.inputs.chains;
+    let ensembles = chains.ensembles();
+    if ensembles < 2 {
+        return None;
+    }
+    let values = ctx.kept_column(column)?;
+    let n = values.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    let mut counts = vec![vec![0.0; RANK_BINS]; ensembles];
+    let mut start = 0;
+    while start < n {
+        let mut end = start + 1;
+        while end < n && values[order[end]].total_cmp(&values[order[start]]).is_eq() {
+            end += 1;
+        }
+        // Ranks start..end share their mean, (start + end - 1) / 2 counted from 0.
+        let rank = 0.5 * (start + end - 1) as f64;
+        let b = ((rank / n as f64 * RANK_BINS as f64) as usize).min(RANK_BINS - 1);
+        for &i in &order[start..end] {
+            let (_, e, _) = chains.locate(ctx.kept[i]);
+            counts[e][b] += 1.0;
+        }
+        start = end;
+    }
+    Some(RankCounts { ranks: n, counts })
+}
+
+/// The 25 and 75 % quantiles of `values` (NaN when none is finite).
+fn quartiles(mut values: Vec<f64>) -> (f64, f64) {
+    values.retain(|v| v.is_finite());
+    values.sort_by(f64::total_cmp);
+    let q = |p| quantile(&values, p).unwrap_or(f64::NAN);
+    (q(0.25), q(0.75))
 }
 
 fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
@@ -913,35 +989,116 @@ fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             .iter()
             .filter(|q| q.name != "sigma" && groups.contains(&q.group.as_str()))
             .collect();
-        if chosen.len() < 2 {
+        let Some(data) = corner_data(ctx, &chosen) else {
             continue;
-        }
-        // One quantity's kept draws in memory at a time.
-        let mut columns = Vec::new();
-        for q in &chosen {
-            let Some(values) = ctx.kept_column(&q.column) else {
-                continue;
-            };
-            let u = DisplayUnit::of_si(&q.unit);
-            let shown: Vec<f64> = values.into_iter().map(|x| u.show(x)).collect();
-            columns.push(CornerColumn::of(
-                format!("{}{}", label(q), u.suffix()),
-                &shown,
-            ));
-        }
+        };
+        let truth = data.columns.iter().all(|c| c.truth.is_some());
         let file = format!("corner-{material}.svg");
-        let svg = corner_figure(&file, &columns)?;
+        let svg = corner_figure(&file, &data)?;
+        let truth_text = if truth {
+            format!(
+                " The blue lines and squares are the simulation's true values, read from the JSON that `slipbayes simulate` wrote beside each data file ({}).",
+                ctx.truths
+                    .files
+                    .iter()
+                    .filter_map(|f| f.file_name())
+                    .map(|f| f.to_string_lossy().into_owned())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        } else {
+            String::new()
+        };
         blocks.push(figure(
             file,
             format!(
-                "Corner plot of {material}'s main parameters as they enter run {}: posterior densities on the diagonal, pairs of kept draws below it (at most {} points per panel).",
+                "Corner plot of {material}'s main parameters as they enter run {} ({} kept draws): on the diagonal each parameter's histogram, its 16, 50 and 84 % quantiles dashed and, above it, the median with the distances to the 16 and 84 % quantiles; below the diagonal each pair's smoothed histogram with contours enclosing 0.5, 1, 1.5 and 2 σ of a 2-D Gaussian (12, 39, 68 and 86 % of the draws).{truth_text}",
                 run.name,
-                super::plots::CORNER_POINTS
+                ctx.kept.len()
             ),
             svg,
         ));
     }
     Ok(blocks)
+}
+
+/// The corner plot's numbers for the quantities `chosen`, in two passes over the kept draws:
+/// one quantity at a time for its range, histogram and quantiles, then one row group at a time
+/// for the 2-D histogram of every pair. `None` for fewer than two readable quantities.
+fn corner_data(ctx: &Context, chosen: &[&QuantitySummary]) -> Option<CornerData> {
+    let mut columns = Vec::new();
+    let mut names = Vec::new();
+    let mut units = Vec::new();
+    for q in chosen {
+        let Some(mut values) = ctx.kept_column(&q.column) else {
+            continue;
+        };
+        let u = DisplayUnit::of_si(&q.unit);
+        values.retain(|v| v.is_finite());
+        values.iter_mut().for_each(|v| *v = u.show(*v));
+        values.sort_by(f64::total_cmp);
+        let at = |p| quantile(&values, p).unwrap_or(f64::NAN);
+        let truth = ctx.truths.of(&q.name, &q.group).map(|t| u.show(t));
+        let mut range = (at(0.0005), at(0.9995));
+        if let Some(t) = truth {
+            range = (range.0.min(t), range.1.max(t));
+        }
+        let range = crate::plot::padded(range, 0.06);
+        let mut hist = vec![0.0; BINS];
+        for &v in &values {
+            if let Some(b) = bin(v, range, BINS) {
+                hist[b] += 1.0;
+            }
+        }
+        columns.push(CornerColumn {
+            name: format!("{}{}", label(q), u.suffix()),
+            range,
+            hist,
+            quantiles: [at(0.16), at(0.5), at(0.84)],
+            truth,
+        });
+        names.push(q.column.as_str());
+        units.push(u);
+    }
+    if columns.len() < 2 {
+        return None;
+    }
+    let mut pairs = Vec::new();
+    for i in 1..columns.len() {
+        for j in 0..i {
+            pairs.push(Histogram2d::new(columns[j].range, columns[i].range, BINS));
+        }
+    }
+    // The kept rows are every `every`-th row from the first kept one.
+    let first = *ctx.kept.first()?;
+    let every = ctx.kept.get(1).map_or(1, |second| second - first);
+    let first_step = ctx.inputs.chains.locate(first).0;
+    let read =
+        ctx.inputs
+            .chains
+            .for_each_chunk::<StorageError>(&names, first_step, |start, chunks| {
+                for k in 0..chunks[0].len() {
+                    let row = start + k;
+                    if row < first || (row - first) % every != 0 {
+                        continue;
+                    }
+                    let shown: Vec<f64> = chunks
+                        .iter()
+                        .zip(&units)
+                        .map(|(c, u)| u.show(c[k]))
+                        .collect();
+                    let mut p = 0;
+                    for i in 1..shown.len() {
+                        for j in 0..i {
+                            pairs[p].add(shown[j], shown[i]);
+                            p += 1;
+                        }
+                    }
+                }
+                Ok(())
+            });
+    read.ok()?;
+    Some(CornerData { columns, pairs })
 }
 
 fn summary_section(ctx: &Context) -> Vec<Block> {

@@ -9,6 +9,9 @@ use crate::law::{Elastic, Law};
 use crate::model::Posterior;
 use crate::storage::ChainReader;
 
+/// Decades of interface time a redrawn law spans below its end.
+pub const CURVE_DECADES: f64 = 6.0;
+
 /// Quantiles drawn as a median with a 95 % band.
 pub const BAND_PROBS: [f64; 3] = [0.025, 0.5, 0.975];
 
@@ -80,8 +83,10 @@ impl InterfaceCurve {
     }
 }
 
-/// The law of run `run` on `points` interface times from 0 to `tau_end_s`, over `draws`.
-/// `None` for a repeat slide.
+/// The law of run `run` on `points` interface times from 0 to `tau_end_s`, over `draws`:
+/// 0, then log-spaced from [`CURVE_DECADES`] decades below the end, so that the curve has
+/// its rise on a logarithmic distance axis and is smooth on a linear one. `None` for a
+/// repeat slide.
 ///
 /// # Errors
 /// [`ReportError::Law`] when a posterior draw gives an invalid law (it cannot: the sampler
@@ -93,8 +98,11 @@ pub fn interface_curve(
     tau_end_s: f64,
     points: usize,
 ) -> Result<Option<InterfaceCurve>, ReportError> {
-    let tau_s: Vec<f64> = (0..points)
-        .map(|j| tau_end_s * j as f64 / (points - 1).max(1) as f64)
+    let tau_s: Vec<f64> = std::iter::once(0.0)
+        .chain((0..points.saturating_sub(1)).map(|j| {
+            let f = j as f64 / points.saturating_sub(2).max(1) as f64;
+            tau_end_s * 10f64.powf(CURVE_DECADES * (f - 1.0))
+        }))
         .collect();
     let mut forces = Vec::with_capacity(draws.len());
     let mut kvs = Vec::with_capacity(draws.len());

@@ -3,6 +3,8 @@
 
 use std::fmt::Write as _;
 
+use crate::plot::escape as escape_html;
+
 /// One block of a report.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Block {
@@ -55,20 +57,6 @@ pub enum Block {
     },
     /// Preformatted text (a command line).
     Code(String),
-}
-
-fn escape_html(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            _ => out.push(c),
-        }
-    }
-    out
 }
 
 fn escape_cell(s: &str) -> String {
@@ -160,14 +148,16 @@ tr.flag td{background:#f2f2f2;font-weight:bold}tr.flag td:first-child::after{con
 .verdict{border:3px solid #333;padding:0.6em 1em;margin:1em 0}\
 .verdict.warn{border-style:double;border-width:6px;background:#f4f4f4}\
 .verdict.ok{border-style:solid}\
-figure{margin:1.2em 0;page-break-inside:avoid}figure svg{max-width:100%;height:auto;display:block}\
+figure{margin:1.2em 0;page-break-inside:avoid;overflow-x:auto}figure svg{height:auto;display:block}\
+@media print{figure svg{max-width:100%}}\
 figcaption{font-size:0.9em;color:#333;margin-top:0.3em}\
 pre{background:#f4f4f4;padding:0.5em;white-space:pre-wrap;word-break:break-all}\
 nav a{margin-right:1em}\
 ";
 
 /// The report as one self-contained HTML page: inline CSS and SVG figures, no scripts, no
-/// external URLs.
+/// external URLs. On screen figures keep their own size (their text is sized for it) and
+/// scroll sideways in a narrow window; in print they shrink to the page.
 pub fn render_html(title: &str, blocks: &[Block]) -> String {
     let mut html = format!(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
@@ -308,6 +298,11 @@ mod tests {
         assert!(html.contains("A &amp; B"));
         assert!(html.contains("<tr class=\"flag\">"));
         assert!(html.contains("verdict warn"));
+        // Figures are never shrunk on screen: their text stays at its size.
+        assert!(
+            html.contains("overflow-x:auto")
+                && html.contains("@media print{figure svg{max-width:100%}}")
+        );
         assert!(!html.contains("<script"));
         assert!(!html.contains("http"));
     }

@@ -16,10 +16,12 @@
 //! ```
 
 mod content;
+mod contours;
 mod curves;
 mod document;
 mod inputs;
 mod plots;
+mod truth;
 mod units;
 
 use std::path::PathBuf;

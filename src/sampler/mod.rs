@@ -68,8 +68,9 @@ pub mod sink;
 mod slice;
 
 pub use config::{
-    CarryFit, SamplerConfig, Steps, StopRule, Updates, CARRY_FIT_MIN_COMPLEMENT, DEFAULT_ENSEMBLES,
-    DEFAULT_HISTORY_ROWS, DEFAULT_SEED, HISTORY_BUDGET_BYTES, MIN_BUDGET_ROWS,
+    CarryFit, SamplerConfig, Steps, StopRule, Updates, CARRY_FIT_MIN_COMPLEMENT,
+    CARRY_FIT_MIN_FOLLOWERS, DEFAULT_ENSEMBLES, DEFAULT_HISTORY_ROWS, DEFAULT_SEED,
+    HISTORY_BUDGET_BYTES, MIN_BUDGET_ROWS,
 };
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;

@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
 """Loads a slipbayes report.html in headless Chromium, checks that the page loads with every
 figure present and visible (an inline SVG of non-zero size inside the page, nothing fetched
-from elsewhere), and saves screenshots of the whole page, in colour and in grey.
+from elsewhere) and that its text reads in the browser's own font (every text at least 11 px
+at scale 1, inside its figure, not overlapping another text), and saves screenshots of the
+whole page in colour and in grey, and of every figure alone at device scale 1 and 2.
 
 Usage: check_report.py REPORT_HTML [--screenshots DIR] [--chromium PATH]
+Figure screenshots go to DIR/figures/<figure>@1x.png and @2x.png.
 Exit status 0 when every check passes, 1 otherwise (each failure is printed).
 
 The report itself has no scripts; this checker measures a copy of it with one script added
@@ -33,6 +36,8 @@ CHROMIUM_FLAGS = [
 ]
 WIDTH = 1280
 SHOT_HEIGHT = 2400
+# No text of a figure may be smaller than this at scale 1 (CSS pixels).
+MIN_TEXT_PX = 11.0
 
 MEASURE = """
 <script>
@@ -44,7 +49,35 @@ MEASURE = """
     var svg = f.querySelector('svg');
     var r = svg ? svg.getBoundingClientRect() : null;
     var style = svg ? getComputedStyle(svg) : null;
-    var texts = svg ? svg.querySelectorAll('text').length : 0;
+    var textEls = svg ? svg.querySelectorAll('text') : [];
+    var texts = textEls.length;
+    // The text as the browser set it: its box in the page, its size on screen.
+    var boxes = [], small = [], outside = [];
+    if (svg) {
+      var vb = svg.viewBox && svg.viewBox.baseVal && svg.viewBox.baseVal.width ? svg.viewBox.baseVal.width : r.width;
+      var scale = r.width / vb;
+      for (var t = 0; t < textEls.length; t++) {
+        var el = textEls[t];
+        var content = el.textContent.trim();
+        if (!content) continue;
+        var b = el.getBoundingClientRect();
+        var px = parseFloat(getComputedStyle(el).fontSize) * scale;
+        if (px < %MIN% - 1e-6) small.push(content + ' (' + px.toFixed(1) + ' px)');
+        if (b.left < r.left - 0.5 || b.right > r.right + 0.5 || b.top < r.top - 0.5 || b.bottom > r.bottom + 0.5)
+          outside.push(content);
+        boxes.push({t: content, l: b.left, r: b.right, y0: b.top, y1: b.bottom});
+      }
+    }
+    var overlaps = [];
+    for (var a = 0; a < boxes.length; a++) {
+      for (var c = a + 1; c < boxes.length; c++) {
+        var p = boxes[a], q = boxes[c];
+        // Glyph boxes include the line's leading: compare their middle 60 %.
+        var ph = 0.2 * (p.y1 - p.y0), qh = 0.2 * (q.y1 - q.y0);
+        if (p.l + 0.5 < q.r && q.l + 0.5 < p.r && p.y0 + ph < q.y1 - qh && q.y0 + qh < p.y1 - ph)
+          overlaps.push(p.t + ' / ' + q.t);
+      }
+    }
     var shapes = svg ? svg.querySelectorAll('polyline,path,polygon,circle,rect,line').length : 0;
     out.figures.push({
       id: f.id,
@@ -56,6 +89,9 @@ MEASURE = """
       visibility: style ? style.visibility : 'hidden',
       opacity: style ? parseFloat(style.opacity) : 0,
       texts: texts,
+      small: small,
+      outside: outside,
+      overlaps: overlaps,
       shapes: shapes,
       caption: !!f.querySelector('figcaption')
     });
@@ -84,6 +120,39 @@ def with_extra(page, extra):
     if at < 0:
         raise ValueError("the report has no </body>")
     return page[:at] + extra + page[at:]
+
+
+FIGURE = re.compile(r'<figure id="fig-([^"]+)" class="report-figure">(<svg width="(\d+)" height="(\d+)".*?</svg>)', re.S)
+
+
+def figure_shots(chromium, page, report, out_dir, work):
+    """Screenshots of every figure alone, at its own size, at device scale 1 and 2: what a
+    reader sees on an ordinary and on a high-density screen. Returns the failures."""
+    failures = []
+    shots = os.path.join(os.path.abspath(out_dir), "figures")
+    os.makedirs(shots, exist_ok=True)
+    figures = FIGURE.findall(page)
+    for name, svg, width, height in figures:
+        alone = os.path.join(os.path.dirname(report), ".report-figure.html")
+        with open(alone, "w", encoding="utf-8") as f:
+            f.write('<!DOCTYPE html><html><head><meta charset="utf-8"><style>'
+                    'html,body{margin:0;padding:0;background:#fff}svg{display:block}</style>'
+                    f"</head><body>{svg}</body></html>")
+        try:
+            for scale in (1, 2):
+                out = os.path.join(shots, f"{name}@{scale}x.png")
+                chromium_run(
+                    chromium,
+                    [f"--force-device-scale-factor={scale}", f"--screenshot={out}",
+                     f"--window-size={width},{height}", "file://" + alone],
+                    os.path.join(work, f"f-{name}-{scale}"),
+                )
+                if not os.path.exists(out) or os.path.getsize(out) < 2_000:
+                    failures.append(f"screenshot {out} was not written")
+        finally:
+            os.remove(alone)
+    print(f"screenshots: {len(figures)} figures at scale 1 and 2 in {shots}")
+    return failures
 
 
 def main():
@@ -115,13 +184,14 @@ def main():
             if not os.path.exists(os.path.join(os.path.dirname(report), "figures", f)):
                 failures.append(f"report.md links figures/{f}, which does not exist")
 
+    measure = MEASURE.replace("%MIN%", repr(MIN_TEXT_PX))
     work = tempfile.mkdtemp(prefix="slipbayes-browser-")
     try:
         # The measuring copy sits beside the report so that relative paths would resolve
         # the same way (there should be none).
         probe = os.path.join(os.path.dirname(report), ".report-check.html")
         with open(probe, "w", encoding="utf-8") as f:
-            f.write(with_extra(page, MEASURE))
+            f.write(with_extra(page, measure))
         try:
             run = chromium_run(args.chromium, ["--dump-dom", "file://" + probe], os.path.join(work, "p1"))
         finally:
@@ -150,6 +220,12 @@ def main():
                 problems.append(f"only {fig['shapes']} shapes (empty plot?)")
             if not fig["caption"]:
                 problems.append("no caption")
+            if fig["small"]:
+                problems.append(f"text under {MIN_TEXT_PX:g} px: {fig['small'][:5]}")
+            if fig["outside"]:
+                problems.append(f"text cut off at the figure's edge: {fig['outside'][:5]}")
+            if fig["overlaps"]:
+                problems.append(f"overlapping text: {fig['overlaps'][:5]}")
             if problems:
                 failures.append(f"{fig['id']}: " + ", ".join(problems))
         for r in measured["resources"]:
@@ -180,6 +256,7 @@ def main():
                     if not os.path.exists(out) or os.path.getsize(out) < 10_000:
                         failures.append(f"screenshot {out} was not written")
             print(f"screenshots: {shots} colour and {shots} grey pages in {args.screenshots}")
+            failures.extend(figure_shots(args.chromium, page, report, args.screenshots, work))
     finally:
         shutil.rmtree(work, ignore_errors=True)
 

@@ -2,12 +2,10 @@
 
 use std::path::Path;
 
-use plotters::prelude::*;
-
 use super::BenchError;
 use slipbayes::data::write_atomically;
 use slipbayes::plot::{
-    chart, legend, markers, styled_line, svg_figure, Dash, DrawError, Drawn, Frame,
+    ink, svg_figure, Axis, DrawError, LegendEntry, Marker, Panel, Rgb, Series, Stroke, Swatch,
 };
 
 /// One point of an error-against-cost plot.
@@ -30,13 +28,6 @@ const ERROR_FLOOR: f64 = 1e-3;
 
 /// Size of the plot (pixels).
 const SIZE: (u32, u32) = (820, 540);
-/// A standard frame with more ticks: wall times often span less than a decade, and a log
-/// axis offers few ticks inside one.
-const FRAME: Frame = Frame {
-    x_labels: 12,
-    y_labels: 12,
-    ..Frame::PANEL
-};
 
 /// Writes an error-against-wall-time plot (both axes logarithmic) with the Pareto front as a
 /// staircase and the default setting ringed.
@@ -76,15 +67,12 @@ fn draw(
         y0 = y0.min(y(p));
         y1 = y1.max(y(p));
     }
-    svg_figure(name, SIZE, |root| {
-        let mut chart = chart(
-            root,
-            name,
-            &FRAME,
+    Ok(svg_figure(SIZE, |c| {
+        let mut panel = Panel::new(
             title,
-            ((x0 / 1.5..x1 * 1.5).log_scale(), "wall time (s)"),
-            ((y0 / 2.0..y1 * 2.0).log_scale(), y_label),
-        )?;
+            Axis::log((x0 / 1.5, x1 * 1.5), "wall time (s)"),
+            Axis::log((y0 / 2.0, y1 * 2.0), y_label),
+        );
         let mut series: Vec<&'static str> = Vec::new();
         for p in &finite {
             if !series.contains(&p.series) {
@@ -98,7 +86,7 @@ fn draw(
                 .filter(|p| p.series == *label)
                 .map(|p| (p.wall_s, y(p)))
                 .collect();
-            markers(&mut chart, name, &these, k, Some(label))?;
+            panel.markers(these, Marker::of(k), ink(k), Some(label));
         }
         let mut front: Vec<(f64, f64)> = finite
             .iter()
@@ -114,26 +102,27 @@ fn draw(
             }
             stairs.push((x, yv));
         }
-        styled_line(
-            &mut chart,
-            name,
-            stairs,
-            BLACK.stroke_width(1),
-            Dash::Solid,
-            Some("Pareto front"),
-        )?;
-        chart
-            .draw_series(
-                finite
-                    .iter()
-                    .filter(|p| p.default)
-                    .map(|p| Circle::new((p.wall_s, y(p)), 10, BLACK.stroke_width(2))),
-            )
-            .drawn(name)?
-            .label("default (ringed)")
-            .legend(|(x, y)| Circle::new((x + 12, y), 6, BLACK.stroke_width(2)));
-        legend(&mut chart, name, SeriesLabelPosition::UpperRight)
-    })
+        panel.line(stairs, Stroke::solid(Rgb::BLACK, 1.5), Some("Pareto front"));
+        let ringed: Vec<(f64, f64)> = finite
+            .iter()
+            .filter(|p| p.default)
+            .map(|p| (p.wall_s, y(p)))
+            .collect();
+        panel.add(
+            Series::Markers {
+                points: ringed,
+                marker: Marker::Circle,
+                color: Rgb::BLACK,
+                radius: 10.0,
+            },
+            Some(LegendEntry::new(
+                "default (ringed)",
+                Swatch::Marker(Marker::Circle, Rgb::BLACK, 6.0),
+            )),
+        );
+        let whole = c.bounds();
+        panel.draw(c, whole);
+    }))
 }
 
 #[cfg(test)]

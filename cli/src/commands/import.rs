@@ -8,21 +8,24 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use slipbayes::data::import::DEFAULT_MOMENT_ARM_M;
-use slipbayes::data::{import, ColumnMap, ColumnRef, Format, ImportOptions, IntervalChoice};
+use slipbayes::data::{import, Clock, ColumnMap, ColumnRef, Format, ImportOptions, IntervalChoice};
 
 /// How to read an instrument file: format, columns by name and unit, intervals.
 #[derive(Debug, Args, Clone)]
 pub(super) struct ImportArgs {
-    /// Format: csv, parquet or rheocompass (default: detected from the file).
-    #[arg(long, value_parser = parse_format)]
+    /// Format: csv, parquet, rheocompass, trios or rspace (default: recognised from the
+    /// file's content, whatever its name).
+    #[arg(long)]
     format: Option<Format>,
-    /// Column holding time (default: `time_s` or RheoCompass `Time`).
+    /// Column holding time (default: found by its label in any known language, or its unit:
+    /// `time_s`, RheoCompass `Time`/`Temps`/`Zeit`, TRIOS `Time`, rSpace `Time (sequence)`).
     #[arg(long = "time-column", requires = "force_column")]
     time_column: Option<String>,
     /// Unit of the time column: s, min or h (default: from the file).
     #[arg(long = "time-unit", requires = "time_column")]
     time_unit: Option<String>,
-    /// Column holding the friction force or torque (default: `force_N`, `Force`, `Torque`).
+    /// Column holding the friction force or torque (default: `force_N`, `Force`, or the torque
+    /// by its label or unit: `Torque`, `Couple`, `Drehmoment`, …).
     #[arg(long = "force-column", requires = "time_column")]
     force_column: Option<String>,
     /// Unit of that column: N, mN, µN, N·m, mN·m, µN·m (default: from the file).
@@ -37,23 +40,17 @@ pub(super) struct ImportArgs {
     /// Moment arm (m) converting torque to force, F = M / r.
     #[arg(long = "moment-arm-m", default_value_t = DEFAULT_MOMENT_ARM_M)]
     moment_arm_m: f64,
-    /// RheoCompass intervals to keep: `all`, a number, or numbers like 1,2.
+    /// Intervals (RheoCompass), steps (TRIOS) or actions (rSpace) to keep: `all`, a number,
+    /// or numbers like 1,2.
     #[arg(long, default_value = "all")]
     interval: IntervalChoice,
+    /// Time of an export's points: global (the instrument's continuous time) or step (each
+    /// interval's, step's or action's own time, restarting in each).
+    #[arg(long, default_value = "global")]
+    clock: Clock,
     /// Drop points whose cells are not finite numbers (they are counted) instead of stopping.
     #[arg(long = "drop-invalid")]
     drop_invalid: bool,
-}
-
-fn parse_format(text: &str) -> Result<Format, String> {
-    match text {
-        "csv" => Ok(Format::Csv),
-        "parquet" => Ok(Format::Parquet),
-        "rheocompass" => Ok(Format::Rheocompass),
-        _ => Err(format!(
-            "`{text}`: give csv, parquet or rheocompass (or leave it out to detect it)"
-        )),
-    }
 }
 
 impl ImportArgs {
@@ -80,15 +77,19 @@ impl ImportArgs {
             columns: self.columns(),
             moment_arm_m: self.moment_arm_m,
             intervals: self.interval.clone(),
+            clock: self.clock,
             drop_invalid: self.drop_invalid,
         }
     }
 }
 
-/// Convert an instrument file (CSV, Parquet, RheoCompass text export) to slipbayes' CSV
-/// (`time_s,force_N[,normal_force_N]`, SI units) and print what was found.
+/// Convert an instrument file (CSV, Parquet, or an export of Anton Paar RheoCompass in any
+/// language, TA Instruments TRIOS or Malvern rSpace) to slipbayes' CSV
+/// (`time_s,force_N[,normal_force_N]`, SI units) and print what was found: vendor, language,
+/// encoding and number format, intervals or steps with their points, columns and units.
 ///
 ///   slipbayes import data/rheocompass-ptfe-c1.txt --interval 1,2 --drop-invalid --out ptfe.csv
+///   slipbayes import trios-export.txt --interval 3 --moment-arm-m 7e-3 --out slide.csv
 ///   slipbayes import run.csv --time-column t --time-unit min \
 ///       --force-column torque --force-unit mN·m --moment-arm-m 7e-3 --out run-si.csv
 #[derive(Debug, Args)]

@@ -815,7 +815,7 @@ pub fn write_report(
         report.succeeded, report.settings.rank_draws
     );
     let svg_path = out.join("rank_histograms.svg");
-    let histograms = svg::rank_histograms(&panels, report.succeeded, &title)?;
+    let histograms = svg::rank_histograms(&panels, report.succeeded, &title);
     write_atomically(&svg_path, histograms.as_bytes()).map_err(io("writing", &svg_path))?;
     let md_path = out.join("validation.md");
     write_atomically(&md_path, markdown(report, limits, command).as_bytes())

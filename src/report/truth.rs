@@ -1,0 +1,177 @@
+//! The true values behind synthetic data: `slipbayes simulate` writes them as JSON beside each
+//! data file (`first.csv` → `first.json`, with `"synthetic": true` and the simulation's
+//! settings). A report overlays them where every value a figure needs is known.
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+use crate::law::Scene;
+use crate::model::spec::Param;
+use crate::model::ModelSpec;
+use crate::simulate::SimulationSpec;
+
+/// What the report reads of a truth file.
+#[derive(Deserialize)]
+struct TruthFile {
+    synthetic: bool,
+    spec: SimulationSpec,
+}
+
+/// The simulation settings of each run of a model whose data file has a truth file beside it.
+#[derive(Debug, Clone)]
+pub struct Truths {
+    /// Per run: its name, contact, material, scene and, when found, what simulated it.
+    runs: Vec<(String, String, String, Scene, Option<SimulationSpec>)>,
+    /// The truth files read.
+    pub files: Vec<PathBuf>,
+}
+
+impl Truths {
+    /// Reads the JSON beside each data file of `spec`; a run without one (or with one that
+    /// does not say `"synthetic": true` or cannot be read) has no true values.
+    pub fn read(spec: &ModelSpec) -> Self {
+        let mut files = Vec::new();
+        let runs = spec
+            .file
+            .runs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let path = spec.data_path(i).with_extension("json");
+                let truth = std::fs::read_to_string(&path)
+                    .ok()
+                    .and_then(|text| serde_json::from_str::<TruthFile>(&text).ok())
+                    .filter(|t| t.synthetic)
+                    .map(|t| t.spec);
+                if truth.is_some() {
+                    files.push(path);
+                }
+                let contact = spec.run_contact[i];
+                (
+                    r.name.clone(),
+                    spec.file.contacts[contact].name.clone(),
+                    spec.file.materials[spec.contact_material[contact]]
+                        .name
+                        .clone(),
+                    r.scene,
+                    truth,
+                )
+            })
+            .collect();
+        Self { runs, files }
+    }
+
+    /// The true value (SI) of the quantity `name` of `group` (a material, contact or run):
+    /// known when every run of the group that uses the parameter has a truth file and they
+    /// all agree. `None` otherwise, and for quantities simulations do not set (population
+    /// parameters, derived quantities).
+    pub fn of(&self, name: &str, group: &str) -> Option<f64> {
+        let (param, value): (Param, fn(&SimulationSpec) -> Option<f64>) = match name {
+            "alpha" => (Param::Alpha, |s| Some(s.params.alpha_per_m)),
+            "a" => (Param::A, |s| Some(s.params.a_n)),
+            "a_over_F_d" => (Param::A, |s| Some(s.params.a_n / s.params.f_d_n)),
+            "F_d" => (Param::FD, |s| Some(s.params.f_d_n)),
+            "t0" => (Param::T0, |s| Some(s.params.t0_s)),
+            "k" => (Param::K, |s| s.stiffness_n_per_m),
+            "sigma" => (Param::Sigma, |s| Some(s.noise_sd_n)),
+            _ => return None,
+        };
+        let mut found: Option<f64> = None;
+        for (run, contact, material, scene, truth) in &self.runs {
+            if !(run == group || contact == group || material == group) || !param.used_by(*scene) {
+                continue;
+            }
+            let v = value(truth.as_ref()?)?;
+            match found {
+                Some(f) if (f - v).abs() > 1e-9 * f.abs().max(v.abs()) => return None,
+                _ => found = Some(v),
+            }
+        }
+        found
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn truths(runs: Vec<(&str, &str, &str, Scene, Option<SimulationSpec>)>) -> Truths {
+        Truths {
+            runs: runs
+                .into_iter()
+                .map(|(a, b, c, s, t)| (a.into(), b.into(), c.into(), s, t))
+                .collect(),
+            files: Vec::new(),
+        }
+    }
+
+    fn sim(scene: Scene, a_n: f64, k: Option<f64>) -> SimulationSpec {
+        SimulationSpec {
+            scene,
+            params: crate::law::LawParams::new(0.92e6, a_n, 10e-3, 14.8).unwrap(),
+            stiffness_n_per_m: k,
+            velocity_m_per_s: 1e-9,
+            duration_s: 100.0,
+            interval_s: 1.0,
+            noise_sd_n: 1e-4,
+            seed: 1,
+            f_end_n: None,
+            after_first_s: None,
+            normal_force_n: None,
+            normal_noise_sd_n: 0.0,
+        }
+    }
+
+    #[test]
+    fn truths_are_found_where_every_run_agrees() {
+        let t = truths(vec![
+            (
+                "c1-first",
+                "c1",
+                "PTFE",
+                Scene::First,
+                Some(sim(Scene::First, 6e-3, Some(1e4))),
+            ),
+            (
+                "c1-fast",
+                "c1",
+                "PTFE",
+                Scene::StiffFast,
+                Some(sim(Scene::StiffFast, 6e-3, None)),
+            ),
+            (
+                "c2-first",
+                "c2",
+                "PTFE",
+                Scene::First,
+                Some(sim(Scene::First, 7e-3, Some(2e4))),
+            ),
+        ]);
+        assert_eq!(t.of("alpha", "PTFE"), Some(0.92e6));
+        // k is not used by the stiff fast slide, whose file has none.
+        assert_eq!(t.of("k", "c1"), Some(1e4));
+        // The contacts disagree on a: no single true value for the material.
+        assert_eq!(t.of("a", "PTFE"), None);
+        assert_eq!(t.of("a", "c2"), Some(7e-3));
+        assert!((t.of("a_over_F_d", "c1").unwrap() - 0.6).abs() < 1e-12);
+        assert_eq!(t.of("t0_pop_median", "PTFE"), None);
+        assert_eq!(t.of("alpha", "nobody"), None);
+    }
+
+    #[test]
+    fn a_run_without_a_truth_file_hides_its_groups_truth() {
+        let t = truths(vec![
+            (
+                "c1-first",
+                "c1",
+                "PTFE",
+                Scene::First,
+                Some(sim(Scene::First, 6e-3, Some(1e4))),
+            ),
+            ("c2-first", "c2", "PTFE", Scene::First, None),
+        ]);
+        assert_eq!(t.of("alpha", "PTFE"), None);
+        assert_eq!(t.of("alpha", "c1"), Some(0.92e6));
+    }
+}
