@@ -16,7 +16,7 @@ use slipbayes::model::{ModelSpec, Posterior};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
-    let dir = RunDir::new(&PathBuf::from(args.next().ok_or("usage: RUN_DIR [DRAWS]")?));
+    let dir = RunDir::new(PathBuf::from(args.next().ok_or("usage: RUN_DIR [DRAWS]")?));
     let draws: usize = args.next().map(|a| a.parse()).transpose()?.unwrap_or(200);
     let spec = dir.read_model()?;
     let summary = dir.read_summary()?;

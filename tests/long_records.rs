@@ -103,6 +103,14 @@ fn posterior_of(first: Series, repeat: Option<Series>, likelihood: &str) -> Post
     Posterior::from_data(&spec, data).unwrap()
 }
 
+/// Index of the first name starting with `prefix`.
+fn position_of(names: &[String], prefix: &str) -> usize {
+    names
+        .iter()
+        .position(|n| n.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no name starting with {prefix} in {names:?}"))
+}
+
 fn lp(p: &Posterior, x: &[f64]) -> f64 {
     p.log_density(x, &mut []).unwrap()
 }
@@ -243,11 +251,7 @@ fn reduced_log_density_is_within_the_tolerance_of_the_exact_one() {
 fn a_kink_inside_a_bin_opens_it() {
     let reduced = PTFE.posterior("");
     let exact = PTFE.posterior("[likelihood]\ntolerance = 0\n");
-    let t0 = reduced
-        .param_names()
-        .iter()
-        .position(|n| n.starts_with("ln_t0"))
-        .unwrap();
+    let t0 = position_of(&reduced.param_names(), "ln_t0");
     let mut compared = 0;
     for factor in [0.5, 0.8, 1.25, 2.0, 4.0] {
         let mut x = reduced.start().to_vec();
@@ -309,11 +313,7 @@ fn a_tolerance_of_zero_and_short_records_are_exact() {
 #[test]
 fn the_sigma_of_a_reduced_record_is_the_noise_of_one_point() {
     let reduced = PTFE.posterior("");
-    let column = reduced
-        .derived_names()
-        .iter()
-        .position(|n| n.starts_with("sigma[first]"))
-        .unwrap();
+    let column = position_of(&reduced.derived_names(), "sigma[first]");
     let mut derived = vec![0.0; reduced.derived_names().len()];
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let start = initial_around_optimum(&reduced, reduced.start(), 16, 1, &mut rng).unwrap();

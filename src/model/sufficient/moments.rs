@@ -199,8 +199,9 @@ fn solve_positive_definite(g: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
                 s -= l[j * n + m] * l[k * n + m];
             }
             if j == k {
-                // A pivot lost to rounding relative to the largest diagonal: not definite.
-                if !(s > 1e-13 * scale) {
+                // A pivot lost to rounding relative to the largest diagonal (or NaN): not
+                // definite.
+                if s.is_nan() || s <= 1e-13 * scale {
                     return None;
                 }
                 l[j * n + j] = s.sqrt();
@@ -258,7 +259,7 @@ const TAIL_FACTOR: f64 = 8.0;
 /// of the same bin: the interpolant of a function f = Σ a_k T_k at the Chebyshev points of
 /// the first kind errs by at most 2 Σ_(k>degree) |a_k| (each T_k with k > degree aliases to
 /// ±T_r, r ≤ degree, or to zero). The a_k are read from the finer interpolant's
-/// coefficients, and the tail beyond them is taken as [`TAIL_FACTOR`] times its last two.
+/// coefficients, and the tail beyond them is taken as 8 times its last two (`TAIL_FACTOR`).
 pub fn interpolation_error_estimate(values: &[f64], degree: usize) -> f64 {
     let c = chebyshev_coefficients(values);
     let n = c.len();
