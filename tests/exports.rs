@@ -201,6 +201,30 @@ fn formats_are_recognised_whatever_the_file_is_called() {
 /// not fit, then what went wrong as a plain table, in slipbayes' words. Plain tables are read
 /// through polars.
 #[cfg(feature = "tabular")]
+/// A step or action the export lacks is refused, listing those it has with their points.
+#[test]
+fn a_missing_step_or_action_lists_those_there_are() {
+    let options = ImportOptions {
+        intervals: IntervalChoice::Numbers(vec![9]),
+        ..ImportOptions::default()
+    };
+    let message = import(&fixture("trios-multi-technique.txt"), &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message
+            .contains("no step 9; the file has steps 1 (29 points), 2 (29 points), 3 (223 points)"),
+        "{message}"
+    );
+    let message = import(&fixture("rspace-kinexus.csv"), &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("no action 9; the file has actions 1 ("),
+        "{message}"
+    );
+}
+
 #[test]
 fn a_file_of_no_known_format_says_what_was_tried() {
     let text = "t;M\n1;2\n3;4;5\n";

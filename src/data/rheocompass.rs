@@ -242,8 +242,8 @@ const SAMPLE_ROWS: usize = 200;
 /// # Errors
 /// [`DataError::Malformed`] naming the line for an interval header without its number, column
 /// names without an interval, a second line of column names in one interval, or data before any
-/// column names; [`DataError::Unsupported`] when the text is not a RheoCompass export, has no
-/// interval, or a chosen interval is not in the file.
+/// column names; [`DataError::Unsupported`] when the text is not a RheoCompass export or has no
+/// interval; [`DataError::NoSuchInterval`] when a chosen interval is not in the file.
 pub fn parse(
     text: String,
     encoding: Encoding,

@@ -120,8 +120,8 @@ pub fn recognise(text: &str) -> Result<u8, String> {
 /// Parses an rSpace export and keeps the actions `choice` names.
 ///
 /// # Errors
-/// [`DataError::Unsupported`] when the text is not an rSpace export or a chosen action is not
-/// in it.
+/// [`DataError::Unsupported`] when the text is not an rSpace export;
+/// [`DataError::NoSuchInterval`] when a chosen action is not in it.
 pub fn parse(
     text: String,
     encoding: Encoding,

@@ -122,8 +122,9 @@ fn number_in_name(name: &str) -> Option<usize> {
 /// Parses a TRIOS export and keeps the steps `choice` names, joined by column name.
 ///
 /// # Errors
-/// [`DataError::Unsupported`] when the text is not a TRIOS export or a chosen step is not in
-/// it; [`DataError::Malformed`] naming the line of a step whose head is incomplete.
+/// [`DataError::Unsupported`] when the text is not a TRIOS export;
+/// [`DataError::NoSuchInterval`] when a chosen step is not in it; [`DataError::Malformed`]
+/// naming the line of a step whose head is incomplete.
 pub fn parse(
     text: String,
     encoding: Encoding,
