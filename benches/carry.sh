@@ -19,11 +19,8 @@ only=${2:-}
 root=$(pwd)
 bin=${SLIPBAYES:-$root/target/release/slipbayes}
 mkdir -p "$out/models" "$out/runs"
-demo() { sed "s#\.\./data/#$root/data/#" models/demo.toml; }
-demo > "$out/models/demo.toml"
-{ demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/pooled.toml"
-{ echo 'aging = "absolute"'; demo; } > "$out/models/absolute.toml"
-{ echo 'aging = "absolute"'; demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/absolute-pooled.toml"
+. "$root/benches/demo_forms.sh"
+write_demo_forms "$out" "$root"
 campaign() { # contacts
   local c="$out/c$1"
   [ -f "$c/campaign.toml" ] || python3 data/make_campaign.py --contacts "$1" --out "$c" --binary "$bin" > /dev/null

@@ -23,11 +23,8 @@ only=${2:-}
 root=$(pwd)
 bin=${SLIPBAYES:-$root/target/release/slipbayes}
 mkdir -p "$out/models" "$out/runs"
-demo() { sed "s#\.\./data/#$root/data/#" models/demo.toml; }
-demo > "$out/models/demo.toml"
-{ demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/pooled.toml"
-{ echo 'aging = "absolute"'; demo; } > "$out/models/absolute.toml"
-{ echo 'aging = "absolute"'; demo; printf '\n[pooling]\nt0 = true\n'; } > "$out/models/absolute-pooled.toml"
+. "$root/benches/demo_forms.sh"
+write_demo_forms "$out" "$root"
 for how in exact carried interwoven; do
   sed "s/^\[sampler\]$/[sampler]\npopulations = \"$how\"/" "$out/models/pooled.toml" > "$out/models/pooled-$how.toml"
 done
