@@ -133,12 +133,6 @@ fn interval_header<'a>(fields: &[&'a str]) -> Option<(&'a str, usize, usize)> {
         .then_some((label, number, count))
 }
 
-/// Whether a field reads as a number in either decimal format.
-fn numeric(field: &str) -> bool {
-    NumberFormat::DecimalPoint.parse(field).is_some()
-        || NumberFormat::DecimalComma.parse(field).is_some()
-}
-
 /// A row of units: only bracketed units (and empty fields) after the empty first field.
 fn units_row(fields: &[&str]) -> bool {
     if !unquote(fields[0]).is_empty() {
@@ -176,7 +170,9 @@ pub fn recognise(text: &str) -> Result<u8, String> {
                     return Ok(separator);
                 }
                 // Rows qualifying the names may come first; anything else ends the search.
-                if unquote(fields[0]).is_empty() && !fields[1..].iter().any(|f| numeric(f)) {
+                if unquote(fields[0]).is_empty()
+                    && !fields[1..].iter().any(|f| NumberFormat::reads_as_number(f))
+                {
                     continue;
                 }
                 return Err(format!(
@@ -449,7 +445,7 @@ pub fn parse(
                 state = State::Data;
                 continue;
             }
-            if !fields[1..].iter().any(|f| numeric(f)) {
+            if !fields[1..].iter().any(|f| NumberFormat::reads_as_number(f)) {
                 // A row qualifying the names (`Sinusoïdes`, `Fundamental`).
                 continue;
             }

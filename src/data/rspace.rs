@@ -52,11 +52,6 @@ struct Header {
     line: usize,
 }
 
-fn any_numeric(field: &str) -> bool {
-    NumberFormat::DecimalPoint.parse(field).is_some()
-        || NumberFormat::DecimalComma.parse(field).is_some()
-}
-
 /// Whether a text has an rSpace export's shape; the reason if not.
 fn header(text: &str) -> Result<Header, String> {
     let mut all = lines(text).filter(|l| !text[l.start..l.end].trim().is_empty());
@@ -100,7 +95,7 @@ fn header(text: &str) -> Result<Header, String> {
             units[c].is_none()
                 && fields
                     .get(c)
-                    .is_some_and(|f| !unquote(f).is_empty() && !any_numeric(f))
+                    .is_some_and(|f| !unquote(f).is_empty() && !NumberFormat::reads_as_number(f))
         })
         .ok_or("no column naming the action of each row (`Action Name`)")?;
     Ok(Header {

@@ -345,6 +345,11 @@ fn evidence(field: &str) -> Evidence {
 }
 
 impl NumberFormat {
+    /// Whether a field reads as a number in either decimal format.
+    pub(crate) fn reads_as_number(field: &str) -> bool {
+        Self::DecimalPoint.parse(field).is_some() || Self::DecimalComma.parse(field).is_some()
+    }
+
     /// The number format of a file from a sample of its data fields: the decimal mark that
     /// fields like `0,05`, `2,21E+04` or `1.234,5` show. Where every field could read either
     /// way (`1,234`), a comma is read as the decimal mark unless it separates the fields.

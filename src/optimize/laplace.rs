@@ -56,7 +56,7 @@ pub fn laplace_covariance<F: FnMut(&[f64]) -> f64>(
                 .collect()
         })
         .collect();
-    covariance_from_differences(mode, f0, &axis, &pairs, fallback_sd)
+    covariance_from_differences(mode, &h, f0, &axis, &pairs, fallback_sd)
 }
 
 /// The steps of the second differences: ε^(1/4) balances truncation (h²) against rounding
@@ -75,24 +75,23 @@ fn probe_covariance<D: LogDensity + ?Sized>(
     fallback_sd: f64,
 ) -> (Vec<f64>, bool) {
     let h = hessian_steps(mode);
-    let f0 = probe.value(mode);
-    let axis = probe.axis(mode, &h);
-    let pairs = probe.pairs(mode, &h);
-    covariance_from_differences(mode, f0, &axis, &pairs, fallback_sd)
+    let d = probe.second_differences(mode, &h);
+    covariance_from_differences(mode, &h, d.at_x, &d.axis, &d.pairs, fallback_sd)
 }
 
-/// The covariance from the central second differences of `log f` at `mode`: `f0 = f(mode)`,
+/// The covariance from the central second differences of `log f` at `mode` with steps `h`
+/// ([`hessian_steps`]): `f0 = f(mode)`,
 /// `axis[i] = [f(+h_i), f(−h_i)]`, `pairs[i][j] = f` at (±h_i, ±h_j) for `j < i` in the order
 /// (+, +), (+, −), (−, +), (−, −).
 fn covariance_from_differences(
     mode: &[f64],
+    h: &[f64],
     f0: f64,
     axis: &[[f64; 2]],
     pairs: &[Vec<[f64; 4]>],
     fallback_sd: f64,
 ) -> (Vec<f64>, bool) {
     let n = mode.len();
-    let h = hessian_steps(mode);
     let mut hess = DMatrix::<f64>::zeros(n, n);
     let mut finite = f0.is_finite();
     for i in 0..n {

@@ -26,6 +26,7 @@ pub(crate) struct Probe<'d, D: ?Sized> {
 
 /// A point with its log-density and the buffers a block evaluation continues from.
 struct Cached {
+    log_density: f64,
     x: Vec<f64>,
     derived: Vec<f64>,
     cache: Vec<f64>,
@@ -76,15 +77,21 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
         self.block_of.as_ref()?;
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let mut c = Cached {
+            log_density: f64::NEG_INFINITY,
             x: x.to_vec(),
             derived: vec![0.0; self.nderived],
             cache: vec![0.0; self.cache_len],
         };
-        let e = sort(
+        match sort(
             self.density
                 .log_density_cached(x, &mut c.derived, &mut c.cache),
-        );
-        matches!(e, Eval::Finite(_)).then_some(c)
+        ) {
+            Eval::Finite(v) => {
+                c.log_density = v;
+                Some(c)
+            }
+            _ => None,
+        }
     }
 
     /// `base` with coordinate `i` moved by `d`, evaluated by the block of `i` from the base's
@@ -97,6 +104,7 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
         };
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let mut c = Cached {
+            log_density: f64::NEG_INFINITY,
             x: base.x.clone(),
             derived: base.derived.clone(),
             cache: base.cache.clone(),
@@ -108,7 +116,10 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
                     .log_density_block(block_of[i], &c.x, &mut c.derived, &mut c.cache),
             );
         match e {
-            Eval::Finite(v) => (v, Some(c)),
+            Eval::Finite(v) => {
+                c.log_density = v;
+                (v, Some(c))
+            }
             other => (finite_or_minus_infinity(other), None),
         }
     }
@@ -127,23 +138,29 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
             .collect()
     }
 
-    /// For every pair `j < i`, the log-density at `x + s_i h_i e_i + s_j h_j e_j` for the signs
-    /// (+, +), (+, −), (−, +), (−, −): row `i` holds `i` entries. The point with `i` moved is
-    /// evaluated once per sign and `j` moved from it, by the block of `j`.
-    pub fn pairs(&self, x: &[f64], h: &[f64]) -> Vec<Vec<[f64; 4]>> {
+    /// Every point of central second differences at `x` with steps `h`, each evaluated once:
+    /// the log-density at `x`; at `x ± h_i e_i` for every `i` (as [`axis`](Self::axis)); and
+    /// for every pair `j < i` at `x + s_i h_i e_i + s_j h_j e_j` for the signs (+, +), (+, −),
+    /// (−, +), (−, −) (row `i` holds `i` entries). The point with `i` moved is evaluated once
+    /// per sign and `j` moved from it, by the block of `j`.
+    pub fn second_differences(&self, x: &[f64], h: &[f64]) -> SecondDifferences {
         let base = self.cached(x);
-        (0..x.len())
+        let at_x = match &base {
+            Some(c) => c.log_density,
+            None => self.value(x),
+        };
+        let (axis, pairs) = (0..x.len())
             .into_par_iter()
             .map(|i| {
                 let from_i = |s: f64| {
-                    let (_, cached) = self.moved(base.as_ref(), x, i, s * h[i]);
+                    let (value, cached) = self.moved(base.as_ref(), x, i, s * h[i]);
                     let mut xi = x.to_vec();
                     xi[i] += s * h[i];
-                    (xi, cached)
+                    (value, xi, cached)
                 };
-                let (plus, plus_cache) = from_i(1.0);
-                let (minus, minus_cache) = from_i(-1.0);
-                (0..i)
+                let (at_plus, plus, plus_cache) = from_i(1.0);
+                let (at_minus, minus, minus_cache) = from_i(-1.0);
+                let row = (0..i)
                     .map(|j| {
                         let at =
                             |(xi, c): (&[f64], Option<&Cached>), d: f64| self.moved(c, xi, j, d).0;
@@ -151,10 +168,22 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
                         let m = (&minus[..], minus_cache.as_ref());
                         [at(p, h[j]), at(p, -h[j]), at(m, h[j]), at(m, -h[j])]
                     })
-                    .collect()
+                    .collect();
+                ([at_plus, at_minus], row)
             })
-            .collect()
+            .unzip();
+        SecondDifferences { at_x, axis, pairs }
     }
+}
+
+/// The points of central second differences, from [`Probe::second_differences`].
+pub(crate) struct SecondDifferences {
+    /// The log-density at the centre.
+    pub at_x: f64,
+    /// At `x + h_i e_i` and `x − h_i e_i`.
+    pub axis: Vec<[f64; 2]>,
+    /// At `x ± h_i e_i ± h_j e_j`, `j < i`, signs (+, +), (+, −), (−, +), (−, −).
+    pub pairs: Vec<Vec<[f64; 4]>>,
 }
 
 #[cfg(test)]
@@ -182,7 +211,11 @@ mod tests {
             posterior.log_density(&y, &mut derived).unwrap().to_bits()
         };
         let axis = probe.axis(&x, &h);
-        let pairs = probe.pairs(&x, &h);
+        let evaluations_of_axis = probe.evaluations();
+        let second = probe.second_differences(&x, &h);
+        assert_eq!(second.at_x.to_bits(), full(&[]));
+        assert_eq!(second.axis, axis);
+        let pairs = second.pairs;
         for i in 0..x.len() {
             assert_eq!(axis[i][0].to_bits(), full(&[(i, h[i])]), "+h of {i}");
             assert_eq!(axis[i][1].to_bits(), full(&[(i, -h[i])]), "-h of {i}");
@@ -197,9 +230,13 @@ mod tests {
                 assert_eq!(got, want, "pair ({i}, {j})");
             }
         }
-        // One full evaluation for the base, two block evaluations per axis; per row of the
-        // pairs two more for the moved point and four per pair.
+        // One full evaluation for the base, two block evaluations per axis; the second
+        // differences evaluate each point once: the base, two per row, four per pair.
         let n = x.len();
-        assert_eq!(probe.evaluations(), 1 + 2 * n + 1 + n * 2 + 2 * n * (n - 1));
+        assert_eq!(evaluations_of_axis, 1 + 2 * n);
+        assert_eq!(
+            probe.evaluations() - evaluations_of_axis,
+            1 + 2 * n + 2 * n * (n - 1)
+        );
     }
 }

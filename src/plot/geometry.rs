@@ -75,16 +75,6 @@ impl Rect {
             && other.y1 <= self.y1 + slack
     }
 
-    /// The smallest rectangle holding both.
-    pub fn union(&self, other: &Rect) -> Self {
-        Self {
-            x0: self.x0.min(other.x0),
-            y0: self.y0.min(other.y0),
-            x1: self.x1.max(other.x1),
-            y1: self.y1.max(other.y1),
-        }
-    }
-
     /// The rectangle of the given size with its top left corner at `(x, y)`.
     pub fn at((x, y): Point, (width, height): (f64, f64)) -> Self {
         Self::new(x, y, x + width, y + height)

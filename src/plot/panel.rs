@@ -20,8 +20,6 @@ const BESIDE_SHARE: f64 = 0.3;
 pub enum LegendAt {
     /// Inside the plot area where no data are, else beside it (narrow legends) or under it.
     Inside,
-    /// Beside or under the plot area, never over it.
-    Outside,
     /// Nowhere (the figure explains its series elsewhere).
     Nowhere,
 }
@@ -36,8 +34,6 @@ pub struct Panel {
     pub x: Axis,
     /// Vertical axis.
     pub y: Axis,
-    /// Whether the grid is drawn.
-    pub grid: bool,
     /// Where the legend goes.
     pub legend_at: LegendAt,
     series: Vec<Series>,
@@ -51,7 +47,6 @@ impl Panel {
             caption: caption.to_owned(),
             x,
             y,
-            grid: true,
             legend_at: LegendAt::Inside,
             series: Vec::new(),
             legend: Vec::new(),
@@ -62,12 +57,6 @@ impl Panel {
     pub fn add(&mut self, series: Series, entry: Option<LegendEntry>) -> &mut Self {
         self.series.push(series);
         self.legend.extend(entry);
-        self
-    }
-
-    /// Adds a legend entry of its own.
-    pub fn entry(&mut self, label: &str, swatch: Swatch) -> &mut Self {
-        self.legend.push(LegendEntry::new(label, swatch));
         self
     }
 
@@ -143,15 +132,13 @@ impl Panel {
         let mut legend_spot = None;
         let mut legend_row = None;
         if let Some(size) = legend {
-            if self.legend_at == LegendAt::Inside {
-                let shapes: Vec<Shape> = self
-                    .series
-                    .iter()
-                    .flat_map(|s| s.marks(&layout.0))
-                    .map(|m| m.shape())
-                    .collect();
-                legend_spot = free_spot(&layout.0.rect, size, &shapes).map(|r| (r.x0, r.y0));
-            }
+            let shapes: Vec<Shape> = self
+                .series
+                .iter()
+                .flat_map(|s| s.marks(&layout.0))
+                .map(|m| m.shape())
+                .collect();
+            legend_spot = free_spot(&layout.0.rect, size, &shapes).map(|r| (r.x0, r.y0));
             // No room inside: beside the plot area when the legend is narrow, else under it
             // (a wide legend beside a panel would leave the data no room).
             if legend_spot.is_none() && size.0 <= BESIDE_SHARE * area.width() {
@@ -179,9 +166,7 @@ impl Panel {
             }
         }
         let (plot, xt, yt) = layout;
-        if self.grid {
-            draw_grid(canvas, &plot, &xt, &yt);
-        }
+        draw_grid(canvas, &plot, &xt, &yt);
         draw_series(canvas, &plot, &self.series);
         draw_axes(canvas, &plot, (&self.x, &xt), (&self.y, &yt));
         let font = Font::new(CAPTION_PX, Anchor::new(HPos::Center, VPos::Top));

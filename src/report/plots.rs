@@ -875,17 +875,17 @@ pub fn corner_figure(name: &str, data: &CornerData) -> Result<String, DrawError>
         .iter()
         .map(|c| choose_ticks(&Scale::linear(c.range), cell, false))
         .collect();
-    let x_descs: Vec<Vec<String>> = cols.iter().map(|c| wrap(&c.name, TEXT_PX, cell)).collect();
-    let y_descs: Vec<Vec<String>> = cols.iter().map(|c| wrap(&c.name, TEXT_PX, cell)).collect();
+    // Each quantity's name, wrapped to a cell: under its column and beside its row.
+    let descs: Vec<Vec<String>> = cols.iter().map(|c| wrap(&c.name, TEXT_PX, cell)).collect();
     let y_label_w = y_ticks[1..]
         .iter()
         .flat_map(|t| t.labels.iter())
         .map(|l| text_width(l, TEXT_PX))
         .fold(0.0, f64::max);
-    let y_desc_lines = y_descs[1..].iter().map(Vec::len).max().unwrap_or(1) as f64;
+    let y_desc_lines = descs[1..].iter().map(Vec::len).max().unwrap_or(1) as f64;
     let left = 10.0 + y_desc_lines * line + 2.0 * GAP_PX + y_label_w + crate::plot::TICK_PX;
     let has_x_note = x_ticks.iter().any(|t| !t.note.is_empty());
-    let x_desc_lines = x_descs.iter().map(Vec::len).max().unwrap_or(1) as f64;
+    let x_desc_lines = descs.iter().map(Vec::len).max().unwrap_or(1) as f64;
     let bottom = crate::plot::TICK_PX
         + GAP_PX
         + line
@@ -975,7 +975,7 @@ pub fn corner_figure(name: &str, data: &CornerData) -> Result<String, DrawError>
                         if has_x_note {
                             below += GAP_PX + line;
                         }
-                        for (k, l) in x_descs[j].iter().enumerate() {
+                        for (k, l) in descs[j].iter().enumerate() {
                             c.text(
                                 l,
                                 (0.5 * (rect.x0 + rect.x1), below + GAP_PX + k as f64 * line),
@@ -984,7 +984,7 @@ pub fn corner_figure(name: &str, data: &CornerData) -> Result<String, DrawError>
                         }
                     }
                     if j == 0 && i > 0 {
-                        let lines = &y_descs[i];
+                        let lines = &descs[i];
                         for (k, l) in lines.iter().enumerate() {
                             let x = 10.0 + (k as f64 + 0.5) * line;
                             c.text(

@@ -75,33 +75,13 @@ struct CheckpointHeader {
     finished: bool,
 }
 
-/// The sampler state of a checkpoint, as stored.
-#[derive(Debug, Clone, Default)]
-enum StoredState {
-    /// None given yet.
-    #[default]
-    None,
-    /// MessagePack (named fields), as written now.
-    Binary(Vec<u8>),
-    /// The JSON of a checkpoint written by an earlier release.
-    Json(serde_json::Value),
-}
-
-impl StoredState {
-    fn decode<S: DeserializeOwned>(&self) -> Result<S, Box<dyn std::error::Error + Send + Sync>> {
-        match self {
-            Self::None => Err("the checkpoint holds no sampler state".into()),
-            Self::Binary(bytes) => Ok(rmp_serde::from_slice(bytes)?),
-            Self::Json(value) => Ok(serde::Deserialize::deserialize(value)?),
-        }
-    }
-}
-
 /// A checkpoint: binary, `header` then the state, both MessagePack.
 #[derive(Debug)]
 struct CheckpointFile {
     header: CheckpointHeader,
-    state: StoredState,
+    /// The sampler state in MessagePack (named fields); `None` when none was given yet. A JSON
+    /// checkpoint's state is converted on reading.
+    state: Option<Vec<u8>>,
 }
 
 /// A checkpoint of an earlier release: JSON with the state inside.
@@ -195,7 +175,7 @@ pub struct ParquetSink {
     durable_rows: u64,
     rows: u64,
     steps: u64,
-    last_state: StoredState,
+    last_state: Option<Vec<u8>>,
 }
 
 impl std::fmt::Debug for ParquetSink {
@@ -291,12 +271,14 @@ impl ParquetSink {
             });
         }
         validate_names(&checkpoint.param_names, &checkpoint.derived_names)?;
-        let state: S = stored
-            .decode()
-            .map_err(|source| StorageError::BadCheckpoint {
-                path: checkpoint_path.clone(),
-                source,
-            })?;
+        let bad_state = |source| StorageError::BadCheckpoint {
+            path: checkpoint_path.clone(),
+            source,
+        };
+        let state: S = match &stored {
+            Some(bytes) => rmp_serde::from_slice(bytes).map_err(|e| bad_state(e.into()))?,
+            None => return Err(bad_state("the checkpoint holds no sampler state".into())),
+        };
 
         remove_leftovers(files)?;
         let chains_dir = &files.chains;
@@ -386,7 +368,7 @@ impl ParquetSink {
             durable_rows: 0,
             rows: 0,
             steps: 0,
-            last_state: StoredState::None,
+            last_state: None,
         }
     }
 
@@ -588,12 +570,8 @@ impl ParquetSink {
         let path = &self.files.checkpoint;
         let mut bytes =
             rmp_serde::to_vec_named(&header).map_err(|e| StorageError::State(e.into()))?;
-        match &self.last_state {
-            StoredState::Binary(state) => bytes.extend_from_slice(state),
-            // A run resumed from a JSON checkpoint stores its state anew at its next one.
-            StoredState::Json(value) => bytes
-                .extend(rmp_serde::to_vec_named(value).map_err(|e| StorageError::State(e.into()))?),
-            StoredState::None => {}
+        if let Some(state) = &self.last_state {
+            bytes.extend_from_slice(state);
         }
         write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))?;
         remove_json_checkpoint(&self.files)
@@ -666,7 +644,7 @@ impl ChainSink for ParquetSink {
     fn checkpoint<S: Serialize>(&mut self, state: &S) -> Result<(), StorageError> {
         let state = rmp_serde::to_vec_named(state).map_err(|e| StorageError::State(e.into()))?;
         self.close_part()?;
-        self.last_state = StoredState::Binary(state);
+        self.last_state = Some(state);
         self.write_checkpoint(false)
     }
 }
@@ -738,11 +716,7 @@ fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, Storage
             let state = &bytes[reader.position() as usize..];
             CheckpointFile {
                 header,
-                state: if state.is_empty() {
-                    StoredState::None
-                } else {
-                    StoredState::Binary(state.to_vec())
-                },
+                state: (!state.is_empty()).then(|| state.to_vec()),
             }
         }
         None => {
@@ -752,10 +726,11 @@ fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, Storage
             };
             let json: JsonCheckpointFile =
                 serde_json::from_slice(&bytes).map_err(|e| bad(path, e.into()))?;
+            // Its state is carried in the binary form from here on.
             let state = if json.state.is_null() {
-                StoredState::None
+                None
             } else {
-                StoredState::Json(json.state)
+                Some(rmp_serde::to_vec_named(&json.state).map_err(|e| bad(path, e.into()))?)
             };
             if json.header.format != JSON_CHECKPOINT_FORMAT {
                 return Err(bad(

@@ -92,9 +92,6 @@ pub enum ValidateError {
     /// The model file could not be loaded.
     #[error(transparent)]
     Spec(#[from] slipbayes::model::SpecError),
-    /// A figure (the rank histograms) could not be drawn.
-    #[error(transparent)]
-    Draw(#[from] slipbayes::plot::DrawError),
 }
 
 /// The simulated design and the fit of every replication.
@@ -794,8 +791,7 @@ pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateErr
 /// for people) into `out`; `command` is recorded in the Markdown.
 ///
 /// # Errors
-/// [`ValidateError::Io`] when a file cannot be written, [`ValidateError::Draw`] when the
-/// histograms cannot be drawn.
+/// [`ValidateError::Io`] when a file cannot be written.
 pub fn write_report(
     report: &SbcReport,
     limits: &GrossLimits,
