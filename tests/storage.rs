@@ -9,7 +9,7 @@ use slipbayes::data::write_atomically;
 use slipbayes::storage::metadata::{LAYOUT, METADATA_FORMAT};
 use slipbayes::storage::{
     read_chains, read_part_metadata, ChainDescription, ChainReader, ChainSink, Chains, ColumnKind,
-    ColumnUnit, ParquetSink, SinkOptions, StepView, StorageError,
+    ColumnUnit, ParquetSink, SinkOptions, StepView, StorageError, Written,
 };
 
 /// The chain store of a run directory, laid out as a fit's run directory lays it out.
@@ -226,6 +226,7 @@ fn parts_describe_themselves_and_carry_the_burn_in_once_finished() {
         derived_units: vec![unit("s", false)],
     });
     produce(&mut sink, 0, 2 * CHECKPOINT_EVERY);
+    sink.written().expect("written");
     let part = |i: usize| files(dir).chains.join(format!("part-{i:06}.parquet"));
     let running = read_part_metadata(&part(1))
         .expect("readable")
@@ -345,7 +346,13 @@ fn killed_run_resumed_from_checkpoint_equals_uninterrupted_run() {
         }
     );
     assert_eq!(sink.steps(), 40);
-    assert_eq!(sink.durable_parts(), 2);
+    assert_eq!(
+        sink.written().expect("written"),
+        Written {
+            parts: 2,
+            rows: 40 * (ENSEMBLES * WALKERS) as u64
+        }
+    );
     assert_eq!(names_in(dir), vec!["chains", "checkpoint.bin"]);
     sink.check_columns(&params(), &derived())
         .expect("same model");
@@ -415,6 +422,7 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     let mut sink =
         ParquetSink::create(&files(dir), &params(), &derived(), options(7)).expect("create");
     produce(&mut sink, 0, 40);
+    sink.written().expect("written");
     let checkpoint_at_40 = fs::read(dir.join("checkpoint.bin")).expect("checkpoint");
     produce(&mut sink, 40, 70);
     drop(sink);
@@ -445,6 +453,52 @@ fn crash_after_part_rename_and_mid_write_leftovers_are_cleaned_on_resume() {
     produce(&mut sink, state.next_step, TOTAL_STEPS);
     sink.finish().expect("finish");
     assert_bit_identical(&read_chains(&files(dir).chains).expect("read"), &reference);
+}
+
+/// The writer thread's failure (here: the run directory removed under a running sink) is
+/// returned by the sink's next call, naming the file; later calls say the writer stopped.
+#[test]
+fn a_failed_write_in_the_background_is_returned_by_the_next_call() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    let dir = tmp.path().join("run");
+    let mut sink =
+        ParquetSink::create(&files(&dir), &params(), &derived(), options(7)).expect("create");
+    fs::remove_dir_all(&dir).expect("remove the run directory");
+    let mut first_error = None;
+    'steps: for step in 0..TOTAL_STEPS {
+        for e in 0..ENSEMBLES {
+            let s = fake_step(e, step);
+            let view = StepView {
+                ensemble: e,
+                step,
+                ndim: params().len(),
+                positions: &s.positions,
+                log_density: &s.log_density,
+                derived: &s.derived,
+            };
+            if let Err(error) = sink.record(&view) {
+                first_error = Some(error);
+                break 'steps;
+            }
+        }
+    }
+    match first_error.expect("the lost directory is noticed") {
+        StorageError::Io { action, path, .. } => {
+            assert_eq!(action, "create");
+            assert_eq!(path, dir.join("part-000000.parquet.partial"));
+        }
+        other => panic!("unexpected error {other}"),
+    }
+    let later = sink.checkpoint(&0u8).expect_err("the writer stopped");
+    assert!(
+        matches!(later, StorageError::WriterStopped { .. }),
+        "{later}"
+    );
+    assert!(later.to_string().contains("--resume"), "{later}");
+    assert!(matches!(
+        sink.finish(),
+        Err(StorageError::WriterStopped { .. })
+    ));
 }
 
 #[test]
@@ -620,6 +674,7 @@ fn bad_names_shapes_and_foreign_parts_are_refused() {
         })
         .expect("record");
     other.checkpoint(&0u8).expect("checkpoint");
+    other.written().expect("written");
     let foreign = other_dir.path().join("chains/part-000000.parquet");
     fs::copy(&foreign, dir.join("chains/part-000001.parquet")).expect("copy");
     assert!(matches!(

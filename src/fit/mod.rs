@@ -501,8 +501,11 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         return Err(interrupted(&report));
     }
     // The summaries read every recorded draw; the stopping rule's history (in the chains
-    // too) makes room for them, and comes back only if the run goes on.
+    // too) makes room for them, and comes back only if the run goes on. The sink writes in
+    // the background: the last checkpoint's part must be on disk before it is read.
     sampler.release_history();
+    sink.written()
+        .map_err(storage(format!("writing the chains in {shown}")))?;
     let mut summary =
         plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
 
@@ -531,6 +534,8 @@ pub fn run_fit<D: LogDensity + ?Sized>(
                 return Err(interrupted(&report));
             }
             sampler.release_history();
+            sink.written()
+                .map_err(storage(format!("writing the chains in {shown}")))?;
             summary =
                 plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
         }

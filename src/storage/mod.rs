@@ -35,8 +35,13 @@
 //! - [`ParquetSink::finish`] closes the last part and marks the checkpoint finished; a
 //!   finished store is neither resumed nor overwritten without [`SinkOptions::overwrite`].
 //!
-//! Memory held by a sink is one row group of buffered rows plus per-row-group footer metadata,
-//! whatever the length of the run.
+//! Row groups are encoded, parts written and checkpoints replaced on a thread of the sink's own,
+//! so the sampler does not wait for the disk; an error there is returned by the sink's next
+//! call, and a sink dropped without finishing completes what it was handed first (so its last
+//! checkpoint is on disk).
+//!
+//! Memory held by a sink is at most two row groups of rows (one filling, one being written)
+//! plus per-row-group footer metadata, whatever the length of the run.
 
 pub mod metadata;
 mod read;
@@ -50,7 +55,7 @@ pub use metadata::{
     read_part_metadata, ChainDescription, ChainMetadata, ColumnInfo, ColumnKind, ColumnUnit,
 };
 pub use read::{read_chains, ChainReader, Chains};
-pub use sink::{ParquetSink, SinkOptions, ROW_GROUP_BYTES};
+pub use sink::{ParquetSink, SinkOptions, Written, ROW_GROUP_BYTES};
 
 /// Name of the index column holding the ensemble number.
 pub const ENSEMBLE_COLUMN: &str = "ensemble";
@@ -217,6 +222,16 @@ pub enum StorageError {
         dir: PathBuf,
         /// What contradicts what.
         problem: String,
+    },
+    /// The sink's writer thread stopped on an earlier error (returned by an earlier call).
+    #[error(
+        "writing the chains in {} failed earlier (see the error before this one); the run \
+         cannot go on: resume it from its last checkpoint with --resume",
+        dir.display()
+    )]
+    WriterStopped {
+        /// The run directory.
+        dir: PathBuf,
     },
     /// There is no chain data to read.
     #[error("no chain parts in {}: the run wrote no checkpoint yet", dir.display())]

@@ -2,15 +2,17 @@
 
 use std::fs::{self, File};
 use std::io::BufWriter;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{mpsc, Arc};
+use std::thread::{self, JoinHandle};
 
 use polars_arrow::array::{Array, PrimitiveArray};
 use polars_arrow::datatypes::ArrowSchema;
 use polars_arrow::record_batch::RecordBatchT;
 use polars_parquet::write::{
-    CompressionOptions, Encoding, FileWriter, RowGroupIterator, StatisticsOptions, Version,
-    WriteOptions,
+    CompressionOptions, Encoding, FileWriter, KeyValue, RowGroupIterator, StatisticsOptions,
+    Version, WriteOptions,
 };
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -153,29 +155,127 @@ struct OpenPart {
     rows: u64,
 }
 
+/// What every part's footer says besides its steps.
+#[derive(Debug, Clone)]
+struct Footer {
+    /// Every column with its kind and unit.
+    columns: Vec<ColumnInfo>,
+    /// What the caller said about the run, if anything.
+    description: Option<ChainDescription>,
+    /// First kept step, once the caller knows it (see [`ParquetSink::set_burn_in`]).
+    burn_in: Option<u64>,
+}
+
+impl Footer {
+    fn key_values(&self, steps: Range<u64>) -> Vec<KeyValue> {
+        key_values(
+            &self.columns,
+            self.description.as_ref(),
+            steps,
+            self.burn_in,
+        )
+    }
+}
+
+/// The file side of a sink: the part being written, what is durable, the last state. The
+/// writer thread owns it while the run goes on; [`ParquetSink::finish`] takes it back.
+struct Files {
+    files: ChainFiles,
+    param_names: Vec<String>,
+    derived_names: Vec<String>,
+    schema: Arc<ArrowSchema>,
+    row_group_rows: usize,
+    part: Option<OpenPart>,
+    /// First step of the part being written (steps of one part are contiguous).
+    part_first_step: u64,
+    durable_parts: u64,
+    durable_rows: u64,
+    last_state: Option<Vec<u8>>,
+}
+
+/// Rows taken out of the buffer as Arrow arrays: one row group.
+struct RowGroup {
+    rows: usize,
+    arrays: Vec<Box<dyn Array>>,
+}
+
+/// What the sampler's thread hands to the writer thread.
+enum Job {
+    /// A full row group for the open part.
+    Rows(RowGroup),
+    /// A checkpoint: the rows still buffered, then the part closed and the checkpoint replaced.
+    Checkpoint {
+        rest: Option<RowGroup>,
+        /// One past the last step recorded.
+        steps: u64,
+        footer: Arc<Footer>,
+        /// The sampler state in MessagePack.
+        state: Vec<u8>,
+    },
+    /// Answers once every earlier job is done, with what is durable.
+    Report(mpsc::SyncSender<Written>),
+}
+
+/// What a sink has made durable: complete parts and the rows in them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Written {
+    /// Complete parts in `chains/`.
+    pub parts: u64,
+    /// Rows in those parts.
+    pub rows: u64,
+}
+
+/// The thread that encodes row groups, writes parts and replaces the checkpoint, so that the
+/// sampler's threads never wait for the disk (only for the writer to take the previous job,
+/// when it is still busy with it).
+struct Writer {
+    jobs: mpsc::SyncSender<Job>,
+    thread: JoinHandle<Result<Files, StorageError>>,
+}
+
+impl Writer {
+    fn start(files: Files) -> Result<Self, StorageError> {
+        // A rendezvous channel: a job is handed over only when the writer is free, so a sink
+        // holds at most two row groups (one being written, one filling or waiting to be taken).
+        let (jobs, queue) = mpsc::sync_channel::<Job>(0);
+        let dir = files.files.dir.clone();
+        let thread = thread::Builder::new()
+            .name("slipbayes-chains".into())
+            .spawn(move || {
+                let mut files = files;
+                for job in queue {
+                    files.run(job)?;
+                }
+                Ok(files)
+            })
+            .map_err(|e| StorageError::io("start the writer thread for", &dir, e))?;
+        Ok(Self { jobs, thread })
+    }
+
+    /// Waits for every job handed over and gives the files back, or the first error.
+    fn stop(self) -> Result<Files, StorageError> {
+        drop(self.jobs);
+        match self.thread.join() {
+            Ok(result) => result,
+            Err(panic) => std::panic::resume_unwind(panic),
+        }
+    }
+}
+
 /// Streams chains to Parquet parts in a run directory and checkpoints them with the sampler
-/// state (see the [module documentation](super) for the layout).
+/// state (see the [module documentation](super) for the layout). Encoding and writing happen
+/// on a thread of the sink's own; an error there is returned by the next call.
 pub struct ParquetSink {
     files: ChainFiles,
     param_names: Vec<String>,
     derived_names: Vec<String>,
-    /// What the parts' footers say about the run, when the caller described it.
-    description: Option<ChainDescription>,
-    /// Every column with its kind and unit, for the parts' footers.
-    columns: Vec<ColumnInfo>,
-    /// First kept step, once the caller knows it (see [`ParquetSink::set_burn_in`]).
-    burn_in: Option<u64>,
-    /// First step of the part being written (steps of one part are contiguous).
-    part_first_step: u64,
-    schema: Arc<ArrowSchema>,
+    footer: Arc<Footer>,
     row_group_rows: usize,
     buffer: RowBuffer,
-    part: Option<OpenPart>,
-    durable_parts: u64,
-    durable_rows: u64,
     rows: u64,
     steps: u64,
-    last_state: Option<Vec<u8>>,
+    /// `None` once the writer stopped on an error (returned then) or the run finished.
+    writer: Option<Writer>,
 }
 
 impl std::fmt::Debug for ParquetSink {
@@ -186,11 +286,21 @@ impl std::fmt::Debug for ParquetSink {
             .field("derived_names", &self.derived_names)
             .field("row_group_rows", &self.row_group_rows)
             .field("buffered_rows", &self.buffer.len())
-            .field("open_part", &self.part.as_ref().map(|p| p.index))
-            .field("durable_parts", &self.durable_parts)
             .field("rows", &self.rows)
             .field("steps", &self.steps)
+            .field("writing", &self.writer.is_some())
             .finish()
+    }
+}
+
+impl Drop for ParquetSink {
+    /// A sink dropped without [`ParquetSink::finish`] (an error or an interruption) still
+    /// completes what it handed to the writer, so the last checkpoint is on disk.
+    fn drop(&mut self) {
+        if let Some(writer) = self.writer.take() {
+            // The run is being abandoned; a write error now changes nothing a resume needs.
+            let _ = writer.stop();
+        }
     }
 }
 
@@ -233,12 +343,13 @@ impl ParquetSink {
         fs::create_dir_all(chains_dir)
             .map_err(|e| StorageError::io("create directory", chains_dir, e))?;
         sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
-        Ok(Self::new(
+        Self::start(
             files,
             param_names.to_vec(),
             derived_names.to_vec(),
             options.row_group_rows,
-        ))
+            Resumed::default(),
+        )
     }
 
     /// Reopens the run in `files` at its last checkpoint: removes `.partial` and temporary files
@@ -324,27 +435,29 @@ impl ParquetSink {
             )));
         }
 
-        let mut sink = Self::new(
+        let sink = Self::start(
             files,
             checkpoint.param_names,
             checkpoint.derived_names,
             checkpoint.row_group_rows.max(1),
-        );
-        sink.durable_parts = checkpoint.parts;
-        sink.durable_rows = checkpoint.rows;
-        sink.rows = checkpoint.rows;
-        sink.steps = checkpoint.steps;
-        sink.part_first_step = checkpoint.steps;
-        sink.last_state = stored;
+            Resumed {
+                parts: checkpoint.parts,
+                rows: checkpoint.rows,
+                steps: checkpoint.steps,
+                state: stored,
+            },
+        )?;
         Ok((sink, state))
     }
 
-    fn new(
+    /// The sink, with its writer thread started, continuing from `resumed`.
+    fn start(
         files: &ChainFiles,
         param_names: Vec<String>,
         derived_names: Vec<String>,
         row_group_rows: usize,
-    ) -> Self {
+        resumed: Resumed,
+    ) -> Result<Self, StorageError> {
         let schema = Arc::new(chains_schema(&param_names, &derived_names));
         let value_columns = param_names.len() + 1 + derived_names.len();
         // A wide table (a campaign has hundreds of columns) gets shorter row groups, so the
@@ -352,24 +465,33 @@ impl ParquetSink {
         let row_bytes = 16 + 8 * value_columns;
         let row_group_rows =
             row_group_rows.min((ROW_GROUP_BYTES / row_bytes).max(MIN_ROW_GROUP_ROWS));
-        Self {
+        let writer = Writer::start(Files {
             files: files.clone(),
-            buffer: RowBuffer::with_capacity(row_group_rows, value_columns),
-            columns: column_infos(&param_names, &derived_names, None),
-            param_names,
-            derived_names,
-            description: None,
-            burn_in: None,
-            part_first_step: 0,
+            param_names: param_names.clone(),
+            derived_names: derived_names.clone(),
             schema,
             row_group_rows,
             part: None,
-            durable_parts: 0,
-            durable_rows: 0,
-            rows: 0,
-            steps: 0,
-            last_state: None,
-        }
+            part_first_step: resumed.steps,
+            durable_parts: resumed.parts,
+            durable_rows: resumed.rows,
+            last_state: resumed.state,
+        })?;
+        Ok(Self {
+            files: files.clone(),
+            buffer: RowBuffer::with_capacity(row_group_rows, value_columns),
+            footer: Arc::new(Footer {
+                columns: column_infos(&param_names, &derived_names, None),
+                description: None,
+                burn_in: None,
+            }),
+            param_names,
+            derived_names,
+            row_group_rows,
+            rows: resumed.rows,
+            steps: resumed.steps,
+            writer: Some(writer),
+        })
     }
 
     /// Checks that this run stores exactly these parameter and derived columns, e.g. that a
@@ -402,14 +524,15 @@ impl ParquetSink {
     /// ensembles, walkers, thinning and the units of the value columns; see
     /// [`mod@super::metadata`]). Without it the parts still name their layout and columns.
     pub fn describe(&mut self, description: ChainDescription) {
-        self.columns = column_infos(&self.param_names, &self.derived_names, Some(&description));
-        self.description = Some(description);
+        let footer = Arc::make_mut(&mut self.footer);
+        footer.columns = column_infos(&self.param_names, &self.derived_names, Some(&description));
+        footer.description = Some(description);
     }
 
     /// The first kept step (rows of earlier steps are burn-in), known once the run's summary
     /// has decided it: [`ParquetSink::finish`] then writes it into the footer of every part.
     pub fn set_burn_in(&mut self, step: u64) {
-        self.burn_in = Some(step);
+        Arc::make_mut(&mut self.footer).burn_in = Some(step);
     }
 
     /// Where the chains and the checkpoint are.
@@ -437,14 +560,38 @@ impl ParquetSink {
         self.rows
     }
 
-    /// Rows made durable by the last checkpoint.
-    pub fn durable_rows(&self) -> u64 {
-        self.durable_rows
+    /// Waits until the writer thread has done everything handed to it, and says what is
+    /// durable: the parts and rows of the last checkpoint written.
+    ///
+    /// # Errors
+    /// The first error of the writer thread.
+    pub fn written(&mut self) -> Result<Written, StorageError> {
+        let (answer, reply) = mpsc::sync_channel(1);
+        self.send(Job::Report(answer))?;
+        // Taken, so every earlier job succeeded, and a report cannot fail.
+        Ok(reply
+            .recv()
+            .expect("the writer answers every report it takes"))
     }
 
-    /// Complete parts in `chains/`.
-    pub fn durable_parts(&self) -> u64 {
-        self.durable_parts
+    /// Hands `job` to the writer thread, waiting while it is busy with the previous one.
+    ///
+    /// # Errors
+    /// The error that stopped the writer thread, once; [`StorageError::WriterStopped`] after.
+    fn send(&mut self, job: Job) -> Result<(), StorageError> {
+        let Some(writer) = &self.writer else {
+            return Err(StorageError::WriterStopped {
+                dir: self.files.dir.clone(),
+            });
+        };
+        if writer.jobs.send(job).is_ok() {
+            return Ok(());
+        }
+        // The writer only stops early on an error.
+        let writer = self.writer.take().expect("checked above");
+        writer.stop().and(Err(StorageError::WriterStopped {
+            dir: self.files.dir.clone(),
+        }))
     }
 
     /// Rows buffered in memory, not yet written to the part file.
@@ -466,31 +613,81 @@ impl ParquetSink {
     /// # Errors
     /// When the last part, a footer or the checkpoint cannot be written.
     pub fn finish(mut self) -> Result<(), StorageError> {
-        self.close_part()?;
-        if self.burn_in.is_some() {
+        let rest = self.take_rows();
+        let Some(writer) = self.writer.take() else {
+            return Err(StorageError::WriterStopped {
+                dir: self.files.dir.clone(),
+            });
+        };
+        let mut files = writer.stop()?;
+        if let Some(rows) = rest {
+            files.write_rows(rows)?;
+        }
+        files.close_part(self.steps, &self.footer)?;
+        if self.footer.burn_in.is_some() {
             let chains_dir = &self.files.chains;
-            for index in 0..self.durable_parts {
+            for index in 0..files.durable_parts {
                 let path = chains_dir.join(part_name(index));
                 let steps = Part::open(path.clone())?.step_range()?;
-                let pairs = key_values(
-                    &self.columns,
-                    self.description.as_ref(),
-                    steps,
-                    self.burn_in,
-                );
+                let pairs = self.footer.key_values(steps);
                 rewrite_footer(&path, &self.files.dir.join(partial_name(index)), pairs)?;
             }
             sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         }
-        self.write_checkpoint(true)
+        files.write_checkpoint(true, self.steps)
     }
 
-    /// Writes the buffered rows as one row group of the open part, opening it if needed.
-    fn flush_row_group(&mut self) -> Result<(), StorageError> {
+    /// The buffered rows as one row group, leaving the buffer empty; `None` when it is.
+    fn take_rows(&mut self) -> Option<RowGroup> {
         let rows = self.buffer.len();
-        if rows == 0 {
-            return Ok(());
+        (rows > 0).then(|| RowGroup {
+            rows,
+            arrays: self.buffer.take_arrays(self.row_group_rows),
+        })
+    }
+}
+
+/// Where a sink continues from: nothing for a new run, the checkpoint's parts, rows, steps and
+/// state for a resumed one.
+#[derive(Default)]
+struct Resumed {
+    parts: u64,
+    rows: u64,
+    steps: u64,
+    state: Option<Vec<u8>>,
+}
+
+impl Files {
+    /// Does one job of the writer thread.
+    fn run(&mut self, job: Job) -> Result<(), StorageError> {
+        match job {
+            Job::Rows(rows) => self.write_rows(rows),
+            Job::Checkpoint {
+                rest,
+                steps,
+                footer,
+                state,
+            } => {
+                if let Some(rows) = rest {
+                    self.write_rows(rows)?;
+                }
+                self.close_part(steps, &footer)?;
+                self.last_state = Some(state);
+                self.write_checkpoint(false, steps)
+            }
+            Job::Report(answer) => {
+                // The sink may have stopped waiting; nothing is lost then.
+                let _ = answer.send(Written {
+                    parts: self.durable_parts,
+                    rows: self.durable_rows,
+                });
+                Ok(())
+            }
         }
+    }
+
+    /// Writes `rows` as one row group of the open part, opening it if needed.
+    fn write_rows(&mut self, rows: RowGroup) -> Result<(), StorageError> {
         let part = match &mut self.part {
             Some(part) => part,
             slot => slot.insert(open_part(
@@ -499,9 +696,8 @@ impl ParquetSink {
                 &self.schema,
             )?),
         };
-        let arrays = self.buffer.take_arrays(self.row_group_rows);
         let path = part.path.clone();
-        let batch = RecordBatchT::try_new(rows, Arc::clone(&self.schema), arrays)
+        let batch = RecordBatchT::try_new(rows.rows, Arc::clone(&self.schema), rows.arrays)
             .map_err(|e| StorageError::parquet(&path, e))?;
         let encodings = vec![vec![Encoding::Plain]; self.schema.len()];
         let groups = RowGroupIterator::try_new(
@@ -517,24 +713,18 @@ impl ParquetSink {
                 .write(group)
                 .map_err(|e| StorageError::parquet(&path, e))?;
         }
-        part.rows += rows as u64;
+        part.rows += rows.rows as u64;
         Ok(())
     }
 
-    /// Makes the open part complete and durable under its final name in `chains/`.
-    fn close_part(&mut self) -> Result<(), StorageError> {
-        self.flush_row_group()?;
+    /// Makes the open part, which ends before step `steps`, complete and durable under its
+    /// final name in `chains/`.
+    fn close_part(&mut self, steps: u64, footer: &Footer) -> Result<(), StorageError> {
         let Some(mut part) = self.part.take() else {
             return Ok(());
         };
         let path = part.path;
-        let steps = self.part_first_step..self.steps;
-        let pairs = key_values(
-            &self.columns,
-            self.description.as_ref(),
-            steps,
-            self.burn_in,
-        );
+        let pairs = footer.key_values(self.part_first_step..steps);
         part.writer
             .end(Some(pairs))
             .map_err(|e| StorageError::parquet(&path, e))?;
@@ -552,11 +742,11 @@ impl ParquetSink {
         sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         self.durable_parts += 1;
         self.durable_rows += part.rows;
-        self.part_first_step = self.steps;
+        self.part_first_step = steps;
         Ok(())
     }
 
-    fn write_checkpoint(&self, finished: bool) -> Result<(), StorageError> {
+    fn write_checkpoint(&self, finished: bool, steps: u64) -> Result<(), StorageError> {
         let header = CheckpointHeader {
             format: CHECKPOINT_FORMAT.to_owned(),
             param_names: self.param_names.clone(),
@@ -564,7 +754,7 @@ impl ParquetSink {
             row_group_rows: self.row_group_rows,
             parts: self.durable_parts,
             rows: self.durable_rows,
-            steps: self.steps,
+            steps,
             finished,
         };
         let path = &self.files.checkpoint;
@@ -631,7 +821,8 @@ impl ChainSink for ParquetSink {
                 column.push(x);
             }
             if buffer.len() >= self.row_group_rows {
-                self.flush_row_group()?;
+                let rows = self.take_rows().expect("a full buffer");
+                self.send(Job::Rows(rows))?;
             }
         }
         self.rows += walkers as u64;
@@ -643,9 +834,13 @@ impl ChainSink for ParquetSink {
 
     fn checkpoint<S: Serialize>(&mut self, state: &S) -> Result<(), StorageError> {
         let state = rmp_serde::to_vec_named(state).map_err(|e| StorageError::State(e.into()))?;
-        self.close_part()?;
-        self.last_state = Some(state);
-        self.write_checkpoint(false)
+        let job = Job::Checkpoint {
+            rest: self.take_rows(),
+            steps: self.steps,
+            footer: Arc::clone(&self.footer),
+            state,
+        };
+        self.send(job)
     }
 }
 
