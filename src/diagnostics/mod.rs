@@ -11,6 +11,9 @@
 //!   over walkers, intervals over all draws (the design is argued in its documentation).
 //! - [`external`]: the same summary, to the bit, in memory that does not grow with the
 //!   number of draws (draws and sorted runs in working files): what a fit uses.
+//! - [`loo`]: PSIS-LOO cross-validation from pointwise log-likelihoods, and the comparison of
+//!   models by it (elpd differences with standard errors, stacking weights), as ArviZ's `loo`
+//!   and `compare`.
 //!
 //! Inputs are validated once, at the entry of each function: empty, ragged, too short or
 //! non-finite draws give a [`DiagnosticsError`] naming the chain and index at fault.
@@ -36,6 +39,7 @@ pub mod autocorr;
 pub mod ensemble;
 mod error;
 pub mod external;
+pub mod loo;
 pub mod verdict;
 mod walkers;
 
@@ -49,6 +53,7 @@ pub use autocorr::{
 pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
 pub use external::{summarize_draws, DrawsWriter, Limits, WalkerDraws, Workspace};
+pub use loo::{compare, psis_loo, Compared, Loo, LooError, MIN_LOO_DRAWS};
 pub use verdict::{
     problem_lines, quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX,
     TAU_FACTOR,
