@@ -138,3 +138,67 @@ fn a_french_export_imports_with_what_was_found() {
     let series = slipbayes::data::Series::read_csv(&out).unwrap();
     assert_eq!(series.len(), 60);
 }
+
+/// Two fits of the same data compare as equally good (their elpd_loo differ by sampling noise
+/// alone); a fit of other data is refused, naming both.
+#[cfg(feature = "parquet")]
+#[test]
+fn compare_ranks_fits_of_the_same_data_and_refuses_other_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let fit = |model: &str, seed: &str, name: &str| {
+        let out = dir.path().join(name);
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+            .args(["fit", "--quiet", "--steps", "400", "--seed", seed, "--out"])
+            .arg(&out)
+            .arg(repo(model))
+            .status()
+            .unwrap();
+        assert!(status.success(), "fit {name}");
+        out
+    };
+    let a = fit("benches/peer/one_contact.toml", "1", "a");
+    let b = fit("benches/peer/one_contact.toml", "2", "b");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("summary.json")).unwrap()).unwrap();
+    let loo = &summary["loo"];
+    assert_eq!(loo["runs"][0]["points"], 3001);
+    assert_eq!(loo["unreliable_points"], 0);
+    // Six parameters (α, a/F_d, F_d, t0, k, σ): the effective number is close to six.
+    let p_loo = loo["p_loo"].as_f64().unwrap();
+    assert!((4.0..8.0).contains(&p_loo), "p_loo {p_loo}");
+    let rows = std::fs::read_to_string(a.join("loo.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 3002);
+
+    let table = dir.path().join("compare.md");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .arg("compare")
+        .args([&a, &b])
+        .arg("--out")
+        .arg(&table)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(stdout.contains("predict equally well"), "{stdout}");
+    assert_eq!(
+        std::fs::read_to_string(&table).unwrap(),
+        stdout
+            .lines()
+            .take_while(|l| !l.starts_with("written to"))
+            .map(|l| format!("{l}\n"))
+            .collect::<String>()
+    );
+
+    let other = fit("models/rheocompass-ptfe.toml", "1", "other");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .arg("compare")
+        .args([&a, &other])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("observations") && stderr.contains("same data"),
+        "{stderr}"
+    );
+}

@@ -102,6 +102,24 @@ pub struct Loo {
 }
 
 impl Loo {
+    /// The LOO of the union of disjoint sets of points, e.g. of a model's runs: elpd and p_loo
+    /// add up, the standard error is that of all the points together.
+    ///
+    /// # Panics
+    /// When `parts` is empty.
+    pub fn concatenate<'a>(parts: impl IntoIterator<Item = &'a Loo>) -> Loo {
+        let mut parts = parts.into_iter();
+        let mut total = parts.next().expect("at least one part").clone();
+        for part in parts {
+            total.elpd += part.elpd;
+            total.p_loo += part.p_loo;
+            total.pointwise.extend_from_slice(&part.pointwise);
+            total.pareto_k.extend_from_slice(&part.pareto_k);
+        }
+        total.se = (total.pointwise.len() as f64 * population_variance(&total.pointwise)).sqrt();
+        total
+    }
+
     /// Points whose k̂ exceeds [`Loo::good_k`]: their elpd_i is not to be trusted.
     pub fn unreliable_points(&self) -> Vec<usize> {
         (0..self.pareto_k.len())

@@ -126,4 +126,7 @@ pub enum FitError {
     /// A posterior draw has no valid law, so its predictive curve cannot be drawn.
     #[error("computing the posterior predictive bands")]
     Predictive(#[source] crate::law::LawError),
+    /// Leave-one-out cross-validation failed at a posterior draw.
+    #[error("computing the leave-one-out predictive accuracy (PSIS-LOO)")]
+    Loo(#[source] crate::model::PointwiseError),
 }

@@ -408,6 +408,7 @@ impl Plan {
             },
             data: self.spec.data.clone(),
             notes: Vec::new(),
+            loo: None,
         })
     }
 }

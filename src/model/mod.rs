@@ -20,5 +20,7 @@ pub mod spec;
 pub mod sufficient;
 
 pub use one_contact::OneContact;
-pub use posterior::{Band, Posterior, PosteriorError, PriorDraw, PriorDrawError};
+pub use posterior::{
+    Band, ModelLoo, PointwiseError, Posterior, PosteriorError, PriorDraw, PriorDrawError,
+};
 pub use spec::{Blocking, LikelihoodSpec, ModelFile, ModelSpec, PopulationUpdates, SpecError};

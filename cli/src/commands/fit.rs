@@ -330,6 +330,25 @@ fn print_summary(outcome: &FitOutcome) {
             );
         }
     }
+    if let Some(loo) = &s.loo {
+        println!(
+            "PSIS-LOO: elpd_loo {:.2} ± {:.2}, p_loo {:.2} ({} draws, r_eff {:.2}); {} of {} points \
+             with Pareto k̂ > {:.2}{}",
+            loo.elpd_loo,
+            loo.se,
+            loo.p_loo,
+            loo.draws,
+            loo.r_eff,
+            loo.unreliable_points,
+            loo.runs.iter().map(|r| r.points).sum::<usize>(),
+            loo.good_k,
+            if loo.unreliable_points > 0 {
+                " (their elpd is unreliable; compare models with care)"
+            } else {
+                ""
+            }
+        );
+    }
     for note in &s.notes {
         println!("  note: {note}");
     }

@@ -3,6 +3,7 @@
 
 #[cfg(feature = "parquet")]
 mod bench;
+mod compare;
 #[cfg(feature = "parquet")]
 mod fit;
 mod import;
@@ -50,6 +51,7 @@ enum Command {
     #[cfg(feature = "report")]
     Report(report::ReportArgs),
     Simulate(simulate::SimulateArgs),
+    Compare(compare::CompareArgs),
     Import(import::ImportCommandArgs),
     #[cfg(feature = "parquet")]
     Validate(validate::ValidateArgs),
@@ -116,6 +118,7 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         #[cfg(feature = "report")]
         Command::Report(args) => report::run(&args),
         Command::Simulate(args) => simulate::run(&args),
+        Command::Compare(args) => compare::run(&args),
         Command::Import(args) => import::run(&args),
         #[cfg(feature = "parquet")]
         Command::Validate(args) => validate::run(&args),

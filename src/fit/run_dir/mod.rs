@@ -6,17 +6,19 @@
 //! DIR/summary.json        parameters, derived quantities, aggregates, comparisons, sampler
 //! DIR/summary.csv         one row per parameter and derived quantity (ArviZ's columns)
 //! DIR/predictive.csv      posterior and posterior predictive bands at the data times
+//! DIR/loo.csv             each observation's PSIS-LOO predictive density and Pareto k̂
 //! DIR/chains/*.parquet    the draws (see crate::storage)
 //! DIR/checkpoint.bin      the sampler state of the last checkpoint (MessagePack)
 //! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
 //! ```
 //!
-//! A fit writes the first seven ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
+//! A fit writes the first eight ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
 //! report reads them back through the same types ([`FitSummary`], [`RunRecord`],
 //! [`Band`]) and writes the last three. Every file is written atomically: a reader never
 //! sees half of one.
 
 mod csv;
+mod loo;
 mod predictive;
 mod record;
 mod summary;
@@ -28,6 +30,7 @@ use crate::model::{Band, ModelFile, ModelSpec};
 use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
 
 pub use csv::{summary_csv, CSV_COLUMNS};
+pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
 pub use predictive::PREDICTIVE_HEADER;
 pub use record::{relative_path, RunRecord};
 pub use summary::{AggregateSummary, Comparison, FitSummary, QuantitySummary, SamplerSummary};
@@ -42,6 +45,8 @@ pub const SUMMARY_JSON: &str = "summary.json";
 pub const SUMMARY_CSV: &str = "summary.csv";
 /// The posterior and posterior predictive bands.
 pub const PREDICTIVE_CSV: &str = "predictive.csv";
+/// Each observation's leave-one-out predictive density and Pareto k̂.
+pub const LOO_CSV: &str = "loo.csv";
 /// The folder of complete chain parts.
 pub const CHAINS_DIR: &str = "chains";
 /// The sampler state of the last checkpoint (binary; earlier releases wrote
@@ -292,6 +297,24 @@ impl RunDir {
     pub fn write_predictive(&self, bands: &[Band]) -> Result<(), RunDirError> {
         self.write(PREDICTIVE_CSV, predictive::to_csv(bands).as_bytes())?;
         Ok(())
+    }
+
+    /// Writes `loo.csv`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write_loo(&self, points: &[LooPoint]) -> Result<(), RunDirError> {
+        self.write(LOO_CSV, loo::to_csv(points).as_bytes())?;
+        Ok(())
+    }
+
+    /// `loo.csv`, one row per observation.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`], or [`RunDirError::Parse`] naming the line and column.
+    pub fn read_loo(&self) -> Result<Vec<LooPoint>, RunDirError> {
+        let path = self.file(LOO_CSV);
+        loo::parse(&path, &self.read(LOO_CSV)?)
     }
 
     /// `predictive.csv`, one band per run in file order.

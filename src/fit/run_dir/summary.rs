@@ -143,6 +143,9 @@ pub struct FitSummary {
     /// height is then extrapolated by the law rather than observed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,
+    /// Leave-one-out predictive accuracy (PSIS-LOO), when every run has a likelihood per point.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loo: Option<super::LooSummary>,
 }
 
 impl FitSummary {

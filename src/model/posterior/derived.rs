@@ -39,13 +39,7 @@ impl Posterior {
             }
             *out = match *source {
                 Source::Coord(i) => x[i].exp(),
-                Source::Sigma(g) => {
-                    // Seeded by the group's own residuals, not by all of `x`: the draw then
-                    // changes exactly when a block update changes the group.
-                    let (fit, n) = self.group_fit(g, ssr);
-                    let group = &self.sigma_groups[g];
-                    group.conditional_draw(hash_bits(&[fit], group.salt), fit, n)
-                }
+                Source::Sigma(g) => self.sigma_draw(g, ssr),
                 Source::AContact { ratio, f_d } => x[ratio].exp() * x[f_d].exp(),
                 Source::AMaterial(m) => self.materials[m]
                     .aging
@@ -79,6 +73,15 @@ impl Posterior {
                 Source::PeakNew(m) => self.new_contact_peak(x, m),
             };
         }
+    }
+
+    /// The reported σ of marginalised group `g`: a draw from its conditional posterior given
+    /// the runs' sums of squared residuals `ssr`. Seeded by the group's own residuals, not by
+    /// all of `x`: the draw then changes exactly when a block update changes the group.
+    pub(super) fn sigma_draw(&self, g: usize, ssr: &[f64]) -> f64 {
+        let (fit, n) = self.group_fit(g, ssr);
+        let group = &self.sigma_groups[g];
+        group.conditional_draw(hash_bits(&[fit], group.salt), fit, n)
     }
 
     /// The peak of a new contact of material `m`, at its slow velocity: t0 drawn from the

@@ -24,6 +24,7 @@ mod explain;
 mod layout;
 mod likelihood;
 mod long_records;
+mod pointwise;
 mod predictive;
 mod prior_predictive;
 mod sigma;
@@ -42,6 +43,7 @@ use crate::density::{BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quanti
 use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
+pub use pointwise::{ModelLoo, PointwiseError};
 pub use predictive::Band;
 pub use prior_predictive::{PriorDraw, PriorDrawError};
 

@@ -23,6 +23,12 @@ pub struct Band {
 }
 
 impl Posterior {
+    /// The observed forces of run `run` (N), one per data point.
+    pub fn observed_forces(&self, run: usize) -> &[f64] {
+        let data = &self.runs[run].data;
+        &data.force[..data.n_obs]
+    }
+
     /// Model forces of run `run` at its data times, for posterior predictive curves.
     ///
     /// # Errors

@@ -1,0 +1,188 @@
+//! The likelihood of each observation at a posterior draw, and the model's leave-one-out
+//! predictive accuracy from it (PSIS-LOO, [`crate::diagnostics::loo`]).
+//!
+//! A draw's σ is the one the chains report: its sampled coordinate, or, for σ integrated out
+//! of the likelihood, the exact conditional draw of the derived column (seeded by the same
+//! residuals, so the same bits). Given σ the observations are independent Gaussians around the
+//! model, so each has its own log-likelihood ln N(y_i | F_i(θ), σ²).
+
+use super::layout::SigmaSource;
+use super::likelihood::LN_SQRT_2PI;
+use super::Posterior;
+use crate::density::LogDensityError;
+use crate::diagnostics::loo::{psis_loo, Loo, LooError};
+use crate::law::LawError;
+
+/// Why pointwise log-likelihoods or LOO could not be computed.
+#[derive(Debug, thiserror::Error)]
+pub enum PointwiseError {
+    /// The run is evaluated on sufficient statistics: its points have no likelihood each.
+    #[error(
+        "run {run:?} has {points} points and is evaluated on sufficient statistics, which keep \
+         no likelihood per point: leave-one-out needs runs of at most [likelihood] exact_up_to \
+         points (thin the record with every = N to compare models on it)"
+    )]
+    Reduced {
+        /// The run.
+        run: String,
+        /// Its observations.
+        points: usize,
+    },
+    /// A draw where the model cannot be evaluated (not a posterior draw).
+    #[error("draw {draw}: the model cannot be evaluated there ({reason})")]
+    Draw {
+        /// The draw's index.
+        draw: usize,
+        /// What the density said.
+        reason: String,
+    },
+    /// PSIS-LOO refused the matrix of a run.
+    #[error("leave-one-out of run {run:?}: {source}")]
+    Loo {
+        /// The run.
+        run: String,
+        /// The reason.
+        #[source]
+        source: LooError,
+    },
+}
+
+/// PSIS-LOO of a whole model: every run's and all of them together.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelLoo {
+    /// Per run, in file order: its name and its LOO.
+    pub runs: Vec<(String, Loo)>,
+    /// All observations together (elpd and p_loo the runs' sums, se over every point).
+    pub total: Loo,
+    /// Relative efficiency of the draws used.
+    pub r_eff: f64,
+}
+
+/// What a draw fixes of every run besides its law: σ and, for the slide a repeat slide follows,
+/// the force at which it stopped.
+struct DrawNoise {
+    sigma: Vec<f64>,
+    f_end: Vec<Option<f64>>,
+}
+
+impl Posterior {
+    /// ln N(y_i | F_i(x), σ²) of every observation of run `run` at sampler coordinates `x`, σ
+    /// being the draw's (see the [module documentation](self)).
+    ///
+    /// # Errors
+    /// [`PointwiseError::Reduced`] for a run evaluated on sufficient statistics,
+    /// [`PointwiseError::Draw`] where the model cannot be evaluated at `x`.
+    pub fn pointwise_log_likelihood(
+        &self,
+        x: &[f64],
+        run: usize,
+    ) -> Result<Vec<f64>, PointwiseError> {
+        self.check_exact(run)?;
+        let noise = self.draw_noise(x, 0)?;
+        self.run_log_likelihood(x, run, &noise, 0)
+    }
+
+    /// PSIS-LOO of every run and of the whole model from posterior `draws` (sampler
+    /// coordinates), whose relative efficiency (ESS / draws) is `r_eff`. Memory: one run's
+    /// observations × draws at a time.
+    ///
+    /// # Errors
+    /// As [`Posterior::pointwise_log_likelihood`]; [`PointwiseError::Loo`] for too few draws.
+    pub fn psis_loo(&self, draws: &[Vec<f64>], r_eff: f64) -> Result<ModelLoo, PointwiseError> {
+        for run in 0..self.runs.len() {
+            self.check_exact(run)?;
+        }
+        let noise = draws
+            .iter()
+            .enumerate()
+            .map(|(s, x)| self.draw_noise(x, s))
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut runs = Vec::with_capacity(self.runs.len());
+        for (run, model) in self.runs.iter().enumerate() {
+            let points = model.data.n_obs;
+            // Point-major, as PSIS reads it: each observation's draws in a row.
+            let mut matrix = vec![0.0; points * draws.len()];
+            for (s, (x, noise)) in draws.iter().zip(&noise).enumerate() {
+                let values = self.run_log_likelihood(x, run, noise, s)?;
+                for (i, v) in values.into_iter().enumerate() {
+                    matrix[i * draws.len() + s] = v;
+                }
+            }
+            let loo =
+                psis_loo(&matrix, draws.len(), r_eff).map_err(|source| PointwiseError::Loo {
+                    run: model.name.clone(),
+                    source,
+                })?;
+            runs.push((model.name.clone(), loo));
+        }
+        let total = Loo::concatenate(runs.iter().map(|(_, loo)| loo));
+        Ok(ModelLoo { runs, total, r_eff })
+    }
+
+    fn check_exact(&self, run: usize) -> Result<(), PointwiseError> {
+        let r = &self.runs[run];
+        match r.reduction {
+            Some(_) => Err(PointwiseError::Reduced {
+                run: r.name.clone(),
+                points: r.data.n_obs,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Every run's σ and F_end at draw `x` (number `draw`), as the density and the derived
+    /// columns compute them.
+    fn draw_noise(&self, x: &[f64], draw: usize) -> Result<DrawNoise, PointwiseError> {
+        let n = self.runs.len();
+        let (mut ssr, mut last) = (vec![0.0; n], vec![0.0; n]);
+        for &i in &self.order {
+            self.fit_run(i, x, &mut ssr, &mut last)
+                .map_err(|e: LogDensityError| PointwiseError::Draw {
+                    draw,
+                    reason: e.to_string(),
+                })?;
+        }
+        let sigma = self
+            .runs
+            .iter()
+            .map(|r| match r.sigma {
+                SigmaSource::Coord(s) => x[s].exp(),
+                SigmaSource::Marginal(g) => self.sigma_draw(g, &ssr),
+            })
+            .collect();
+        let f_end = self
+            .runs
+            .iter()
+            .zip(&last)
+            .map(|(r, &last)| (r.scene == crate::law::Scene::First).then_some(last))
+            .collect();
+        Ok(DrawNoise { sigma, f_end })
+    }
+
+    fn run_log_likelihood(
+        &self,
+        x: &[f64],
+        run: usize,
+        noise: &DrawNoise,
+        draw: usize,
+    ) -> Result<Vec<f64>, PointwiseError> {
+        let forces = self
+            .forces_after(x, &noise.f_end, run)
+            .map_err(|e: LawError| PointwiseError::Draw {
+                draw,
+                reason: e.to_string(),
+            })?;
+        let sigma = noise.sigma[run];
+        let ln_norm = -sigma.ln() - LN_SQRT_2PI;
+        Ok(self.runs[run]
+            .data
+            .force
+            .iter()
+            .zip(forces)
+            .map(|(y, f)| {
+                let z = (y - f) / sigma;
+                ln_norm - 0.5 * z * z
+            })
+            .collect())
+    }
+}

@@ -1,0 +1,113 @@
+//! Each observation's log-likelihood at a draw, and PSIS-LOO of a model from them.
+
+use std::path::Path;
+
+use slipbayes::density::LogDensity;
+use slipbayes::model::{ModelSpec, PointwiseError, Posterior};
+
+/// One PTFE contact: its 1 nm/s first slide and the repeat slide that follows it, σ of each
+/// run integrated out (the default log-uniform prior) and reported as a derived column.
+fn model(extra: &str) -> String {
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/data");
+    format!(
+        r#"
+[[material]]
+name = "PTFE"
+[[contact]]
+name = "c1"
+material = "PTFE"
+[[run]]
+name = "first"
+contact = "c1"
+data = "{data}/ptfe-c1-first.csv"
+velocity_m_per_s = 1e-9
+scene = "first"
+[[run]]
+name = "repeat"
+contact = "c1"
+data = "{data}/ptfe-c1-repeat.csv"
+velocity_m_per_s = 1e-9
+scene = "repeat"
+follows = "first"
+{extra}
+"#
+    )
+}
+
+fn posterior(extra: &str) -> Posterior {
+    let spec = ModelSpec::parse(&model(extra), Path::new("model.toml")).expect("model");
+    Posterior::new(&spec).expect("posterior")
+}
+
+/// At a draw, each point's value is ln N(y_i | F_i, σ²) with the model forces the predictive
+/// curves use and exactly the σ the chains report in the run's `sigma[...]` column.
+#[test]
+fn each_point_is_a_gaussian_around_the_model_with_the_reported_sigma() {
+    let post = posterior("");
+    let x = post.start().to_vec();
+    let mut derived = vec![0.0; post.derived_names().len()];
+    post.log_density(&x, &mut derived)
+        .expect("finite at the start");
+    for (run, name) in ["first", "repeat"].into_iter().enumerate() {
+        let column = post
+            .derived_names()
+            .iter()
+            .position(|n| n == &format!("sigma[{name}]"))
+            .expect("a sigma column per run");
+        let sigma = derived[column];
+        let forces = post.run_forces(&x, run).expect("forces");
+        let values = post.pointwise_log_likelihood(&x, run).expect("pointwise");
+        let observed = post.observed_forces(run);
+        assert_eq!(values.len(), forces.len());
+        assert_eq!(values.len(), observed.len());
+        let ln_sqrt_2pi = 0.5 * (2.0 * std::f64::consts::PI).ln();
+        for (i, ((v, f), y)) in values.iter().zip(&forces).zip(observed).enumerate() {
+            let z = (y - f) / sigma;
+            let expected = -sigma.ln() - ln_sqrt_2pi - 0.5 * z * z;
+            assert!(
+                (v - expected).abs() <= 1e-12 * expected.abs(),
+                "{name} point {i}: {v} against {expected}"
+            );
+        }
+    }
+}
+
+/// PSIS-LOO over draws near the mode: one result per run, and the model's total is their union.
+#[test]
+fn loo_of_a_model_is_the_union_of_its_runs() {
+    let post = posterior("");
+    let start = post.start().to_vec();
+    // 60 draws around the start, a few thousandths of a unit apart in the log coordinates.
+    let draws: Vec<Vec<f64>> = (0..60)
+        .map(|s| {
+            start
+                .iter()
+                .enumerate()
+                .map(|(d, v)| v + 2e-3 * (((s * 7 + d * 13) % 11) as f64 / 10.0 - 0.5))
+                .collect()
+        })
+        .collect();
+    let loo = post.psis_loo(&draws, 1.0).expect("loo");
+    assert_eq!(loo.runs.len(), 2);
+    let points: usize = loo.runs.iter().map(|(_, l)| l.pointwise.len()).sum();
+    assert_eq!(loo.total.pointwise.len(), points);
+    let elpd: f64 = loo.runs.iter().map(|(_, l)| l.elpd).sum();
+    assert!((loo.total.elpd - elpd).abs() <= 1e-9 * elpd.abs());
+    assert!(loo.total.elpd.is_finite() && loo.total.se > 0.0);
+    assert_eq!(loo.runs[0].0, "first");
+    assert_eq!(loo.runs[1].0, "repeat");
+}
+
+/// A run evaluated on sufficient statistics has no likelihood per point: refused, naming it.
+#[test]
+fn a_reduced_run_is_refused_with_what_to_do() {
+    let post = posterior("[likelihood]\nexact_up_to = 1000\n");
+    let x = post.start().to_vec();
+    let error = post.pointwise_log_likelihood(&x, 0).unwrap_err();
+    assert!(
+        matches!(&error, PointwiseError::Reduced { run, points: 3001 } if run == "first"),
+        "{error}"
+    );
+    assert!(error.to_string().contains("exact_up_to"), "{error}");
+    assert!(post.psis_loo(&[x], 1.0).is_err());
+}
