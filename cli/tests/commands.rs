@@ -189,6 +189,32 @@ fn compare_ranks_fits_of_the_same_data_and_refuses_other_data() {
             .collect::<String>()
     );
 
+    // A run on sufficient statistics has no likelihood per point: the fit says so, and
+    // compare refuses it with that reason.
+    let model = std::fs::read_to_string(repo("benches/peer/one_contact.toml"))
+        .unwrap()
+        .replace("../../data/", &format!("{}/", repo("data").display()))
+        + "\n[likelihood]\nexact_up_to = 1000\n";
+    let reduced_model = dir.path().join("reduced.toml");
+    std::fs::write(&reduced_model, model).unwrap();
+    let reduced = fit(reduced_model.to_str().unwrap(), "1", "reduced");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(reduced.join("summary.json")).unwrap()).unwrap();
+    assert!(summary["loo"].is_null());
+    let reason = summary["loo_not_computed"].as_str().unwrap();
+    assert!(reason.contains("sufficient statistics"), "{reason}");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .arg("compare")
+        .args([&a, &reduced])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("no leave-one-out result") && stderr.contains("exact_up_to"),
+        "{stderr}"
+    );
+
     let other = fit("models/rheocompass-ptfe.toml", "1", "other");
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
         .arg("compare")

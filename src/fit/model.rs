@@ -274,9 +274,7 @@ fn leave_one_out(posterior: &Posterior, outcome: &mut FitOutcome) -> Result<(), 
     let loo = match posterior.psis_loo(&draws, r_eff) {
         Ok(loo) => loo,
         Err(reason @ PointwiseError::Reduced { .. }) => {
-            outcome.summary.notes.push(format!(
-                "Leave-one-out (PSIS-LOO) was not computed: {reason}."
-            ));
+            outcome.summary.loo_not_computed = Some(reason.to_string());
             return Ok(());
         }
         Err(e) => return Err(FitError::Loo(e)),

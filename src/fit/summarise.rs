@@ -409,6 +409,7 @@ impl Plan {
             data: self.spec.data.clone(),
             notes: Vec::new(),
             loo: None,
+            loo_not_computed: None,
         })
     }
 }

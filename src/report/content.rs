@@ -356,7 +356,22 @@ fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
         blocks.push(Block::Paragraph("Peak static friction:".into()));
         blocks.push(Block::List(peaks));
     }
-    let notes = &ctx.inputs.summary.notes;
+    let summary = &ctx.inputs.summary;
+    if let Some(loo) = &summary.loo {
+        let points: usize = loo.runs.iter().map(|r| r.points).sum();
+        blocks.push(Block::Paragraph(format!(
+            "How well does it predict a point it has not seen? Leave-one-out (PSIS-LOO, {} draws): \
+             elpd_loo = {:.1} ± {:.1}, p_loo = {:.1} effective parameters; {} of {} points have a \
+             Pareto k̂ above {:.2} (their estimates are unreliable); slipbayes compare ranks \
+             fits of the same data by it.",
+            loo.draws, loo.elpd_loo, loo.se, loo.p_loo, loo.unreliable_points, points, loo.good_k
+        )));
+    } else if let Some(reason) = &summary.loo_not_computed {
+        blocks.push(Block::Paragraph(format!(
+            "Leave-one-out (PSIS-LOO) was not computed: {reason}."
+        )));
+    }
+    let notes = &summary.notes;
     if !notes.is_empty() {
         blocks.push(Block::Paragraph("What the data do not show:".into()));
         blocks.push(Block::List(notes.clone()));

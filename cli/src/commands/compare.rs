@@ -58,14 +58,9 @@ fn read_fit(dir: &RunDir) -> anyhow::Result<Fitted> {
     let shown = dir.path().display();
     let summary = dir.read_summary()?;
     let Some(loo) = summary.loo else {
-        let why = summary
-            .notes
-            .iter()
-            .find(|n| n.contains("PSIS-LOO"))
-            .cloned()
-            .unwrap_or_else(|| {
-                "it was fitted by an earlier release; fit it again to compute it".to_owned()
-            });
+        let why = summary.loo_not_computed.unwrap_or_else(|| {
+            "it was fitted by an earlier release; fit it again to compute it".to_owned()
+        });
         bail!("{shown} has no leave-one-out result: {why}");
     };
     let points = dir.read_loo()?;

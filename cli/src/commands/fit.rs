@@ -349,6 +349,9 @@ fn print_summary(outcome: &FitOutcome) {
             }
         );
     }
+    if let Some(reason) = &s.loo_not_computed {
+        println!("PSIS-LOO not computed: {reason}");
+    }
     for note in &s.notes {
         println!("  note: {note}");
     }

@@ -146,6 +146,9 @@ pub struct FitSummary {
     /// Leave-one-out predictive accuracy (PSIS-LOO), when every run has a likelihood per point.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loo: Option<super::LooSummary>,
+    /// Why `loo` is absent, when the fit could not compute it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loo_not_computed: Option<String>,
 }
 
 impl FitSummary {
