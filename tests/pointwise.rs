@@ -56,7 +56,9 @@ fn each_point_is_a_gaussian_around_the_model_with_the_reported_sigma() {
             .expect("a sigma column per run");
         let sigma = derived[column];
         let forces = post.run_forces(&x, run).expect("forces");
-        let values = post.pointwise_log_likelihood(&x, run).expect("pointwise");
+        let all = post.pointwise_log_likelihood(&x).expect("pointwise");
+        assert_eq!(all.len(), 2);
+        let values = &all[run];
         let observed = post.observed_forces(run);
         assert_eq!(values.len(), forces.len());
         assert_eq!(values.len(), observed.len());
@@ -103,7 +105,7 @@ fn loo_of_a_model_is_the_union_of_its_runs() {
 fn a_reduced_run_is_refused_with_what_to_do() {
     let post = posterior("[likelihood]\nexact_up_to = 1000\n");
     let x = post.start().to_vec();
-    let error = post.pointwise_log_likelihood(&x, 0).unwrap_err();
+    let error = post.pointwise_log_likelihood(&x).unwrap_err();
     assert!(
         matches!(&error, PointwiseError::Reduced { run, points: 3001 } if run == "first"),
         "{error}"

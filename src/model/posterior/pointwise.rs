@@ -66,20 +66,21 @@ struct DrawNoise {
 }
 
 impl Posterior {
-    /// ln N(y_i | F_i(x), σ²) of every observation of run `run` at sampler coordinates `x`, σ
-    /// being the draw's (see the [module documentation](self)).
+    /// ln N(y_i | F_i(x), σ²) of every observation at sampler coordinates `x`: one `Vec` per
+    /// run in the model's order, σ being the draw's (see the [module documentation](self)).
     ///
     /// # Errors
     /// [`PointwiseError::Reduced`] for a run evaluated on sufficient statistics,
-    /// [`PointwiseError::Draw`] where the model cannot be evaluated at `x`.
-    pub fn pointwise_log_likelihood(
-        &self,
-        x: &[f64],
-        run: usize,
-    ) -> Result<Vec<f64>, PointwiseError> {
-        self.check_exact(run)?;
+    /// [`PointwiseError::Draw`] where the model cannot be evaluated at `x` (outside the
+    /// prior's support, stick-slip: a posterior draw never is).
+    pub fn pointwise_log_likelihood(&self, x: &[f64]) -> Result<Vec<Vec<f64>>, PointwiseError> {
+        for run in 0..self.runs.len() {
+            self.check_exact(run)?;
+        }
         let noise = self.draw_noise(x, 0)?;
-        self.run_log_likelihood(x, run, &noise, 0)
+        (0..self.runs.len())
+            .map(|run| self.run_log_likelihood(x, run, &noise, 0))
+            .collect()
     }
 
     /// PSIS-LOO of every run and of the whole model from posterior `draws` (sampler
