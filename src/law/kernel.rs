@@ -5,16 +5,19 @@
 //! Solving t = τ + F(τ)/(kv) point after point (the reference,
 //! [`ObservedSlide::for_each_force_serial`](super::ObservedSlide::for_each_force_serial)) is
 //! one serial chain: each point's Newton iteration starts from the previous point's root.
-//! Here only every [`CHUNK`]-th point (an *anchor*) is solved one after the other, by Newton
-//! steps from a cubic Taylor guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from the law). The
-//! points between two anchors get a quintic Hermite guess of τ(t) from the anchors' τ, dτ/dt
-//! and d²τ/dt², which makes them independent of one another, and are solved together: one
-//! evaluation of the law per lane and one Newton step, batch after batch.
+//! Here only every 65th point (an *anchor*; every 33rd where the guesses below needed a
+//! second round, see `spring_lanes`) is solved one after the other, by Newton steps from the
+//! previous chunk's quintic Hermite interpolant extrapolated to it, or from a cubic Taylor
+//! guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from the law) where there is none or it leaves
+//! the bracket. The points between two anchors get a quintic Hermite guess of τ(t) from the
+//! anchors' τ, dτ/dt and d²τ/dt², which makes them independent of one another, and are solved
+//! together: one evaluation of the law per lane and one Newton step, batch after batch.
 //!
 //! # Exactness
 //! A Newton step from a guess off by s leaves an error of ½ |G''/G'| s² in τ, G(τ) = τ +
 //! F(τ)/(kv) − t, and carrying F along its tangent leaves ½ |F''| s². Both are computed per
-//! lane from the law's own curvature (d²F/dτ² = −a/τ² − αv dF/dτ) and must be below
+//! lane from the law's own curvature (|d²F/dτ²| = |a/τ² + αv dF/dτ| = αv |αv a/x² + dF/dτ|,
+//! x = αvτ, with 1/x from the law's own division) and must be below
 //! a quarter of an ulp of τ and of F; a batch where some lane fails takes another Newton
 //! step, and a lane that still fails after four rounds (or leaves its bracket) is solved by the
 //! safeguarded serial iteration. So every point is as exact as the serial solve's: the
@@ -25,7 +28,8 @@
 //! subtraction (x ≥ x0 + 1 outside the series and quadrature regimes of
 //! [`crate::special::ei_scaled_diff`]: the bulk of any slide), the law is assembled from one
 //! branch-free e^(−x), one ln x (for x ≤ 6) and one rational fit per lane
-//! ([`crate::special`]'s lane functions). A batch that straddles the regimes (the series
+//! ([`crate::special`]'s lane functions); beyond x = 6 one division per lane gives the fit,
+//! 1/x and the law's a/τ = αv a/x together. A batch that straddles the regimes (the series
 //! of e^(−x)[Ei(x) − Ei(x0)] near x0, apart from or close to it) evaluates each form it needs
 //! in lanes and keeps per lane the one the scalar law would use; only batches outside every
 //! vector form (quadrature, τ before t0, x past the lanes' range) evaluate the scalar law
@@ -52,14 +56,16 @@ use crate::special::lanes::{
 };
 use crate::special::{in_series_apart, in_series_close, in_subtraction};
 
-/// Points per batch: two AVX-512 registers of f64 (four AVX2 registers), so that two
+/// Points per batch: four AVX-512 registers of f64 (eight AVX2 registers), so that several
 /// independent dependency chains fill the pipelines (one register's worth, 8, was 1.3–1.5×
-/// slower per point on this project's machine).
-pub const LANES: usize = 16;
-/// Batches of points between two anchors.
-const BATCHES_PER_CHUNK: usize = 4;
-/// Points per anchor: the anchor and the points before it back to the previous anchor.
-pub const CHUNK: usize = BATCHES_PER_CHUNK * LANES + 1;
+/// slower per point on this project's machine, 16 about 5 % slower than 32).
+pub const LANES: usize = 32;
+/// Batches between two anchors where the Hermite guesses have been good: a chunk of
+/// `MAX_BATCHES_PER_CHUNK * LANES + 1` points.
+const MAX_BATCHES_PER_CHUNK: usize = 2;
+/// Chunks in a row whose every batch converged in one Newton round before a short chunk (one
+/// batch between anchors) grows back.
+const CLEAN_CHUNKS_TO_GROW: usize = 2;
 /// Newton steps a batch may take before its failing lanes are solved serially.
 const MAX_ROUNDS: usize = 4;
 /// Largest predicted error of a lane, relative to τ and to F: a quarter of an ulp.
@@ -220,17 +226,28 @@ struct Step {
     inside: bool,
 }
 
-/// [`Step`] from `tau`; branch-free, so that it vectorises across lanes.
+/// [`Step`] from `tau`, where x = αvτ has reciprocal `inv_x`; branch-free, so that it
+/// vectorises across lanes.
 #[inline(always)]
-fn newton_step(law: &Law, inv_kv: f64, lo: f64, t: f64, tau: f64, force: f64, rate: f64) -> Step {
+#[allow(clippy::too_many_arguments)]
+fn newton_step(
+    law: &Law,
+    inv_kv: f64,
+    lo: f64,
+    t: f64,
+    tau: f64,
+    force: f64,
+    rate: f64,
+    inv_x: f64,
+) -> Step {
     let g_slope = 1.0 + rate * inv_kv;
     let inv_slope = 1.0 / g_slope;
     let step = (t - tau - force * inv_kv) * inv_slope;
     let next = tau + step;
     let next_force = force + rate * step;
-    let inv_tau = 1.0 / tau;
-    let curvature = -law.a * inv_tau * inv_tau - law.alpha_v * rate;
-    let remainder = 0.5 * curvature.abs() * step * step;
+    // |d²F/dτ²| = |a/τ² + αv dF/dτ| = αv |αv a/x² + dF/dτ|.
+    let curvature = law.alpha_v * (law.alpha_v * law.a * inv_x * inv_x + rate).abs();
+    let remainder = 0.5 * curvature * step * step;
     let tau_error = remainder * inv_kv * inv_slope;
     let force_error = remainder * (1.0 + rate.abs() * inv_kv * inv_slope);
     let inside = (next > lo) & (next <= t);
@@ -260,20 +277,24 @@ impl<'l> LawLanes<'l> {
         }
     }
 
-    /// F and dF/dτ at every lane of `tau`.
+    /// F, dF/dτ and 1/x (x = αvτ) at every lane of `tau`.
     #[inline(always)]
     fn force_and_rate(
         &self,
         tau: &Lanes,
         force: &mut Lanes,
         rate: &mut Lanes,
+        inv_x: &mut Lanes,
         tally: &mut impl Tally,
     ) {
         let law = self.law;
         let (alpha_v, x0) = (law.alpha_v, law.diff.x0());
         let mut x = [0.0; LANES];
+        let mut in_range = true;
         for l in 0..LANES {
             x[l] = alpha_v * tau[l];
+            // False for NaN too.
+            in_range &= (x[l] >= 0.0) & (x[l] <= X_LANES_MAX);
         }
         // Which forms of D the batch needs, decided from its smallest and largest x where
         // the batch lies in one regime (the bulk of a slide): subtraction holds from some x on
@@ -281,12 +302,11 @@ impl<'l> LawLanes<'l> {
         // does), so at the smallest x; either series holds on an interval of x, so at both
         // ends. A batch across a boundary is classified lane by lane and evaluated in each
         // form it needs; a lane in no vector form (the quadrature regime, τ before t0, x past
-        // the lanes' range, NaN: the sum catches it) sends the batch to the scalar law.
-        let (lo, hi, sum) = x.iter().fold(
-            (f64::INFINITY, f64::NEG_INFINITY, 0.0),
-            |(lo, hi, sum), &v| (lo.min(v), hi.max(v), sum + v),
-        );
-        let finite = sum.is_finite() && self.ei0.is_finite() && hi <= X_LANES_MAX;
+        // the lanes' range, NaN) sends the batch to the scalar law. The reductions are
+        // pairwise, so that they cost a few vector operations rather than a chain of 16.
+        let lo = reduce(&x, |a, b| if b < a { b } else { a });
+        let hi = reduce(&x, |a, b| if b > a { b } else { a });
+        let finite = in_range && self.ei0.is_finite();
         let mut forms = [[false; LANES]; 3];
         let (subtract, apart, close) = if !finite {
             (false, false, false)
@@ -312,6 +332,7 @@ impl<'l> LawLanes<'l> {
             tally.count(|c| c.scalar_law_batches += 1);
             for l in 0..LANES {
                 (force[l], rate[l]) = law.force_and_rate(tau[l]);
+                inv_x[l] = 1.0 / x[l];
             }
             return;
         }
@@ -320,24 +341,29 @@ impl<'l> LawLanes<'l> {
             e[l] = exp_neg(x[l]);
         }
         let mut d = [0.0; LANES];
+        if forms_needed == 1 && subtract {
+            d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut d, inv_x);
+            // x ≥ 1 where D subtracts, so 1 − e^(−x) keeps its digits.
+            self.assemble(&e, &d, inv_x, |l| 1.0 - e[l], force, rate);
+            return;
+        }
+        // Near x0 (the first batches of a slide): each form into `part`, then its lanes
+        // into `d`; 1/x by its own division.
+        let mut part = [0.0; LANES];
+        let take = |form: &[bool; LANES], part: &Lanes, d: &mut Lanes| {
+            for l in 0..LANES {
+                d[l] = if form[l] { part[l] } else { d[l] };
+            }
+        };
         if forms_needed == 1 {
-            if subtract {
-                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut d);
-            } else if apart {
+            if apart {
                 d_series(&x, &e, x0, hi, &mut d);
             } else {
                 d_series_close(&x, &e, x0, hi, &mut d);
             }
         } else {
-            // Each form into `part`, then its lanes into `d`.
-            let mut part = [0.0; LANES];
-            let take = |form: &[bool; LANES], part: &Lanes, d: &mut Lanes| {
-                for l in 0..LANES {
-                    d[l] = if form[l] { part[l] } else { d[l] };
-                }
-            };
             if subtract {
-                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut part);
+                d_subtracted(&x, &e, self.ei0, Pieces::spanning(lo, hi), &mut part, inv_x);
                 take(&forms[0], &part, &mut d);
             }
             if apart {
@@ -349,22 +375,29 @@ impl<'l> LawLanes<'l> {
                 take(&forms[2], &part, &mut d);
             }
         }
-        // x ≥ 1 where D subtracts, so 1 − e^(−x) keeps its digits; elsewhere x may be below
-        // 1/2, where it is taken by its series, as the scalar law takes −expm1(−x).
-        if forms_needed == 1 && subtract {
-            self.assemble(tau, &e, &d, |l| 1.0 - e[l], force, rate);
-        } else {
-            self.assemble(tau, &e, &d, |l| one_minus_exp_neg(x[l], e[l]), force, rate);
+        for l in 0..LANES {
+            inv_x[l] = 1.0 / x[l];
         }
+        // x may be below 1/2 here, where 1 − e^(−x) is taken by its series, as the scalar law
+        // takes −expm1(−x).
+        self.assemble(
+            &e,
+            &d,
+            inv_x,
+            |l| one_minus_exp_neg(x[l], e[l]),
+            force,
+            rate,
+        );
     }
 
-    /// F and dF/dτ from e^(−x), D and 1 − e^(−x), as in `Law::force_and_rate`.
+    /// F and dF/dτ from e^(−x), D, 1/x and 1 − e^(−x), as in `Law::force_and_rate` (with
+    /// a/τ = αv · a/x).
     #[inline(always)]
     fn assemble(
         &self,
-        tau: &Lanes,
         e: &Lanes,
         d: &Lanes,
+        inv_x: &Lanes,
         one_minus_e: impl Fn(usize) -> f64,
         force: &mut Lanes,
         rate: &mut Lanes,
@@ -373,9 +406,25 @@ impl<'l> LawLanes<'l> {
         for l in 0..LANES {
             let aging = law.a * d[l];
             force[l] = aging + law.f_d * one_minus_e(l);
-            rate[l] = law.a / tau[l] - law.alpha_v * (aging - law.f_d * e[l]);
+            rate[l] = law.alpha_v * (law.a * inv_x[l] - (aging - law.f_d * e[l]));
         }
     }
+}
+
+/// `op` over the lanes, pairwise (`op` is min or max, as a comparison and select so that it
+/// vectorises, which only NaN would tell from `f64::min`: a batch with NaN goes to the scalar
+/// law whatever its smallest and largest x).
+#[inline(always)]
+fn reduce(v: &Lanes, op: impl Fn(f64, f64) -> f64) -> f64 {
+    let mut w = *v;
+    let mut half = LANES / 2;
+    while half > 0 {
+        for l in 0..half {
+            w[l] = op(w[l], w[l + half]);
+        }
+        half /= 2;
+    }
+    w[0]
 }
 
 /// A slide declared stiff (τ = t): the law at every time, in batches.
@@ -478,6 +527,9 @@ unsafe fn spring_avx2<V: FnMut(usize, f64, f64), T: Tally>(
 /// lanes are computed and dropped).
 #[inline(always)]
 fn batch_of(values: &[f64]) -> Lanes {
+    if let Ok(full) = Lanes::try_from(values) {
+        return full;
+    }
     let mut out = [values[values.len() - 1]; LANES];
     out[..values.len()].copy_from_slice(values);
     out
@@ -491,11 +543,11 @@ fn stiff_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     tally: &mut T,
 ) {
     let lanes = LawLanes::new(law);
-    let (mut force, mut rate) = ([0.0; LANES], [0.0; LANES]);
+    let (mut force, mut rate, mut inv_x) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
     for (b, chunk) in times.chunks(LANES).enumerate() {
         tally.count(|c| c.batches += 1);
         let t = batch_of(chunk);
-        lanes.force_and_rate(&t, &mut force, &mut rate, tally);
+        lanes.force_and_rate(&t, &mut force, &mut rate, &mut inv_x, tally);
         for (l, &t) in chunk.iter().enumerate() {
             visit(b * LANES + l, t, force[l]);
         }
@@ -530,46 +582,63 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     }
     let lanes = LawLanes::new(law);
     let mut left = Anchor::new(law, kv, loading_ends, t0, force_t0, rate_t0);
+    // The chunk's length adapts to how good the guesses are: where a batch needed a second
+    // Newton round (the steep rise at the start of a slow slide), the next chunks are one batch
+    // long, whose guesses are 2⁶ times closer; after `CLEAN_CHUNKS_TO_GROW` clean chunks they
+    // grow back. Rounds are the same on every instruction set, so are the anchors.
+    let (mut batches, mut clean) = (1, 0);
+    let mut guess = None;
     while i < n {
-        let end = (i + CHUNK).min(n) - 1;
+        let end = (i + batches * LANES + 1).min(n) - 1;
         tally.count(|c| c.anchors += 1);
-        let right = solve_anchor(law, kv, &left, times[end], tally)?;
+        let right = solve_anchor(law, kv, &left, guess.as_ref(), times[end], tally)?;
         let between = &times[i..end];
-        solve_between(
-            &lanes,
-            kv,
-            &left,
-            &right,
-            between,
-            tally,
-            &mut |j, tau, f| visit(i + j, tau, f),
-        )?;
+        let chunk_guess = Hermite::new(&left, &right);
+        if solve_between(&lanes, kv, &chunk_guess, (i, between), tally, visit)? {
+            clean += 1;
+            if clean >= CLEAN_CHUNKS_TO_GROW && batches < MAX_BATCHES_PER_CHUNK {
+                (batches, clean) = (batches * 2, 0);
+            }
+        } else {
+            (batches, clean) = (1, 0);
+        }
         visit(end, right.tau, right.force);
         left = right;
+        guess = Some(chunk_guess);
         i = end + 1;
     }
     Ok(())
 }
 
-/// The point at time `t` after `left`: Newton steps from the cubic Taylor guess along τ(t)
-/// until one's predicted error is round-off, else the safeguarded iteration on [τ_left, t].
+/// The point at time `t` after `left`: Newton steps until one's predicted error is round-off,
+/// else the safeguarded iteration on [τ_left, t]. They start from the previous chunk's Hermite
+/// interpolant extrapolated to `t` (`previous`; its error grows as the sixth power of the
+/// spacing, against the fourth for a Taylor guess, so that one step usually suffices) where
+/// that lies in (τ_left, t], else from the cubic Taylor guess along τ(t).
 #[inline(always)]
 fn solve_anchor(
     law: &Law,
     kv: f64,
     left: &Anchor,
+    previous: Option<&Hermite>,
     t: f64,
     tally: &mut impl Tally,
 ) -> Result<Anchor, LawError> {
     let dt = t - left.t;
-    let mut tau = left.tau + dt * (left.slope + dt * (0.5 * left.curvature + dt * left.jerk / 6.0));
+    let extrapolated = previous.map_or(f64::NAN, |p| p.at(t));
+    let mut tau = if extrapolated > left.tau && extrapolated <= t {
+        extrapolated
+    } else {
+        left.tau + dt * (left.slope + dt * (0.5 * left.curvature + dt * left.jerk / 6.0))
+    };
     for _ in 0..MAX_ROUNDS {
         if !(tau > left.tau && tau <= t) {
             break;
         }
         tally.count(|c| c.anchor_evaluations += 1);
         let (force, rate) = law.force_and_rate(tau);
-        let step = newton_step(law, 1.0 / kv, left.tau, t, tau, force, rate);
+        let inv_x = 1.0 / (law.alpha_v * tau);
+        let step = newton_step(law, 1.0 / kv, left.tau, t, tau, force, rate, inv_x);
         if step.converged {
             return Ok(Anchor::new(law, kv, t, step.tau, step.force, rate));
         }
@@ -580,42 +649,47 @@ fn solve_anchor(
     Ok(Anchor::new(law, kv, t, root, force, rate))
 }
 
-/// The points strictly between two anchors, batch by batch: Hermite guesses, Newton steps
-/// until every lane's predicted error is round-off, the serial solve for what remains.
+/// The points strictly between two anchors, `times`, the first of which is point `first` of
+/// the slide, batch by batch: guesses from the anchors' Hermite interpolant `guess`, Newton steps until every lane's predicted error
+/// is round-off, the serial solve for what remains. Returns whether every batch converged in
+/// one round.
 #[inline(always)]
 fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
     lanes: &LawLanes,
     kv: f64,
-    left: &Anchor,
-    right: &Anchor,
-    times: &[f64],
+    guess: &Hermite,
+    (first, times): (usize, &[f64]),
     tally: &mut T,
     visit: &mut V,
-) -> Result<(), LawError> {
+) -> Result<bool, LawError> {
     let law = lanes.law;
-    let span = right.t - left.t;
+    let left_tau = guess.tau_left();
+    let mut one_round = true;
     let inv_kv = 1.0 / kv;
-    let (mut force, mut rate) = ([0.0; LANES], [0.0; LANES]);
+    let (mut force, mut rate, mut inv_x) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
     for (b, chunk) in times.chunks(LANES).enumerate() {
         tally.count(|c| c.batches += 1);
         let t = batch_of(chunk);
         let mut tau = [0.0; LANES];
         for l in 0..LANES {
-            tau[l] = hermite(left, right, span, t[l]);
+            tau[l] = guess.at(t[l]);
         }
         let mut converged = [false; LANES];
         let mut out_force = [0.0; LANES];
-        for _ in 0..MAX_ROUNDS {
+        for round in 0..MAX_ROUNDS {
+            one_round &= round == 0;
             tally.count(|c| c.rounds += 1);
-            lanes.force_and_rate(&tau, &mut force, &mut rate, tally);
+            lanes.force_and_rate(&tau, &mut force, &mut rate, &mut inv_x, tally);
             // Branch-free (`&`, selects), so that the lanes stay in vector registers.
             let mut failed = 0_u32;
             for l in 0..LANES {
-                let step = newton_step(law, inv_kv, left.tau, t[l], tau[l], force[l], rate[l]);
+                let step = newton_step(
+                    law, inv_kv, left_tau, t[l], tau[l], force[l], rate[l], inv_x[l],
+                );
                 converged[l] = step.converged;
                 failed += u32::from(!step.converged);
                 // A lane that left its bracket restarts from the bracket's middle.
-                let middle = left.tau + 0.5 * (t[l] - left.tau);
+                let middle = left_tau + 0.5 * (t[l] - left_tau);
                 tau[l] = if step.inside { step.tau } else { middle };
                 out_force[l] = step.force;
             }
@@ -623,36 +697,66 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
                 break;
             }
         }
-        for (l, &t) in chunk.iter().enumerate() {
-            if converged[l] {
-                visit(b * LANES + l, tau[l], out_force[l]);
-            } else {
-                tally.count(|c| c.serial_points += 1);
-                let (root, f, _) = solve_point(law, kv, left.tau, t, tau[l])?;
-                visit(b * LANES + l, root, f);
+        if converged[..chunk.len()].iter().any(|&c| !c) {
+            for (l, &t) in chunk.iter().enumerate() {
+                if !converged[l] {
+                    tally.count(|c| c.serial_points += 1);
+                    (tau[l], out_force[l], _) = solve_point(law, kv, left_tau, t, tau[l])?;
+                }
             }
         }
+        // A loop of visits alone, with no call that could see the caller's state, so that
+        // the caller's accumulators stay in registers.
+        for l in 0..chunk.len() {
+            visit(first + b * LANES + l, tau[l], out_force[l]);
+        }
     }
-    Ok(())
+    Ok(one_round)
 }
 
-/// τ at `t` by the quintic Hermite interpolant of the anchors' τ, dτ/dt and d²τ/dt² (its
-/// error falls as the sixth power of the anchors' spacing, so that one Newton step usually
-/// leaves only round-off).
-#[inline(always)]
-fn hermite(left: &Anchor, right: &Anchor, span: f64, t: f64) -> f64 {
-    let u = (t - left.t) / span;
-    let (u2, u3) = (u * u, u * u * u);
-    let (u4, u5) = (u3 * u, u3 * u2);
-    let h0 = 1.0 - 10.0 * u3 + 15.0 * u4 - 6.0 * u5;
-    let h1 = u - 6.0 * u3 + 8.0 * u4 - 3.0 * u5;
-    let h2 = 0.5 * (u2 - 3.0 * u3 + 3.0 * u4 - u5);
-    let h3 = 0.5 * (u3 - 2.0 * u4 + u5);
-    let h4 = -4.0 * u3 + 7.0 * u4 - 3.0 * u5;
-    let h5 = 10.0 * u3 - 15.0 * u4 + 6.0 * u5;
-    let span2 = span * span;
-    h0 * left.tau
-        + h5 * right.tau
-        + span * (h1 * left.slope + h4 * right.slope)
-        + span2 * (h2 * left.curvature + h3 * right.curvature)
+/// The quintic Hermite interpolant of τ(t) between two anchors, from their τ, dτ/dt and
+/// d²τ/dt² (its error falls as the sixth power of the anchors' spacing, so that one Newton
+/// step usually leaves only round-off), as a polynomial in u = (t − t_left)/span whose
+/// coefficients are formed once per chunk: a guess then costs a multiplication and five
+/// Horner steps.
+struct Hermite {
+    t_left: f64,
+    inv_span: f64,
+    /// Coefficients of u⁰ … u⁵.
+    c: [f64; 6],
+}
+
+impl Hermite {
+    fn new(left: &Anchor, right: &Anchor) -> Self {
+        let span = right.t - left.t;
+        // The interpolant's values and derivatives in u at both ends.
+        let rise = right.tau - left.tau;
+        let (d0, d1) = (span * left.slope, span * right.slope);
+        let (c0, c1) = (span * span * left.curvature, span * span * right.curvature);
+        Self {
+            t_left: left.t,
+            inv_span: 1.0 / span,
+            c: [
+                left.tau,
+                d0,
+                0.5 * c0,
+                10.0 * rise - 6.0 * d0 - 4.0 * d1 - 1.5 * c0 + 0.5 * c1,
+                -15.0 * rise + 8.0 * d0 + 7.0 * d1 + 1.5 * c0 - c1,
+                6.0 * rise - 3.0 * (d0 + d1) - 0.5 * (c0 - c1),
+            ],
+        }
+    }
+
+    /// τ at the left anchor, the lower end of every bracket in the chunk.
+    fn tau_left(&self) -> f64 {
+        self.c[0]
+    }
+
+    /// The guess of τ at `t`.
+    #[inline(always)]
+    fn at(&self, t: f64) -> f64 {
+        let u = (t - self.t_left) * self.inv_span;
+        let c = &self.c;
+        c[0] + u * (c[1] + u * (c[2] + u * (c[3] + u * (c[4] + u * c[5]))))
+    }
 }

@@ -222,6 +222,46 @@ pub(crate) fn g_beyond_40(x: f64) -> f64 {
     (YINF + poly(&PINF, t) / poly(&QINF, t)) / x
 }
 
+/// x·g(x) on the pieces of (6, ∞) as a fraction (numerator, denominator), for lanes that
+/// share one division between g = numerator/(denominator·x), 1/x and the law's a/τ
+/// (`super::lanes::d_subtracted`): Y + P/Q = (Y·Q + P)/Q. The reduced argument t is formed
+/// with a multiplication (x·0.2 rather than x/5, within an ulp of it), which moves t by at
+/// most a few 1e−16 and the fit's value by less.
+#[inline(always)]
+pub(crate) fn xg_fraction_upto_10(x: f64) -> (f64, f64) {
+    fraction(Y10, &P10, &Q10, x * 0.5 - 4.0)
+}
+
+/// As [`xg_fraction_upto_10`] on (10, 20].
+#[inline(always)]
+pub(crate) fn xg_fraction_upto_20(x: f64) -> (f64, f64) {
+    fraction(Y20, &P20, &Q20, x * 0.2 - 3.0)
+}
+
+/// As [`xg_fraction_upto_10`] on (20, 40].
+#[inline(always)]
+pub(crate) fn xg_fraction_upto_40(x: f64) -> (f64, f64) {
+    fraction(Y40, &P40, &Q40, x * 0.1 - 3.0)
+}
+
+/// As [`xg_fraction_upto_10`] for x > 40 (the fit is in 1/x, one more division, a piece few
+/// slides reach).
+#[inline(always)]
+pub(crate) fn xg_fraction_beyond_40(x: f64) -> (f64, f64) {
+    fraction(YINF, &PINF, &QINF, 1.0 / x)
+}
+
+#[inline(always)]
+fn fraction<const NP: usize, const NQ: usize>(
+    y: f64,
+    p: &[f64; NP],
+    q: &[f64; NQ],
+    t: f64,
+) -> (f64, f64) {
+    let q = poly(q, t);
+    (y * q + poly(p, t), q)
+}
+
 /// Ei(x) for 1 ≤ x ≤ 6 given ln x, without a branch (the root of Ei is below 1, so ln(x/r)
 /// = ln x − ln r adds two positive terms): the same fit as [`ei_small`].
 #[inline(always)]
