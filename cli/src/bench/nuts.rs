@@ -225,7 +225,7 @@ fn ensure_packages(command: &PeerCommand, py: &Path) -> Result<(), BenchError> {
 ///
 /// # Errors
 /// [`BenchError::Peer`] when its packages cannot be installed or imported, the script fails
-/// or its output is unusable: [`NutsOutcome::from`] turns that into the reason it was
+/// or its output is unusable: `NutsOutcome::from` turns that into the reason it was
 /// skipped.
 pub fn compare(
     command: &PeerCommand,
