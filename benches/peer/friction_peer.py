@@ -39,6 +39,69 @@ NEWTON_REL_STEP = 1e-10
 MAX_ITERATIONS = 2200
 
 
+def law(tau, av, a, f_d, ei_x0, xp=np, ei=expi):
+    """F(τ) and dF/dτ for τ ≥ t0, broadcasting over (walker, point); `xp` and `ei` are numpy
+    and scipy's Ei here, jax.numpy and JAX's Ei in the NUTS peer (friction_nuts.py)."""
+    x = av * tau
+    e = xp.exp(-x)
+    d = e * (ei(x) - ei_x0)
+    one_minus_e = xp.where(x < 0.5, -xp.expm1(-x), 1.0 - e)
+    aging = a * d
+    force = aging + f_d * one_minus_e
+    rate = a / tau - av * (aging - f_d * e)
+    return force, rate
+
+
+def newton_pass(tau, g, slope, lo, hi, prev_step, xp=np):
+    """One pass of the safeguarded Newton iteration for G(τ) = τ + F(τ)/(kv) − t = 0 on the
+    bracket [lo, hi] (G(lo) < 0 <= G(hi)), elementwise, given G and G' at τ. Newton unless
+    the step leaves the bracket or does not halve the previous one (rtsafe), else bisection.
+
+    Returns the new bracket, the root (meaningful where done), whether each element is
+    done, whether G was not finite there (done, no root), the next τ and the step taken. Converged means a Newton
+    step below NEWTON_REL_STEP relative landing in the closed bracket: a step that rounds
+    onto the iterate sitting on the bracket's edge counts (the strict safeguard would
+    bisect away from the root there, about 30 halvings for nothing).
+    """
+    hi = xp.where(g > 0, tau, hi)
+    lo = xp.where(g < 0, tau, lo)
+    newton = tau - g / slope
+    step = tau - newton
+    ok = (newton > lo) & (newton < hi) & (xp.abs(step) * 2.0 <= xp.abs(prev_step))
+    bisect = lo + 0.5 * (hi - lo)
+    converged = (
+        (newton >= lo) & (newton <= hi) & (xp.abs(step) <= NEWTON_REL_STEP * xp.abs(tau))
+    )
+    # Adjacent doubles: the bracket is as small as it gets.
+    tiny = ~ok & ~converged & ((bisect <= lo) | (bisect >= hi))
+    failed = ~xp.isfinite(g)
+    done = (g == 0) | converged | tiny | failed
+    root = xp.where(converged, newton, xp.where(tiny, bisect, tau))
+    next_tau = xp.where(ok, newton, bisect)
+    return lo, hi, root, done, failed, next_tau, xp.where(ok, step, hi - lo)
+
+
+def marginal_sigma_log_likelihood(
+    ssr, n, sigma_low, sigma_high, xp=np, incomplete_gamma=gammainc, log_gamma=gammaln
+):
+    """Gaussian log-likelihood of n residuals with sum of squares `ssr`, σ integrated out
+    under its log-uniform prior on [sigma_low, sigma_high]; returns it and the prior mass
+    of σ the truncation keeps (both broadcast over `ssr`)."""
+    half_n, half_ssr = 0.5 * n, 0.5 * ssr
+    mass = incomplete_gamma(half_n, half_ssr / sigma_low**2) - incomplete_gamma(
+        half_n, half_ssr / sigma_high**2
+    )
+    ll = (
+        -n * LN_SQRT_2PI
+        + log_gamma(half_n)
+        - xp.log(2.0)
+        - half_n * xp.log(half_ssr)
+        - xp.log(xp.log(sigma_high / sigma_low))
+        + xp.log(mass)
+    )
+    return ll, mass
+
+
 class OneContact:
     def __init__(self, problem):
         data = np.loadtxt(problem["data_csv"], delimiter=",", skiprows=1, ndmin=2)
@@ -60,17 +123,6 @@ class OneContact:
         self.bounds = np.array(problem["bounds"], dtype=float)
         self.sigma_low, self.sigma_high = problem["sigma_bounds"]
 
-    def law(self, tau, av, a, f_d, x0, ei_x0):
-        """F(τ) and dF/dτ for τ ≥ t0, broadcasting over (walker, point)."""
-        x = av * tau
-        e = np.exp(-x)
-        d = e * (expi(x) - ei_x0)
-        one_minus_e = np.where(x < 0.5, -np.expm1(-x), 1.0 - e)
-        aging = a * d
-        force = aging + f_d * one_minus_e
-        rate = a / tau - av * (aging - f_d * e)
-        return force, rate
-
     def log_density(self, u):
         """Log-posterior of a (walkers, 5) array of coordinates."""
         u = np.atleast_2d(u)
@@ -87,11 +139,10 @@ class OneContact:
         a = ratio[:, None] * f_d
         t0 = t0[:, None]
         kv = (k * self.v)[:, None]
-        x0 = av * t0
-        ei_x0 = expi(x0)
+        ei_x0 = expi(av * t0)
         t = self.t[None, :]
         with np.errstate(all="ignore"):
-            f_t0, _ = self.law(t0, av, a, f_d, x0, ei_x0)
+            f_t0, _ = law(t0, av, a, f_d, ei_x0)
             loading_ends = t0 + f_t0 / kv
             sliding = t > loading_ends
             force = np.zeros(sliding.shape)
@@ -102,7 +153,7 @@ class OneContact:
             w = flat // sliding.shape[1]
             tt = np.broadcast_to(t, sliding.shape).ravel()[flat]
             p_av, p_a, p_fd, p_kv = av[w, 0], a[w, 0], f_d[w, 0], kv[w, 0]
-            p_x0, p_ei = x0[w, 0], ei_x0[w, 0]
+            p_ei = ei_x0[w, 0]
             # Bracket [t0, t] holds the root: g(t0) < 0 <= g(t).
             lo = t0[w, 0].copy()
             hi = tt.copy()
@@ -113,48 +164,27 @@ class OneContact:
             for _ in range(MAX_ITERATIONS):
                 if flat.size == 0:
                     break
-                f, fr = self.law(tau, p_av, p_a, p_fd, p_x0, p_ei)
+                f, fr = law(tau, p_av, p_a, p_fd, p_ei)
                 g = tau + f / p_kv - tt
-                slope = 1.0 + fr / p_kv
-                hi = np.where(g > 0, tau, hi)
-                lo = np.where(g < 0, tau, lo)
-                newton = tau - g / slope
-                step = tau - newton
-                ok = (newton > lo) & (newton < hi) & (np.abs(step) * 2.0 <= np.abs(prev_step))
-                bisect = lo + 0.5 * (hi - lo)
-                converged = ok & (np.abs(step) <= NEWTON_REL_STEP * np.abs(tau))
-                # Adjacent doubles: the bracket is as small as it gets.
-                tiny = ~ok & ((bisect <= lo) | (bisect >= hi))
-                failed = ~np.isfinite(g)
-                done = (g == 0) | converged | tiny | failed
-                root = np.where(converged, newton, np.where(tiny, bisect, tau))
+                lo, hi, root, done, failed, new_tau, prev_step = newton_pass(
+                    tau, g, 1.0 + fr / p_kv, lo, hi, prev_step
+                )
                 # The root is one tiny step from the last evaluation: F follows the tangent,
                 # as slipbayes does. A non-finite g leaves NaN, which rejects the point.
                 force.flat[flat[done]] = np.where(failed, np.nan, f + fr * (root - tau))[done]
                 rate.flat[flat[done]] = fr[done]
                 keep = ~done
-                new_tau = np.where(ok, newton, bisect)
-                prev_step = np.where(ok, step, hi - lo)[keep]
+                prev_step = prev_step[keep]
                 tau = new_tau[keep]
                 lo, hi, tt, flat = lo[keep], hi[keep], tt[keep], flat[keep]
                 p_av, p_a, p_fd, p_kv = p_av[keep], p_a[keep], p_fd[keep], p_kv[keep]
-                p_x0, p_ei = p_x0[keep], p_ei[keep]
+                p_ei = p_ei[keep]
             force.flat[flat] = np.nan  # not converged: reject
             model = np.where(sliding, force, np.where(t <= t0, 0.0, kv * (t - t0)))
             stick_slip = np.any(sliding & (rate <= -kv), axis=1)
             ssr = np.sum((self.f_obs[None, :] - model) ** 2, axis=1)
-            n = self.t.size
-            half_n, half_ssr = 0.5 * n, 0.5 * ssr
-            mass = gammainc(half_n, half_ssr / self.sigma_low**2) - gammainc(
-                half_n, half_ssr / self.sigma_high**2
-            )
-            ll = (
-                -n * LN_SQRT_2PI
-                + gammaln(half_n)
-                - np.log(2.0)
-                - half_n * np.log(half_ssr)
-                - np.log(np.log(self.sigma_high / self.sigma_low))
-                + np.log(mass)
+            ll, mass = marginal_sigma_log_likelihood(
+                ssr, self.t.size, self.sigma_low, self.sigma_high
             )
         valid = np.isfinite(ll) & (mass > 0) & (ssr > 0) & ~stick_slip
         out[np.flatnonzero(inside)[valid]] = ll[valid]

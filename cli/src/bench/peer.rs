@@ -49,11 +49,9 @@ pub struct MedianCheck {
     pub z: f64,
 }
 
-/// Ours against the peer.
+/// A peer's log-density against ours at the same points.
 #[derive(Debug, Clone, Serialize)]
-pub struct PeerComparison {
-    /// Versions of Python, numpy, scipy, emcee.
-    pub versions: serde_json::Value,
+pub struct LogDensityCheck {
     /// Points at which both log-densities were computed.
     pub points_compared: usize,
     /// Points where one side is finite and the other not.
@@ -62,6 +60,60 @@ pub struct PeerComparison {
     pub max_rel_diff: f64,
     /// Whether the log-densities agree within [`LOG_DENSITY_RTOL`].
     pub log_density_agrees: bool,
+}
+
+impl LogDensityCheck {
+    /// Compares point by point; the relative difference is taken against max(|ours|, 1).
+    pub fn new(ours: &[Option<f64>], peer: &[Option<f64>]) -> Self {
+        let mut max_rel_diff: f64 = 0.0;
+        let mut mismatches = 0;
+        let mut compared = 0;
+        for (a, b) in ours.iter().zip(peer) {
+            match (a, b) {
+                (Some(a), Some(b)) => {
+                    compared += 1;
+                    max_rel_diff = max_rel_diff.max((a - b).abs() / a.abs().max(1.0));
+                }
+                (None, None) => {}
+                _ => mismatches += 1,
+            }
+        }
+        // A peer that returned fewer values than asked is not in agreement.
+        mismatches += ours.len().abs_diff(peer.len());
+        Self {
+            points_compared: compared,
+            finiteness_mismatches: mismatches,
+            max_rel_diff,
+            log_density_agrees: mismatches == 0 && compared > 0 && max_rel_diff <= LOG_DENSITY_RTOL,
+        }
+    }
+}
+
+/// Our medians against a peer's, coordinate by coordinate, in combined MCSEs; and whether
+/// all agree within [`MEDIAN_MCSE_FACTOR`].
+pub fn median_checks(ours: &[CoordStats], peer: &[CoordStats]) -> (Vec<MedianCheck>, bool) {
+    let checks: Vec<MedianCheck> = ours
+        .iter()
+        .zip(peer)
+        .map(|(a, b)| MedianCheck {
+            name: a.name.clone(),
+            ours: a.median,
+            peer: b.median,
+            z: (a.median - b.median).abs() / a.mcse_median.hypot(b.mcse_median),
+        })
+        .collect();
+    let agree = checks.len() == ours.len() && checks.iter().all(|m| m.z <= MEDIAN_MCSE_FACTOR);
+    (checks, agree)
+}
+
+/// Ours against the peer.
+#[derive(Debug, Clone, Serialize)]
+pub struct PeerComparison {
+    /// Versions of Python, numpy, scipy, emcee.
+    pub versions: serde_json::Value,
+    /// The peer's log-density against ours.
+    #[serde(flatten)]
+    pub log_density: LogDensityCheck,
     /// Median checks per coordinate.
     pub medians: Vec<MedianCheck>,
     /// Whether every median agrees within [`MEDIAN_MCSE_FACTOR`] MCSE.
@@ -108,12 +160,15 @@ struct PeerResult {
     versions: serde_json::Value,
 }
 
-fn peer_err(message: impl Into<String>) -> BenchError {
+pub(super) fn peer_err(message: impl Into<String>) -> BenchError {
     BenchError::Peer(message.into())
 }
 
 /// The interpreter to use, creating the venv first if needed.
-fn python(command: &PeerCommand) -> Result<PathBuf, BenchError> {
+///
+/// # Errors
+/// [`BenchError::Peer`] when the venv cannot be made or filled.
+pub fn python(command: &PeerCommand) -> Result<PathBuf, BenchError> {
     match command {
         PeerCommand::Python(p) => Ok(p.clone()),
         PeerCommand::Venv(dir) => {
@@ -130,19 +185,59 @@ fn python(command: &PeerCommand) -> Result<PathBuf, BenchError> {
                         dir.display()
                     )));
                 }
-                let status = Command::new(&py)
-                    .args(["-m", "pip", "install", "-q", "numpy", "scipy", "emcee"])
-                    .status()
-                    .map_err(|e| peer_err(format!("pip install into {}: {e}", dir.display())))?;
-                if !status.success() {
-                    return Err(peer_err(format!(
-                        "pip install numpy scipy emcee into {} failed ({status})",
-                        dir.display()
-                    )));
-                }
+                pip_install(&py, dir, &PEER_PACKAGES)?;
             }
             Ok(py)
         }
+    }
+}
+
+/// The emcee peer's packages (unpinned: it has been measured with several versions).
+pub const PEER_PACKAGES: [&str; 3] = ["numpy", "scipy", "emcee"];
+
+/// `pip install` of `packages` into the venv at `dir` whose interpreter is `py`.
+pub(super) fn pip_install(py: &Path, dir: &Path, packages: &[&str]) -> Result<(), BenchError> {
+    let what = || format!("pip install {} into {}", packages.join(" "), dir.display());
+    let output = Command::new(py)
+        .args(["-m", "pip", "install", "-q"])
+        .args(packages)
+        .output()
+        .map_err(|e| peer_err(format!("{}: {e}", what())))?;
+    if output.status.success() {
+        Ok(())
+    } else {
+        Err(peer_err(format!(
+            "{} failed ({}): {}",
+            what(),
+            output.status,
+            last_lines(&output.stderr)
+        )))
+    }
+}
+
+/// The last few lines of a process's stderr, where Python puts the error.
+pub(super) fn last_lines(stderr: &[u8]) -> String {
+    let text = String::from_utf8_lossy(stderr);
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(6)..].join("\n")
+}
+
+/// Runs `script` with `args` under `py` from the repository root.
+pub(super) fn run_script(py: &Path, script: &str, args: &[&Path]) -> Result<(), BenchError> {
+    let output = Command::new(py)
+        .arg(script)
+        .args(args)
+        .output()
+        .map_err(|e| peer_err(format!("running {} {script}: {e}", py.display())))?;
+    if output.status.success() {
+        Ok(())
+    } else {
+        Err(peer_err(format!(
+            "{} {script} failed ({}): {}",
+            py.display(),
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        )))
     }
 }
 
@@ -166,7 +261,7 @@ fn log_uniform_bounds(spec: &ModelSpec, names: &[String]) -> Result<Vec<[f64; 2]
 }
 
 /// Reads the peer's chains (`ensemble,walker,step,coords...`).
-fn read_peer_chains(
+pub(super) fn read_peer_chains(
     path: &Path,
     ensembles: usize,
     walkers: usize,
@@ -232,130 +327,143 @@ fn check_points(ours: &Measured) -> Vec<Vec<f64>> {
     points
 }
 
-/// Runs the peer and compares it with our measured run and reference.
+/// What both peers are given: the problem file's contents and our log-density at its
+/// check points.
+#[derive(Debug, Clone)]
+pub struct PeerInputs {
+    /// The problem file's JSON: data, velocity, coordinate names, prior bounds, check points,
+    /// initial walkers, steps and seed.
+    pub problem: serde_json::Value,
+    /// Our log-density at the problem's points (`None` where −∞ or an error).
+    pub lp_ours: Vec<Option<f64>>,
+    /// Our cost of one log-density (µs), one call at a time.
+    pub ours_us_per_eval: f64,
+    /// Coordinate names.
+    pub names: Vec<String>,
+    /// Scratch directory of the peers' files.
+    pub dir: PathBuf,
+}
+
+impl PeerInputs {
+    /// The one-contact problem of `settings`, our measured run's initial walkers and check
+    /// points drawn from its chains.
+    ///
+    /// # Errors
+    /// [`BenchError::Peer`] when the model is not the one-first-slide, log-uniform model the
+    /// peers implement; [`BenchError::Input`]/[`BenchError::Io`] for its files.
+    pub fn new(
+        settings: &BenchSettings,
+        posterior: &Posterior,
+        ours: &Measured,
+    ) -> Result<Self, BenchError> {
+        let spec = ModelSpec::load(&settings.one_contact_model).map_err(|e| BenchError::Input {
+            what: format!("model {}", settings.one_contact_model.display()),
+            message: e.to_string(),
+        })?;
+        if spec.file.runs.len() != 1 {
+            return Err(peer_err(
+                "the peer fits a model with exactly one first slide",
+            ));
+        }
+        let names = posterior.param_names();
+        let bounds = log_uniform_bounds(&spec, &names)?;
+        let sigma = match spec.prior("sigma") {
+            Prior::LogUniform { low, high } => [low, high],
+            other => {
+                return Err(peer_err(format!(
+                    "σ must have a log-uniform prior, has {other:?}"
+                )))
+            }
+        };
+        let points = check_points(ours);
+        let mut none = [0.0; 0];
+        let clock = Instant::now();
+        let lp_ours: Vec<Option<f64>> = points
+            .iter()
+            .map(|x| posterior.log_density(x, &mut none).ok())
+            .collect();
+        let ours_us_per_eval = clock.elapsed().as_secs_f64() * 1e6 / points.len() as f64;
+        let data = spec.data_path(0);
+        let problem = serde_json::json!({
+            "data_csv": std::path::absolute(&data).map_err(BenchError::io(&data))?,
+            "velocity_m_per_s": spec.file.runs[0].velocity_m_per_s,
+            "names": names,
+            "bounds": bounds,
+            "sigma_bounds": sigma,
+            "points": points,
+            "initial": ours.initial,
+            "steps": ours.summary.steps,
+            "seed": super::BENCH_SEED,
+        });
+        let dir = settings.scratch.join("peer");
+        std::fs::create_dir_all(&dir).map_err(BenchError::io(&dir))?;
+        Ok(Self {
+            problem,
+            lp_ours,
+            ours_us_per_eval,
+            names,
+            dir,
+        })
+    }
+
+    /// Writes `problem` (this problem, possibly extended) to `<dir>/<name>`.
+    pub(super) fn write(
+        &self,
+        name: &str,
+        problem: &serde_json::Value,
+    ) -> Result<PathBuf, BenchError> {
+        let path = self.dir.join(name);
+        let text = serde_json::to_vec(problem).map_err(|e| peer_err(e.to_string()))?;
+        write_atomically(&path, &text).map_err(BenchError::io(&path))?;
+        Ok(path)
+    }
+}
+
+/// Runs the emcee peer and compares it with our measured run and reference.
 ///
 /// # Errors
 /// [`BenchError::Peer`] when the peer cannot be run or its output is unusable.
 pub fn compare(
-    command: &PeerCommand,
-    settings: &BenchSettings,
-    posterior: &Posterior,
+    py: &Path,
+    inputs: &PeerInputs,
     ours: &Measured,
     reference: &Reference,
 ) -> Result<PeerComparison, BenchError> {
-    let spec = ModelSpec::load(&settings.one_contact_model).map_err(|e| BenchError::Input {
-        what: format!("model {}", settings.one_contact_model.display()),
-        message: e.to_string(),
-    })?;
-    if spec.file.runs.len() != 1 {
-        return Err(peer_err(
-            "the peer fits a model with exactly one first slide",
-        ));
-    }
-    let names = posterior.param_names();
-    let bounds = log_uniform_bounds(&spec, &names)?;
-    let sigma = match spec.prior("sigma") {
-        Prior::LogUniform { low, high } => [low, high],
-        other => {
-            return Err(peer_err(format!(
-                "σ must have a log-uniform prior, has {other:?}"
-            )))
-        }
-    };
-    let points = check_points(ours);
-    let mut none = [0.0; 0];
-    let clock = Instant::now();
-    let lp_ours: Vec<Option<f64>> = points
-        .iter()
-        .map(|x| posterior.log_density(x, &mut none).ok())
-        .collect();
-    let ours_us_per_eval = clock.elapsed().as_secs_f64() * 1e6 / points.len() as f64;
-
     let t = &ours.summary;
-    let dir = settings.scratch.join("peer");
-    std::fs::create_dir_all(&dir).map_err(BenchError::io(&dir))?;
-    let problem = serde_json::json!({
-        "data_csv": std::path::absolute(spec.data_path(0)).map_err(BenchError::io(&spec.data_path(0)))?,
-        "velocity_m_per_s": spec.file.runs[0].velocity_m_per_s,
-        "names": names,
-        "bounds": bounds,
-        "sigma_bounds": sigma,
-        "points": points,
-        "initial": ours.initial,
-        "steps": t.steps,
-        "seed": super::BENCH_SEED,
-    });
-    let problem_path = dir.join("problem.json");
-    let result_path = dir.join("result.json");
-    let chains_path = dir.join("chains.csv");
-    let text = serde_json::to_vec(&problem).map_err(|e| peer_err(e.to_string()))?;
-    write_atomically(&problem_path, &text).map_err(BenchError::io(&problem_path))?;
-    let py = python(command)?;
-    let output = Command::new(&py)
-        .arg(PEER_SCRIPT)
-        .args([&problem_path, &result_path, &chains_path])
-        .output()
-        .map_err(|e| peer_err(format!("running {} {PEER_SCRIPT}: {e}", py.display())))?;
-    if !output.status.success() {
-        return Err(peer_err(format!(
-            "{} {PEER_SCRIPT} failed ({}): {}",
-            py.display(),
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        )));
-    }
+    let problem_path = inputs.write("problem.json", &inputs.problem)?;
+    let result_path = inputs.dir.join("result.json");
+    let chains_path = inputs.dir.join("chains.csv");
+    run_script(
+        py,
+        PEER_SCRIPT,
+        &[&problem_path, &result_path, &chains_path],
+    )?;
     let result: PeerResult = serde_json::from_str(
         &std::fs::read_to_string(&result_path).map_err(BenchError::io(&result_path))?,
     )
     .map_err(|e| peer_err(format!("{}: {e}", result_path.display())))?;
-
-    let mut max_rel_diff: f64 = 0.0;
-    let mut mismatches = 0;
-    let mut compared = 0;
-    for (a, b) in lp_ours.iter().zip(&result.log_density) {
-        match (a, b) {
-            (Some(a), Some(b)) => {
-                compared += 1;
-                max_rel_diff = max_rel_diff.max((a - b).abs() / a.abs().max(1.0));
-            }
-            (None, None) => {}
-            _ => mismatches += 1,
-        }
-    }
-    let log_density_agrees = mismatches == 0 && compared > 0 && max_rel_diff <= LOG_DENSITY_RTOL;
+    let log_density = LogDensityCheck::new(&inputs.lp_ours, &result.log_density);
 
     let steps = t.steps as usize;
+    let names = &inputs.names;
     let peer_draws = read_peer_chains(&chains_path, t.ensembles, t.walkers, steps, names.len())?;
     let peer_stats: Vec<CoordStats> = peer_draws
-        .stats(&names, t.burn_in)
+        .stats(names, t.burn_in)
         .map_err(|e| peer_err(format!("diagnostics of the peer's chains: {e}")))?;
-    let medians: Vec<MedianCheck> = ours
-        .stats
-        .iter()
-        .zip(&peer_stats)
-        .map(|(a, b)| MedianCheck {
-            name: a.name.clone(),
-            ours: a.median,
-            peer: b.median,
-            z: (a.median - b.median).abs() / a.mcse_median.hypot(b.mcse_median),
-        })
-        .collect();
-    let medians_agree = medians.iter().all(|m| m.z <= MEDIAN_MCSE_FACTOR);
+    let (medians, medians_agree) = median_checks(&ours.stats, &peer_stats);
     let peer_sampling_s: f64 = result.sampling_s.iter().sum();
     let peer_ess_min = min_ess(&peer_stats);
     let ours_ess_min = t.runs[1].ess_min;
     Ok(PeerComparison {
         versions: result.versions,
-        points_compared: compared,
-        finiteness_mismatches: mismatches,
-        max_rel_diff,
-        log_density_agrees,
+        quoted: log_density.log_density_agrees && medians_agree,
+        log_density,
         medians,
         medians_agree,
         walkers: t.walkers,
         ensembles: t.ensembles,
         steps: t.steps,
-        ours_us_per_eval,
+        ours_us_per_eval: inputs.ours_us_per_eval,
         peer_us_per_eval_single: result.seconds_per_eval_single * 1e6,
         peer_us_per_eval_vectorised: result.seconds_per_eval_vectorised * 1e6,
         ours_sampling_s: [t.runs[0].sampling_s, t.runs[1].sampling_s],
@@ -366,6 +474,46 @@ pub fn compare(
         peer_ess_per_s: peer_ess_min / peer_sampling_s,
         ours_error: median_error(&ours.stats, &reference.stats),
         peer_error: median_error(&peer_stats, &reference.stats),
-        quoted: log_density_agrees && medians_agree,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_densities_agree_only_within_the_tolerance_and_at_the_same_points() {
+        let ours = [Some(-2.0e4), Some(1.0), None];
+        let close = LogDensityCheck::new(&ours, &[Some(-2.0e4 * (1.0 + 1e-12)), Some(1.0), None]);
+        assert!(close.log_density_agrees, "{close:?}");
+        assert_eq!(close.points_compared, 2);
+
+        let far = LogDensityCheck::new(&ours, &[Some(-2.0e4 * (1.0 + 1e-8)), Some(1.0), None]);
+        assert!(!far.log_density_agrees, "{far:?}");
+
+        let finiteness = LogDensityCheck::new(&ours, &[Some(-2.0e4), None, None]);
+        assert_eq!(finiteness.finiteness_mismatches, 1);
+        assert!(!finiteness.log_density_agrees);
+
+        let short = LogDensityCheck::new(&ours, &[Some(-2.0e4)]);
+        assert_eq!(short.finiteness_mismatches, 2);
+        assert!(!short.log_density_agrees);
+    }
+
+    #[test]
+    fn medians_agree_within_the_mcse_factor() {
+        let s = |median: f64| CoordStats {
+            name: "x".into(),
+            median,
+            sd: 1.0,
+            mcse_median: 0.1,
+            ess_bulk: 100.0,
+        };
+        // Combined MCSE 0.1·√2: 0.4 apart is 2.8 MCSE, 0.5 apart 3.5.
+        let (checks, agree) = median_checks(&[s(0.0)], &[s(0.4)]);
+        assert!(agree && (checks[0].z - 0.4 / 0.1f64.hypot(0.1)).abs() < 1e-12);
+        assert!(!median_checks(&[s(0.0)], &[s(0.5)]).1);
+        // A peer with fewer coordinates does not agree.
+        assert!(!median_checks(&[s(0.0), s(0.0)], &[s(0.0)]).1);
+    }
 }

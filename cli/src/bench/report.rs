@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::knobs::{Knob, KnobRun};
+use super::nuts::{NutsComparison, NutsOutcome};
+use super::peer::{LogDensityCheck, PeerComparison};
 use super::plot::{error_vs_time, ErrorPoint};
 use super::{BenchError, BenchResults};
 use slipbayes::data::write_atomically;
@@ -228,8 +230,9 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
                  quoted."
             );
         }
+        nuts_headline(&mut s, r.nuts.as_ref(), p.ours_ess_per_s[1], m.threads);
     } else {
-        let _ = writeln!(s, "- The peer was not run (`--no-peer`).");
+        let _ = writeln!(s, "- The peers were not run (`--no-peer`).");
     }
     if let Some(mem) = &r.memory {
         let mb = |kb: u64| g(kb as f64 / 1024.0);
@@ -327,96 +330,13 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
         }
     }
 
-    // Peer.
     if let Some(p) = &r.peer {
-        let _ = writeln!(s, "\n## Side by side with the Python peer\n");
-        let _ = writeln!(
-            s,
-            "`{}` (versions: {}) fits the one-contact posterior (`benches/peer/one_contact.toml`) \
-             with emcee's stretch move (a = 2, `vectorize=True`), one process, from the same \
-             initial walkers, with the same walkers and steps. Both chains go through the same \
-             estimator here.\n",
-            super::peer::PEER_SCRIPT,
-            p.versions
-        );
-        let _ = writeln!(
-            s,
-            "1. Log-density at {} points (posterior draws and draws pushed ±5 sd): largest \
-             relative difference {} (required ≤ {:e}), {} finiteness mismatches → **{}**.",
-            p.points_compared,
-            g(p.max_rel_diff),
-            super::peer::LOG_DENSITY_RTOL,
-            p.finiteness_mismatches,
-            if p.log_density_agrees {
-                "agree"
-            } else {
-                "DISAGREE"
-            }
-        );
-        let _ = writeln!(
-            s,
-            "2. Medians (log-coordinates) within {} MCSE: **{}**.\n",
-            super::peer::MEDIAN_MCSE_FACTOR,
-            if p.medians_agree { "agree" } else { "DISAGREE" }
-        );
-        let _ = writeln!(s, "| coordinate | our median | peer median | |Δ| / MCSE |");
-        let _ = writeln!(s, "|---|---:|---:|---:|");
-        for c in &p.medians {
-            let _ = writeln!(
-                s,
-                "| {} | {:.6} | {:.6} | {} |",
-                c.name,
-                c.ours,
-                c.peer,
-                g(c.z)
-            );
-        }
-        let _ = writeln!(s, "\n| | slipbayes, 1 thread | slipbayes, {} threads | peer | ratio (all threads / peer) |", m.threads);
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|");
-        let _ = writeln!(
-            s,
-            "| time per log-density (µs) | {} | | {} vectorised, {} single | {} / {} |",
-            g(p.ours_us_per_eval),
-            g(p.peer_us_per_eval_vectorised),
-            g(p.peer_us_per_eval_single),
-            g(p.peer_us_per_eval_vectorised / p.ours_us_per_eval),
-            g(p.peer_us_per_eval_single / p.ours_us_per_eval),
-        );
-        let _ = writeln!(
-            s,
-            "| sampling time (s) | {} | {} | {} | {} |",
-            g(p.ours_sampling_s[0]),
-            g(p.ours_sampling_s[1]),
-            g(p.peer_sampling_s),
-            g(p.peer_sampling_s / p.ours_sampling_s[1])
-        );
-        let _ = writeln!(
-            s,
-            "| min ESS | {} | {} | {} | |",
-            g(p.ours_ess_min),
-            g(p.ours_ess_min),
-            g(p.peer_ess_min)
-        );
-        let _ = writeln!(
-            s,
-            "| ESS/s | {} | {} | {} | {} |",
-            g(p.ours_ess_per_s[0]),
-            g(p.ours_ess_per_s[1]),
-            g(p.peer_ess_per_s),
-            g(p.ours_ess_per_s[1] / p.peer_ess_per_s)
-        );
-        let _ = writeln!(
-            s,
-            "\nError of the medians against our long one-contact reference run ({} steps, \
-             another seed), in reference sds (largest over coordinates): slipbayes {} after {} s, \
-             the peer {} after {} s. At the peer's wall time slipbayes could have run about {}× \
-             more steps.",
+        peer_section(
+            &mut s,
+            m.threads,
             r.plan.one_contact_reference_steps,
-            g(p.ours_error),
-            g(p.ours_sampling_s[1]),
-            g(p.peer_error),
-            g(p.peer_sampling_s),
-            g(p.peer_sampling_s / p.ours_sampling_s[1]),
+            p,
+            r.nuts.as_ref(),
         );
     }
 
@@ -469,4 +389,440 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
          ![medians against the truth](speed-vs-error/median-vs-truth.svg)\n"
     );
     s
+}
+
+/// The headline's NUTS line(s): our ESS/s over NUTS's, or why there is no ratio.
+fn nuts_headline(s: &mut String, nuts: Option<&NutsOutcome>, ours_ess_per_s: f64, threads: usize) {
+    match nuts {
+        Some(NutsOutcome::Ran(n)) if n.quoted => {
+            for run in &n.runs {
+                let _ = writeln!(
+                    s,
+                    "- Against NumPyro's NUTS ({} chain{}, gradients through the elastic \
+                     solve): ESS/s **{}× NUTS's** on {} threads, counting its warmup (JIT \
+                     compile excluded); {}× against its kept draws alone.",
+                    run.chains,
+                    if run.chains == 1 { "" } else { "s in parallel" },
+                    g(ours_ess_per_s / run.ess_per_s),
+                    threads,
+                    g(ours_ess_per_s / run.ess_per_s_draws),
+                );
+            }
+        }
+        Some(NutsOutcome::Ran(_)) => {
+            let _ = writeln!(
+                s,
+                "- The NUTS peer did **not** pass the checks below, so no speed ratio is \
+                 quoted against it."
+            );
+        }
+        Some(NutsOutcome::Skipped { reason }) => {
+            let _ = writeln!(s, "- The NUTS peer was **skipped**: {reason}");
+        }
+        None => {
+            let _ = writeln!(s, "- The NUTS peer was not run (`--no-nuts`).");
+        }
+    }
+}
+
+fn log_density_line(s: &mut String, item: usize, who: &str, c: &LogDensityCheck) {
+    let _ = writeln!(
+        s,
+        "{item}. {who}: log-density at {} points (posterior draws and draws pushed ±5 sd): \
+         largest relative difference {} (required ≤ {:e}), {} finiteness mismatches → **{}**.",
+        c.points_compared,
+        g(c.max_rel_diff),
+        super::peer::LOG_DENSITY_RTOL,
+        c.finiteness_mismatches,
+        if c.log_density_agrees {
+            "agree"
+        } else {
+            "DISAGREE"
+        }
+    );
+}
+
+fn agree(ok: bool) -> &'static str {
+    if ok {
+        "agree"
+    } else {
+        "DISAGREE"
+    }
+}
+
+/// The side-by-side section: both peers' checks, then one table of every sampler.
+fn peer_section(
+    s: &mut String,
+    threads: usize,
+    reference_steps: u64,
+    p: &PeerComparison,
+    outcome: Option<&NutsOutcome>,
+) {
+    let nuts = match outcome {
+        Some(NutsOutcome::Ran(n)) => Some(n),
+        _ => None,
+    };
+    let _ = writeln!(s, "\n## Side by side with the Python peers\n");
+    let _ = writeln!(
+        s,
+        "`{}` (versions: {}) fits the one-contact posterior (`benches/peer/one_contact.toml`) \
+         with emcee's stretch move (a = 2, `vectorize=True`), one process, from the same \
+         initial walkers, with the same walkers and steps.",
+        super::peer::PEER_SCRIPT,
+        p.versions
+    );
+    match outcome {
+        Some(NutsOutcome::Ran(n)) => {
+            let _ = writeln!(
+                s,
+                "`{}` (versions: {}) fits the same posterior in the same coordinates with \
+                 NumPyro's NUTS on JAX (CPU, float64), the gradient taken through the elastic \
+                 solve (implicit derivative of its Newton root): {} warmup iterations (step \
+                 size and {} mass matrix adapted, target acceptance {}, tree depth at most {}) \
+                 and {} kept draws per chain, chains started from our initial walkers, several \
+                 chains in parallel one per core. JAX's compile time is measured apart and \
+                 left out of its times.",
+                super::nuts::NUTS_SCRIPT,
+                n.versions,
+                n.plan.warmup,
+                if n.plan.dense_mass {
+                    "dense"
+                } else {
+                    "diagonal"
+                },
+                n.plan.target_accept,
+                n.plan.max_tree_depth,
+                n.plan.draws,
+            );
+        }
+        Some(NutsOutcome::Skipped { reason }) => {
+            let _ = writeln!(
+                s,
+                "The NUTS peer (`{}`) was skipped: {reason}",
+                super::nuts::NUTS_SCRIPT
+            );
+        }
+        None => {}
+    }
+    let _ = writeln!(
+        s,
+        "All chains go through the same estimator here (bulk ESS with every walker of every \
+         ensemble, or every NUTS chain, as a chain).\n"
+    );
+    log_density_line(s, 1, "emcee peer", &p.log_density);
+    let mut item = 2;
+    if let Some(n) = nuts {
+        log_density_line(s, item, "NUTS peer", &n.log_density);
+        let _ = writeln!(
+            s,
+            "{}. NUTS peer: its autodiff gradient (through the elastic solve) against central \
+             differences of its log-density at {} posterior draws: largest difference {} of \
+             the gradient's largest component (required ≤ {:e}) → **{}**.",
+            item + 1,
+            n.gradient.points,
+            g(n.gradient.max_error),
+            super::nuts::GRADIENT_RTOL,
+            agree(n.gradient.agrees()),
+        );
+        item += 2;
+    }
+    let _ = writeln!(
+        s,
+        "{item}. Medians (log-coordinates) within {} MCSE of ours: emcee **{}**{}.\n",
+        super::peer::MEDIAN_MCSE_FACTOR,
+        agree(p.medians_agree),
+        nuts.map_or(String::new(), |n| n
+            .runs
+            .iter()
+            .map(|run| format!(
+                ", NUTS {} chain(s) **{}**",
+                run.chains,
+                agree(run.medians_agree)
+            ))
+            .collect()),
+    );
+    let mut header = "| coordinate | our median | emcee median | |Δ| / MCSE |".to_owned();
+    let mut rule = "|---|---:|---:|---:|".to_owned();
+    for run in nuts.iter().flat_map(|n| &n.runs) {
+        let _ = write!(
+            header,
+            " NUTS {} chain(s) median | |Δ| / MCSE |",
+            run.chains
+        );
+        rule.push_str("---:|---:|");
+    }
+    let _ = writeln!(s, "{header}\n{rule}");
+    for (i, c) in p.medians.iter().enumerate() {
+        let _ = write!(
+            s,
+            "| {} | {:.6} | {:.6} | {} |",
+            c.name,
+            c.ours,
+            c.peer,
+            g(c.z)
+        );
+        for run in nuts.iter().flat_map(|n| &n.runs) {
+            let c = &run.medians[i];
+            let _ = write!(s, " {:.6} | {} |", c.peer, g(c.z));
+        }
+        s.push('\n');
+    }
+    samplers_table(s, threads, p, nuts);
+    let _ = write!(
+        s,
+        "\nError of the medians against our long one-contact reference run ({} steps, \
+         another seed), in reference sds (largest over coordinates): slipbayes {} after {} s, \
+         emcee {} after {} s",
+        reference_steps,
+        g(p.ours_error),
+        g(p.ours_sampling_s[1]),
+        g(p.peer_error),
+        g(p.peer_sampling_s),
+    );
+    for run in nuts.iter().flat_map(|n| &n.runs) {
+        let _ = write!(
+            s,
+            ", NUTS ({} chain(s)) {} after {} s",
+            run.chains,
+            g(run.error),
+            g(run.warmup_s + run.sampling_s)
+        );
+    }
+    let _ = writeln!(
+        s,
+        ". At emcee's wall time slipbayes could have run about {}× more steps.",
+        g(p.peer_sampling_s / p.ours_sampling_s[1]),
+    );
+    if let Some(n) = nuts {
+        nuts_table(s, n, threads, p.ours_ess_per_s[1]);
+    }
+}
+
+/// Every sampler in one table: cost of a density, time, ESS, ESS/s and our ratio to it.
+fn samplers_table(
+    s: &mut String,
+    threads: usize,
+    p: &PeerComparison,
+    nuts: Option<&NutsComparison>,
+) {
+    let ours = p.ours_ess_per_s[1];
+    let _ = writeln!(
+        s,
+        "\n| sampler | draws for the ESS | time per log-density (µs) | sampling s | min ESS | \
+         ESS/s | slipbayes ({threads} threads) ESS/s ÷ this |"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|");
+    let kept = p.steps - p.steps / 4;
+    let ensemble_draws = format!(
+        "{}×{} walkers × {} steps after {} burn-in",
+        p.ensembles,
+        p.walkers,
+        kept,
+        p.steps - kept
+    );
+    let rows = [
+        (
+            "slipbayes, 1 thread".to_owned(),
+            g(p.ours_us_per_eval),
+            p.ours_sampling_s[0],
+            p.ours_ess_min,
+            p.ours_ess_per_s[0],
+        ),
+        (
+            format!("slipbayes, {threads} threads"),
+            String::new(),
+            p.ours_sampling_s[1],
+            p.ours_ess_min,
+            p.ours_ess_per_s[1],
+        ),
+        (
+            "emcee + numpy/scipy".to_owned(),
+            format!(
+                "{} vectorised, {} single",
+                g(p.peer_us_per_eval_vectorised),
+                g(p.peer_us_per_eval_single)
+            ),
+            p.peer_sampling_s,
+            p.peer_ess_min,
+            p.peer_ess_per_s,
+        ),
+    ];
+    for (who, cost, secs, ess, per_s) in rows {
+        let _ = writeln!(
+            s,
+            "| {who} | {ensemble_draws} | {cost} | {} | {} | {} | {} |",
+            g(secs),
+            g(ess),
+            g(per_s),
+            g(ours / per_s)
+        );
+    }
+    for (n, run) in nuts
+        .iter()
+        .flat_map(|n| n.runs.iter().map(move |run| (n, run)))
+    {
+        let _ = writeln!(
+            s,
+            "| NumPyro NUTS, {} chain(s) | {}×{} draws after {} warmup | {} with gradient | {} \
+             (warmup {} + draws {}) | {} | {} | {} |",
+            run.chains,
+            run.chains,
+            n.plan.draws,
+            n.plan.warmup,
+            g(n.us_per_gradient),
+            g(run.warmup_s + run.sampling_s),
+            g(run.warmup_s),
+            g(run.sampling_s),
+            g(run.ess_min),
+            g(run.ess_per_s),
+            g(ours / run.ess_per_s)
+        );
+    }
+}
+
+/// What NUTS spent its time on.
+fn nuts_table(s: &mut String, n: &NutsComparison, threads: usize, ours_ess_per_s: f64) {
+    let _ = writeln!(
+        s,
+        "\nNUTS in detail (times without JAX's compiling, which is given apart; gradients are \
+         the leapfrog steps of the kept draws):\n"
+    );
+    let _ = writeln!(
+        s,
+        "| chains | warmup s | draws s | compile s (warmup, draws) | gradients | per draw | \
+         divergences | mean acceptance | step size | ESS/s of the draws alone | slipbayes ({threads} \
+         threads) ÷ that |"
+    );
+    let _ = writeln!(s, "|---:|---:|---:|---|---:|---:|---:|---:|---|---:|---:|");
+    for run in &n.runs {
+        let draws = (run.chains as u64 * n.plan.draws).max(1);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {}, {} | {} | {} | {} | {} | {} | {} | {} |",
+            run.chains,
+            g(run.warmup_s),
+            g(run.sampling_s),
+            g(run.warmup_compile_s),
+            g(run.sampling_compile_s),
+            run.gradients,
+            g(run.gradients as f64 / draws as f64),
+            run.divergences,
+            g(run.accept_prob),
+            run.step_size
+                .iter()
+                .map(|v| g(*v))
+                .collect::<Vec<_>>()
+                .join(", "),
+            g(run.ess_per_s_draws),
+            g(ours_ess_per_s / run.ess_per_s_draws),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::nuts::{GradientCheck, NutsPlan, NutsRun};
+    use crate::bench::peer::MedianCheck;
+
+    fn medians() -> Vec<MedianCheck> {
+        vec![MedianCheck {
+            name: "ln_k[c]".into(),
+            ours: 9.4,
+            peer: 9.4,
+            z: 0.5,
+        }]
+    }
+
+    fn emcee() -> PeerComparison {
+        PeerComparison {
+            versions: serde_json::json!({"emcee": "3"}),
+            log_density: LogDensityCheck::new(&[Some(1.0)], &[Some(1.0)]),
+            medians: medians(),
+            medians_agree: true,
+            walkers: 32,
+            ensembles: 2,
+            steps: 600,
+            ours_us_per_eval: 40.0,
+            peer_us_per_eval_single: 4000.0,
+            peer_us_per_eval_vectorised: 3000.0,
+            ours_sampling_s: [2.0, 1.0],
+            peer_sampling_s: 100.0,
+            ours_ess_min: 250.0,
+            peer_ess_min: 250.0,
+            ours_ess_per_s: [125.0, 250.0],
+            peer_ess_per_s: 2.5,
+            ours_error: 0.02,
+            peer_error: 0.03,
+            quoted: true,
+        }
+    }
+
+    /// Two chains, 300 draws each, ESS 500 in 60 s of warmup and 40 s of draws.
+    fn nuts(quoted: bool) -> NutsOutcome {
+        NutsOutcome::Ran(NutsComparison {
+            versions: serde_json::json!({"numpyro": "0.22.0"}),
+            log_density: LogDensityCheck::new(&[Some(1.0)], &[Some(1.0)]),
+            gradient: GradientCheck {
+                points: 12,
+                max_error: 1e-9,
+            },
+            plan: NutsPlan::default(),
+            us_per_gradient: 2000.0,
+            runs: vec![NutsRun {
+                chains: 2,
+                warmup_s: 60.0,
+                warmup_compile_s: 20.0,
+                sampling_s: 40.0,
+                sampling_compile_s: 30.0,
+                gradients: 30_000,
+                divergences: 0,
+                accept_prob: 0.9,
+                step_size: vec![0.1, 0.2],
+                ess_min: 500.0,
+                ess_per_s: 5.0,
+                ess_per_s_draws: 12.5,
+                medians: medians(),
+                medians_agree: quoted,
+                error: 0.04,
+            }],
+            quoted,
+        })
+    }
+
+    #[test]
+    fn nuts_is_a_row_of_the_samplers_table_with_our_ratio_to_it() {
+        let mut s = String::new();
+        peer_section(&mut s, 2, 4000, &emcee(), Some(&nuts(true)));
+        // 250 ESS/s against emcee's 2.5 and NUTS's 5 (warmup + draws); 2×300 draws.
+        assert!(s.contains("| emcee + numpy/scipy |"), "{s}");
+        assert!(s.contains("| 2.500 | 100 |"), "{s}");
+        assert!(
+            s.contains("| NumPyro NUTS, 2 chain(s) | 2×300 draws after 300 warmup |"),
+            "{s}"
+        );
+        assert!(s.contains("| 500 | 5.000 | 50.000 |"), "{s}");
+        // The detail table: per draw 30,000 / 600 gradients, 250 / 12.5 on the draws alone.
+        assert!(s.contains("| 30000 | 50.000 | 0 |"), "{s}");
+        assert!(s.contains("| 12.500 | 20.000 |"), "{s}");
+        assert!(s.contains("NUTS peer: log-density at 1 points"), "{s}");
+        assert!(s.contains("NUTS 2 chain(s) **agree**"), "{s}");
+    }
+
+    #[test]
+    fn the_headline_quotes_nuts_only_when_it_passed_and_says_why_it_is_missing() {
+        let line = |outcome: Option<&NutsOutcome>| {
+            let mut s = String::new();
+            nuts_headline(&mut s, outcome, 250.0, 2);
+            s
+        };
+        assert!(line(Some(&nuts(true))).contains("ESS/s **50.000× NUTS's** on 2 threads"));
+        assert!(line(Some(&nuts(true))).contains("20.000× against its kept draws alone"));
+        assert!(line(Some(&nuts(false))).contains("did **not** pass"));
+        let skipped = NutsOutcome::Skipped {
+            reason: "pip install jax failed".into(),
+        };
+        assert!(line(Some(&skipped)).contains("**skipped**: pip install jax failed"));
+        assert!(line(None).contains("`--no-nuts`"));
+    }
 }

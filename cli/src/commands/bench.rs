@@ -9,7 +9,8 @@ use clap::Args;
 use crate::bench::peer::PeerCommand;
 use crate::bench::{memory, report, run, BenchSettings};
 
-/// Measure speed against error and compare with the Python peer (emcee + numpy + scipy).
+/// Measure speed against error and compare with the Python peers (emcee + numpy + scipy;
+/// NumPyro's NUTS on JAX).
 ///
 /// Writes <out>/speed-vs-error.md and, in <out>/speed-vs-error/, SVG plots and results.json.
 /// Run it from the repository root (it reads models/, data/, benches/peer/).
@@ -28,16 +29,21 @@ pub(super) struct BenchArgs {
     /// Threads of the "all threads" runs (default: every logical CPU).
     #[arg(long)]
     threads: Option<usize>,
-    /// Python interpreter with numpy, scipy and emcee for the peer. Without it a venv is
-    /// created at --venv (python3 -m venv, then pip install numpy scipy emcee).
+    /// Python interpreter with numpy, scipy and emcee for the peer (and jax, jaxlib, numpyro
+    /// for the NUTS peer). Without it a venv is created at --venv (python3 -m venv, then pip
+    /// install numpy scipy emcee, and jax jaxlib numpyro at pinned versions).
     #[arg(long)]
     python: Option<PathBuf>,
     /// Where to create the peer's venv when --python is not given.
     #[arg(long, default_value = "target/peer-venv")]
     venv: PathBuf,
-    /// Leave the peer out.
+    /// Leave the peers out (emcee and NUTS).
     #[arg(long)]
     no_peer: bool,
+    /// Leave the NUTS peer (NumPyro on JAX, pip install jax jaxlib numpyro into the venv)
+    /// out; it adds a few minutes to a full run.
+    #[arg(long)]
+    no_nuts: bool,
     /// Leave the memory probes out.
     #[arg(long)]
     no_memory: bool,
@@ -81,6 +87,7 @@ pub(super) fn run_bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         )
     };
     let settings = BenchSettings {
+        nuts: peer.is_some() && !args.no_nuts,
         peer,
         probe_binary,
         ..BenchSettings::bundled(
