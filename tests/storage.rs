@@ -83,16 +83,7 @@ fn fake_step(e: usize, step: u64) -> FakeStep {
 fn produce(sink: &mut ParquetSink, from: u64, to: u64) {
     for step in from..to {
         for e in 0..ENSEMBLES {
-            let s = fake_step(e, step);
-            let view = StepView {
-                ensemble: e,
-                step,
-                ndim: params().len(),
-                positions: &s.positions,
-                log_density: &s.log_density,
-                derived: &s.derived,
-            };
-            sink.record(&view).expect("record");
+            record(sink, e, step).expect("record");
         }
         if (step + 1) % CHECKPOINT_EVERY == 0 {
             let state = FakeState {
@@ -102,6 +93,19 @@ fn produce(sink: &mut ParquetSink, from: u64, to: u64) {
             sink.checkpoint(&state).expect("checkpoint");
         }
     }
+}
+
+/// Records step `step` of ensemble `e`.
+fn record(sink: &mut ParquetSink, e: usize, step: u64) -> Result<(), StorageError> {
+    let s = fake_step(e, step);
+    sink.record(&StepView {
+        ensemble: e,
+        step,
+        ndim: params().len(),
+        positions: &s.positions,
+        log_density: &s.log_density,
+        derived: &s.derived,
+    })
 }
 
 fn options(row_group_rows: usize) -> SinkOptions {
@@ -467,16 +471,7 @@ fn a_failed_write_in_the_background_is_returned_by_the_next_call() {
     let mut first_error = None;
     'steps: for step in 0..TOTAL_STEPS {
         for e in 0..ENSEMBLES {
-            let s = fake_step(e, step);
-            let view = StepView {
-                ensemble: e,
-                step,
-                ndim: params().len(),
-                positions: &s.positions,
-                log_density: &s.log_density,
-                derived: &s.derived,
-            };
-            if let Err(error) = sink.record(&view) {
+            if let Err(error) = record(&mut sink, e, step) {
                 first_error = Some(error);
                 break 'steps;
             }
