@@ -61,9 +61,10 @@ def _write_csv(path: Path, time, force, normal):
 
 
 def _plain(value):
-    """JSON-ready values: numpy scalars as Python numbers, paths as strings."""
+    """JSON-ready values: numpy scalars as Python numbers, paths as strings, no None."""
     if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
+        # A model file has no null: a key set to None is a key left out.
+        return {str(k): _plain(v) for k, v in value.items() if v is not None}
     if isinstance(value, (list, tuple)):
         return [_plain(v) for v in value]
     if isinstance(value, os.PathLike):
@@ -102,6 +103,7 @@ class _Progress:
     def __init__(self):
         self.bar = None
         self.started = False
+        self.last = None
         try:
             from tqdm.auto import tqdm
 
@@ -110,6 +112,10 @@ class _Progress:
             self.tqdm = None
 
     def __call__(self, step, last_step, acceptance, tau_max, r_hat_max, eta_s):
+        # While the run is summarised the last step's progress stays as it was.
+        if (step, tau_max, r_hat_max) == self.last:
+            return
+        self.last = (step, tau_max, r_hat_max)
         extra = f"acc {acceptance:.2f}" if not math.isnan(acceptance) else ""
         if tau_max is not None:
             extra += f"  τ_max {tau_max:.1f}"
@@ -172,7 +178,8 @@ def fit(
     continues an interrupted one.
 
     The GIL is released while sampling. ``progress=True`` shows a progress line (a tqdm bar
-    when tqdm is installed); ``False`` shows none. Ctrl-C (or the notebook's interrupt)
+    when tqdm is installed); ``False`` shows none; a function is called instead, about five
+    times a second, with ``(step, last_step, acceptance, tau_max, r_hat_max, eta_s)``. Ctrl-C (or the notebook's interrupt)
     stops the fit after its current step and a checkpoint and raises ``KeyboardInterrupt``
     saying how to resume.
 
@@ -183,7 +190,10 @@ def fit(
     Raises ``SlipbayesError`` (a ``ValueError``) with the library's message, naming the file,
     line, column or key at fault.
     """
-    callback = _Progress() if progress else None
+    if callable(progress):
+        callback = progress
+    else:
+        callback = _Progress() if progress else None
     with tempfile.TemporaryDirectory(prefix="slipbayes-") as scratch:
         run_dir = Path(out) if out is not None else Path(scratch) / "run"
         kwargs = dict(
@@ -208,7 +218,7 @@ def fit(
         try:
             written = _native.fit(os.fspath(run_dir), **kwargs)
         finally:
-            if callback is not None:
+            if isinstance(callback, _Progress):
                 callback.close()
         return _idata.load(written) if out is not None else _idata.from_native(
             _native.load_run(written), None

@@ -4,6 +4,7 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import slipbayes
@@ -14,6 +15,12 @@ DATA = REPO / "data"
 # uses the same settings.
 STEPS = 300
 SEED = 7
+
+
+def same_bits(a, b):
+    """Equal shapes and every float64 equal to the bit (NaN to NaN, 0.0 not -0.0)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
 
 
 def one_contact(first=None, repeat=None):

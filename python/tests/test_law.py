@@ -8,14 +8,9 @@ import numpy as np
 import pytest
 
 import slipbayes
-from conftest import REPO, slipbayes_binary
+from conftest import REPO, same_bits, slipbayes_binary
 
 PTFE = dict(alpha_per_m=0.92e6, a_n=6.2e-3, f_d_n=10e-3, t0_s=14.8)
-
-
-def same_bits(a, b):
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
 
 
 def cli_simulate(tmp_path, *args):
