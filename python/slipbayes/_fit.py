@@ -155,6 +155,7 @@ def fit(
     resume=False,
     report=False,
     progress=True,
+    log_likelihood_draws=2000,
 ):
     """Fits a friction model and returns its posterior as an ``arviz.InferenceData``.
 
@@ -183,7 +184,8 @@ def fit(
     stops the fit after its current step and a checkpoint and raises ``KeyboardInterrupt``
     saying how to resume.
 
-    The returned InferenceData is :func:`slipbayes.load`'s; its docstring says which ArviZ
+    The returned InferenceData is :func:`slipbayes.load`'s (``log_likelihood_draws`` as
+    there: about that many draws of the pointwise log-likelihood); its docstring says which ArviZ
     call reproduces which number of summary.json (ESS: ``az.ess(idata)``; R̂:
     ``az.rhat(slipbayes.ensembles_as_chains(idata))``).
 
@@ -220,6 +222,6 @@ def fit(
         finally:
             if isinstance(callback, _Progress):
                 callback.close()
-        return _idata.load(written) if out is not None else _idata.from_native(
-            _native.load_run(written), None
-        )
+        if out is not None:
+            return _idata.load(written, log_likelihood_draws)
+        return _idata.from_native(_native.load_run(written, log_likelihood_draws), None)

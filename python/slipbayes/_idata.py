@@ -116,15 +116,35 @@ def from_native(raw: dict, run_dir=None):
     )
 
     groups = {"posterior": posterior, "sample_stats": sample_stats}
+    # Every observation of every run along one dimension, `observation`, with each one's run
+    # and time as coordinates: one variable `force`, so that `az.loo(idata)` sees the whole
+    # model's pointwise log-likelihood.
     if raw.get("observed") is not None:
-        observed = {}
+        runs, times, forces = [], [], []
         for run, time, force in raw["observed"]:
             t = _floats(time, (-1,))
-            dim = f"{run}_time_s"
-            observed[run] = xr.DataArray(
-                _floats(force, (-1,)), dims=(dim,), coords={dim: t}, attrs={"units": "N"}
+            runs.append(np.full(t.size, run, dtype=object))
+            times.append(t)
+            forces.append(_floats(force, (-1,)))
+        obs_coords = {
+            "observation": np.arange(sum(t.size for t in times)),
+            "run_of_observation": ("observation", np.concatenate(runs).astype(str)),
+            "time_s": ("observation", np.concatenate(times)),
+        }
+        groups["observed_data"] = xr.Dataset(
+            {"force": (("observation",), np.concatenate(forces), {"units": "N"})},
+            coords=obs_coords,
+        )
+        if raw.get("log_likelihood") is not None:
+            steps_ll = np.asarray(raw["log_likelihood_steps"])
+            terms = [
+                _floats(values, (chains, len(steps_ll), -1)) for _, values in raw["log_likelihood"]
+            ]
+            groups["log_likelihood"] = xr.Dataset(
+                {"force": (("chain", "draw", "observation"), np.concatenate(terms, axis=2))},
+                coords={"chain": np.arange(chains), "draw": steps_ll, **extra_coords,
+                        **obs_coords},
             )
-        groups["observed_data"] = xr.Dataset(observed)
 
     sampler = summary["sampler"]
     attrs = {
@@ -153,7 +173,7 @@ def from_native(raw: dict, run_dir=None):
     return idata
 
 
-def load(run_dir):
+def load(run_dir, log_likelihood_draws=2000):
     """The InferenceData of a finished run directory (``slipbayes fit ... --out RUN_DIR``).
 
     Groups: ``posterior`` (every reported quantity in SI units, named as in summary.json:
@@ -162,8 +182,10 @@ def load(run_dir):
     and gets ``_material`` (or ``_contact``) at the other, e.g. ``a`` and ``a_material``;
     variables over some of a level's members have a dimension of their own, e.g.
     ``F_peak_run``), ``sample_stats`` (``lp``, the log-density; ``moved``), ``observed_data``
-    (each run's data as the fit used them, indexed by time) and attributes with the seed,
-    the settings and the version.
+    (``force``: every run's data as the fit used them, one after the other along
+    ``observation``, whose coordinates ``run_of_observation`` and ``time_s`` say which run
+    and when), ``log_likelihood`` (below) and attributes with the seed, the settings and the
+    version.
 
     Chains and draws: ``chain`` is a walker of an ensemble and ``draw`` a step, post-burn-in
     steps only. Then ArviZ's own functions reproduce slipbayes' numbers as follows:
@@ -179,8 +201,16 @@ def load(run_dir):
       finds 1.001).
     - :func:`slipbayes.summary` is ``az.summary`` with its ``r_hat`` column taken from the
       ensembles: every column as slipbayes reports it.
+
+    ``log_likelihood`` (for ``az.loo`` and ``az.compare``): ``force``, the pointwise
+    log-likelihood ln N(F_i | model_i, σ²) of every observation of ``observed_data``, at every n-th kept step of every chain, n the smallest that evaluates at most about
+    ``log_likelihood_draws`` draws (every draw of a long run would take
+    gigabytes: 128 chains × 385 steps × 5,500 points is 2 GB); its ``draw`` coordinate says
+    which steps. σ is the reported ``sigma`` of the draw (where the fit integrates σ out, its
+    draw from the conditional posterior, so that the parameters and σ are a joint posterior
+    draw). ``log_likelihood_draws=None`` leaves the group out.
     """
-    raw = _native.load_run(os.fspath(run_dir))
+    raw = _native.load_run(os.fspath(run_dir), log_likelihood_draws)
     return from_native(raw, run_dir)
 
 

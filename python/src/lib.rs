@@ -430,9 +430,17 @@ impl From<ReportFailed> for FitOrReport {
 /// Everything of a finished run directory that its InferenceData holds, as plain Python
 /// values and `f64` bytes. Draws are the kept (post-burn-in) steps, laid out chain-major with
 /// one chain per walker of each ensemble (`chain = ensemble * walkers + walker`), each
-/// chain's steps contiguous.
+/// chain's steps contiguous. With `log_likelihood_draws`, also every run's pointwise
+/// log-likelihood (`Posterior::pointwise_log_likelihood`) at every n-th kept step of every
+/// chain, n the smallest that evaluates at most that many draws, laid out (chain, draw,
+/// observation).
 #[pyfunction]
-fn load_run<'py>(py: Python<'py>, run_dir: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+#[pyo3(signature = (run_dir, log_likelihood_draws=None))]
+fn load_run<'py>(
+    py: Python<'py>,
+    run_dir: PathBuf,
+    log_likelihood_draws: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
     let dir = RunDir::new(&run_dir);
     let read = |name: &str| dir.read(name).map_err(|e| error(&e));
     let summary_json = read(slipbayes::fit::run_dir::SUMMARY_JSON)?;
@@ -474,8 +482,11 @@ fn load_run<'py>(py: Python<'py>, run_dir: PathBuf) -> PyResult<Bound<'py, PyDic
     let first = burn_in.saturating_sub(1);
     let skip = (burn_in - first) as usize;
     let mut moved = vec![0.0; chains * kept];
+    let mut params = Vec::with_capacity(reader.param_names().len());
     for name in reader.param_names() {
         let values = reader.column_from(name, first).map_err(storage)?;
+        params.push(values);
+        let values = params.last().expect("just pushed");
         for c in 0..chains {
             for s in 0..kept {
                 let row = (s + skip) * chains + c;
@@ -507,6 +518,44 @@ fn load_run<'py>(py: Python<'py>, run_dir: PathBuf) -> PyResult<Bound<'py, PyDic
         }
     }
     let out = PyDict::new(py);
+    if let Some(draws) = log_likelihood_draws.filter(|&d| d > 0) {
+        let every = kept.div_ceil(draws.div_ceil(chains).max(1)).max(1);
+        let steps_kept: Vec<usize> = (0..kept).step_by(every).collect();
+        let posterior = py
+            .allow_threads(|| Posterior::new(&spec))
+            .map_err(|e| error(&e))?;
+        // Every (chain, kept step) draw in chain-major order, as sampler coordinates.
+        let draws: Vec<Vec<f64>> = (0..chains)
+            .flat_map(|c| steps_kept.iter().map(move |&s| (c, s)))
+            .map(|(c, s)| params.iter().map(|p| p[(s + skip) * chains + c]).collect())
+            .collect();
+        let terms = py.allow_threads(|| {
+            use rayon::prelude::*;
+            draws
+                .par_iter()
+                .map(|x| posterior.pointwise_log_likelihood(x))
+                .collect::<Result<Vec<_>, _>>()
+        });
+        let terms = terms.map_err(|e| {
+            SlipbayesError::new_err(format!(
+                "{}: a kept draw has no finite density: {e}",
+                run_dir.display()
+            ))
+        })?;
+        let per_run = PyList::empty(py);
+        for (i, run) in spec.file.runs.iter().enumerate() {
+            let values: Vec<f64> = terms.iter().flat_map(|t| t[i].iter().copied()).collect();
+            per_run.append((run.name.clone(), to_bytes(py, &values)))?;
+        }
+        out.set_item("log_likelihood", per_run)?;
+        out.set_item(
+            "log_likelihood_steps",
+            steps_kept
+                .iter()
+                .map(|&s| s as u64 + burn_in)
+                .collect::<Vec<_>>(),
+        )?;
+    }
     out.set_item("summary_json", summary_json)?;
     out.set_item("settings_json", settings_json)?;
     out.set_item("ensembles", ensembles)?;

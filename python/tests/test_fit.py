@@ -5,6 +5,7 @@ import json
 import os
 import signal
 import threading
+import warnings
 import time
 
 import arviz as az
@@ -55,10 +56,11 @@ def test_groups_dimensions_and_attributes(fitted):
     assert attrs["slipbayes_version"] == slipbayes.__version__
     assert json.loads(attrs["settings"])["seed"] == SEED
     assert attrs["acceptance"] == pytest.approx(s["acceptance"], rel=0, abs=0)
-    observed = idata.observed_data["ptfe-c1-first"]
+    observed = idata.observed_data["force"]
+    of_first = observed["run_of_observation"].values == "ptfe-c1-first"
     first = np.loadtxt(DATA / "ptfe-c1-first.csv", delimiter=",", skiprows=1)
-    assert same_bits(observed.values, first[:, 1])
-    assert same_bits(observed["ptfe-c1-first_time_s"].values, first[:, 0])
+    assert same_bits(observed.values[of_first], first[:, 1])
+    assert same_bits(observed["time_s"].values[of_first], first[:, 0])
 
 
 def check_arviz_gives_slipbayes_numbers(idata, run_dir):
@@ -118,8 +120,8 @@ def test_netcdf_and_load_round_trips(fitted, tmp_path):
     back = az.from_netcdf(str(path))
     assert_same_posterior(idata, back)
     assert back.posterior.attrs["seed"] == SEED
-    assert same_bits(back.observed_data["ptfe-c1-repeat"].values,
-                     idata.observed_data["ptfe-c1-repeat"].values)
+    assert same_bits(back.observed_data["force"].values, idata.observed_data["force"].values)
+    assert same_bits(back.log_likelihood["force"].values, idata.log_likelihood["force"].values)
     assert_same_posterior(idata, slipbayes.load(run_dir))
 
 
@@ -178,3 +180,46 @@ def test_ctrl_c_stops_after_a_checkpoint_and_resumes(tmp_path, fitted):
     resumed = slipbayes.fit(one_contact(), seed=SEED, steps=STEPS, out=out, resume=True,
                             progress=False)
     assert_same_posterior(idata, resumed)
+
+
+def test_pointwise_log_likelihood_and_az_loo(fitted):
+    idata, _ = fitted
+    ll = idata.log_likelihood["force"]
+    post = idata.posterior
+    chains = post.sizes["chain"]
+    # About 2,000 draws: every n-th kept step of every chain.
+    assert ll.sizes["chain"] == chains and 1000 < chains * ll.sizes["draw"] <= 2048 + chains
+    assert set(ll["draw"].values) <= set(post["draw"].values)
+    obs = idata.observed_data["force"]
+    runs = obs["run_of_observation"].values
+    time = obs["time_s"].values
+
+    def at(var, chain, step):
+        da = post[var].sel(chain=chain, draw=step)
+        return float(da.values.ravel()[0])
+
+    # At a few draws: the Gaussian term of each observation around the observed-time model
+    # (through `simulate`, another path into the library) with the draw's σ.
+    for chain, step in [(0, int(ll["draw"][0])), (77, int(ll["draw"][-1]))]:
+        law = dict(alpha_per_m=at("alpha", chain, step), a_n=at("a", chain, step),
+                   f_d_n=at("F_d", chain, step), t0_s=at("t0", chain, step),
+                   velocity_m_per_s=1e-9, k_n_per_m=at("k", chain, step))
+        first = runs == "ptfe-c1-first"
+        model_first = slipbayes.simulate("first", time_s=time[first], **law)
+        model_repeat = slipbayes.simulate("repeat", time_s=time[~first],
+                                          f_end_n=model_first[-1], **law)
+        for mask, model, run in [(first, model_first, "ptfe-c1-first"),
+                                 (~first, model_repeat, "ptfe-c1-repeat")]:
+            sigma = float(post["sigma"].sel(chain=chain, draw=step, run=run))
+            want = (-0.5 * ((obs.values[mask] - model) / sigma) ** 2 - np.log(sigma)
+                    - 0.5 * np.log(2 * np.pi))
+            got = ll.sel(chain=chain, draw=step).values[mask]
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    # The whole model's PSIS-LOO, with no warning (a Pareto k above 0.7 would warn).
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        loo = az.loo(idata)
+    assert not loo["warning"]
+    assert (loo["pareto_k"].values < 0.7).all()
+    # About one effective parameter per sampled one (α, a/F_d, F_d, t0, k, and two σ).
+    assert 4 < loo["p_loo"] < 10

@@ -24,6 +24,7 @@ mod explain;
 mod layout;
 mod likelihood;
 mod long_records;
+mod pointwise;
 mod predictive;
 mod prior_predictive;
 mod sigma;
