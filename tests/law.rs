@@ -571,3 +571,48 @@ proptest! {
         }
     }
 }
+
+/// Parameter sets (α 1/m, a N, F_d N, t0 s, v m/s) of `tests/reference/law_rust_values.csv`.
+const BINDING_PARAMS: [[f64; 5]; 4] = [
+    [0.92e6, 6.2e-3, 10e-3, 14.8, 1e-9],
+    [0.92e6, 6.2e-3, 10e-3, 14.8, 4e-6],
+    [3.1e5, 1.5e-3, 4e-3, 0.02, 1e-8],
+    [2e7, 0.0, 1e-2, 1e-6, 1e-9],
+];
+
+/// The law's exact bits on a grid of τ (s) for each of [`BINDING_PARAMS`], as CSV text:
+/// what other bindings of the library (the Python package's `law`) are checked against.
+fn binding_reference() -> String {
+    let mut out =
+        String::from("alpha_per_m,a_n,f_d_n,t0_s,velocity_m_per_s,tau_s,force_n,rate_n_per_s\n");
+    for [alpha, a, f_d, t0, v] in BINDING_PARAMS {
+        let law = Law::new(&LawParams::new(alpha, a, f_d, t0).unwrap(), v).unwrap();
+        for i in 0..40 {
+            // From before t0 to far past the peak, log-spaced.
+            let tau = t0 * 0.5 * 10f64.powf(i as f64 * 0.2);
+            let (force, rate) = law.force_and_rate(tau);
+            out.push_str(&format!(
+                "{alpha:?},{a:?},{f_d:?},{t0:?},{v:?},{tau:?},{force:?},{rate:?}\n"
+            ));
+        }
+    }
+    out
+}
+
+/// The committed table of the law's bits is current (`SLIPBAYES_WRITE_REFERENCE=1`
+/// rewrites it): python/tests/test_law.py compares the Python binding with it bit for bit.
+#[test]
+fn law_bits_match_the_table_bindings_are_checked_against() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/reference/law_rust_values.csv");
+    let text = binding_reference();
+    if std::env::var_os("SLIPBAYES_WRITE_REFERENCE").is_some() {
+        std::fs::write(&path, &text).unwrap();
+    }
+    let committed = std::fs::read_to_string(&path).unwrap();
+    assert!(
+        committed == text,
+        "{} is stale: rerun with SLIPBAYES_WRITE_REFERENCE=1",
+        path.display()
+    );
+}

@@ -158,3 +158,60 @@ fn explicit_sigma_starts_at_the_noise_level() {
     let start = post.start()[i].exp();
     assert!((start / 1e-4 - 1.0).abs() < 0.2, "start σ = {start:e}");
 }
+
+/// The pointwise log-likelihood is ln N(F_i | model, σ²) at every observation, with σ the
+/// reported `sigma` column (sampled, or drawn from its conditional where it is integrated
+/// out), the model the run's forces at the data times, and a repeat slide loading up to where
+/// its first slide stopped.
+#[test]
+fn pointwise_log_likelihood_is_each_observations_gaussian_term() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let first = data.join("ptfe-c1-first.csv");
+    let model = one_run_model(&first.display().to_string(), "1e-9", "first")
+        + &format!(
+            r#"
+[[run]]
+name = "r2"
+contact = "c1"
+data = "{}"
+velocity_m_per_s = 1e-9
+scene = "repeat"
+follows = "r1"
+"#,
+            data.join("ptfe-c1-repeat.csv").display()
+        );
+    let dir = tempfile::tempdir().unwrap();
+    for priors in [
+        "",
+        "\n[priors]\nsigma = { dist = \"half-normal\", sd = 1e-3 }\n",
+    ] {
+        let spec =
+            ModelSpec::load(&write(dir.path(), "m.toml", &(model.clone() + priors))).unwrap();
+        let post = Posterior::new(&spec).unwrap();
+        let x = post.start().to_vec();
+        let mut derived = vec![0.0; post.derived_names().len()];
+        post.log_density(&x, &mut derived).unwrap();
+        let pointwise = post.pointwise_log_likelihood(&x).unwrap();
+        assert_eq!(pointwise.len(), 2);
+        for (run, name) in ["r1", "r2"].into_iter().enumerate() {
+            let sigma_column = post
+                .derived_names()
+                .iter()
+                .position(|n| *n == format!("sigma[{name}]"))
+                .unwrap();
+            let sigma = derived[sigma_column];
+            let observed = slipbayes::model::data::RunData::for_run(&spec, run).unwrap();
+            let model = post.run_forces(&x, run).unwrap();
+            assert_eq!(pointwise[run].len(), observed.n_obs, "{name}");
+            for (i, ll) in pointwise[run].iter().enumerate() {
+                let r = observed.force[i] - model[i];
+                let want =
+                    -0.5 * (r / sigma).powi(2) - (sigma * (2.0 * std::f64::consts::PI).sqrt()).ln();
+                assert!(
+                    (ll - want).abs() < 1e-12 * want.abs().max(1.0),
+                    "{name}[{i}]: {ll} {want}"
+                );
+            }
+        }
+    }
+}

@@ -197,7 +197,7 @@ fn repeat_kinks(slide: &RepeatSlide) -> [f64; 2] {
 }
 
 /// A law that cannot be evaluated rejects the point, under the label of the reason.
-fn law_rejection(e: LawError) -> LogDensityError {
+pub(super) fn law_rejection(e: LawError) -> LogDensityError {
     match e {
         LawError::StickSlip { .. } => LogDensityError::rejected(REJECT_STICK_SLIP),
         _ => LogDensityError::rejected(REJECT_LAW),

@@ -67,7 +67,9 @@ struct DrawNoise {
 
 impl Posterior {
     /// ln N(y_i | F_i(x), σ²) of every observation at sampler coordinates `x`: one `Vec` per
-    /// run in the model's order, σ being the draw's (see the [module documentation](self)).
+    /// run in the model's order. σ is the draw's: its sampled coordinate, or, where σ is
+    /// integrated out of the density, the conditional draw the fit reports as the run's
+    /// `sigma` column (the same bits), so that (x, σ) is a draw of the joint posterior.
     ///
     /// # Errors
     /// [`PointwiseError::Reduced`] for a run evaluated on sufficient statistics,

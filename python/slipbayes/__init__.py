@@ -1,0 +1,33 @@
+"""slipbayes: Bayesian inference of the onset of frictional slip, from Python.
+
+The Rust library does every computation; this package moves numpy arrays in and builds
+ArviZ objects out. All values are SI (N, s, m/s, 1/m, N/m).
+
+- :func:`law`, :func:`simulate`, :func:`peak`: the friction law in interface time, the force
+  a slide records in instrument time, and the static friction peak, vectorised over numpy
+  arrays.
+- :func:`fit`: fit a model file or a dict; returns an ``arviz.InferenceData``.
+- :func:`load`: the same object for a finished ``slipbayes fit`` run directory.
+- :func:`ensembles_as_chains`, :func:`summary`: R̂ as slipbayes computes it (between
+  ensembles), with ArviZ.
+- :class:`SlipbayesError`: every error of the library, with its message.
+"""
+
+from slipbayes._native import SlipbayesError, __version__
+from slipbayes._law import Peak, Simulated, law, peak, simulate
+from slipbayes._fit import fit
+from slipbayes._idata import ensembles_as_chains, load, summary
+
+__all__ = [
+    "SlipbayesError",
+    "__version__",
+    "Peak",
+    "Simulated",
+    "law",
+    "peak",
+    "simulate",
+    "fit",
+    "load",
+    "ensembles_as_chains",
+    "summary",
+]

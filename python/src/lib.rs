@@ -1,0 +1,609 @@
+//! `slipbayes._native`: the slipbayes library seen from Python.
+//!
+//! A thin layer: every number comes from the `slipbayes` crate, called as the command line
+//! calls it. Arrays cross the boundary as native-endian `f64` bytes (numpy's `tobytes()` and
+//! `frombuffer`), so they keep their bits and nothing here depends on numpy's C API. The
+//! Python package `slipbayes` (beside this crate) turns them into numpy arrays and ArviZ
+//! objects.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyList};
+
+use slipbayes::fit::{fit_model, FitError, FitSettings, RunDir, SettingOverrides};
+use slipbayes::law::{Elastic, Law, LawParams};
+use slipbayes::model::data::RunData;
+use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::sampler::{Observer, Progress};
+use slipbayes::simulate::{simulate as simulate_run, SimulationSpec};
+
+create_exception!(
+    _native,
+    SlipbayesError,
+    PyValueError,
+    "An error reported by slipbayes, with the message the command line prints: the file, \
+     line, column, key or parameter at fault and what to change."
+);
+
+/// How often a running fit hands its progress to Python and looks for Ctrl-C.
+const POLL: Duration = Duration::from_millis(200);
+
+/// The error and its causes in one message, as the command line prints them.
+fn error(e: &dyn std::error::Error) -> PyErr {
+    SlipbayesError::new_err(message(e))
+}
+
+fn message(e: &dyn std::error::Error) -> String {
+    let mut message = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        let text = cause.to_string();
+        // Many variants already repeat their cause's text (`#[error(transparent)]`, `{source}`).
+        if !message.contains(&text) {
+            message.push_str(": ");
+            message.push_str(&text);
+        }
+        source = cause.source();
+    }
+    message
+}
+
+fn floats(name: &str, bytes: &[u8]) -> PyResult<Vec<f64>> {
+    if bytes.len() % 8 != 0 {
+        return Err(SlipbayesError::new_err(format!(
+            "{name}: {} bytes are not whole float64 values",
+            bytes.len()
+        )));
+    }
+    Ok(bytes
+        .chunks_exact(8)
+        .map(|b| f64::from_ne_bytes(b.try_into().expect("chunks of 8 bytes")))
+        .collect())
+}
+
+fn to_bytes<'py>(py: Python<'py>, values: &[f64]) -> Bound<'py, PyBytes> {
+    let mut out = Vec::with_capacity(values.len() * 8);
+    for v in values {
+        out.extend_from_slice(&v.to_ne_bytes());
+    }
+    PyBytes::new(py, &out)
+}
+
+/// Equal-length parameter arrays (broadcast by the caller), read from bytes.
+fn columns<const N: usize>(named: [(&str, &[u8]); N]) -> PyResult<[Vec<f64>; N]> {
+    let mut out: [Vec<f64>; N] = std::array::from_fn(|_| Vec::new());
+    for (slot, (name, bytes)) in out.iter_mut().zip(named) {
+        *slot = floats(name, bytes)?;
+    }
+    let n = out[0].len();
+    if let Some((i, c)) = out.iter().enumerate().find(|(_, c)| c.len() != n) {
+        return Err(SlipbayesError::new_err(format!(
+            "argument {i} has {} values where {n} were expected (broadcast the arrays first)",
+            c.len()
+        )));
+    }
+    Ok(out)
+}
+
+/// The law at element `i`, reusing the previous element's when its parameters are the same
+/// bits (the common case: one parameter set over many τ).
+fn law_at(
+    cache: &mut Option<([u64; 5], Law)>,
+    i: usize,
+    [alpha, a, f_d, t0, v]: [f64; 5],
+) -> PyResult<Law> {
+    let key = [alpha, a, f_d, t0, v].map(f64::to_bits);
+    if let Some((k, law)) = cache.as_ref() {
+        if *k == key {
+            return Ok(law.clone());
+        }
+    }
+    let law = LawParams::new(alpha, a, f_d, t0)
+        .and_then(|p| Law::new(&p, v))
+        .map_err(|e| SlipbayesError::new_err(format!("element {i}: {e}")))?;
+    *cache = Some((key, law.clone()));
+    Ok(law)
+}
+
+/// F(τ) and dF/dτ of the law in interface time, elementwise: `Law::new` and
+/// `Law::force_and_rate`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn law<'py>(
+    py: Python<'py>,
+    tau_s: &[u8],
+    alpha_per_m: &[u8],
+    a_n: &[u8],
+    f_d_n: &[u8],
+    t0_s: &[u8],
+    velocity_m_per_s: &[u8],
+) -> PyResult<(Bound<'py, PyBytes>, Bound<'py, PyBytes>)> {
+    let [tau, alpha, a, f_d, t0, v] = columns([
+        ("tau_s", tau_s),
+        ("alpha_per_m", alpha_per_m),
+        ("a_n", a_n),
+        ("f_d_n", f_d_n),
+        ("t0_s", t0_s),
+        ("velocity_m_per_s", velocity_m_per_s),
+    ])?;
+    let mut force = Vec::with_capacity(tau.len());
+    let mut rate = Vec::with_capacity(tau.len());
+    let mut cache = None;
+    for i in 0..tau.len() {
+        let law = law_at(&mut cache, i, [alpha[i], a[i], f_d[i], t0[i], v[i]])?;
+        let (f, r) = law.force_and_rate(tau[i]);
+        force.push(f);
+        rate.push(r);
+    }
+    Ok((to_bytes(py, &force), to_bytes(py, &rate)))
+}
+
+/// The static friction peak, elementwise: τ_peak (s), F_peak (N), s_peak (m) and t_peak (s,
+/// instrument time; `k_n_per_m` NaN for a stiff slide, t_peak = τ_peak), NaN where the law has
+/// no interior peak (a = 0). `Law::peak`, as the fit's derived columns compute it.
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn peak<'py>(
+    py: Python<'py>,
+    alpha_per_m: &[u8],
+    a_n: &[u8],
+    f_d_n: &[u8],
+    t0_s: &[u8],
+    velocity_m_per_s: &[u8],
+    k_n_per_m: &[u8],
+) -> PyResult<[Bound<'py, PyBytes>; 4]> {
+    let [alpha, a, f_d, t0, v, k] = columns([
+        ("alpha_per_m", alpha_per_m),
+        ("a_n", a_n),
+        ("f_d_n", f_d_n),
+        ("t0_s", t0_s),
+        ("velocity_m_per_s", velocity_m_per_s),
+        ("k_n_per_m", k_n_per_m),
+    ])?;
+    let mut out: [Vec<f64>; 4] = std::array::from_fn(|_| Vec::with_capacity(alpha.len()));
+    let mut cache = None;
+    for i in 0..alpha.len() {
+        let law = law_at(&mut cache, i, [alpha[i], a[i], f_d[i], t0[i], v[i]])?;
+        let kv = if k[i].is_nan() {
+            None
+        } else {
+            match Elastic::spring(k[i], v[i]) {
+                Ok(Elastic::Spring { kv }) => Some(kv),
+                Ok(Elastic::Stiff) => None,
+                Err(e) => return Err(SlipbayesError::new_err(format!("element {i}: {e}"))),
+            }
+        };
+        let values = law.peak().interior().map_or([f64::NAN; 4], |p| {
+            [p.tau_s, p.force_n, p.slip_m(v[i]), p.observed_time_s(kv)]
+        });
+        for (o, x) in out.iter_mut().zip(values) {
+            o.push(x);
+        }
+    }
+    Ok(out.map(|o| to_bytes(py, &o)))
+}
+
+fn simulation_spec(spec_json: &str) -> PyResult<SimulationSpec> {
+    serde_json::from_str(spec_json)
+        .map_err(|e| SlipbayesError::new_err(format!("simulation settings: {e}")))
+}
+
+/// The noiseless force a slide records at instrument times `time_s` (increasing):
+/// `SimulationSpec::clean_forces` (the elastic solve of a first slide, τ = t for a stiff fast
+/// one, the loading and plateau of a repeat slide).
+#[pyfunction]
+fn observed_forces<'py>(
+    py: Python<'py>,
+    spec_json: &str,
+    time_s: &[u8],
+) -> PyResult<Bound<'py, PyBytes>> {
+    let spec = simulation_spec(spec_json)?;
+    let times = floats("time_s", time_s)?;
+    let (forces, _) = py
+        .allow_threads(|| spec.clean_forces(&times))
+        .map_err(|e| error(&e))?;
+    Ok(to_bytes(py, &forces))
+}
+
+/// A simulated run as `slipbayes simulate` writes it: times, noisy forces, noiseless forces,
+/// normal forces (or None) and F_end (or None).
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn simulate<'py>(
+    py: Python<'py>,
+    spec_json: &str,
+) -> PyResult<(
+    Bound<'py, PyBytes>,
+    Bound<'py, PyBytes>,
+    Bound<'py, PyBytes>,
+    Option<Bound<'py, PyBytes>>,
+    Option<f64>,
+)> {
+    let spec = simulation_spec(spec_json)?;
+    let run = py
+        .allow_threads(|| simulate_run(&spec))
+        .map_err(|e| error(&e))?;
+    Ok((
+        to_bytes(py, &run.series.time_s),
+        to_bytes(py, &run.series.force_n),
+        to_bytes(py, &run.clean_force_n),
+        run.series
+            .normal_force_n
+            .as_deref()
+            .map(|n| to_bytes(py, n)),
+        run.f_end_n,
+    ))
+}
+
+/// A model from a JSON object of the model file's structure: converted to TOML text and read
+/// as a model file would be, so that it is validated by the same code and its errors name the
+/// same keys. Data paths are relative to `base_dir`.
+fn model_from_json(json: &str, base_dir: &Path) -> PyResult<ModelSpec> {
+    let value: serde_json::Value = serde_json::from_str(json)
+        .map_err(|e| SlipbayesError::new_err(format!("model dict: {e}")))?;
+    let text = toml::to_string(&value).map_err(|e| {
+        SlipbayesError::new_err(format!(
+            "model dict: cannot be written as a model file: {e}"
+        ))
+    })?;
+    ModelSpec::parse(&text, &base_dir.join("<model dict>")).map_err(|e| error(&e))
+}
+
+/// What a running fit shares with the thread that waits for it.
+#[derive(Default)]
+struct Shared {
+    latest: Mutex<Option<Progress>>,
+    stop: AtomicBool,
+}
+
+struct SharedObserver {
+    shared: Arc<Shared>,
+    shows: bool,
+}
+
+impl Observer for SharedObserver {
+    fn on_step(&mut self, progress: &Progress) {
+        if let Ok(mut latest) = self.shared.latest.lock() {
+            *latest = Some(*progress);
+        }
+    }
+    fn stop_requested(&mut self) -> bool {
+        self.shared.stop.load(Ordering::Relaxed)
+    }
+    fn shows_progress(&self) -> bool {
+        self.shows
+    }
+}
+
+/// Fits a model into the run directory `out` (as `slipbayes fit MODEL --out OUT`) and returns
+/// the directory. The sampler runs on a thread pool of its own (`threads`, default: every
+/// core) with the GIL released; meanwhile this thread hands the progress to `progress(step,
+/// last_step, acceptance, tau_max, r_hat_max, eta_s)` and watches for Ctrl-C, which stops the
+/// fit after its current step and a checkpoint (resumable with `resume=True`).
+#[pyfunction]
+#[pyo3(signature = (
+    out, model_path=None, model_json=None, base_dir=None, seed=None, walkers=None, steps=None,
+    max_steps=None, max_time_s=None, threads=None, overwrite=false, resume=false,
+    report=false, progress=None
+))]
+#[allow(clippy::too_many_arguments)]
+fn fit(
+    py: Python<'_>,
+    out: PathBuf,
+    model_path: Option<PathBuf>,
+    model_json: Option<String>,
+    base_dir: Option<PathBuf>,
+    seed: Option<u64>,
+    walkers: Option<usize>,
+    steps: Option<u64>,
+    max_steps: Option<u64>,
+    max_time_s: Option<f64>,
+    threads: Option<usize>,
+    overwrite: bool,
+    resume: bool,
+    report: bool,
+    progress: Option<PyObject>,
+) -> PyResult<String> {
+    let spec = match (model_path, model_json) {
+        (Some(path), None) => ModelSpec::load(&path).map_err(|e| error(&e))?,
+        (None, Some(json)) => model_from_json(&json, &base_dir.unwrap_or_default())?,
+        _ => {
+            return Err(PyValueError::new_err(
+                "give model_path or model_json, not both",
+            ))
+        }
+    };
+    let posterior = py
+        .allow_threads(|| Posterior::new(&spec))
+        .map_err(|e| error(&e))?;
+    let overrides = SettingOverrides {
+        seed,
+        walkers,
+        steps,
+        max_steps,
+        max_time_s,
+        quiet: progress.is_none(),
+        overwrite,
+        ..SettingOverrides::default()
+    };
+    let settings = FitSettings::for_model(&posterior, &overrides);
+    std::fs::create_dir_all(&out)
+        .map_err(|e| SlipbayesError::new_err(format!("creating {}: {e}", out.display())))?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .map_err(|e| SlipbayesError::new_err(format!("threads = {threads:?}: {e}")))?;
+    let shared = Arc::new(Shared::default());
+    let mut observer = SharedObserver {
+        shared: Arc::clone(&shared),
+        shows: progress.is_some(),
+    };
+    let command = vec!["python: slipbayes.fit".to_owned()];
+    let mut interrupt: Option<PyErr> = None;
+    let result = std::thread::scope(|scope| -> PyResult<_> {
+        let worker = scope.spawn(|| {
+            pool.install(|| {
+                let outcome =
+                    fit_model(&posterior, &settings, &out, resume, command, &mut observer)?;
+                if report {
+                    slipbayes::report::write_report(&outcome.dir, &posterior)
+                        .map_err(|e| ReportFailed(message(&e)))?;
+                }
+                Ok::<_, FitOrReport>(outcome)
+            })
+        });
+        loop {
+            if worker.is_finished() {
+                return Ok(worker.join().expect("the fit thread does not panic"));
+            }
+            py.allow_threads(|| std::thread::sleep(POLL));
+            if let Err(e) = py.check_signals() {
+                // Ctrl-C: stop after the current step and its checkpoint; wait for that.
+                shared.stop.store(true, Ordering::Relaxed);
+                interrupt.get_or_insert(e);
+                continue;
+            }
+            let latest = shared.latest.lock().ok().and_then(|p| *p);
+            if let (Some(callback), Some(p)) = (&progress, latest) {
+                if let Err(e) = callback.call1(
+                    py,
+                    (
+                        p.step,
+                        p.last_step,
+                        p.acceptance,
+                        p.tau_max,
+                        p.r_hat_max,
+                        p.eta.map(|d| d.as_secs_f64()),
+                    ),
+                ) {
+                    shared.stop.store(true, Ordering::Relaxed);
+                    interrupt.get_or_insert(e);
+                }
+            }
+        }
+    })?;
+    match result {
+        Ok(outcome) => Ok(outcome.dir.path().display().to_string()),
+        Err(FitOrReport::Fit(FitError::Interrupted { dir, step })) => {
+            let message = format!(
+                "interrupted at step {step}: the chains and checkpoint in {} are written; \
+                 continue with slipbayes.fit(..., out={:?}, resume=True)",
+                dir.display(),
+                dir.display().to_string()
+            );
+            match interrupt {
+                Some(e) if !e.is_instance_of::<PyKeyboardInterrupt>(py) => Err(e),
+                _ => Err(PyKeyboardInterrupt::new_err(message)),
+            }
+        }
+        Err(FitOrReport::Fit(e)) => Err(error(&e)),
+        Err(FitOrReport::Report(ReportFailed(message))) => Err(SlipbayesError::new_err(message)),
+    }
+}
+
+/// A report that could not be written (its message).
+struct ReportFailed(String);
+
+enum FitOrReport {
+    Fit(FitError),
+    Report(ReportFailed),
+}
+
+impl From<FitError> for FitOrReport {
+    fn from(e: FitError) -> Self {
+        Self::Fit(e)
+    }
+}
+
+impl From<ReportFailed> for FitOrReport {
+    fn from(e: ReportFailed) -> Self {
+        Self::Report(e)
+    }
+}
+
+/// Everything of a finished run directory that its InferenceData holds, as plain Python
+/// values and `f64` bytes. Draws are the kept (post-burn-in) steps, laid out chain-major with
+/// one chain per walker of each ensemble (`chain = ensemble * walkers + walker`), each
+/// chain's steps contiguous. With `log_likelihood_draws`, also every run's pointwise
+/// log-likelihood (`Posterior::pointwise_log_likelihood`) at every n-th kept step of every
+/// chain, n the smallest that evaluates at most that many draws, laid out (chain, draw,
+/// observation).
+#[pyfunction]
+#[pyo3(signature = (run_dir, log_likelihood_draws=None))]
+fn load_run<'py>(
+    py: Python<'py>,
+    run_dir: PathBuf,
+    log_likelihood_draws: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let dir = RunDir::new(&run_dir);
+    let read = |name: &str| dir.read(name).map_err(|e| error(&e));
+    let summary_json = read(slipbayes::fit::run_dir::SUMMARY_JSON)?;
+    let settings_json = read(slipbayes::fit::run_dir::SETTINGS_JSON)?;
+    let summary = dir.read_summary().map_err(|e| error(&e))?;
+    let spec = dir.read_model().map_err(|e| error(&e))?;
+    let reader = dir.chain_reader().map_err(|e| error(&e))?;
+    let (ensembles, walkers, steps) = (reader.ensembles(), reader.walkers(), reader.steps());
+    let burn_in = summary.sampler.burn_in;
+    if burn_in >= steps {
+        return Err(SlipbayesError::new_err(format!(
+            "{}: burn-in {burn_in} leaves none of the {steps} steps",
+            run_dir.display()
+        )));
+    }
+    let kept = (steps - burn_in) as usize;
+    let chains = ensembles * walkers;
+    let storage = |e| error(&e as &dyn std::error::Error);
+    // Row order on disk is (step, ensemble, walker): chain c = e * walkers + w of step s is
+    // row s * chains + c, counted from the first step read.
+    let chain_major = |values: &[f64], skip: usize| -> Vec<f64> {
+        let mut out = vec![0.0; chains * kept];
+        for c in 0..chains {
+            for s in 0..kept {
+                out[c * kept + s] = values[(s + skip) * chains + c];
+            }
+        }
+        out
+    };
+    let columns = PyList::empty(py);
+    let names = std::iter::once(slipbayes::storage::LOG_DENSITY_COLUMN.to_owned())
+        .chain(reader.derived_names().iter().cloned());
+    for name in names {
+        let values = reader.column_from(&name, burn_in).map_err(storage)?;
+        columns.append((name, to_bytes(py, &chain_major(&values, 0))))?;
+    }
+    // Whether each walker moved at each kept step: any sampled coordinate changed since the
+    // step before (NaN at step 0, which has no step before).
+    let first = burn_in.saturating_sub(1);
+    let skip = (burn_in - first) as usize;
+    let mut moved = vec![0.0; chains * kept];
+    let mut params = Vec::with_capacity(reader.param_names().len());
+    for name in reader.param_names() {
+        let values = reader.column_from(name, first).map_err(storage)?;
+        params.push(values);
+        let values = params.last().expect("just pushed");
+        for c in 0..chains {
+            for s in 0..kept {
+                let row = (s + skip) * chains + c;
+                let changed = skip == 1 && values[row].to_bits() != values[row - chains].to_bits();
+                if changed {
+                    moved[c * kept + s] = 1.0;
+                }
+            }
+        }
+    }
+    if skip == 0 {
+        for c in 0..chains {
+            moved[c * kept] = f64::NAN;
+        }
+    }
+    let observed = PyList::empty(py);
+    let mut observed_error = None;
+    for (i, run) in spec.file.runs.iter().enumerate() {
+        match RunData::for_run(&spec, i) {
+            Ok(data) => observed.append((
+                run.name.clone(),
+                to_bytes(py, &data.model_times[..data.n_obs]),
+                to_bytes(py, &data.force[..data.n_obs]),
+            ))?,
+            Err(e) => {
+                observed_error = Some(format!("run `{}`: {e}", run.name));
+                break;
+            }
+        }
+    }
+    let out = PyDict::new(py);
+    if let Some(draws) = log_likelihood_draws.filter(|&d| d > 0) {
+        let every = kept.div_ceil(draws.div_ceil(chains).max(1)).max(1);
+        let steps_kept: Vec<usize> = (0..kept).step_by(every).collect();
+        let posterior = py
+            .allow_threads(|| Posterior::new(&spec))
+            .map_err(|e| error(&e))?;
+        // Every (chain, kept step) draw in chain-major order, as sampler coordinates.
+        let draws: Vec<Vec<f64>> = (0..chains)
+            .flat_map(|c| steps_kept.iter().map(move |&s| (c, s)))
+            .map(|(c, s)| params.iter().map(|p| p[(s + skip) * chains + c]).collect())
+            .collect();
+        let terms = py.allow_threads(|| {
+            use rayon::prelude::*;
+            draws
+                .par_iter()
+                .map(|x| posterior.pointwise_log_likelihood(x))
+                .collect::<Result<Vec<_>, _>>()
+        });
+        let terms = terms.map_err(|e| {
+            SlipbayesError::new_err(format!(
+                "{}: a kept draw has no finite density: {e}",
+                run_dir.display()
+            ))
+        })?;
+        let per_run = PyList::empty(py);
+        for (i, run) in spec.file.runs.iter().enumerate() {
+            let values: Vec<f64> = terms.iter().flat_map(|t| t[i].iter().copied()).collect();
+            per_run.append((run.name.clone(), to_bytes(py, &values)))?;
+        }
+        out.set_item("log_likelihood", per_run)?;
+        out.set_item(
+            "log_likelihood_steps",
+            steps_kept
+                .iter()
+                .map(|&s| s as u64 + burn_in)
+                .collect::<Vec<_>>(),
+        )?;
+    }
+    out.set_item("summary_json", summary_json)?;
+    out.set_item("settings_json", settings_json)?;
+    out.set_item("ensembles", ensembles)?;
+    out.set_item("walkers", walkers)?;
+    out.set_item("steps", steps)?;
+    out.set_item("burn_in", burn_in)?;
+    out.set_item("columns", columns)?;
+    out.set_item("moved", to_bytes(py, &moved))?;
+    out.set_item(
+        "materials",
+        spec.file
+            .materials
+            .iter()
+            .map(|m| m.name.clone())
+            .collect::<Vec<_>>(),
+    )?;
+    out.set_item(
+        "contacts",
+        spec.file
+            .contacts
+            .iter()
+            .map(|c| (c.name.clone(), c.material.clone()))
+            .collect::<Vec<_>>(),
+    )?;
+    out.set_item(
+        "runs",
+        spec.file
+            .runs
+            .iter()
+            .map(|r| (r.name.clone(), r.contact.clone(), r.scene.to_string()))
+            .collect::<Vec<_>>(),
+    )?;
+    if observed_error.is_none() {
+        out.set_item("observed", observed)?;
+    }
+    out.set_item("observed_error", observed_error)?;
+    Ok(out)
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("SlipbayesError", m.py().get_type::<SlipbayesError>())?;
+    m.add_function(wrap_pyfunction!(law, m)?)?;
+    m.add_function(wrap_pyfunction!(peak, m)?)?;
+    m.add_function(wrap_pyfunction!(observed_forces, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(load_run, m)?)?;
+    Ok(())
+}

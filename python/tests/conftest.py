@@ -1,0 +1,97 @@
+"""Shared fixtures: the bundled PTFE contact of the repository, fitted once per session."""
+
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import slipbayes
+
+REPO = Path(__file__).resolve().parents[2]
+DATA = REPO / "data"
+# Fixed steps keep the session's fits at a few seconds each; every test that compares fits
+# uses the same settings.
+STEPS = 300
+SEED = 7
+
+
+def same_bits(a, b):
+    """Equal shapes and every float64 equal to the bit (NaN to NaN, 0.0 not -0.0)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
+def one_contact(first=None, repeat=None):
+    """The bundled PTFE contact (first slide and repeat slide at 1 nm/s) as a model dict."""
+    return {
+        "material": [{"name": "PTFE"}],
+        "contact": [{"name": "ptfe-c1", "material": "PTFE"}],
+        "run": [
+            {
+                "name": "ptfe-c1-first",
+                "contact": "ptfe-c1",
+                "data": first if first is not None else str(DATA / "ptfe-c1-first.csv"),
+                "velocity_m_per_s": 1e-9,
+                "scene": "first",
+            },
+            {
+                "name": "ptfe-c1-repeat",
+                "contact": "ptfe-c1",
+                "data": repeat if repeat is not None else str(DATA / "ptfe-c1-repeat.csv"),
+                "velocity_m_per_s": 1e-9,
+                "scene": "repeat",
+            },
+        ],
+    }
+
+
+ONE_CONTACT_TOML = """
+[[material]]
+name = "PTFE"
+
+[[contact]]
+name = "ptfe-c1"
+material = "PTFE"
+
+[[run]]
+name = "ptfe-c1-first"
+contact = "ptfe-c1"
+data = "{data}/ptfe-c1-first.csv"
+velocity_m_per_s = 1e-9
+scene = "first"
+
+[[run]]
+name = "ptfe-c1-repeat"
+contact = "ptfe-c1"
+data = "{data}/ptfe-c1-repeat.csv"
+velocity_m_per_s = 1e-9
+scene = "repeat"
+"""
+
+
+@pytest.fixture(scope="session")
+def model_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("model") / "ptfe.toml"
+    path.write_text(ONE_CONTACT_TOML.format(data=DATA.as_posix()))
+    return path
+
+
+@pytest.fixture(scope="session")
+def fitted(tmp_path_factory, model_file):
+    """(InferenceData, run directory) of the PTFE contact fitted from its model file."""
+    out = tmp_path_factory.mktemp("fit") / "run"
+    idata = slipbayes.fit(model_file, seed=SEED, steps=STEPS, out=out, progress=False)
+    return idata, out
+
+
+def slipbayes_binary():
+    """The command line built from this repository (CI builds it before the Python tests),
+    or None."""
+    path = os.environ.get("SLIPBAYES_BIN") or REPO / "target" / "release" / "slipbayes"
+    path = Path(path)
+    if path.exists():
+        return path
+    found = shutil.which("slipbayes")
+    return Path(found) if found else None
