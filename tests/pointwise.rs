@@ -1,8 +1,8 @@
-//! Each observation's log-likelihood at a draw, and PSIS-LOO of a model from them.
+//! PSIS-LOO of a model from each observation's log-likelihood (the values themselves are
+//! checked in tests/model.rs, `pointwise_log_likelihood_is_each_observations_gaussian_term`).
 
 use std::path::Path;
 
-use slipbayes::density::LogDensity;
 use slipbayes::model::{ModelSpec, PointwiseError, Posterior};
 
 /// One PTFE contact: its 1 nm/s first slide and the repeat slide that follows it, σ of each
@@ -37,41 +37,6 @@ follows = "first"
 fn posterior(extra: &str) -> Posterior {
     let spec = ModelSpec::parse(&model(extra), Path::new("model.toml")).expect("model");
     Posterior::new(&spec).expect("posterior")
-}
-
-/// At a draw, each point's value is ln N(y_i | F_i, σ²) with the model forces the predictive
-/// curves use and exactly the σ the chains report in the run's `sigma[...]` column.
-#[test]
-fn each_point_is_a_gaussian_around_the_model_with_the_reported_sigma() {
-    let post = posterior("");
-    let x = post.start().to_vec();
-    let mut derived = vec![0.0; post.derived_names().len()];
-    post.log_density(&x, &mut derived)
-        .expect("finite at the start");
-    for (run, name) in ["first", "repeat"].into_iter().enumerate() {
-        let column = post
-            .derived_names()
-            .iter()
-            .position(|n| n == &format!("sigma[{name}]"))
-            .expect("a sigma column per run");
-        let sigma = derived[column];
-        let forces = post.run_forces(&x, run).expect("forces");
-        let all = post.pointwise_log_likelihood(&x).expect("pointwise");
-        assert_eq!(all.len(), 2);
-        let values = &all[run];
-        let observed = post.observed_forces(run);
-        assert_eq!(values.len(), forces.len());
-        assert_eq!(values.len(), observed.len());
-        let ln_sqrt_2pi = 0.5 * (2.0 * std::f64::consts::PI).ln();
-        for (i, ((v, f), y)) in values.iter().zip(&forces).zip(observed).enumerate() {
-            let z = (y - f) / sigma;
-            let expected = -sigma.ln() - ln_sqrt_2pi - 0.5 * z * z;
-            assert!(
-                (v - expected).abs() <= 1e-12 * expected.abs(),
-                "{name} point {i}: {v} against {expected}"
-            );
-        }
-    }
 }
 
 /// PSIS-LOO over draws near the mode: one result per run, and the model's total is their union.

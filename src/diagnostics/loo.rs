@@ -266,14 +266,14 @@ fn fit_generalised_pareto(sorted: &[f64]) -> (f64, f64) {
         .iter()
         .map(|&lj| 1.0 / log_lik.iter().map(|&l| (l - lj).exp()).sum::<f64>())
         .collect();
-    let kept = weights.iter().filter(|&&w| w >= 10.0 * f64::EPSILON);
-    let total: f64 = kept.clone().sum();
-    let b_post: f64 = b
+    let kept: Vec<(f64, f64)> = b
         .iter()
         .zip(&weights)
         .filter(|(_, &w)| w >= 10.0 * f64::EPSILON)
-        .map(|(&b, &w)| b * (w / total))
-        .sum();
+        .map(|(&b, &w)| (b, w))
+        .collect();
+    let total: f64 = kept.iter().map(|&(_, w)| w).sum();
+    let b_post: f64 = kept.iter().map(|&(b, w)| b * (w / total)).sum();
     let k = mean_log1p(b_post);
     let sigma = -k / b_post;
     ((nf * k + PRIOR_K * 0.5) / (nf + PRIOR_K), sigma)
