@@ -78,3 +78,53 @@ fn a_reduced_run_is_refused_with_what_to_do() {
     assert!(error.to_string().contains("exact_up_to"), "{error}");
     assert!(post.psis_loo(&[x], 1.0).is_err());
 }
+
+/// One block of observations left out of a run.
+fn block(points: std::ops::Range<usize>) -> Vec<std::ops::Range<usize>> {
+    std::iter::once(points).collect()
+}
+
+/// A fold that leaves nothing out scores every observation exactly as the full posterior does
+/// (the same σ and end force, bit for bit); one that leaves out the end of the first slide
+/// keeps the repeat slide's model (the first slide still stops at the end of its record), and
+/// another model's posterior is refused.
+#[test]
+fn a_fold_scores_with_its_own_noise_and_the_full_data_model() {
+    let post = posterior("");
+    let x = post.start().to_vec();
+    let full = post.pointwise_log_likelihood(&x).expect("pointwise");
+    let same = post.without(&[Vec::new(), Vec::new()]).expect("fold");
+    assert_eq!(post.log_likelihood_under(&same, &x).expect("under"), full);
+
+    let first_points = post.run_points()[0].1;
+    let end = post
+        .without(&[block(first_points - 50..first_points), Vec::new()])
+        .expect("fold without the end of the first slide");
+    let under = post.log_likelihood_under(&end, &x).expect("under");
+    assert_eq!(under[0].len(), full[0].len());
+    // σ of each run is the fold's own conditional draw, but the model, and so every residual,
+    // is the full data's: within a run the values differ from the full posterior's by one
+    // scale, −r²/(2σ²), and one shift. The repeat slide's residuals being the same says its
+    // first slide still stops where its record ends.
+    for (u, f) in under.iter().zip(&full) {
+        let ratio = |i: usize| (u[i] - u[0]) / (f[i] - f[0]);
+        let scale = ratio(1);
+        for i in 2..u.len() {
+            assert!(
+                (ratio(i) - scale).abs() <= 1e-6 * scale,
+                "point {i}: {} against {scale}",
+                ratio(i)
+            );
+        }
+    }
+    let absolute = format!("aging = \"absolute\"\n{}", model(""));
+    let spec = ModelSpec::parse(&absolute, Path::new("model.toml")).expect("model");
+    let other = Posterior::new(&spec).expect("posterior");
+    let refused = post
+        .log_likelihood_under(&other, &x)
+        .unwrap_err()
+        .to_string();
+    assert!(refused.contains("another model"), "{refused}");
+    let too_short = post.without(&[block(0..first_points - 3), Vec::new()]);
+    assert!(too_short.is_err());
+}

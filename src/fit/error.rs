@@ -129,4 +129,13 @@ pub enum FitError {
     /// Leave-one-out cross-validation failed at a posterior draw.
     #[error("computing the leave-one-out predictive accuracy (PSIS-LOO)")]
     Loo(#[source] crate::model::PointwiseError),
+    /// A fold of K-fold cross-validation cannot be built (a run too short for the folds).
+    #[error("fold {fold} of the cross-validation cannot be fitted (use fewer folds)")]
+    Fold {
+        /// The fold (0-based).
+        fold: usize,
+        /// Why.
+        #[source]
+        source: crate::model::PosteriorError,
+    },
 }

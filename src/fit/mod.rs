@@ -29,6 +29,7 @@
 //!    [`ESS_MIN`](crate::diagnostics::ESS_MIN), τ reliable, no stuck walkers.
 //! 4. Writes `summary.json` and `summary.csv` atomically.
 mod error;
+pub mod kfold;
 mod model;
 pub mod run_dir;
 mod summarise;
@@ -323,15 +324,28 @@ pub fn kept_draws(
     names: &[String],
     max_draws: usize,
 ) -> Result<Vec<Vec<f64>>, FitError> {
-    let chains = outcome.dir.chain_reader()?;
-    let rows = kept_rows(&chains, &outcome.summary.sampler, max_draws);
+    draws_from(&outcome.dir, &outcome.summary.sampler, names, max_draws)
+}
+
+/// [`kept_draws`] of the finished fit in `dir`, whose summary's sampler section is `sampler`.
+///
+/// # Errors
+/// As [`kept_draws`].
+pub fn draws_from(
+    dir: &RunDir,
+    sampler: &SamplerSummary,
+    names: &[String],
+    max_draws: usize,
+) -> Result<Vec<Vec<f64>>, FitError> {
+    let chains = dir.chain_reader()?;
+    let rows = kept_rows(&chains, sampler, max_draws);
     let mut draws = vec![Vec::with_capacity(names.len()); rows.len()];
     // The rows asked for, one column at a time, read one row group at a time.
     for name in names {
         let column = chains
             .rows_of(name, &rows)
             .map_err(|source| FitError::Storage {
-                context: format!("reading kept draws from {}", outcome.dir.path().display()),
+                context: format!("reading kept draws from {}", dir.path().display()),
                 source,
             })?;
         for (draw, v) in draws.iter_mut().zip(column) {

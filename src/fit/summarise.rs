@@ -410,6 +410,7 @@ impl Plan {
             notes: Vec::new(),
             loo: None,
             loo_not_computed: None,
+            kfold: None,
         })
     }
 }

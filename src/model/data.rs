@@ -1,5 +1,6 @@
 //! A run's data prepared for the likelihood: imported, validated, windowed.
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::data::import::MAX_MAGNITUDE_SI;
@@ -269,6 +270,65 @@ impl RunData {
         })
     }
 
+    /// These data without the observations in `held_out` (ranges of indices into the
+    /// observations, in increasing order and disjoint), as a fit that has not seen them needs
+    /// them: the model is still evaluated at the slide's last recorded time when `keeps_end`
+    /// (a first slide, whose end force a repeat slide loads up to), so leaving out the end of
+    /// a record does not move where the slide stopped.
+    ///
+    /// # Errors
+    /// [`RunDataError::Unusable`] when fewer than [`MIN_POINTS`] observations would remain, or
+    /// the ranges are not increasing, disjoint and within the observations.
+    pub fn without(
+        &self,
+        held_out: &[Range<usize>],
+        keeps_end: bool,
+    ) -> Result<Self, RunDataError> {
+        let unusable = |message: String| RunDataError::Unusable {
+            path: PathBuf::from(&self.provenance.file),
+            line: 1,
+            message,
+        };
+        let mut keep = Vec::with_capacity(self.n_obs);
+        let mut next = 0;
+        for range in held_out {
+            if range.start < next || range.start > range.end || range.end > self.n_obs {
+                return Err(unusable(format!(
+                    "cannot leave out observations {range:?} of {} (ranges must increase and \
+                     not overlap)",
+                    self.n_obs
+                )));
+            }
+            keep.extend(next..range.start);
+            next = range.end;
+        }
+        keep.extend(next..self.n_obs);
+        let n_obs = keep.len();
+        if n_obs < MIN_POINTS {
+            return Err(unusable(format!(
+                "{n_obs} points remain after leaving out {} of {}; a run needs at least \
+                 {MIN_POINTS} to be fitted (use fewer folds)",
+                self.n_obs - n_obs,
+                self.n_obs
+            )));
+        }
+        let kept = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&i| v[i]).collect() };
+        let mut model_times = kept(self.times());
+        let end = *self.model_times.last().expect("a run has observations");
+        if keeps_end && model_times.last() != Some(&end) {
+            model_times.push(end);
+        }
+        let mut provenance = self.provenance.clone();
+        provenance.points_used = n_obs;
+        Ok(Self {
+            model_times,
+            force: kept(&self.force),
+            n_obs,
+            normal_force: self.normal_force.as_deref().map(kept),
+            provenance,
+        })
+    }
+
     fn times(&self) -> &[f64] {
         &self.model_times[..self.n_obs]
     }
@@ -369,6 +429,42 @@ impl RunData {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Leaving out blocks keeps the other observations in order and, for a first slide, the
+    /// time where its record ends; too few points left or overlapping blocks are refused.
+    #[test]
+    fn data_without_blocks_keep_the_rest_and_the_end_of_a_first_slide() {
+        let series = Series {
+            time_s: (1..=20).map(f64::from).collect(),
+            force_n: (1..=20).map(|i| f64::from(i) * 1e-3).collect(),
+            normal_force_n: Some(vec![0.1; 20]),
+        };
+        let data = RunData::from_series(series, Path::new("x.csv"), None, Scene::First).unwrap();
+        let fold = data.without(&[2..5, 17..20], true).unwrap();
+        assert_eq!(fold.n_obs, 14);
+        assert_eq!(fold.force[..3], [1e-3, 2e-3, 6e-3]);
+        assert_eq!(fold.model_times[fold.n_obs - 1].to_bits(), 17f64.to_bits());
+        // The record still ends at 20 s: a repeat slide loads up to the force there.
+        assert_eq!(fold.model_times[fold.n_obs..], [20.0]);
+        assert_eq!(fold.normal_force.as_ref().unwrap().len(), 14);
+        assert_eq!(fold.provenance.points_used, 14);
+        let repeat = data
+            .without(std::slice::from_ref(&(17..20)), false)
+            .unwrap();
+        assert_eq!(repeat.model_times.len(), repeat.n_obs);
+        let untouched = data.without(&[], true).unwrap();
+        assert_eq!(untouched.model_times, data.model_times);
+        let few = data
+            .without(std::slice::from_ref(&(0..14)), true)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            few.contains("6 points remain") && few.contains("fewer folds"),
+            "{few}"
+        );
+        let overlapping = data.without(&[2..5, 4..6], true).unwrap_err().to_string();
+        assert!(overlapping.contains("must increase"), "{overlapping}");
+    }
 
     /// The running sum of a wide window gives the maximum of the windows' means as summing
     /// each window afresh does, to rounding.

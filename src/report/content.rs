@@ -366,7 +366,27 @@ fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
              fits of the same data by it.",
             loo.draws, loo.elpd_loo, loo.se, loo.p_loo, loo.unreliable_points, points, loo.good_k
         )));
-    } else if let Some(reason) = &summary.loo_not_computed {
+        if loo.unreliable_points > 0 && summary.kfold.is_none() {
+            blocks.push(Block::Paragraph(
+                "Where points have a Pareto k̂ above the good k̂, their leave-one-out estimate \
+                 is unreliable: slipbayes kfold DIR cross-validates the fit by refitting it \
+                 without blocks of its points, and compare then ranks by that."
+                    .into(),
+            ));
+        }
+    }
+    if let Some(k) = &summary.kfold {
+        blocks.push(Block::Paragraph(format!(
+            "K-fold cross-validation by time blocks ({} folds, each leaving out blocks of time \
+             spread over every run and refitted): elpd_kfold = {:.1} ± {:.1}{}.",
+            k.folds,
+            k.elpd_kfold,
+            k.se,
+            k.p_kfold
+                .map_or(String::new(), |p| format!(", p_kfold = {p:.1}"))
+        )));
+    }
+    if let (None, Some(reason)) = (&summary.loo, &summary.loo_not_computed) {
         blocks.push(Block::Paragraph(format!(
             "Leave-one-out (PSIS-LOO) was not computed: {reason}."
         )));

@@ -343,9 +343,13 @@ fn print_summary(outcome: &FitOutcome) {
             loo.runs.iter().map(|r| r.points).sum::<usize>(),
             loo.good_k,
             if loo.unreliable_points > 0 {
-                " (their elpd is unreliable; compare models with care)"
+                format!(
+                    " (their elpd is unreliable: cross-validate with `slipbayes kfold {}` before \
+                     comparing models)",
+                    outcome.dir.path().display()
+                )
             } else {
-                ""
+                String::new()
             }
         );
     }

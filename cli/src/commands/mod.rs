@@ -7,6 +7,8 @@ mod compare;
 #[cfg(feature = "parquet")]
 mod fit;
 mod import;
+#[cfg(feature = "parquet")]
+mod kfold;
 #[cfg(feature = "report")]
 mod report;
 mod simulate;
@@ -52,6 +54,8 @@ enum Command {
     Report(report::ReportArgs),
     Simulate(simulate::SimulateArgs),
     Compare(compare::CompareArgs),
+    #[cfg(feature = "parquet")]
+    Kfold(kfold::KFoldArgs),
     Import(import::ImportCommandArgs),
     #[cfg(feature = "parquet")]
     Validate(validate::ValidateArgs),
@@ -119,6 +123,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Report(args) => report::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Compare(args) => compare::run(&args),
+        #[cfg(feature = "parquet")]
+        Command::Kfold(args) => kfold::run(&args),
         Command::Import(args) => import::run(&args),
         #[cfg(feature = "parquet")]
         Command::Validate(args) => validate::run(&args),

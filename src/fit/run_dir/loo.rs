@@ -114,42 +114,92 @@ pub(super) fn to_csv(points: &[LooPoint]) -> String {
 
 /// Parses `loo.csv`.
 pub(super) fn parse(path: &Path, text: &str) -> Result<Vec<LooPoint>, RunDirError> {
+    parse_rows(path, text, LOO_HEADER, |row| {
+        Ok(LooPoint {
+            run: row.text(0).to_owned(),
+            point: row.index(1)?,
+            observed_n: row.number(2)?,
+            elpd_loo: row.number(3)?,
+            pareto_k: row.number(4)?,
+        })
+    })
+}
+
+/// One data row of a per-observation CSV file, with errors naming its line and column.
+pub(super) struct Row<'a> {
+    path: &'a Path,
+    line: usize,
+    fields: Vec<&'a str>,
+}
+
+impl Row<'_> {
+    fn error(&self, message: String) -> RunDirError {
+        RunDirError::Parse {
+            path: self.path.to_path_buf(),
+            message: format!("line {}: {message}", self.line),
+        }
+    }
+
+    /// Field `i` (0-based) as text.
+    pub(super) fn text(&self, i: usize) -> &str {
+        self.fields[i]
+    }
+
+    /// Field `i` as a non-negative integer.
+    pub(super) fn index(&self, i: usize) -> Result<usize, RunDirError> {
+        let field = self.fields[i];
+        field.parse().map_err(|_| {
+            self.error(format!(
+                "column {}: {field:?} is not a non-negative integer",
+                i + 1
+            ))
+        })
+    }
+
+    /// Field `i` as a number.
+    pub(super) fn number(&self, i: usize) -> Result<f64, RunDirError> {
+        let field = self.fields[i];
+        field
+            .parse()
+            .map_err(|_| self.error(format!("column {}: {field:?} is not a number", i + 1)))
+    }
+}
+
+/// The rows of a per-observation CSV file whose first line is `header`, each turned into a
+/// `T` by `read` (blank lines skipped; every row must have the header's number of fields).
+pub(super) fn parse_rows<T>(
+    path: &Path,
+    text: &str,
+    header: &str,
+    read: impl Fn(&Row) -> Result<T, RunDirError>,
+) -> Result<Vec<T>, RunDirError> {
     let bad = |line: usize, message: String| RunDirError::Parse {
         path: path.to_path_buf(),
         message: format!("line {line}: {message}"),
     };
     let mut lines = text.lines().enumerate();
     match lines.next() {
-        Some((_, header)) if header == LOO_HEADER => {}
-        _ => return Err(bad(1, format!("expected the header `{LOO_HEADER}`"))),
+        Some((_, first)) if first == header => {}
+        _ => return Err(bad(1, format!("expected the header `{header}`"))),
     }
-    let mut points = Vec::new();
+    let columns = header.split(',').count();
+    let mut rows = Vec::new();
     for (index, line) in lines {
-        let number = index + 1;
         if line.trim().is_empty() {
             continue;
         }
         let fields: Vec<&str> = line.split(',').collect();
-        let [run, point, observed, elpd, k] = fields[..] else {
-            return Err(bad(number, format!("{} fields, expected 5", fields.len())));
-        };
-        let number_in = |column: usize, field: &str| {
-            field.parse::<f64>().map_err(|_| {
-                bad(
-                    number,
-                    format!("column {column}: {field:?} is not a number"),
-                )
-            })
-        };
-        points.push(LooPoint {
-            run: run.to_owned(),
-            point: point
-                .parse()
-                .map_err(|_| bad(number, format!("column 2: {point:?} is not a point index")))?,
-            observed_n: number_in(3, observed)?,
-            elpd_loo: number_in(4, elpd)?,
-            pareto_k: number_in(5, k)?,
-        });
+        if fields.len() != columns {
+            return Err(bad(
+                index + 1,
+                format!("{} fields, expected {columns}", fields.len()),
+            ));
+        }
+        rows.push(read(&Row {
+            path,
+            line: index + 1,
+            fields,
+        })?);
     }
-    Ok(points)
+    Ok(rows)
 }

@@ -7,6 +7,8 @@
 //! DIR/summary.csv         one row per parameter and derived quantity (ArviZ's columns)
 //! DIR/predictive.csv      posterior and posterior predictive bands at the data times
 //! DIR/loo.csv             each observation's PSIS-LOO predictive density and Pareto k̂
+//! DIR/kfold.csv           each observation's K-fold predictive density (`slipbayes kfold`)
+//! DIR/kfold/fold-J/       the run directory of each fold's fit (`slipbayes kfold`)
 //! DIR/chains/*.parquet    the draws (see crate::storage)
 //! DIR/checkpoint.bin      the sampler state of the last checkpoint (MessagePack)
 //! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
@@ -18,6 +20,7 @@
 //! sees half of one.
 
 mod csv;
+mod kfold;
 mod loo;
 mod predictive;
 mod record;
@@ -30,6 +33,7 @@ use crate::model::{Band, ModelFile, ModelSpec};
 use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
 
 pub use csv::{summary_csv, CSV_COLUMNS};
+pub use kfold::{KFoldPoint, KFoldSummary, RunKFold, KFOLD_HEADER};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
 pub use predictive::PREDICTIVE_HEADER;
 pub use record::{relative_path, RunRecord};
@@ -47,6 +51,8 @@ pub const SUMMARY_CSV: &str = "summary.csv";
 pub const PREDICTIVE_CSV: &str = "predictive.csv";
 /// Each observation's leave-one-out predictive density and Pareto k̂.
 pub const LOO_CSV: &str = "loo.csv";
+/// Each observation's K-fold cross-validated predictive density (`slipbayes kfold`).
+pub const KFOLD_CSV: &str = "kfold.csv";
 /// The folder of complete chain parts.
 pub const CHAINS_DIR: &str = "chains";
 /// The sampler state of the last checkpoint (binary; earlier releases wrote
@@ -315,6 +321,24 @@ impl RunDir {
     pub fn read_loo(&self) -> Result<Vec<LooPoint>, RunDirError> {
         let path = self.file(LOO_CSV);
         loo::parse(&path, &self.read(LOO_CSV)?)
+    }
+
+    /// Writes `kfold.csv`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Write`] naming the file.
+    pub fn write_kfold(&self, points: &[KFoldPoint]) -> Result<(), RunDirError> {
+        self.write(KFOLD_CSV, kfold::to_csv(points).as_bytes())?;
+        Ok(())
+    }
+
+    /// `kfold.csv`, one row per observation.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`], or [`RunDirError::Parse`] naming the line and column.
+    pub fn read_kfold(&self) -> Result<Vec<KFoldPoint>, RunDirError> {
+        let path = self.file(KFOLD_CSV);
+        kfold::parse(&path, &self.read(KFOLD_CSV)?)
     }
 
     /// `predictive.csv`, one band per run in file order.

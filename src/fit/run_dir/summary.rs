@@ -149,6 +149,9 @@ pub struct FitSummary {
     /// Why `loo` is absent, when the fit could not compute it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loo_not_computed: Option<String>,
+    /// K-fold cross-validation by time blocks, once `slipbayes kfold` has run on the fit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kfold: Option<super::KFoldSummary>,
 }
 
 impl FitSummary {

@@ -6,12 +6,14 @@
 //! residuals, so the same bits). Given σ the observations are independent Gaussians around the
 //! model, so each has its own log-likelihood ln N(y_i | F_i(θ), σ²).
 
+use std::ops::Range;
+
 use super::layout::SigmaSource;
 use super::likelihood::LN_SQRT_2PI;
-use super::Posterior;
-use crate::density::LogDensityError;
+use super::{Posterior, PosteriorError};
+use crate::density::{LogDensity, LogDensityError};
 use crate::diagnostics::loo::{psis_loo, Loo, LooError};
-use crate::law::LawError;
+use crate::law::{LawError, Scene};
 
 /// Why pointwise log-likelihoods or LOO could not be computed.
 #[derive(Debug, thiserror::Error)]
@@ -85,6 +87,63 @@ impl Posterior {
             .collect()
     }
 
+    /// The posterior of the same model over these data without the observations
+    /// `held_out[run]` of each run (increasing, disjoint ranges of indices into its
+    /// observations; none keeps them all): what a fold of cross-validation fits. A first slide is still evaluated where its
+    /// record ends, so the repeat slide that follows it loads up to the same force.
+    ///
+    /// # Errors
+    /// [`PosteriorError::Data`] when a run would keep fewer than
+    /// [`MIN_POINTS`](crate::model::data::MIN_POINTS) observations; [`PosteriorError::Model`] when
+    /// `held_out` does not have one range per run.
+    pub fn without(&self, held_out: &[Vec<Range<usize>>]) -> Result<Posterior, PosteriorError> {
+        if held_out.len() != self.runs.len() {
+            return Err(PosteriorError::Model {
+                source_file: self.spec.source.clone(),
+                message: format!(
+                    "{} ranges of left-out points for {} runs",
+                    held_out.len(),
+                    self.runs.len()
+                ),
+            });
+        }
+        let data = self
+            .runs
+            .iter()
+            .zip(held_out)
+            .map(|(r, ranges)| r.data.without(ranges, r.scene == Scene::First))
+            .collect::<Result<Vec<_>, _>>()?;
+        Self::from_data(&self.spec, data)
+    }
+
+    /// ln N(y_i | F_i(x), σ²) of every observation of this posterior at a draw `x` of `fold`,
+    /// a posterior of the same model over part of these data (K-fold cross-validation). σ and
+    /// the force where each first slide stopped are `fold`'s at `x`, so nothing of the points
+    /// `fold` left out enters; the model is evaluated at every observation.
+    ///
+    /// # Errors
+    /// As [`Posterior::pointwise_log_likelihood`]; [`PointwiseError::Draw`] when `fold` has
+    /// other coordinates than this posterior (another model).
+    pub fn log_likelihood_under(
+        &self,
+        fold: &Posterior,
+        x: &[f64],
+    ) -> Result<Vec<Vec<f64>>, PointwiseError> {
+        for run in 0..self.runs.len() {
+            self.check_exact(run)?;
+        }
+        if fold.param_names() != self.param_names() {
+            return Err(PointwiseError::Draw {
+                draw: 0,
+                reason: "the fold's posterior is of another model than the full data's".into(),
+            });
+        }
+        let noise = fold.draw_noise(x, 0)?;
+        (0..self.runs.len())
+            .map(|run| self.run_log_likelihood(x, run, &noise, 0))
+            .collect()
+    }
+
     /// PSIS-LOO of every run and of the whole model from posterior `draws` (sampler
     /// coordinates), whose relative efficiency (ESS / draws) is `r_eff`. Memory: one run's
     /// observations × draws at a time.
@@ -120,6 +179,22 @@ impl Posterior {
         }
         let total = Loo::concatenate(runs.iter().map(|(_, loo)| loo));
         Ok(ModelLoo { runs, total, r_eff })
+    }
+
+    /// Whether every run keeps a likelihood per observation, as LOO and K-fold need.
+    ///
+    /// # Errors
+    /// [`PointwiseError::Reduced`] naming the first run evaluated on sufficient statistics.
+    pub fn check_pointwise(&self) -> Result<(), PointwiseError> {
+        (0..self.runs.len()).try_for_each(|run| self.check_exact(run))
+    }
+
+    /// Every run's name and number of observations, in the model's order.
+    pub fn run_points(&self) -> Vec<(&str, usize)> {
+        self.runs
+            .iter()
+            .map(|r| (r.name.as_str(), r.data.n_obs))
+            .collect()
     }
 
     fn check_exact(&self, run: usize) -> Result<(), PointwiseError> {
