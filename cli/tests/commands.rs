@@ -140,8 +140,9 @@ fn a_french_export_imports_with_what_was_found() {
 }
 
 /// Two fits of the same data compare as equally good (their elpd_loo differ by sampling noise
-/// alone); a fit of other data is refused, naming both.
-#[cfg(feature = "parquet")]
+/// alone); a fit of other data is refused, naming both. (`--report` needs the report
+/// feature, which brings Parquet with it.)
+#[cfg(feature = "report")]
 #[test]
 fn compare_ranks_fits_of_the_same_data_and_refuses_other_data() {
     let dir = tempfile::tempdir().unwrap();
@@ -224,9 +225,12 @@ fn compare_ranks_fits_of_the_same_data_and_refuses_other_data() {
     }
     assert_eq!(kfold(&a, &["--resume"]), a_kfold);
     kfold(&b, &[]);
+    let report = dir.path().join("comparison");
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
         .arg("compare")
         .args([&a, &b])
+        .arg("--report")
+        .arg(&report)
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&output.stdout);
@@ -235,6 +239,14 @@ fn compare_ranks_fits_of_the_same_data_and_refuses_other_data() {
         stdout.contains("Ranked by K-fold") && stdout.contains("predict equally well"),
         "{stdout}"
     );
+    // The report: the ranking, then the fits overlaid on the run's data, a figure that keeps
+    // the plotting layer's rules.
+    let markdown = std::fs::read_to_string(report.join("compare.md")).unwrap();
+    assert!(markdown.contains("elpd_kfold") && markdown.contains("compare-ptfe-c1-first.svg"));
+    assert!(report.join("compare.html").exists());
+    let svg = std::fs::read_to_string(report.join("figures/compare-ptfe-c1-first.svg")).unwrap();
+    let problems = slipbayes::plot::check::check_svg(&svg).problems;
+    assert!(problems.is_empty(), "{problems:?}");
 
     // A run on sufficient statistics has no likelihood per point: the fit says so, and
     // compare refuses it with that reason.

@@ -14,7 +14,14 @@
 //! DIR/report.md        the same content, figures linked from figures/
 //! DIR/figures/*.svg    one file per figure
 //! ```
+//!
+//! `slipbayes compare --report OUT` writes its ranking of fits with the fits overlaid on the
+//! data run by run ([`write_comparison`]):
+//! ```text
+//! OUT/compare.html, OUT/compare.md, OUT/figures/compare-<run>.svg
+//! ```
 
+mod comparison;
 mod content;
 mod contours;
 mod curves;
@@ -30,6 +37,7 @@ use crate::fit::run_dir::{FIGURES_DIR, REPORT_HTML, REPORT_MD};
 use crate::fit::{RunDir, RunDirError};
 use crate::model::Posterior;
 
+pub use comparison::{write_comparison, COMPARE_HTML, COMPARE_MD};
 pub use document::{render_html, render_markdown, Block};
 pub use inputs::{coverage_95, RunInputs};
 pub use units::{significant, DisplayUnit};

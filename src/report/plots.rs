@@ -184,6 +184,76 @@ fn residual_panel(c: &mut Canvas, area: Rect, p: &Band) {
     panel.draw(c, area);
 }
 
+/// Several fits of the same run overlaid on its data: each fit's posterior median in
+/// observed time (one line style per fit, legend by name); under them, on the noise's scale,
+/// the data and every other fit's median less the first fit's median, so that where one law
+/// follows the data and another does not shows even when the curves coincide at full scale.
+/// `fits` pairs each fit's name with its band of this run (the same data), the reference
+/// (best-ranked) first.
+pub fn overlay_figure(run: &str, fits: &[(&str, &Band)]) -> String {
+    svg_figure((PANEL.0, PANEL.1 + RESIDUAL_HEIGHT), |c| {
+        let (top, bottom) = c.bounds().split_top(f64::from(PANEL.1));
+        let Some((reference_name, reference)) = fits.first() else {
+            return;
+        };
+        let y_all = reference
+            .observed_n
+            .iter()
+            .chain(fits.iter().flat_map(|(_, b)| &b.model_n[1]))
+            .chain(std::iter::once(&0.0));
+        let (y0, y1) = range_of(y_all, 0.04);
+        let t = range_of(reference.time_s.iter(), 0.0);
+        let mut observed = Panel::new(
+            &format!("{run}: the fits overlaid on the data"),
+            Axis::linear(t, "instrument time t (s)"),
+            Axis::linear((y0 * MN, y1 * MN), "friction force F (mN)"),
+        );
+        observed.markers(
+            in_mn(&reference.time_s, &reference.observed_n),
+            Marker::Circle,
+            ink(0),
+            Some("data"),
+        );
+        let less_reference = |v: &[f64]| -> Vec<(f64, f64)> {
+            reference
+                .time_s
+                .iter()
+                .zip(v.iter().zip(&reference.model_n[1]))
+                .map(|(&t, (f, m))| (t, (f - m) * MN))
+                .collect()
+        };
+        let data = less_reference(&reference.observed_n);
+        let others: Vec<Vec<(f64, f64)>> = fits
+            .iter()
+            .map(|(_, b)| less_reference(&b.model_n[1]))
+            .collect();
+        let mut residual = Panel::new(
+            &format!("less {reference_name}'s posterior median"),
+            Axis::linear(t, "instrument time t (s)"),
+            Axis::linear(
+                range_of(
+                    data.iter().chain(others.iter().flatten()).map(|p| &p.1),
+                    0.05,
+                ),
+                "difference (mN)",
+            ),
+        );
+        // The styles are the upper panel's, whose legend names them.
+        residual.legend_at = LegendAt::Nowhere;
+        residual.markers(data, Marker::Circle, Rgb(150, 150, 150), None);
+        for (i, ((name, band), other)) in fits.iter().zip(others).enumerate() {
+            observed.line(
+                in_mn(&band.time_s, &band.model_n[1]),
+                series_stroke(i + 1, 2.0),
+                Some(name),
+            );
+            residual.line(other, series_stroke(i + 1, 2.0), None);
+        }
+        observed.draw(c, top);
+        residual.draw(c, bottom);
+    })
+}
+
 /// The slides of one contact against sliding distance x = vτ on a logarithmic axis (the
 /// paper's Fig. 2): the rise, the peak and the relaxation to F_d each get their decades, and
 /// slides at different velocities fall on one curve when the law holds. `None` when no data

@@ -27,6 +27,11 @@ pub(super) struct CompareArgs {
     /// Also write the table as Markdown to this file.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also write a report into this directory: compare.html and compare.md with the table
+    /// and, run by run, the fits overlaid on the data (figures/compare-RUN.svg).
+    #[cfg(feature = "report")]
+    #[arg(long)]
+    report: Option<PathBuf>,
     /// Rank by PSIS-LOO even where every fit has K-fold results.
     #[arg(long)]
     loo: bool,
@@ -68,12 +73,34 @@ pub(super) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     same_data(&fits)?;
     let named: Vec<(&str, &Loo)> = fits.iter().map(|f| (f.name.as_str(), &f.loo)).collect();
     let table = compare(&named)?;
-    let text = markdown(&table, &fits, criterion);
+    let ranking = Ranking::new(&table, &fits, criterion);
+    let text = ranking.markdown();
     print!("{text}");
     if let Some(path) = &args.out {
         write_atomically(path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
         println!("written to {}", path.display());
+    }
+    #[cfg(feature = "report")]
+    if let Some(out) = &args.report {
+        // Best first: the figures measure every fit against the best one.
+        let named_dirs: Vec<(String, RunDir)> = table
+            .iter()
+            .map(|row| {
+                let i = fits
+                    .iter()
+                    .position(|f| f.name == row.name)
+                    .expect("a fit per row");
+                (row.name.clone(), dirs[i].clone())
+            })
+            .collect();
+        let files = slipbayes::report::write_comparison(out, ranking.blocks(), &named_dirs)?;
+        println!(
+            "report: {} and {} ({} figures)",
+            files.html.display(),
+            files.markdown.display(),
+            files.figures.len()
+        );
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -190,70 +217,126 @@ fn same_data(fits: &[Fitted]) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn markdown(table: &[Compared], fits: &[Fitted], criterion: Criterion) -> String {
-    let mut text = match criterion {
-        Criterion::Loo => String::from(
-            "| rank | model | elpd_loo | se | p_loo | elpd_diff | dse | weight | points with k̂ > good k̂ |\n\
-             |---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
-        ),
-        Criterion::KFold(k) => format!(
-            "Ranked by K-fold cross-validation by time blocks ({k} folds; slipbayes kfold).\n\n\
-             | rank | model | elpd_kfold | se | p_kfold | elpd_diff | dse | weight |\n\
-             |---:|---|---:|---:|---:|---:|---:|---:|\n"
-        ),
-    };
-    for row in table {
-        let fit = fits
-            .iter()
-            .find(|f| f.name == row.name)
-            .expect("a fit per row");
-        if let Criterion::KFold(_) = criterion {
-            let _ = writeln!(
-                text,
-                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} |",
-                row.rank, row.name, row.elpd, row.se, row.p_loo, row.elpd_diff, row.dse, row.weight
-            );
-            continue;
-        }
-        let _ = writeln!(
-            text,
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.3} | {} of {} (k̂ > {:.2}) |",
-            row.rank,
-            row.name,
-            row.elpd,
-            row.se,
-            row.p_loo,
-            row.elpd_diff,
-            row.dse,
-            row.weight,
-            fit.loo.unreliable_points().len(),
-            fit.loo.pointwise.len(),
-            fit.loo.good_k
-        );
-    }
-    let best = &table[0];
-    for row in &table[1..] {
-        let verdict = if row.elpd_diff > 2.0 * row.dse {
-            format!("{} predicts worse than {}", row.name, best.name)
-        } else {
-            format!(
-                "{} and {} predict equally well within 2 standard errors",
-                row.name, best.name
-            )
+/// The ranking as a table (header and cells), the sentences under it, and the criterion's
+/// introduction (K-fold only).
+struct Ranking {
+    intro: Option<String>,
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+    sentences: Vec<String>,
+}
+
+impl Ranking {
+    fn new(table: &[Compared], fits: &[Fitted], criterion: Criterion) -> Self {
+        let (intro, names) = match criterion {
+            Criterion::Loo => (None, ["elpd_loo", "p_loo"]),
+            Criterion::KFold(k) => (
+                Some(format!(
+                    "Ranked by K-fold cross-validation by time blocks ({k} folds; slipbayes kfold)."
+                )),
+                ["elpd_kfold", "p_kfold"],
+            ),
         };
-        let _ = writeln!(
-            text,
-            "\n{verdict}: elpd_diff {:.2} ± {:.2}.",
-            row.elpd_diff, row.dse
-        );
+        let mut header: Vec<String> = ["rank", "model", names[0], "se", names[1]]
+            .into_iter()
+            .chain(["elpd_diff", "dse", "weight"])
+            .map(String::from)
+            .collect();
+        if criterion == Criterion::Loo {
+            header.push("points with k̂ > good k̂".into());
+        }
+        let rows = table
+            .iter()
+            .map(|row| {
+                let mut cells = vec![
+                    row.rank.to_string(),
+                    row.name.clone(),
+                    format!("{:.2}", row.elpd),
+                    format!("{:.2}", row.se),
+                    format!("{:.2}", row.p_loo),
+                    format!("{:.2}", row.elpd_diff),
+                    format!("{:.2}", row.dse),
+                    format!("{:.3}", row.weight),
+                ];
+                if criterion == Criterion::Loo {
+                    let fit = fits
+                        .iter()
+                        .find(|f| f.name == row.name)
+                        .expect("a fit per row");
+                    cells.push(format!(
+                        "{} of {} (k̂ > {:.2})",
+                        fit.loo.unreliable_points().len(),
+                        fit.loo.pointwise.len(),
+                        fit.loo.good_k
+                    ));
+                }
+                cells
+            })
+            .collect();
+        let best = &table[0];
+        let mut sentences: Vec<String> = table[1..]
+            .iter()
+            .map(|row| {
+                let verdict = if row.elpd_diff > 2.0 * row.dse {
+                    format!("{} predicts worse than {}", row.name, best.name)
+                } else {
+                    format!(
+                        "{} and {} predict equally well within 2 standard errors",
+                        row.name, best.name
+                    )
+                };
+                format!(
+                    "{verdict}: elpd_diff {:.2} ± {:.2}.",
+                    row.elpd_diff, row.dse
+                )
+            })
+            .collect();
+        if table.iter().any(|row| row.warning) {
+            sentences.push(
+                "Some points have Pareto k̂ above the good k̂: their leave-one-out estimates are \
+                 unreliable, and so are differences that rest on them. Cross-validate each fit \
+                 by refitting without blocks of its points (`slipbayes kfold DIR` for every \
+                 DIR), then compare again: the fits are then ranked by elpd_kfold."
+                    .into(),
+            );
+        }
+        Self {
+            intro,
+            header,
+            rows,
+            sentences,
+        }
     }
-    if table.iter().any(|row| row.warning) {
-        text.push_str(
-            "\nSome points have Pareto k̂ above the good k̂: their leave-one-out estimates are \
-             unreliable, and so are differences that rest on them. Cross-validate each fit by \
-             refitting without blocks of its points (`slipbayes kfold DIR` for every DIR), \
-             then compare again: the fits are then ranked by elpd_kfold.\n",
-        );
+
+    fn markdown(&self) -> String {
+        let mut text = self
+            .intro
+            .as_ref()
+            .map_or(String::new(), |intro| format!("{intro}\n\n"));
+        let _ = writeln!(text, "| {} |", self.header.join(" | "));
+        let align: Vec<&str> = (0..self.header.len())
+            .map(|i| if i == 1 { "---" } else { "---:" })
+            .collect();
+        let _ = writeln!(text, "|{}|", align.join("|"));
+        for row in &self.rows {
+            let _ = writeln!(text, "| {} |", row.join(" | "));
+        }
+        for sentence in &self.sentences {
+            let _ = writeln!(text, "\n{sentence}");
+        }
+        text
     }
-    text
+
+    #[cfg(feature = "report")]
+    fn blocks(&self) -> Vec<slipbayes::report::Block> {
+        use slipbayes::report::Block;
+        let mut blocks: Vec<Block> = self.intro.iter().cloned().map(Block::Paragraph).collect();
+        blocks.push(Block::Table {
+            header: self.header.clone(),
+            rows: self.rows.clone(),
+            flagged: vec![false; self.rows.len()],
+        });
+        blocks.extend(self.sentences.iter().cloned().map(Block::Paragraph));
+        blocks
+    }
 }
