@@ -5,9 +5,8 @@ use std::path::Path;
 
 use super::document::{render_html, render_markdown, Block};
 use super::plots::overlay_figure;
-use super::{ReportError, ReportFiles};
-use crate::fit::run_dir::FIGURES_DIR;
-use crate::fit::{RunDir, RunDirError};
+use super::{write_figures, ReportError, ReportFiles};
+use crate::fit::RunDir;
 
 /// The comparison report's Markdown file.
 pub const COMPARE_MD: &str = "compare.md";
@@ -58,25 +57,15 @@ pub fn write_comparison(
         blocks.push(Block::Figure {
             file: format!("compare-{}.svg", run.run),
             caption: format!(
-                "Run `{}`: each fit's posterior median over the data, and the residuals data − \
-                 median under them.",
+                "Run `{}`: each fit's posterior median over the data; under it, the data and \
+                 each fit's median less the best fit's median.",
                 run.run
             ),
             svg: overlay_figure(&run.run, &overlaid),
         });
     }
     let dir = RunDir::new(out);
-    let figures_dir = dir.file(FIGURES_DIR);
-    std::fs::create_dir_all(&figures_dir).map_err(|source| RunDirError::Write {
-        path: figures_dir.clone(),
-        source,
-    })?;
-    let mut figures = Vec::new();
-    for block in &blocks {
-        if let Block::Figure { file, svg, .. } = block {
-            figures.push(dir.write(&format!("{FIGURES_DIR}/{file}"), svg.as_bytes())?);
-        }
-    }
+    let figures = write_figures(&dir, &blocks)?;
     let title = "Which model predicts the data better";
     let markdown = dir.write(COMPARE_MD, render_markdown(title, &blocks).as_bytes())?;
     let html = dir.write(COMPARE_HTML, render_html(title, &blocks).as_bytes())?;

@@ -118,17 +118,7 @@ pub fn rebuild_report(dir: &RunDir) -> Result<ReportFiles, ReportError> {
 pub fn write_report(dir: &RunDir, posterior: &Posterior) -> Result<ReportFiles, ReportError> {
     let inputs = RunInputs::read(dir)?;
     let content = content::build(&inputs, posterior)?;
-    let figures_dir = dir.file(FIGURES_DIR);
-    std::fs::create_dir_all(&figures_dir).map_err(|source| RunDirError::Write {
-        path: figures_dir.clone(),
-        source,
-    })?;
-    let mut figures = Vec::new();
-    for block in &content.blocks {
-        if let Block::Figure { file, svg, .. } = block {
-            figures.push(dir.write(&format!("{FIGURES_DIR}/{file}"), svg.as_bytes())?);
-        }
-    }
+    let figures = write_figures(dir, &content.blocks)?;
     let markdown = dir.write(
         REPORT_MD,
         render_markdown(&content.title, &content.blocks).as_bytes(),
@@ -142,4 +132,20 @@ pub fn write_report(dir: &RunDir, posterior: &Posterior) -> Result<ReportFiles, 
         markdown,
         figures,
     })
+}
+
+/// Writes every figure of `blocks` into `dir/figures/`, each atomically; their paths in order.
+fn write_figures(dir: &RunDir, blocks: &[Block]) -> Result<Vec<PathBuf>, ReportError> {
+    let figures_dir = dir.file(FIGURES_DIR);
+    std::fs::create_dir_all(&figures_dir).map_err(|source| RunDirError::Write {
+        path: figures_dir.clone(),
+        source,
+    })?;
+    let mut figures = Vec::new();
+    for block in blocks {
+        if let Block::Figure { file, svg, .. } = block {
+            figures.push(dir.write(&format!("{FIGURES_DIR}/{file}"), svg.as_bytes())?);
+        }
+    }
+    Ok(figures)
 }

@@ -60,6 +60,16 @@ struct Observed {
     observed_n: f64,
 }
 
+impl Observed {
+    fn of(run: String, point: usize, observed_n: f64) -> Self {
+        Self {
+            run,
+            point,
+            observed_n,
+        }
+    }
+}
+
 pub(super) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     let dirs: Vec<RunDir> = args.dirs.iter().map(RunDir::new).collect();
     let criterion = criterion(&dirs, args.loo)?;
@@ -141,11 +151,7 @@ fn read_kfold(dir: &RunDir) -> anyhow::Result<Fitted> {
         },
         points: points
             .into_iter()
-            .map(|p| Observed {
-                run: p.run,
-                point: p.point,
-                observed_n: p.observed_n,
-            })
+            .map(|p| Observed::of(p.run, p.point, p.observed_n))
             .collect(),
     })
 }
@@ -174,11 +180,7 @@ fn read_loo(dir: &RunDir) -> anyhow::Result<Fitted> {
         },
         points: points
             .into_iter()
-            .map(|p| Observed {
-                run: p.run,
-                point: p.point,
-                observed_n: p.observed_n,
-            })
+            .map(|p| Observed::of(p.run, p.point, p.observed_n))
             .collect(),
     })
 }
