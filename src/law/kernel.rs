@@ -290,11 +290,8 @@ impl<'l> LawLanes<'l> {
         let law = self.law;
         let (alpha_v, x0) = (law.alpha_v, law.diff.x0());
         let mut x = [0.0; LANES];
-        let mut in_range = true;
         for l in 0..LANES {
             x[l] = alpha_v * tau[l];
-            // False for NaN too.
-            in_range &= (x[l] >= 0.0) & (x[l] <= X_LANES_MAX);
         }
         // Which forms of D the batch needs, decided from its smallest and largest x where
         // the batch lies in one regime (the bulk of a slide): subtraction holds from some x on
@@ -306,6 +303,11 @@ impl<'l> LawLanes<'l> {
         // pairwise, so that they cost a few vector operations rather than a chain of 16.
         let lo = reduce(&x, |a, b| if b < a { b } else { a });
         let hi = reduce(&x, |a, b| if b > a { b } else { a });
+        // Every lane in [0, X_LANES_MAX], and none NaN: the smallest and largest are exact
+        // where no lane is NaN, and a NaN lane makes the sum NaN (a sum of lanes in range
+        // stays finite). A few vector operations, where a per-lane test gathered into one
+        // flag cost a comparison and a pack per lane.
+        let in_range = (lo >= 0.0) & (hi <= X_LANES_MAX) & !reduce(&x, |a, b| a + b).is_nan();
         let finite = in_range && self.ei0.is_finite();
         let mut forms = [[false; LANES]; 3];
         let (subtract, apart, close) = if !finite {
@@ -674,20 +676,23 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
         for l in 0..LANES {
             tau[l] = guess.at(t[l]);
         }
-        let mut converged = [false; LANES];
+        // 1 where the lane's last step is not final: a word per lane rather than a bool, so
+        // that a vector comparison stores without being packed to bytes.
+        let mut missed = [0_u64; LANES];
         let mut out_force = [0.0; LANES];
+        let mut failed = 0_u64;
         for round in 0..MAX_ROUNDS {
             one_round &= round == 0;
             tally.count(|c| c.rounds += 1);
             lanes.force_and_rate(&tau, &mut force, &mut rate, &mut inv_x, tally);
-            // Branch-free (`&`, selects), so that the lanes stay in vector registers.
-            let mut failed = 0_u32;
+            // Branch-free (`&`, `|`, selects), so that the lanes stay in vector registers.
+            failed = 0;
             for l in 0..LANES {
                 let step = newton_step(
                     law, inv_kv, left_tau, t[l], tau[l], force[l], rate[l], inv_x[l],
                 );
-                converged[l] = step.converged;
-                failed += u32::from(!step.converged);
+                missed[l] = u64::from(!step.converged);
+                failed |= missed[l];
                 // A lane that left its bracket restarts from the bracket's middle.
                 let middle = left_tau + 0.5 * (t[l] - left_tau);
                 tau[l] = if step.inside { step.tau } else { middle };
@@ -697,9 +702,9 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
                 break;
             }
         }
-        if converged[..chunk.len()].iter().any(|&c| !c) {
+        if failed != 0 {
             for (l, &t) in chunk.iter().enumerate() {
-                if !converged[l] {
+                if missed[l] != 0 {
                     tally.count(|c| c.serial_points += 1);
                     (tau[l], out_force[l], _) = solve_point(law, kv, left_tau, t, tau[l])?;
                 }
