@@ -765,3 +765,53 @@ impl Hermite {
         c[0] + u * (c[1] + u * (c[2] + u * (c[3] + u * (c[4] + u * c[5]))))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::law::LawParams;
+
+    /// A batch in the lanes' regimes stays in lanes; one lane that is NaN, past the lanes'
+    /// range or negative sends the whole batch to the scalar law, whose values it then has
+    /// bit for bit (the range check is a reduction over the batch, and a NaN lane must not
+    /// slip through its smallest and largest x).
+    #[test]
+    fn a_lane_out_of_range_sends_the_batch_to_the_scalar_law() {
+        let law = Law::new(&LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(), 1e-9).unwrap();
+        let lanes = LawLanes::new(&law);
+        // x = αvτ from 2 to about 30: the subtraction regime.
+        let clean: Lanes = std::array::from_fn(|l| (2.0 + l as f64) / law.alpha_v);
+        let beyond = 2.0 * X_LANES_MAX / law.alpha_v;
+        for (name, odd) in [
+            ("none", None),
+            ("NaN", Some(f64::NAN)),
+            ("beyond", Some(beyond)),
+            ("negative", Some(-1.0)),
+        ] {
+            for lane in [0, 13, LANES - 1] {
+                let mut tau = clean;
+                if let Some(v) = odd {
+                    tau[lane] = v;
+                }
+                let (mut force, mut rate, mut inv_x) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                let mut counts = KernelCounts::default();
+                lanes.force_and_rate(&tau, &mut force, &mut rate, &mut inv_x, &mut counts);
+                let expected_scalar = u64::from(odd.is_some());
+                assert_eq!(
+                    counts.scalar_law_batches, expected_scalar,
+                    "{name} at lane {lane}"
+                );
+                if odd.is_some() {
+                    for l in 0..LANES {
+                        let (f, r) = law.force_and_rate(tau[l]);
+                        assert_eq!(
+                            (force[l].to_bits(), rate[l].to_bits()),
+                            (f.to_bits(), r.to_bits()),
+                            "{name} at lane {lane}: lane {l}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
