@@ -290,11 +290,8 @@ impl<'l> LawLanes<'l> {
         let law = self.law;
         let (alpha_v, x0) = (law.alpha_v, law.diff.x0());
         let mut x = [0.0; LANES];
-        let mut in_range = true;
         for l in 0..LANES {
             x[l] = alpha_v * tau[l];
-            // False for NaN too.
-            in_range &= (x[l] >= 0.0) & (x[l] <= X_LANES_MAX);
         }
         // Which forms of D the batch needs, decided from its smallest and largest x where
         // the batch lies in one regime (the bulk of a slide): subtraction holds from some x on
@@ -306,6 +303,11 @@ impl<'l> LawLanes<'l> {
         // pairwise, so that they cost a few vector operations rather than a chain of 16.
         let lo = reduce(&x, |a, b| if b < a { b } else { a });
         let hi = reduce(&x, |a, b| if b > a { b } else { a });
+        // Every lane in [0, X_LANES_MAX], and none NaN: the smallest and largest are exact
+        // where no lane is NaN, and a NaN lane makes the sum NaN (a sum of lanes in range
+        // stays finite). A few vector operations, where a per-lane test gathered into one
+        // flag cost a comparison and a pack per lane.
+        let in_range = (lo >= 0.0) & (hi <= X_LANES_MAX) & !reduce(&x, |a, b| a + b).is_nan();
         let finite = in_range && self.ei0.is_finite();
         let mut forms = [[false; LANES]; 3];
         let (subtract, apart, close) = if !finite {
@@ -674,20 +676,23 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
         for l in 0..LANES {
             tau[l] = guess.at(t[l]);
         }
-        let mut converged = [false; LANES];
+        // 1 where the lane's last step is not final: a word per lane rather than a bool, so
+        // that a vector comparison stores without being packed to bytes.
+        let mut missed = [0_u64; LANES];
         let mut out_force = [0.0; LANES];
+        let mut failed = 0_u64;
         for round in 0..MAX_ROUNDS {
             one_round &= round == 0;
             tally.count(|c| c.rounds += 1);
             lanes.force_and_rate(&tau, &mut force, &mut rate, &mut inv_x, tally);
-            // Branch-free (`&`, selects), so that the lanes stay in vector registers.
-            let mut failed = 0_u32;
+            // Branch-free (`&`, `|`, selects), so that the lanes stay in vector registers.
+            failed = 0;
             for l in 0..LANES {
                 let step = newton_step(
                     law, inv_kv, left_tau, t[l], tau[l], force[l], rate[l], inv_x[l],
                 );
-                converged[l] = step.converged;
-                failed += u32::from(!step.converged);
+                missed[l] = u64::from(!step.converged);
+                failed |= missed[l];
                 // A lane that left its bracket restarts from the bracket's middle.
                 let middle = left_tau + 0.5 * (t[l] - left_tau);
                 tau[l] = if step.inside { step.tau } else { middle };
@@ -697,9 +702,9 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
                 break;
             }
         }
-        if converged[..chunk.len()].iter().any(|&c| !c) {
+        if failed != 0 {
             for (l, &t) in chunk.iter().enumerate() {
-                if !converged[l] {
+                if missed[l] != 0 {
                     tally.count(|c| c.serial_points += 1);
                     (tau[l], out_force[l], _) = solve_point(law, kv, left_tau, t, tau[l])?;
                 }
@@ -758,5 +763,55 @@ impl Hermite {
         let u = (t - self.t_left) * self.inv_span;
         let c = &self.c;
         c[0] + u * (c[1] + u * (c[2] + u * (c[3] + u * (c[4] + u * c[5]))))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::law::LawParams;
+
+    /// A batch in the lanes' regimes stays in lanes; one lane that is NaN, past the lanes'
+    /// range or negative sends the whole batch to the scalar law, whose values it then has
+    /// bit for bit (the range check is a reduction over the batch, and a NaN lane must not
+    /// slip through its smallest and largest x).
+    #[test]
+    fn a_lane_out_of_range_sends_the_batch_to_the_scalar_law() {
+        let law = Law::new(&LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(), 1e-9).unwrap();
+        let lanes = LawLanes::new(&law);
+        // x = αvτ from 2 to about 30: the subtraction regime.
+        let clean: Lanes = std::array::from_fn(|l| (2.0 + l as f64) / law.alpha_v);
+        let beyond = 2.0 * X_LANES_MAX / law.alpha_v;
+        for (name, odd) in [
+            ("none", None),
+            ("NaN", Some(f64::NAN)),
+            ("beyond", Some(beyond)),
+            ("negative", Some(-1.0)),
+        ] {
+            for lane in [0, 13, LANES - 1] {
+                let mut tau = clean;
+                if let Some(v) = odd {
+                    tau[lane] = v;
+                }
+                let (mut force, mut rate, mut inv_x) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                let mut counts = KernelCounts::default();
+                lanes.force_and_rate(&tau, &mut force, &mut rate, &mut inv_x, &mut counts);
+                let expected_scalar = u64::from(odd.is_some());
+                assert_eq!(
+                    counts.scalar_law_batches, expected_scalar,
+                    "{name} at lane {lane}"
+                );
+                if odd.is_some() {
+                    for l in 0..LANES {
+                        let (f, r) = law.force_and_rate(tau[l]);
+                        assert_eq!(
+                            (force[l].to_bits(), rate[l].to_bits()),
+                            (f.to_bits(), r.to_bits()),
+                            "{name} at lane {lane}: lane {l}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
