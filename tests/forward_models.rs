@@ -7,21 +7,16 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
 use slipbayes::density::LogDensity;
-use slipbayes::law::{Elastic, Law, LawKind, LogAging, ObservedSlide, RepeatSlide, Scene};
+use slipbayes::law::{LawKind, Scene};
 use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, Posterior};
 
-const VELOCITY: f64 = 1e-9;
 /// PTFE near the paper's Fig. 2 fit (as `common::simulate_ptfe`).
 const ALPHA: f64 = 0.92e6;
-const A: f64 = 0.62 * 10e-3;
 const F_D: f64 = 10e-3;
 const T0: f64 = 14.8;
 const K: f64 = 1.2e4;
-const NOISE: f64 = 1e-4;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
@@ -56,22 +51,6 @@ alpha = "contact"
 a = "contact"
 "#
     )
-}
-
-/// Writes `forces` at `times` plus Gaussian noise of sd [`NOISE`] as a CSV.
-fn write_noisy(dir: &Path, name: &str, times: &[f64], forces: &[f64], seed: u64) {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let noise = Normal::new(0.0, NOISE).unwrap();
-    let mut text = String::from("time_s,force_N\n");
-    for (t, f) in times.iter().zip(forces) {
-        text += &format!("{t},{}\n", f + noise.sample(&mut rng));
-    }
-    write(dir, name, &text);
-}
-
-fn times(duration_s: f64, interval_s: f64) -> Vec<f64> {
-    let n = (duration_s / interval_s).round() as usize;
-    (0..=n).map(|i| i as f64 * interval_s).collect()
 }
 
 fn load(dir: &Path, head: &str) -> ModelSpec {
@@ -246,106 +225,131 @@ fn default_law_written_out_or_not_is_the_same_model_to_the_bit() {
     assert_eq!(bits[0], bits[1]);
 }
 
-/// Fits `model` in `dir` for `steps` steps and returns the summary.
+/// Short fits of data simulated under each nested model (the chains need Parquet storage).
 #[cfg(feature = "parquet")]
-fn fit(dir: &Path, spec: &ModelSpec, steps: u64) -> slipbayes::fit::FitSummary {
-    use slipbayes::fit::{fit_model, FitSettings};
-    use slipbayes::sampler::{Silent, Steps};
-    let post = Posterior::new(spec).unwrap();
-    let settings = FitSettings {
-        walkers: 24,
-        ensembles: 4,
-        seed: 3,
-        steps: Steps::Fixed(steps),
-        quiet: true,
-        ..FitSettings::default()
-    };
-    fit_model(
-        &post,
-        &settings,
-        &dir.join("fit"),
-        false,
-        vec![],
-        &mut Silent,
-    )
-    .unwrap()
-    .summary
-}
+mod fits {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use slipbayes::law::{Elastic, Law, LogAging, ObservedSlide, RepeatSlide};
 
-/// Every parameter has R̂ below 1.05 and its 95 % interval holds the truth.
-#[cfg(feature = "parquet")]
-fn assert_converged_on(s: &slipbayes::fit::FitSummary, truths: &[(&str, &str, f64)]) {
-    for q in &s.parameters {
-        let r_hat = q.stats.r_hat.unwrap_or(f64::NAN);
-        assert!(r_hat < 1.05, "{}[{}]: R̂ {r_hat}", q.name, q.group);
+    const VELOCITY: f64 = 1e-9;
+    const A: f64 = 0.62 * 10e-3;
+    const NOISE: f64 = 1e-4;
+
+    /// Writes `forces` at `times` plus Gaussian noise of sd [`NOISE`] as a CSV.
+    fn write_noisy(dir: &Path, name: &str, times: &[f64], forces: &[f64], seed: u64) {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, NOISE).unwrap();
+        let mut text = String::from("time_s,force_N\n");
+        for (t, f) in times.iter().zip(forces) {
+            text += &format!("{t},{}\n", f + noise.sample(&mut rng));
+        }
+        write(dir, name, &text);
     }
-    for &(name, group, truth) in truths {
-        let st = &s
-            .parameters
-            .iter()
-            .find(|q| q.name == name && q.group == group)
-            .unwrap_or_else(|| panic!("no {name}[{group}]"))
-            .stats;
-        assert!(
-            st.ci_low <= truth && truth <= st.ci_high,
-            "{name}[{group}]: truth {truth:e} outside [{:e}, {:e}]",
-            st.ci_low,
-            st.ci_high
+
+    fn times(duration_s: f64, interval_s: f64) -> Vec<f64> {
+        let n = (duration_s / interval_s).round() as usize;
+        (0..=n).map(|i| i as f64 * interval_s).collect()
+    }
+
+    /// Fits `model` in `dir` for `steps` steps and returns the summary.
+    fn fit(dir: &Path, spec: &ModelSpec, steps: u64) -> slipbayes::fit::FitSummary {
+        use slipbayes::fit::{fit_model, FitSettings};
+        use slipbayes::sampler::{Silent, Steps};
+        let post = Posterior::new(spec).unwrap();
+        let settings = FitSettings {
+            walkers: 24,
+            ensembles: 4,
+            seed: 3,
+            steps: Steps::Fixed(steps),
+            quiet: true,
+            ..FitSettings::default()
+        };
+        fit_model(
+            &post,
+            &settings,
+            &dir.join("fit"),
+            false,
+            vec![],
+            &mut Silent,
+        )
+        .unwrap()
+        .summary
+    }
+
+    /// Every parameter has R̂ below 1.05 and its 95 % interval holds the truth.
+    fn assert_converged_on(s: &slipbayes::fit::FitSummary, truths: &[(&str, &str, f64)]) {
+        for q in &s.parameters {
+            let r_hat = q.stats.r_hat.unwrap_or(f64::NAN);
+            assert!(r_hat < 1.05, "{}[{}]: R̂ {r_hat}", q.name, q.group);
+        }
+        for &(name, group, truth) in truths {
+            let st = &s
+                .parameters
+                .iter()
+                .find(|q| q.name == name && q.group == group)
+                .unwrap_or_else(|| panic!("no {name}[{group}]"))
+                .stats;
+            assert!(
+                st.ci_low <= truth && truth <= st.ci_high,
+                "{name}[{group}]: truth {truth:e} outside [{:e}, {:e}]",
+                st.ci_low,
+                st.ci_high
+            );
+        }
+    }
+
+    /// Data simulated by pure logarithmic aging through the spring: the log-aging fit converges
+    /// and covers a, t0 and k.
+    #[test]
+    fn log_aging_fit_of_log_aging_data_converges_to_the_truth() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let first_t = times(5_000.0, 25.0);
+        let elastic = Elastic::spring(K, VELOCITY).unwrap();
+        let slide = ObservedSlide::new(LogAging::new(A, T0).unwrap(), elastic);
+        let mut first = vec![0.0; first_t.len()];
+        slide.forces(&first_t, &mut first, None).unwrap();
+        write_noisy(d, "first.csv", &first_t, &first, 5);
+        // The repeat slide loads up to where the first one stopped.
+        let repeat_t = times(1_000.0, 10.0);
+        let repeat = RepeatSlide::from_elastic(elastic, *first.last().unwrap()).unwrap();
+        let mut forces = vec![0.0; repeat_t.len()];
+        repeat.forces(&repeat_t, &mut forces).unwrap();
+        write_noisy(d, "repeat.csv", &repeat_t, &forces, 6);
+
+        let s = fit(d, &load(d, "law = \"log-aging\""), 600);
+        assert_converged_on(&s, &[("a", "c", A), ("t0", "first", T0), ("k", "c", K)]);
+    }
+
+    /// Data simulated on a rigid machine (τ = t, a repeat slide at F_end from its start): the
+    /// `elastic = false` fit converges and covers α, a/F_d, F_d and t0.
+    #[test]
+    fn rigid_fit_of_rigid_data_converges_to_the_truth() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let first_t = times(20_000.0, 100.0);
+        let law = Law::from_rate(ALPHA * VELOCITY, A, F_D, T0).unwrap();
+        let slide = ObservedSlide::new(law, Elastic::Stiff);
+        let mut first = vec![0.0; first_t.len()];
+        slide.forces(&first_t, &mut first, None).unwrap();
+        write_noisy(d, "first.csv", &first_t, &first, 7);
+        let repeat_t = times(1_000.0, 20.0);
+        let repeat = RepeatSlide::rigid(*first.last().unwrap()).unwrap();
+        let mut forces = vec![0.0; repeat_t.len()];
+        repeat.forces(&repeat_t, &mut forces).unwrap();
+        write_noisy(d, "repeat.csv", &repeat_t, &forces, 8);
+
+        let s = fit(d, &load(d, "elastic = false"), 600);
+        assert_converged_on(
+            &s,
+            &[
+                ("alpha", "c", ALPHA),
+                ("a_over_F_d", "c", A / F_D),
+                ("F_d", "c", F_D),
+                ("t0", "first", T0),
+            ],
         );
     }
-}
-
-/// Data simulated by pure logarithmic aging through the spring: the log-aging fit converges
-/// and covers a, t0 and k.
-#[cfg(feature = "parquet")]
-#[test]
-fn log_aging_fit_of_log_aging_data_converges_to_the_truth() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let first_t = times(5_000.0, 25.0);
-    let elastic = Elastic::spring(K, VELOCITY).unwrap();
-    let slide = ObservedSlide::new(LogAging::new(A, T0).unwrap(), elastic);
-    let mut first = vec![0.0; first_t.len()];
-    slide.forces(&first_t, &mut first, None).unwrap();
-    write_noisy(d, "first.csv", &first_t, &first, 5);
-    // The repeat slide loads up to where the first one stopped.
-    let repeat_t = times(1_000.0, 10.0);
-    let repeat = RepeatSlide::from_elastic(elastic, *first.last().unwrap()).unwrap();
-    let mut forces = vec![0.0; repeat_t.len()];
-    repeat.forces(&repeat_t, &mut forces).unwrap();
-    write_noisy(d, "repeat.csv", &repeat_t, &forces, 6);
-
-    let s = fit(d, &load(d, "law = \"log-aging\""), 600);
-    assert_converged_on(&s, &[("a", "c", A), ("t0", "first", T0), ("k", "c", K)]);
-}
-
-/// Data simulated on a rigid machine (τ = t, a repeat slide at F_end from its start): the
-/// `elastic = false` fit converges and covers α, a/F_d, F_d and t0.
-#[cfg(feature = "parquet")]
-#[test]
-fn rigid_fit_of_rigid_data_converges_to_the_truth() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let first_t = times(20_000.0, 100.0);
-    let law = Law::from_rate(ALPHA * VELOCITY, A, F_D, T0).unwrap();
-    let slide = ObservedSlide::new(law, Elastic::Stiff);
-    let mut first = vec![0.0; first_t.len()];
-    slide.forces(&first_t, &mut first, None).unwrap();
-    write_noisy(d, "first.csv", &first_t, &first, 7);
-    let repeat_t = times(1_000.0, 20.0);
-    let repeat = RepeatSlide::rigid(*first.last().unwrap()).unwrap();
-    let mut forces = vec![0.0; repeat_t.len()];
-    repeat.forces(&repeat_t, &mut forces).unwrap();
-    write_noisy(d, "repeat.csv", &repeat_t, &forces, 8);
-
-    let s = fit(d, &load(d, "elastic = false"), 600);
-    assert_converged_on(
-        &s,
-        &[
-            ("alpha", "c", ALPHA),
-            ("a_over_F_d", "c", A / F_D),
-            ("F_d", "c", F_D),
-            ("t0", "first", T0),
-        ],
-    );
 }
