@@ -24,7 +24,11 @@ fn slow_first_slide() -> (ObservedSlide, Vec<f64>) {
 
 fn per_point(c: &mut Criterion) {
     let (slide, times) = slow_first_slide();
-    let law = slide.law().clone();
+    let law = slide
+        .law()
+        .as_aging_rejuvenation()
+        .expect("the aging–rejuvenation law")
+        .clone();
     // The arguments each function sees along that slide: x = αvτ for S, τ for the law.
     let xs: Vec<f64> = times.iter().map(|t| law.alpha_v() * t).collect();
     let mut group = c.benchmark_group("per_point");

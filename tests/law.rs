@@ -6,7 +6,8 @@ mod common;
 use common::Table;
 use proptest::prelude::*;
 use slipbayes::law::{
-    Elastic, Law, LawError, LawParams, ObservedSlide, PeakOutcome, RepeatSlide, Simd,
+    Elastic, InterfaceLaw, Law, LawError, LawParams, LogAging, ObservedSlide, PeakOutcome,
+    RepeatSlide, Simd,
 };
 
 /// The bar for the law's value: 1e−13 relative, or 1e−13·(a + F_d) absolute where F is
@@ -155,7 +156,7 @@ fn observed_time_model_matches_reference() {
             let mut f = vec![0.0; times.len()];
             let mut tau = vec![0.0; times.len()];
             slide.forces(times, &mut f, Some(&mut tau)).unwrap();
-            let law = slide.law();
+            let law = slide.law().as_aging_rejuvenation().unwrap();
             for i in 0..times.len() {
                 let err = law_error(f[i], want_f[i], law.a() + law.f_d());
                 assert!(
@@ -344,6 +345,78 @@ fn vanishing_rejuvenation_is_pure_logarithmic_aging() {
     }
 }
 
+/// Pure logarithmic aging against its closed form a ln(τ/t0), with t0 a power of two so that
+/// τ/t0 is exact and the reference is one correctly rounded logarithm: to 1e−14 relative,
+/// right from t0 (where ln(τ/t0) is tiny) to τ = 1e12 s.
+#[test]
+fn log_aging_is_its_closed_form() {
+    let (a, t0) = (6.2e-3, 0.5);
+    let law = LogAging::new(a, t0).unwrap();
+    assert!(law.force(0.49).abs() < f64::MIN_POSITIVE);
+    assert!(law.force(t0).abs() < f64::MIN_POSITIVE);
+    let mut taus = vec![t0 * (1.0 + 2f64.powi(-40)), t0 * (1.0 + 1e-9), 0.75, 1.0];
+    taus.extend((0..25).map(|i| 10f64.powf(i as f64 * 0.5)));
+    for tau in taus {
+        let (force, rate) = law.force_and_rate(tau);
+        let exact = a * (tau / t0).ln();
+        assert!(
+            (force - exact).abs() <= 1e-14 * exact.abs(),
+            "τ = {tau:e}: {force:e} against {exact:e}"
+        );
+        assert!((rate - a / tau).abs() <= f64::EPSILON * a / tau);
+    }
+    assert!(matches!(
+        InterfaceLaw::from(law).peak(),
+        PeakOutcome::NoInteriorPeak
+    ));
+}
+
+/// The full law tends to pure logarithmic aging as αv → 0: the difference shrinks in
+/// proportion to αv (it is of order αvτ (a ln(τ/t0) + F_d)).
+#[test]
+fn full_law_tends_to_log_aging_as_rejuvenation_vanishes() {
+    let (a, f_d, t0) = (6.2e-3, 10e-3, 14.8);
+    let log_aging = LogAging::new(a, t0).unwrap();
+    for alpha_v in [1e-6, 1e-9, 1e-12] {
+        let full = Law::from_rate(alpha_v, a, f_d, t0).unwrap();
+        for tau in [15.0, 1e3, 1e5] {
+            let bound = 2.0 * alpha_v * tau * (log_aging.force(tau) + f_d);
+            let gap = (full.force(tau) - log_aging.force(tau)).abs();
+            assert!(
+                gap <= bound,
+                "αv = {alpha_v:e}, τ = {tau}: {gap:e} > {bound:e}"
+            );
+        }
+    }
+}
+
+/// Log-aging through a spring: each recorded point solves t = τ + F(τ)/(kv) to rounding,
+/// with no loading line (F(t0) = 0) and no stick-slip (dF/dτ > 0).
+#[test]
+fn log_aging_through_a_spring_solves_the_elastic_correction() {
+    let (a, t0, kv) = (6.2e-3, 14.8, 1.2e-5);
+    let law = LogAging::new(a, t0).unwrap();
+    let slide = ObservedSlide::new(law, Elastic::Spring { kv });
+    let times: Vec<f64> = (0..400).map(|i| i as f64 * 50.0).collect();
+    let mut forces = vec![0.0; times.len()];
+    let mut taus = vec![0.0; times.len()];
+    slide.forces(&times, &mut forces, Some(&mut taus)).unwrap();
+    let mut serial = vec![0.0; times.len()];
+    slide
+        .for_each_force_serial(&times, |i, _, f| serial[i] = f)
+        .unwrap();
+    for i in 0..times.len() {
+        assert!((forces[i] - serial[i]).abs() < f64::MIN_POSITIVE);
+        if times[i] <= t0 {
+            assert!(forces[i].abs() < f64::MIN_POSITIVE);
+            continue;
+        }
+        let t = taus[i] + law.force(taus[i]) / kv;
+        assert!((t - times[i]).abs() <= 1e-12 * times[i], "t = {}", times[i]);
+        assert!((law.force(taus[i]) - forces[i]).abs() <= 1e-12 * forces[i]);
+    }
+}
+
 #[test]
 fn force_is_zero_before_t0_and_jumps_to_fd_term_at_t0() {
     let law = Law::from_rate(0.007, 0.3, 1.0, 0.5).unwrap();
@@ -425,7 +498,19 @@ fn repeat_slide_loads_elastically_then_slides_at_f_end() {
     assert!(r.force(-1.0).abs() < f64::MIN_POSITIVE);
     assert!((r.force(100.0) - 1.2e-3).abs() < 1e-18);
     assert!((r.force(1e4) - 10e-3).abs() < 1e-18);
-    assert!(RepeatSlide::from_elastic(Elastic::Stiff, 1.0).is_err());
+}
+
+#[test]
+fn rigid_repeat_slide_is_the_limit_of_stiffer_springs() {
+    let rigid = RepeatSlide::from_elastic(Elastic::Stiff, 10e-3).unwrap();
+    assert!(rigid.loading_ends().abs() < f64::MIN_POSITIVE);
+    assert!(rigid.force(0.0).abs() < f64::MIN_POSITIVE);
+    for t in [1e-3, 1.0, 1e4] {
+        assert!((rigid.force(t) - 10e-3).abs() < 1e-18);
+        // min(kvt, F_end) reaches F_end at any t > 0 once kv > F_end/t.
+        let spring = RepeatSlide::new(1e3 * 10e-3 / t, 10e-3).unwrap();
+        assert!((spring.force(t) - rigid.force(t)).abs() < 1e-18);
+    }
 }
 
 proptest! {

@@ -287,3 +287,81 @@ fn compare_ranks_fits_of_the_same_data_and_refuses_other_data() {
         "{stderr}"
     );
 }
+
+/// A first slide simulated with a clear rejuvenation peak (PTFE near the paper's Fig. 2: the
+/// force rises to a peak near 2,300 s and relaxes towards F_d), fitted under the full law and
+/// under `law = "log-aging"` (no rejuvenation, no peak): `compare` ranks the full law first by
+/// more than two standard errors of the difference.
+#[cfg(feature = "parquet")]
+#[test]
+fn compare_prefers_the_full_law_on_data_with_a_peak() {
+    use slipbayes::law::{LawParams, Scene};
+    use slipbayes::simulate::{simulate, SimulationSpec};
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SimulationSpec {
+        scene: Scene::First,
+        params: LawParams::new(0.92e6, 0.62 * 10e-3, 10e-3, 14.8).unwrap(),
+        stiffness_n_per_m: Some(1.2e4),
+        velocity_m_per_s: 1e-9,
+        duration_s: 12_000.0,
+        interval_s: 100.0,
+        noise_sd_n: 1e-4,
+        seed: 4,
+        f_end_n: None,
+        after_first_s: None,
+        normal_force_n: None,
+        normal_noise_sd_n: 0.0,
+    };
+    simulate(&spec)
+        .unwrap()
+        .series
+        .write_csv(&dir.path().join("first.csv"))
+        .unwrap();
+    let fit = |law: &str| {
+        let name = if law.is_empty() { "full" } else { "log-aging" };
+        let model = format!(
+            "{law}\n[[material]]\nname = \"m\"\n[[contact]]\nname = \"c\"\nmaterial = \"m\"\n\
+             [[run]]\nname = \"first\"\ncontact = \"c\"\ndata = \"first.csv\"\n\
+             velocity_m_per_s = 1e-9\nscene = \"first\"\n"
+        );
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, model).unwrap();
+        let out = dir.path().join(name);
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+            .args(["fit", "--quiet", "--steps", "300", "--seed", "1", "--out"])
+            .arg(&out)
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        out
+    };
+    let full = fit("");
+    let log_aging = fit("law = \"log-aging\"");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(log_aging.join("summary.json")).unwrap()).unwrap();
+    let names: Vec<&str> = summary["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert!(!names.contains(&"alpha"), "{names:?}");
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+        .arg("compare")
+        .args([&log_aging, &full])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    let verdict = format!(
+        "{} predicts worse than {}",
+        log_aging.display(),
+        full.display()
+    );
+    assert!(stdout.contains(&verdict), "{stdout}");
+}

@@ -12,6 +12,8 @@
 //!
 //! The parts:
 //! - [`Law`]: F(τ) and dF/dτ in interface time.
+//! - [`log_aging`]: its α → 0 limit, F = a ln(τ/t0), evaluated exactly.
+//! - [`InterfaceLaw`]: the law a slide follows, one of the [`LawKind`]s a model may choose.
 //! - [`observed`]: the elastic correction t = τ + F(τ)/(kv), solved per data point, with a typed
 //!   stick-slip error when the quasi-static path does not exist.
 //! - [`peak`]: the static friction peak, found by bracketing the sign change of dF/dτ.
@@ -20,12 +22,14 @@
 //! This module knows nothing of files, data sets or sampling. All quantities are SI.
 
 pub mod kernel;
+pub mod log_aging;
 pub mod observed;
 pub mod peak;
 pub mod repeat;
 mod root;
 
 pub use kernel::{KernelCounts, Simd, SIMD_ENV};
+pub use log_aging::LogAging;
 pub use observed::{Elastic, ObservedSlide};
 pub use peak::{Peak, PeakOutcome};
 pub use repeat::RepeatSlide;
@@ -100,6 +104,156 @@ impl std::fmt::Display for Scene {
             Self::First => "first",
             Self::Repeat => "repeat",
             Self::StiffFast => "stiff-fast",
+        })
+    }
+}
+
+/// Which law a first or fast slide follows in interface time: the model file's `law` key.
+///
+/// A law decides the parameters a slide needs (`crate::model::spec::ForwardModel`); a new
+/// law is a new variant here and in [`InterfaceLaw`].
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case", try_from = "String")]
+pub enum LawKind {
+    /// The aging–rejuvenation law (α, a, F_d, t0): the default.
+    #[default]
+    AgingRejuvenation,
+    /// Its α → 0 limit, pure logarithmic aging F = a ln(τ/t0) (a, t0): no rejuvenation, no
+    /// peak.
+    LogAging,
+}
+
+impl LawKind {
+    /// Every law, in the order the documentation lists them.
+    pub const ALL: [LawKind; 2] = [Self::AgingRejuvenation, Self::LogAging];
+
+    /// The name written in model files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::AgingRejuvenation => "aging-rejuvenation",
+            Self::LogAging => "log-aging",
+        }
+    }
+
+    /// Whether the law can have an interior static-friction peak.
+    pub fn has_peak(self) -> bool {
+        match self {
+            Self::AgingRejuvenation => true,
+            Self::LogAging => false,
+        }
+    }
+}
+
+impl std::fmt::Display for LawKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for LawKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                let accepted: Vec<String> = Self::ALL.iter().map(|k| format!("\"{k}\"")).collect();
+                format!(
+                    "`law = \"{s}\"` is not a law slipbayes knows; write one of {}",
+                    accepted.join(", ")
+                )
+            })
+    }
+}
+
+impl TryFrom<String> for LawKind {
+    type Error = String;
+
+    fn try_from(s: String) -> Result<Self, String> {
+        s.parse()
+    }
+}
+
+/// The law a first or fast slide follows in interface time, of any [`LawKind`].
+#[derive(Debug, Clone)]
+pub enum InterfaceLaw {
+    /// The aging–rejuvenation law.
+    AgingRejuvenation(Law),
+    /// Pure logarithmic aging.
+    LogAging(LogAging),
+}
+
+impl From<Law> for InterfaceLaw {
+    fn from(law: Law) -> Self {
+        Self::AgingRejuvenation(law)
+    }
+}
+
+impl From<LogAging> for InterfaceLaw {
+    fn from(law: LogAging) -> Self {
+        Self::LogAging(law)
+    }
+}
+
+impl InterfaceLaw {
+    /// Which law this is.
+    pub fn kind(&self) -> LawKind {
+        match self {
+            Self::AgingRejuvenation(_) => LawKind::AgingRejuvenation,
+            Self::LogAging(_) => LawKind::LogAging,
+        }
+    }
+
+    /// The aging–rejuvenation law, when this is one.
+    pub fn as_aging_rejuvenation(&self) -> Option<&Law> {
+        match self {
+            Self::AgingRejuvenation(law) => Some(law),
+            Self::LogAging(_) => None,
+        }
+    }
+
+    /// t0 (s): the force is zero before it.
+    pub fn t0(&self) -> f64 {
+        match self {
+            Self::AgingRejuvenation(law) => law.t0(),
+            Self::LogAging(law) => law.t0(),
+        }
+    }
+
+    /// F(τ) in newtons.
+    pub fn force(&self, tau: f64) -> f64 {
+        self.force_and_rate(tau).0
+    }
+
+    /// F(τ) and dF/dτ.
+    pub fn force_and_rate(&self, tau: f64) -> (f64, f64) {
+        match self {
+            Self::AgingRejuvenation(law) => law.force_and_rate(tau),
+            Self::LogAging(law) => law.force_and_rate(tau),
+        }
+    }
+
+    /// The static friction peak; pure logarithmic aging rises for ever and has none.
+    pub fn peak(&self) -> PeakOutcome {
+        match self {
+            Self::AgingRejuvenation(law) => law.peak(),
+            Self::LogAging(_) => PeakOutcome::NoInteriorPeak,
+        }
+    }
+
+    /// The same law with its cut-off moved to `t0_s` (the peak against t0).
+    ///
+    /// # Errors
+    /// [`LawError::InvalidParameter`] for a t0 that is not finite and positive.
+    pub fn with_t0(&self, t0_s: f64) -> Result<Self, LawError> {
+        Ok(match self {
+            Self::AgingRejuvenation(law) => {
+                Law::from_rate(law.alpha_v(), law.a(), law.f_d(), t0_s)?.into()
+            }
+            Self::LogAging(law) => LogAging::new(law.a(), t0_s)?.into(),
         })
     }
 }

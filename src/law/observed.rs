@@ -12,7 +12,46 @@
 
 use super::kernel::{self, KernelCounts};
 use super::root::increasing_root;
-use super::{positive, Law, LawError, Simd};
+use super::{positive, InterfaceLaw, Law, LawError, LogAging, Simd};
+
+/// What the elastic solve needs of a law in interface time.
+pub(super) trait InterfaceForce {
+    /// t0 (s): the force is zero before it.
+    fn cut_off(&self) -> f64;
+    /// F(τ) and dF/dτ.
+    fn force_rate(&self, tau: f64) -> (f64, f64);
+    /// The most negative dF/dτ on [t0, τ_end], and where.
+    fn steepest_weakening(&self, tau_end: f64) -> (f64, f64);
+}
+
+impl InterfaceForce for Law {
+    #[inline(always)]
+    fn cut_off(&self) -> f64 {
+        self.t0()
+    }
+    #[inline(always)]
+    fn force_rate(&self, tau: f64) -> (f64, f64) {
+        self.force_and_rate(tau)
+    }
+    fn steepest_weakening(&self, tau_end: f64) -> (f64, f64) {
+        self.min_rate_up_to(tau_end)
+    }
+}
+
+impl InterfaceForce for LogAging {
+    #[inline(always)]
+    fn cut_off(&self) -> f64 {
+        self.t0()
+    }
+    #[inline(always)]
+    fn force_rate(&self, tau: f64) -> (f64, f64) {
+        self.force_and_rate(tau)
+    }
+    /// dF/dτ = a/τ falls for ever but stays positive: its minimum is at the end.
+    fn steepest_weakening(&self, tau_end: f64) -> (f64, f64) {
+        (tau_end, self.force_and_rate(tau_end).1)
+    }
+}
 
 /// How the machine's elasticity enters a slide.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,18 +82,22 @@ impl Elastic {
 /// A first (or fast) slide as the instrument records it.
 #[derive(Debug, Clone)]
 pub struct ObservedSlide {
-    law: Law,
+    law: InterfaceLaw,
     elastic: Elastic,
 }
 
 impl ObservedSlide {
-    /// The slide of `law` seen through `elastic`.
-    pub fn new(law: Law, elastic: Elastic) -> Self {
-        Self { law, elastic }
+    /// The slide of `law` (a [`Law`], a [`LogAging`] or an [`InterfaceLaw`]) seen through
+    /// `elastic`.
+    pub fn new(law: impl Into<InterfaceLaw>, elastic: Elastic) -> Self {
+        Self {
+            law: law.into(),
+            elastic,
+        }
     }
 
     /// The law in interface time.
-    pub fn law(&self) -> &Law {
+    pub fn law(&self) -> &InterfaceLaw {
         &self.law
     }
 
@@ -91,13 +134,15 @@ impl ObservedSlide {
     /// time of `times` (strictly increasing), in order, without allocating: the hot path of a
     /// likelihood.
     ///
-    /// The points are solved in batches in vector registers (`kernel`): every
+    /// The points of the aging–rejuvenation law are solved in batches in vector registers
+    /// (`kernel`): every
     /// 33rd or 65th point by Newton steps from a Taylor guess, one after the other,
     /// the points between by one Newton step each from a quintic Hermite guess between those
     /// anchors, repeated where a lane's predicted error is above round-off. The result agrees
     /// with [`for_each_force_serial`](Self::for_each_force_serial) to rounding, on whatever
     /// vector instructions the machine has ([`Simd::active`](super::Simd::active)), and is
-    /// the same bit for bit on every one of them.
+    /// the same bit for bit on every one of them. Pure logarithmic aging is cheap and never
+    /// folds: it is solved point after point.
     ///
     /// # Errors
     /// [`LawError::UnsortedTimes`] when times do not increase (checked before any visit), and
@@ -153,9 +198,16 @@ impl ObservedSlide {
             });
         }
         check_sorted(times)?;
+        let law = match &self.law {
+            InterfaceLaw::AgingRejuvenation(law) => law,
+            InterfaceLaw::LogAging(law) => {
+                tally.count(|c| c.serial_slides += 1);
+                return serial_forces(law, self.elastic, times, visit);
+            }
+        };
         match self.elastic {
             Elastic::Stiff => {
-                kernel::stiff(simd, &self.law, times, visit, tally);
+                kernel::stiff(simd, law, times, visit, tally);
                 Ok(())
             }
             Elastic::Spring { kv } => {
@@ -163,11 +215,11 @@ impl ObservedSlide {
                 // serial solve, point after point from t0, follows the quasi-static branch
                 // (and says whether the data reach the fold).
                 let t_last = times.last().copied().unwrap_or(f64::NEG_INFINITY);
-                if t_last > self.law.t0() && self.law.min_rate_up_to(t_last).1 <= -kv {
+                if t_last > law.t0() && law.min_rate_up_to(t_last).1 <= -kv {
                     tally.count(|c| c.serial_slides += 1);
-                    return self.for_each_force_serial(times, visit);
+                    return serial_forces(law, self.elastic, times, visit);
                 }
-                kernel::spring(simd, &self.law, kv, times, visit, tally)
+                kernel::spring(simd, law, kv, times, visit, tally)
             }
         }
     }
@@ -188,61 +240,12 @@ impl ObservedSlide {
     pub fn for_each_force_serial(
         &self,
         times: &[f64],
-        mut visit: impl FnMut(usize, f64, f64),
+        visit: impl FnMut(usize, f64, f64),
     ) -> Result<(), LawError> {
-        check_sorted(times)?;
-        let kv = match self.elastic {
-            Elastic::Stiff => {
-                for (i, &t) in times.iter().enumerate() {
-                    visit(i, t, self.law.force(t));
-                }
-                return Ok(());
-            }
-            Elastic::Spring { kv } => kv,
-        };
-
-        let law = &self.law;
-        let t0 = law.t0();
-        let (force_t0, rate_t0) = law.force_and_rate(t0);
-        let loading_ends = t0 + force_t0 / kv;
-        // The last two solved points as (t, τ, dτ/dt): the warm start of the next, by
-        // quadratic extrapolation along τ(t) once two are known.
-        let slope = |rate: f64| 1.0 / (1.0 + rate / kv);
-        let mut previous = (loading_ends, t0, slope(rate_t0));
-        let mut before: Option<(f64, f64, f64)> = None;
-        for (i, &t) in times.iter().enumerate() {
-            let (tau, force) = if t <= t0 {
-                (t, 0.0)
-            } else if t <= loading_ends {
-                (t0, kv * (t - t0))
-            } else {
-                let (t_prev, tau_prev, slope_prev) = previous;
-                let dt = t - t_prev;
-                let curvature = match before {
-                    Some((t_b, _, slope_b)) => (slope_prev - slope_b) / (t_prev - t_b),
-                    None => 0.0,
-                };
-                let guess = tau_prev + dt * (slope_prev + 0.5 * curvature * dt);
-                let (root, force, r_eval) = solve_point(law, kv, tau_prev, t, guess)?;
-                before = Some(previous);
-                previous = (t, root, slope(r_eval));
-                (root, force)
-            };
-            visit(i, tau, force);
+        match &self.law {
+            InterfaceLaw::AgingRejuvenation(law) => serial_forces(law, self.elastic, times, visit),
+            InterfaceLaw::LogAging(law) => serial_forces(law, self.elastic, times, visit),
         }
-        if let Some(&t_last) = times.last() {
-            if t_last > loading_ends {
-                let (tau_min, rate_min) = law.min_rate_up_to(previous.1);
-                if rate_min <= -kv {
-                    return Err(LawError::StickSlip {
-                        tau: tau_min,
-                        rate: rate_min,
-                        limit: -kv,
-                    });
-                }
-            }
-        }
-        Ok(())
     }
 
     /// Recorded force at one instrument time, solved without a warm start.
@@ -254,6 +257,67 @@ impl ObservedSlide {
         self.forces(&[time], &mut out, None)?;
         Ok(out[0])
     }
+}
+
+/// [`ObservedSlide::for_each_force_serial`] for any law in interface time.
+fn serial_forces(
+    law: &impl InterfaceForce,
+    elastic: Elastic,
+    times: &[f64],
+    mut visit: impl FnMut(usize, f64, f64),
+) -> Result<(), LawError> {
+    check_sorted(times)?;
+    let kv = match elastic {
+        Elastic::Stiff => {
+            for (i, &t) in times.iter().enumerate() {
+                visit(i, t, law.force_rate(t).0);
+            }
+            return Ok(());
+        }
+        Elastic::Spring { kv } => kv,
+    };
+
+    let t0 = law.cut_off();
+    let (force_t0, rate_t0) = law.force_rate(t0);
+    let loading_ends = t0 + force_t0 / kv;
+    // The last two solved points as (t, τ, dτ/dt): the warm start of the next, by
+    // quadratic extrapolation along τ(t) once two are known.
+    let slope = |rate: f64| 1.0 / (1.0 + rate / kv);
+    let mut previous = (loading_ends, t0, slope(rate_t0));
+    let mut before: Option<(f64, f64, f64)> = None;
+    for (i, &t) in times.iter().enumerate() {
+        let (tau, force) = if t <= t0 {
+            (t, 0.0)
+        } else if t <= loading_ends {
+            (t0, kv * (t - t0))
+        } else {
+            let (t_prev, tau_prev, slope_prev) = previous;
+            let dt = t - t_prev;
+            let curvature = match before {
+                Some((t_b, _, slope_b)) => (slope_prev - slope_b) / (t_prev - t_b),
+                None => 0.0,
+            };
+            let guess = tau_prev + dt * (slope_prev + 0.5 * curvature * dt);
+            let (root, force, r_eval) = solve_point(law, kv, tau_prev, t, guess)?;
+            before = Some(previous);
+            previous = (t, root, slope(r_eval));
+            (root, force)
+        };
+        visit(i, tau, force);
+    }
+    if let Some(&t_last) = times.last() {
+        if t_last > loading_ends {
+            let (tau_min, rate_min) = law.steepest_weakening(previous.1);
+            if rate_min <= -kv {
+                return Err(LawError::StickSlip {
+                    tau: tau_min,
+                    rate: rate_min,
+                    limit: -kv,
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Times must strictly increase (NaN fails the comparison too).
@@ -294,7 +358,7 @@ fn check_len(expected: usize, got: usize) -> Result<(), LawError> {
 /// paying for one more evaluation.
 #[inline(always)]
 pub(super) fn solve_point(
-    law: &Law,
+    law: &impl InterfaceForce,
     kv: f64,
     lo: f64,
     t: f64,
@@ -303,11 +367,11 @@ pub(super) fn solve_point(
     let mut last = (f64::NAN, 0.0, 0.0);
     let root = increasing_root(
         |tau| {
-            let (f, r) = law.force_and_rate(tau);
+            let (f, r) = law.force_rate(tau);
             last = (tau, f, r);
             (tau + f / kv - t, 1.0 + r / kv)
         },
-        lo.max(law.t0()),
+        lo.max(law.cut_off()),
         t,
         guess,
     )

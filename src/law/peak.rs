@@ -39,7 +39,8 @@ impl Peak {
 pub enum PeakOutcome {
     /// The unique maximum of F.
     Interior(Peak),
-    /// a = 0: F rises monotonically to F_d and there is no interior peak.
+    /// a = 0 (F rises monotonically to F_d), or pure logarithmic aging (F rises for ever):
+    /// there is no interior peak.
     NoInteriorPeak,
 }
 

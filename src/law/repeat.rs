@@ -1,13 +1,15 @@
 //! The repeat slide: a slide started right after a first slide on the same contact shows no
 //! transient, only elastic loading at slope kv up to the force where the previous slide
-//! stopped, then sliding at that force: F(t) = min(kvt, F_end).
+//! stopped, then sliding at that force: F(t) = min(kvt, F_end). On a rigid machine (k → ∞)
+//! the loading line is vertical: F = F_end from the start of the slide.
 
 use super::{non_negative, observed::Elastic, positive, LawError};
 
 /// A repeat slide's force as the instrument records it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RepeatSlide {
-    kv: f64,
+    /// k·v (N/s); `None` for a rigid machine.
+    kv: Option<f64>,
     f_end: f64,
 }
 
@@ -18,35 +20,48 @@ impl RepeatSlide {
     /// [`LawError::InvalidParameter`] when kv is not finite and positive or F_end is negative.
     pub fn new(kv: f64, f_end_n: f64) -> Result<Self, LawError> {
         Ok(Self {
-            kv: positive("k*v", kv)?,
+            kv: Some(positive("k*v", kv)?),
             f_end: non_negative("F_end", f_end_n)?,
         })
     }
 
-    /// From a spring description; a stiff machine has no repeat-slide model.
+    /// On a rigid machine (k → ∞): F = F_end from the start.
     ///
     /// # Errors
-    /// [`LawError::InvalidParameter`] naming `k` for [`Elastic::Stiff`].
+    /// [`LawError::InvalidParameter`] when F_end is negative or not finite.
+    pub fn rigid(f_end_n: f64) -> Result<Self, LawError> {
+        Ok(Self {
+            kv: None,
+            f_end: non_negative("F_end", f_end_n)?,
+        })
+    }
+
+    /// From a spring description, or [`rigid`](Self::rigid) for [`Elastic::Stiff`].
+    ///
+    /// # Errors
+    /// As [`new`](Self::new) and [`rigid`](Self::rigid).
     pub fn from_elastic(elastic: Elastic, f_end_n: f64) -> Result<Self, LawError> {
         match elastic {
             Elastic::Spring { kv } => Self::new(kv, f_end_n),
-            Elastic::Stiff => Err(LawError::InvalidParameter {
-                name: "k",
-                value: f64::INFINITY,
-                expected: "a finite stiffness: a repeat slide is elastic loading",
-            }),
+            Elastic::Stiff => Self::rigid(f_end_n),
         }
     }
 
-    /// The time (s) where the loading line reaches F_end: the kink of the slide.
+    /// The time (s) where the loading line reaches F_end: the kink of the slide (0 on a rigid
+    /// machine).
     pub fn loading_ends(&self) -> f64 {
-        self.f_end / self.kv
+        self.kv.map_or(0.0, |kv| self.f_end / kv)
     }
 
-    /// F(t) = min(kvt, F_end), zero before t = 0.
+    /// F(t) = min(kvt, F_end), zero up to t = 0; on a rigid machine the limit k → ∞ of it,
+    /// F_end after t = 0.
     #[inline]
     pub fn force(&self, time_s: f64) -> f64 {
-        (self.kv * time_s.max(0.0)).min(self.f_end)
+        match self.kv {
+            Some(kv) => (kv * time_s.max(0.0)).min(self.f_end),
+            None if time_s > 0.0 => self.f_end,
+            None => 0.0,
+        }
     }
 
     /// Forces at each time of `times` into `forces`.

@@ -111,6 +111,8 @@ impl ModelSpec {
             levels: [(Param::Alpha, Level::Contact), (Param::A, Level::Contact)]
                 .into_iter()
                 .collect(),
+            law: Default::default(),
+            elastic: true,
             aging: Default::default(),
             pooling: PoolingSpec::default(),
             priors: Default::default(),

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::prior::Prior;
 use crate::data::units::{parse_unit, KNOWN_UNITS};
 use crate::data::{Clock, ColumnMap, Format, ImportOptions, IntervalChoice};
-use crate::law::Scene;
+use crate::law::{LawKind, Scene};
 use crate::sampler::{CarryFit, Mixture, Updates};
 
 /// Errors loading a model file.
@@ -109,14 +109,55 @@ impl Param {
             Self::T0 | Self::Sigma => Level::Run,
         }
     }
+}
 
-    /// Whether a run of `scene` uses the parameter ("model only what a scene needs").
-    pub fn used_by(self, scene: Scene) -> bool {
-        match self {
-            Self::Alpha | Self::A | Self::T0 => scene != Scene::Repeat,
-            Self::K => scene != Scene::StiffFast,
-            Self::FD | Self::Sigma => true,
+/// The forward model of a fit: the law its first and fast slides follow (`law`) and whether
+/// the machine's spring is modelled (`elastic`). It decides which parameters each run uses,
+/// and so which are sampled and reported ("model only what a scene needs").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ForwardModel {
+    /// The law in interface time.
+    pub law: LawKind,
+    /// `false`: the machine is rigid (k → ∞), τ = t on every slide and a repeat slide is
+    /// F = F_end from its start.
+    pub elastic: bool,
+}
+
+impl Default for ForwardModel {
+    /// The aging–rejuvenation law through the machine's spring.
+    fn default() -> Self {
+        Self {
+            law: LawKind::default(),
+            elastic: true,
         }
+    }
+}
+
+impl ForwardModel {
+    /// The parameters of the law itself, in reporting order.
+    pub fn law_params(self) -> &'static [Param] {
+        match self.law {
+            LawKind::AgingRejuvenation => &[Param::Alpha, Param::A, Param::FD, Param::T0],
+            LawKind::LogAging => &[Param::A, Param::T0],
+        }
+    }
+
+    /// Whether a run of `scene` uses parameter `p`. A repeat slide needs no law, only the
+    /// force it slides at: F_end of the slide it follows (`follows_slide`), else F_d; it
+    /// keeps F_d whenever the law has F_d, so that a contact's F_d is one parameter.
+    pub fn uses(self, p: Param, scene: Scene, follows_slide: bool) -> bool {
+        let in_law = self.law_params().contains(&p);
+        match p {
+            Param::Sigma => true,
+            Param::K => self.elastic && scene != Scene::StiffFast,
+            Param::FD if scene == Scene::Repeat => in_law || !follows_slide,
+            _ => scene != Scene::Repeat && in_law,
+        }
+    }
+
+    /// Whether `a` is sampled as a/F_d: under `aging = "ratio"`, when the law has F_d.
+    pub fn aging_ratio(self, aging: Aging) -> bool {
+        aging == Aging::Ratio && self.law_params().contains(&Param::FD)
     }
 }
 
@@ -474,7 +515,17 @@ pub struct ModelFile {
     /// Level of each parameter (defaults of docs/model.md §5).
     #[serde(default)]
     pub levels: BTreeMap<Param, Level>,
-    /// Parameterisation of the aging amplitude.
+    /// The law of first and fast slides (`law = "log-aging"`; default the aging–rejuvenation
+    /// law).
+    #[serde(default, skip_serializing_if = "is_default_law")]
+    pub law: LawKind,
+    /// Whether the machine's spring is modelled (`elastic = false`: k → ∞, k not sampled).
+    #[serde(
+        default = "elastic_default",
+        skip_serializing_if = "is_elastic_default"
+    )]
+    pub elastic: bool,
+    /// Parameterisation of the aging amplitude (no effect under a law without F_d).
     #[serde(default)]
     pub aging: Aging,
     /// Partial pooling.
@@ -489,6 +540,18 @@ pub struct ModelFile {
     /// How long runs' likelihoods are evaluated.
     #[serde(default, skip_serializing_if = "LikelihoodSpec::is_default")]
     pub likelihood: LikelihoodSpec,
+}
+
+fn is_default_law(law: &LawKind) -> bool {
+    *law == LawKind::default()
+}
+
+fn elastic_default() -> bool {
+    true
+}
+
+fn is_elastic_default(elastic: &bool) -> bool {
+    *elastic
 }
 
 /// The documented, weakly informative default prior of a parameter (natural scale, SI):
@@ -794,6 +857,21 @@ impl ModelSpec {
             run_contact,
             run_follows,
         })
+    }
+
+    /// The forward model: the law and whether the spring is modelled.
+    pub fn forward(&self) -> ForwardModel {
+        ForwardModel {
+            law: self.file.law,
+            elastic: self.file.elastic,
+        }
+    }
+
+    /// Whether run `run` uses parameter `p` under the model's forward model.
+    pub fn uses(&self, p: Param, run: usize) -> bool {
+        let r = &self.file.runs[run];
+        self.forward()
+            .uses(p, r.scene, self.run_follows[run].is_some())
     }
 
     /// Level of a parameter.

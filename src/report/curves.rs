@@ -5,7 +5,7 @@
 use super::ReportError;
 use crate::diagnostics::quantile;
 use crate::fit::SamplerSummary;
-use crate::law::{Elastic, Law};
+use crate::law::{Elastic, InterfaceLaw};
 use crate::model::Posterior;
 use crate::storage::ChainReader;
 
@@ -152,7 +152,7 @@ pub fn peak_vs_t0(
     let t0_s: Vec<f64> = (0..points)
         .map(|j| (lo + (hi - lo) * j as f64 / (points - 1).max(1) as f64).exp())
         .collect();
-    let peak = |law: &Law| law.peak().interior().map_or(f64::NAN, |p| p.force_n);
+    let peak = |law: &InterfaceLaw| law.peak().interior().map_or(f64::NAN, |p| p.force_n);
     let mut curves = Vec::with_capacity(draws.len());
     let mut own = Vec::with_capacity(draws.len());
     for (_, x) in draws {
@@ -163,9 +163,7 @@ pub fn peak_vs_t0(
         own.push((law.t0(), peak(law)));
         let curve = t0_s
             .iter()
-            .map(|&t0| {
-                Law::from_rate(law.alpha_v(), law.a(), law.f_d(), t0).map_or(f64::NAN, |l| peak(&l))
-            })
+            .map(|&t0| law.with_t0(t0).map_or(f64::NAN, |l| peak(&l)))
             .collect::<Vec<f64>>();
         curves.push(curve);
     }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use serde::Deserialize;
 
 use crate::law::Scene;
-use crate::model::spec::Param;
+use crate::model::spec::{ForwardModel, Param};
 use crate::model::ModelSpec;
 use crate::simulate::SimulationSpec;
 
@@ -78,8 +78,12 @@ impl Truths {
             _ => return None,
         };
         let mut found: Option<f64> = None;
+        // Simulations follow the aging–rejuvenation law through a spring whatever law a fit
+        // chooses: a run's truth holds the parameters that model uses.
         for (run, contact, material, scene, truth) in &self.runs {
-            if !(run == group || contact == group || material == group) || !param.used_by(*scene) {
+            if !(run == group || contact == group || material == group)
+                || !ForwardModel::default().uses(param, *scene, false)
+            {
                 continue;
             }
             let v = value(truth.as_ref()?)?;

@@ -12,10 +12,10 @@ use std::collections::BTreeMap;
 
 use super::likelihood::RunModel;
 use crate::density::{Quantity, QuantityKind};
-use crate::law::Scene;
+use crate::law::{LawKind, Scene};
 use crate::model::data::RunData;
 use crate::model::prior::Prior;
-use crate::model::spec::{Aging, Level, ModelSpec, Param};
+use crate::model::spec::{Level, ModelSpec, Param};
 
 /// How a sampled coordinate enters the prior.
 #[derive(Debug, Clone)]
@@ -147,7 +147,7 @@ pub(super) struct Layout {
     pub sigma_groups: Vec<SigmaGroup>,
     pub populations: Vec<Population>,
     pub materials: Vec<MaterialModel>,
-    /// Per contact: the coordinate of ln F_d.
+    /// Per contact: the coordinate of ln F_d (`None` where no run of it uses F_d).
     pub contact_fd: Vec<Option<usize>>,
 }
 
@@ -184,7 +184,9 @@ impl Layout {
 fn contact_fd(spec: &ModelSpec, runs: &[RunModel]) -> Vec<Option<usize>> {
     let mut out = vec![None; spec.file.contacts.len()];
     for r in runs {
-        out[r.contact] = Some(r.f_d);
+        if r.f_d.is_some() {
+            out[r.contact] = r.f_d;
+        }
     }
     out
 }
@@ -210,8 +212,10 @@ fn group_name(spec: &ModelSpec, level: Level, index: usize) -> String {
 /// Builds the layout run by run.
 struct Builder<'a> {
     spec: &'a ModelSpec,
-    /// `aging = "ratio"`: `a` is sampled as a/F_d.
+    /// `a` is sampled as a/F_d (`aging = "ratio"` under a law with F_d).
     ratio: bool,
+    /// The law of first and fast slides.
+    law: LawKind,
     coords: Vec<Coord>,
     quantities: Vec<Quantity>,
     sources: Vec<Source>,
@@ -227,7 +231,8 @@ impl<'a> Builder<'a> {
     fn new(spec: &'a ModelSpec) -> Self {
         Self {
             spec,
-            ratio: spec.file.aging == Aging::Ratio,
+            ratio: spec.forward().aging_ratio(spec.file.aging),
+            law: spec.file.law,
             coords: Vec::new(),
             quantities: Vec::new(),
             sources: Vec::new(),
@@ -347,16 +352,17 @@ impl<'a> Builder<'a> {
         SigmaSource::Marginal(k)
     }
 
-    /// Run `i` with its data: the coordinates of the parameters its scene uses, in the order
-    /// α, a, F_d, t0, k, σ ("model only what a scene needs").
+    /// Run `i` with its data: the coordinates of the parameters its scene uses under the
+    /// model's forward model, in the order α, a, F_d, t0, k, σ ("model only what a scene
+    /// needs").
     fn run(&mut self, i: usize, data: RunData) -> RunModel {
         let spec = self.spec;
         let run = &spec.file.runs[i];
         let scene = run.scene;
-        let uses = |p: Param| p.used_by(scene);
+        let uses = |p: Param| spec.uses(p, i);
         let alpha = uses(Param::Alpha).then(|| self.shared(Param::Alpha, i));
         let a = uses(Param::A).then(|| self.shared(Param::A, i));
-        let f_d = self.shared(Param::FD, i);
+        let f_d = uses(Param::FD).then(|| self.shared(Param::FD, i));
         let t0 = uses(Param::T0).then(|| self.shared(Param::T0, i));
         let k = uses(Param::K).then(|| self.shared(Param::K, i));
         let sigma = self.sigma(i);
@@ -367,6 +373,7 @@ impl<'a> Builder<'a> {
         RunModel {
             name: run.name.clone(),
             scene,
+            law: self.law,
             velocity: run.velocity_m_per_s,
             data,
             contact,
@@ -390,13 +397,15 @@ impl<'a> Builder<'a> {
         }
         let mut seen = vec![false; self.spec.file.contacts.len()];
         for r in runs {
-            let Some(ratio) = r.a else { continue };
+            let (Some(ratio), Some(f_d)) = (r.a, r.f_d) else {
+                continue;
+            };
             if seen[r.contact] {
                 continue;
             }
             seen[r.contact] = true;
             let c = self.spec.file.contacts[r.contact].name.clone();
-            let source = Source::AContact { ratio, f_d: r.f_d };
+            let source = Source::AContact { ratio, f_d };
             self.column("a", c, "N", QuantityKind::Parameter, source);
         }
     }
@@ -446,11 +455,11 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// The peak of every slide with a law: F_peak, τ_peak, s_peak, t_peak, and μ_s where the
-    /// normal force is known.
+    /// The peak of every slide with a law that has one: F_peak, τ_peak, s_peak, t_peak, and
+    /// μ_s where the normal force is known.
     fn peak_columns(&mut self, runs: &[RunModel]) {
         for (run, r) in runs.iter().enumerate() {
-            if r.scene == Scene::Repeat {
+            if r.scene == Scene::Repeat || !r.law.has_peak() {
                 continue;
             }
             for (field, name, unit) in PeakField::ALWAYS {
@@ -468,7 +477,8 @@ impl<'a> Builder<'a> {
     }
 
     /// The peak of a new contact of each material whose t0 is pooled, that has an aging
-    /// amplitude (shared or pooled) and a slow slide to predict it at.
+    /// amplitude (shared or pooled) and a slow slide to predict it at, under a law with a
+    /// peak.
     fn new_contact_columns(&mut self, materials: &[MaterialModel]) {
         let pooled = |param: Param, m: usize| {
             self.populations
@@ -478,7 +488,8 @@ impl<'a> Builder<'a> {
         let predicted: Vec<usize> = (0..materials.len())
             .filter(|&m| {
                 let material = &materials[m];
-                pooled(Param::T0, m)
+                self.law.has_peak()
+                    && pooled(Param::T0, m)
                     && (material.aging.is_some() || pooled(Param::A, m))
                     && material.slow_velocity.is_some()
             })

@@ -10,7 +10,9 @@ use super::layout::SigmaSource;
 use super::sigma::marginal_sigma_log_likelihood;
 use super::Posterior;
 use crate::density::LogDensityError;
-use crate::law::{Elastic, Law, LawError, ObservedSlide, RepeatSlide, Scene};
+use crate::law::{
+    Elastic, InterfaceLaw, Law, LawError, LawKind, LogAging, ObservedSlide, RepeatSlide, Scene,
+};
 use crate::model::data::RunData;
 use crate::model::sufficient::Reduction;
 
@@ -32,6 +34,8 @@ pub const REJECT_LAW: &str = "law_invalid";
 pub(super) struct RunModel {
     pub name: String,
     pub scene: Scene,
+    /// The law of a first or fast slide.
+    pub law: LawKind,
     pub velocity: f64,
     pub data: RunData,
     pub contact: usize,
@@ -39,7 +43,8 @@ pub(super) struct RunModel {
     /// Coordinate of ln a (or of ln a/F_d when `ratio`).
     pub a: Option<usize>,
     pub ratio: bool,
-    pub f_d: usize,
+    /// Coordinate of ln F_d (`None` when neither the law nor the repeat slide needs it).
+    pub f_d: Option<usize>,
     pub t0: Option<usize>,
     pub k: Option<usize>,
     pub sigma: SigmaSource,
@@ -62,19 +67,25 @@ pub(super) struct RunResiduals {
 
 impl RunModel {
     /// The law of this run's slide at `x`.
-    pub fn law(&self, x: &[f64]) -> Result<Law, LawError> {
-        let f_d = x[self.f_d].exp();
+    pub fn law(&self, x: &[f64]) -> Result<InterfaceLaw, LawError> {
+        let f_d = self.f_d.map_or(f64::NAN, |i| x[i].exp());
         let a = match self.a {
             Some(i) if self.ratio => x[i].exp() * f_d,
             Some(i) => x[i].exp(),
             None => 0.0,
         };
-        let alpha = self.alpha.map_or(f64::NAN, |i| x[i].exp());
         let t0 = self.t0.map_or(f64::NAN, |i| x[i].exp());
-        Law::from_rate(alpha * self.velocity, a, f_d, t0)
+        Ok(match self.law {
+            LawKind::AgingRejuvenation => {
+                let alpha = self.alpha.map_or(f64::NAN, |i| x[i].exp());
+                Law::from_rate(alpha * self.velocity, a, f_d, t0)?.into()
+            }
+            LawKind::LogAging => LogAging::new(a, t0)?.into(),
+        })
     }
 
-    /// The machine's elasticity for this run at `x` (none for a slide declared stiff).
+    /// The machine's elasticity for this run at `x` (none for a slide declared stiff, or
+    /// without k under `elastic = false`).
     pub fn elastic(&self, x: &[f64]) -> Result<Elastic, LawError> {
         match (self.scene, self.k) {
             (Scene::StiffFast, _) | (_, None) => Ok(Elastic::Stiff),
@@ -164,7 +175,8 @@ impl RunModel {
 
     /// The repeat slide at `x`, loading up to `f_end` (`None`: F_d).
     pub fn repeat_slide(&self, x: &[f64], f_end: Option<f64>) -> Result<RepeatSlide, LawError> {
-        let end = f_end.unwrap_or_else(|| x[self.f_d].exp());
+        // The layout gives a repeat slide F_d whenever it follows no slide.
+        let end = f_end.unwrap_or_else(|| self.f_d.map_or(f64::NAN, |i| x[i].exp()));
         RepeatSlide::from_elastic(self.elastic(x)?, end)
     }
 
@@ -191,7 +203,8 @@ fn slide_kinks(slide: &ObservedSlide) -> [f64; 2] {
     }
 }
 
-/// A repeat slide's kinks: its start, and where the loading line meets the plateau.
+/// A repeat slide's kinks: its start, and where the loading line meets the plateau (the
+/// start again on a rigid machine).
 fn repeat_kinks(slide: &RepeatSlide) -> [f64; 2] {
     [0.0, slide.loading_ends()]
 }

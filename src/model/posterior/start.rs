@@ -10,7 +10,7 @@ use super::layout::{CoordPrior, SigmaSource};
 use super::likelihood::{RunModel, RunResiduals};
 use super::Posterior;
 use crate::density::LogDensity;
-use crate::law::{Elastic, Law, LawError, ObservedSlide, Scene};
+use crate::law::{Elastic, InterfaceLaw, Law, LawError, LawKind, LogAging, ObservedSlide, Scene};
 use crate::optimize::{nelder_mead, NelderMeadOptions};
 
 /// The optimiser's start and what the data said about each coordinate on the way.
@@ -53,7 +53,9 @@ impl Posterior {
                 votes[k].push(kv / r.velocity);
                 k_known[r.contact] = Some(kv / r.velocity);
             }
-            votes[r.f_d].push(d.late_level());
+            if let Some(f_d) = r.f_d {
+                votes[f_d].push(d.late_level());
+            }
         }
         // A σ sampled explicitly (a prior other than log-uniform) starts at the residual
         // noise of its run: from the run's own fit, or from successive differences on the
@@ -89,7 +91,9 @@ impl Posterior {
                     fitted.ratio * fitted.f_d
                 });
             }
-            votes[r.f_d].push(fitted.f_d);
+            if let Some(f_d) = r.f_d {
+                votes[f_d].push(fitted.f_d);
+            }
             if let (Some(k), Some(v)) = (r.k, fitted.k) {
                 if k_known[r.contact].is_none() {
                     votes[k].push(v);
@@ -273,7 +277,8 @@ impl Posterior {
     }
 
     /// Least squares of one first or fast slide alone, σ profiled out (minimises ln SSR),
-    /// with k fixed when a repeat slide gave it.
+    /// with k fixed when a repeat slide gave it, under the run's law and elasticity (a law
+    /// without α or F_d reads a = (a/F_d)·F_d and leaves α alone).
     fn fit_run_alone(&self, r: &RunModel, k_known: Option<f64>) -> RunAlone {
         let d = &r.data;
         let late = d.late_level();
@@ -281,7 +286,8 @@ impl Posterior {
         let f_d0 = late.min(peak);
         let t_end = d.model_times[d.n_obs - 1].max(f64::MIN_POSITIVE);
         let k0 = k_known.unwrap_or(1.5 * d.initial_slope() / r.velocity);
-        let free_k = r.scene == Scene::First && k_known.is_none();
+        let spring = r.scene == Scene::First && r.k.is_some();
+        let free_k = spring && k_known.is_none();
         // A long record is fitted on evenly spread points of it, so that this rough start
         // costs the same for 10⁴ points as for 10⁶ (its thousands of evaluations took
         // minutes there); the mode search that follows reads every point.
@@ -294,15 +300,22 @@ impl Posterior {
         let ssr = |p: &[f64]| -> f64 {
             let (alpha, ratio, t0, f_d) = (p[0].exp(), p[1].exp(), p[2].exp(), p[3].exp());
             let k = if free_k { p[4].exp() } else { k0 };
-            let Ok(law) = Law::from_rate(alpha * r.velocity, ratio * f_d, f_d, t0) else {
+            let law: Result<InterfaceLaw, LawError> = match r.law {
+                LawKind::AgingRejuvenation => {
+                    Law::from_rate(alpha * r.velocity, ratio * f_d, f_d, t0).map(Into::into)
+                }
+                LawKind::LogAging => LogAging::new(ratio * f_d, t0).map(Into::into),
+            };
+            let Ok(law) = law else {
                 return f64::INFINITY;
             };
-            let elastic = match r.scene {
-                Scene::First => match Elastic::spring(k, r.velocity) {
+            let elastic = if spring {
+                match Elastic::spring(k, r.velocity) {
                     Ok(e) => e,
                     Err(_) => return f64::INFINITY,
-                },
-                _ => Elastic::Stiff,
+                }
+            } else {
+                Elastic::Stiff
             };
             let mut sum = 0.0;
             let obs = &d.force;
