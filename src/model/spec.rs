@@ -161,6 +161,17 @@ impl ForwardModel {
     }
 }
 
+impl std::fmt::Display for ForwardModel {
+    /// The law as model files name it, and `, rigid` when the spring is not modelled.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.law.name())?;
+        if !self.elastic {
+            f.write_str(", rigid")?;
+        }
+        Ok(())
+    }
+}
+
 /// Where a parameter is shared.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

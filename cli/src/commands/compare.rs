@@ -49,6 +49,8 @@ enum Criterion {
 /// PSIS-LOO or its K-fold values (whose points carry no Pareto k̂).
 struct Fitted {
     name: String,
+    /// Its forward model, as the model file names it.
+    law: String,
     points: Vec<Observed>,
     loo: Loo,
 }
@@ -139,6 +141,7 @@ fn read_kfold(dir: &RunDir) -> anyhow::Result<Fitted> {
     let points = dir.read_kfold()?;
     Ok(Fitted {
         name: shown.to_string(),
+        law: forward_model(dir)?,
         loo: Loo {
             elpd: kfold.elpd_kfold,
             se: kfold.se,
@@ -156,6 +159,14 @@ fn read_kfold(dir: &RunDir) -> anyhow::Result<Fitted> {
     })
 }
 
+/// The forward model the fit in `dir` used, from its `model.toml`.
+fn forward_model(dir: &RunDir) -> anyhow::Result<String> {
+    let model = dir
+        .read_model()
+        .with_context(|| format!("reading the model of {}", dir.path().display()))?;
+    Ok(model.forward().to_string())
+}
+
 fn read_loo(dir: &RunDir) -> anyhow::Result<Fitted> {
     let shown = dir.path().display();
     let summary = dir.read_summary()?;
@@ -169,6 +180,7 @@ fn read_loo(dir: &RunDir) -> anyhow::Result<Fitted> {
     let draws = loo.draws;
     Ok(Fitted {
         name: shown.to_string(),
+        law: forward_model(dir)?,
         loo: Loo {
             elpd: loo.elpd_loo,
             se: loo.se,
@@ -239,7 +251,7 @@ impl Ranking {
                 ["elpd_kfold", "p_kfold"],
             ),
         };
-        let mut header: Vec<String> = ["rank", "model", names[0], "se", names[1]]
+        let mut header: Vec<String> = ["rank", "model", "law", names[0], "se", names[1]]
             .into_iter()
             .chain(["elpd_diff", "dse", "weight"])
             .map(String::from)
@@ -250,9 +262,14 @@ impl Ranking {
         let rows = table
             .iter()
             .map(|row| {
+                let fit = fits
+                    .iter()
+                    .find(|f| f.name == row.name)
+                    .expect("a fit per row");
                 let mut cells = vec![
                     row.rank.to_string(),
                     row.name.clone(),
+                    fit.law.clone(),
                     format!("{:.2}", row.elpd),
                     format!("{:.2}", row.se),
                     format!("{:.2}", row.p_loo),
@@ -261,10 +278,6 @@ impl Ranking {
                     format!("{:.3}", row.weight),
                 ];
                 if criterion == Criterion::Loo {
-                    let fit = fits
-                        .iter()
-                        .find(|f| f.name == row.name)
-                        .expect("a fit per row");
                     cells.push(format!(
                         "{} of {} (k̂ > {:.2})",
                         fit.loo.unreliable_points().len(),
@@ -317,7 +330,7 @@ impl Ranking {
             .map_or(String::new(), |intro| format!("{intro}\n\n"));
         let _ = writeln!(text, "| {} |", self.header.join(" | "));
         let align: Vec<&str> = (0..self.header.len())
-            .map(|i| if i == 1 { "---" } else { "---:" })
+            .map(|i| if i == 1 || i == 2 { "---" } else { "---:" })
             .collect();
         let _ = writeln!(text, "|{}|", align.join("|"));
         for row in &self.rows {
