@@ -71,7 +71,7 @@
 //! its collocation polynomial. It was chosen because (1) it is pure Rust with one small
 //! dependency (simba), no BLAS and no LAPACK, so a clean build stays cheap; (2) Radau IIA is
 //! L-stable, so its cost does not grow with k (tests/rate_state.rs integrates κ = 1e6); (3) at
-//! order 5 it reaches 1e−8 relative accuracy in a few hundred steps per slide, where the
+//! order 5 it reaches about 1e−8 relative accuracy in a few hundred steps per slide, where the
 //! order 2–4 SDIRK and BDF alternatives would need several times more. `diffsol` (BDF and
 //! SDIRK, well kept) was the other candidate; its default build pulls `faer` and `nalgebra`
 //! together and it cannot be built without both, too heavy for a 2-state system. `russell_ode`
