@@ -7,7 +7,10 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use slipbayes::law::{Elastic, Law, LawParams, ObservedSlide, Simd};
+use slipbayes::law::{
+    Elastic, InitialState, Law, LawParams, ObservedSlide, RateStateParams, Simd, SpringSlider,
+    StateLaw,
+};
 use slipbayes::special::ei_scaled;
 
 /// Points per slide, as in a slow first slide of a few hours sampled every few seconds.
@@ -20,6 +23,14 @@ fn slow_first_slide() -> (ObservedSlide, Vec<f64>) {
     let elastic = Elastic::spring(1.2e4, 1e-9).expect("valid spring");
     let times = (1..=POINTS).map(|i| i as f64 * 5.0).collect();
     (ObservedSlide::new(law, elastic), times)
+}
+
+/// A rate-and-state slide on the same times and machine: 1 nm/s, k = 1.2e4 N/m, a 10^4 s hold
+/// (θ0 = 10 θ_ss with D_c = 1 µm, so a peak), slip 25 D_c, at the default tolerance.
+fn rate_state_slide(law: StateLaw) -> SpringSlider {
+    let params = RateStateParams::new(1e-3, 1.2e-3, 1e-6, 10e-3).expect("valid parameters");
+    SpringSlider::new(params, law, 1.2e4, 1e-9, InitialState::Hold { hold_s: 1e4 })
+        .expect("valid slide")
 }
 
 fn per_point(c: &mut Criterion) {
@@ -79,6 +90,20 @@ fn per_point(c: &mut Criterion) {
             last
         })
     });
+    for (name, state_law) in [
+        ("rate_state_aging", StateLaw::Aging),
+        ("rate_state_slip", StateLaw::Slip),
+    ] {
+        let rate_state = rate_state_slide(state_law);
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                rate_state
+                    .forces(black_box(&times), &mut forces)
+                    .expect("stable slide");
+                forces[POINTS - 1]
+            })
+        });
+    }
     let stiff = ObservedSlide::new(law.clone(), Elastic::Stiff);
     for simd in Simd::available() {
         group.bench_function(format!("observed_model_{}", simd.as_str()), |b| {

@@ -17,6 +17,8 @@ rows = [
     ("law_force", "F(tau) per point (scalar)", None),
     ("observed_model", "observed-time model per point (5,000-point slow first slide)", 2.0),
     ("observed_model_serial", "observed-time model, serial reference solve", None),
+    ("rate_state_aging", "rate-and-state spring-slider, aging law (Radau5, tol 1e-13)", None),
+    ("rate_state_slip", "rate-and-state spring-slider, slip law (Radau5, tol 1e-13)", None),
 ]
 # Per instruction set the machine has (criterion leaves the others out).
 for simd in ("avx512", "avx2", "baseline"):

@@ -18,6 +18,8 @@
 //!   stick-slip error when the quasi-static path does not exist.
 //! - [`peak`]: the static friction peak, found by bracketing the sign change of dF/dτ.
 //! - [`repeat`]: the repeat-slide model F = min(kvt, F_end).
+//! - [`rate_state`]: the rival model, rate-and-state friction (aging or slip law) on a
+//!   spring-slider, integrated by a stiff ODE solver.
 //!
 //! This module knows nothing of files, data sets or sampling. All quantities are SI.
 
@@ -25,6 +27,7 @@ pub mod kernel;
 pub mod log_aging;
 pub mod observed;
 pub mod peak;
+pub mod rate_state;
 pub mod repeat;
 mod root;
 
@@ -32,6 +35,9 @@ pub use kernel::{KernelCounts, Simd, SIMD_ENV};
 pub use log_aging::LogAging;
 pub use observed::{Elastic, ObservedSlide};
 pub use peak::{Peak, PeakOutcome};
+pub use rate_state::{
+    InitialState, RateStateError, RateStateParams, SliderState, SpringSlider, StateLaw,
+};
 pub use repeat::RepeatSlide;
 
 use crate::special::ScaledEiDiff;
