@@ -10,6 +10,7 @@
 //! DIR/chains/*.parquet    the draws (see crate::storage)
 //! DIR/checkpoint.bin      the sampler state of the last checkpoint (MessagePack)
 //! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
+//! DIR/.slipbayes.lock     held while a fit writes the directory ([`RunLock`])
 //! ```
 //!
 //! A fit writes the first eight ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
@@ -18,6 +19,7 @@
 //! sees half of one.
 
 mod csv;
+mod lock;
 mod loo;
 mod predictive;
 mod record;
@@ -30,6 +32,7 @@ use crate::model::{Band, ModelFile, ModelSpec};
 use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
 
 pub use csv::{summary_csv, CSV_COLUMNS};
+pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
 pub use predictive::PREDICTIVE_HEADER;
 pub use record::{relative_path, RunRecord};
