@@ -518,6 +518,13 @@ impl DrawGrid {
         self.chains.len() * self.steps.len()
     }
 
+    /// `{group}_chains` and `{group}_steps` (step numbers, burn-in included) of `out`.
+    fn set_items(&self, out: &Bound<'_, PyDict>, group: &str, burn_in: u64) -> PyResult<()> {
+        out.set_item(format!("{group}_chains"), self.chains.clone())?;
+        let steps: Vec<u64> = self.steps.iter().map(|&s| s as u64 + burn_in).collect();
+        out.set_item(format!("{group}_steps"), steps)
+    }
+
     /// Every (chain, kept step) of the grid, chain-major.
     fn draws(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         self.chains
@@ -670,15 +677,7 @@ fn load_run<'py>(
                     "log_likelihood",
                     per_run(py, &spec, &terms.map_err(failed)?)?,
                 )?;
-                out.set_item("log_likelihood_chains", log_likelihood.chains.clone())?;
-                out.set_item(
-                    "log_likelihood_steps",
-                    log_likelihood
-                        .steps
-                        .iter()
-                        .map(|&s| s as u64 + burn_in)
-                        .collect::<Vec<_>>(),
-                )?;
+                log_likelihood.set_items(&out, "log_likelihood", burn_in)?;
             }
             Err(e) => out.set_item("log_likelihood_missing", e.to_string())?,
         }
@@ -709,15 +708,7 @@ fn load_run<'py>(
             "posterior_predictive",
             per_run(py, &spec, &replicates.map_err(failed)?)?,
         )?;
-        out.set_item("posterior_predictive_chains", predictive.chains)?;
-        out.set_item(
-            "posterior_predictive_steps",
-            predictive
-                .steps
-                .iter()
-                .map(|&s| s as u64 + burn_in)
-                .collect::<Vec<_>>(),
-        )?;
+        predictive.set_items(&out, "posterior_predictive", burn_in)?;
     }
     out.set_item("summary_json", summary_json)?;
     out.set_item("settings_json", settings_json)?;
