@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use slipbayes::density::LogDensity;
-use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary};
+use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary, RunLock};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{Silent, Steps};
@@ -42,7 +42,7 @@ fn fit_full(
     let outcome = fit_model(
         &post,
         &settings,
-        &dir.join(name),
+        &RunLock::acquire(&dir.join(name)).unwrap(),
         false,
         vec![],
         &mut Silent,

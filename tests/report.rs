@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use slipbayes::data::ImportOptions;
-use slipbayes::fit::{fit_model, FitSettings, RunDir, SettingOverrides};
+use slipbayes::fit::{fit_model, FitSettings, RunDir, RunLock, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::plot::check::{check_svg, elements, Element};
 use slipbayes::report::{rebuild_report, write_report};
@@ -43,11 +43,11 @@ fn quick_fit() -> &'static Path {
             ..SettingOverrides::default()
         };
         let settings = FitSettings::for_model(&posterior, &overrides);
-        fs::create_dir_all(&out).unwrap();
+        let lock = RunLock::acquire(&out).unwrap();
         let command = ["slipbayes", "fit", "--quick-path-test"]
             .map(String::from)
             .to_vec();
-        let outcome = fit_model(&posterior, &settings, &out, false, command, &mut Silent).unwrap();
+        let outcome = fit_model(&posterior, &settings, &lock, false, command, &mut Silent).unwrap();
         write_report(&outcome.dir, &posterior).unwrap();
         dir
     })

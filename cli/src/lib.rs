@@ -8,7 +8,6 @@
 //!   `validate`, `bench`); each parses its flags, calls the library and prints.
 //! - [`progress`]: the progress bar (a terminal) or progress lines (batch jobs) of a fit.
 //! - [`interrupt`]: Ctrl-C stops a fit after a checkpoint and says how to resume it.
-//! - [`lock`]: one fit at a time per run directory.
 //! - [`validate`]: simulation-based calibration of the one-contact pipeline and the hard cases
 //!   (feature `parquet`).
 //! - [`mod@bench`]: speed against error, side by side with the Python peer (feature `parquet`).
@@ -18,7 +17,6 @@
 pub mod bench;
 pub mod commands;
 pub mod interrupt;
-pub mod lock;
 pub mod progress;
 #[cfg(feature = "parquet")]
 pub mod validate;

@@ -137,7 +137,7 @@ fn a_second_fit_into_a_locked_run_directory_names_the_holder() {
     std::fs::create_dir_all(&run).unwrap();
     // A live process holds the lock, as a running fit would.
     let mut holder = Command::new("sleep").arg("60").spawn().unwrap();
-    let lock = run.join(slipbayes_cli::lock::LOCK_FILE);
+    let lock = run.join(slipbayes::fit::run_dir::LOCK_FILE);
     std::fs::write(&lock, format!("{}\nsleep 60\n", holder.id())).unwrap();
     let out = quick_fit(&run)
         .args(["--steps", "200", "--quiet"])

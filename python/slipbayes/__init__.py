@@ -11,15 +11,17 @@ ArviZ objects out. All values are SI (N, s, m/s, 1/m, N/m).
 - :func:`ensembles_as_chains`, :func:`summary`: R̂ as slipbayes computes it (between
   ensembles), with ArviZ.
 - :class:`SlipbayesError`: every error of the library, with its message.
+- :class:`SlipbayesWarning`: a result lacks something (a ``log_likelihood`` group left out).
 """
 
 from slipbayes._native import SlipbayesError, __version__
 from slipbayes._law import Peak, Simulated, law, peak, simulate
 from slipbayes._fit import fit
-from slipbayes._idata import ensembles_as_chains, load, summary
+from slipbayes._idata import SlipbayesWarning, ensembles_as_chains, load, summary
 
 __all__ = [
     "SlipbayesError",
+    "SlipbayesWarning",
     "__version__",
     "Peak",
     "Simulated",

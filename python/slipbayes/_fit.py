@@ -176,7 +176,10 @@ def fit(
     predictive.csv, and report.html with ``report=True``), the same files as ``slipbayes fit
     --out``; ``load(out)`` reads it back. ``None`` fits into a temporary directory that is
     removed once the result is read. ``overwrite`` replaces an earlier run there; ``resume``
-    continues an interrupted one.
+    continues an interrupted one. The run directory is locked while the fit writes it (the
+    lock file ``.slipbayes.lock``, the command line's own lock): a second fit into a directory
+    that another live fit holds, from this process or another, raises ``SlipbayesError``
+    naming the holder and the lock file, before anything is written.
 
     The GIL is released while sampling. ``progress=True`` shows a progress line (a tqdm bar
     when tqdm is installed); ``False`` shows none; a function is called instead, about five
@@ -185,12 +188,16 @@ def fit(
     saying how to resume.
 
     The returned InferenceData is :func:`slipbayes.load`'s (``log_likelihood_draws`` as
-    there: about that many draws of the pointwise log-likelihood); its docstring says which ArviZ
-    call reproduces which number of summary.json (ESS: ``az.ess(idata)``; R̂:
-    ``az.rhat(slipbayes.ensembles_as_chains(idata))``).
+    there: about that many draws of the pointwise log-likelihood and of the posterior
+    predictive); its docstring says which ArviZ call reproduces which number of summary.json
+    (ESS: ``az.ess(idata)``; R̂: ``az.rhat(slipbayes.ensembles_as_chains(idata))``). When a
+    run's record is long enough to be fitted on sufficient statistics (more than ``[likelihood]
+    exact_up_to`` points, 10,000 by default), the result has no ``log_likelihood`` group and a
+    ``SlipbayesWarning`` names the run (see :func:`slipbayes.load`).
 
     Raises ``SlipbayesError`` (a ``ValueError``) with the library's message, naming the file,
-    line, column or key at fault.
+    line, column or key at fault; for a dict, the key path in the dict (e.g.
+    ``run[1].velocity_m_per_s``).
     """
     if callable(progress):
         callback = progress
@@ -210,18 +217,20 @@ def fit(
             report=report,
             progress=callback,
         )
-        if isinstance(model, dict):
-            kwargs["model_json"] = _model_json(model, run_dir / "data")
-            kwargs["base_dir"] = os.getcwd()
-        elif isinstance(model, (str, os.PathLike)):
-            kwargs["model_path"] = os.fspath(model)
-        else:
+        if not isinstance(model, (dict, str, os.PathLike)):
             raise TypeError(f"model must be a path or a dict, not {type(model).__name__}")
-        try:
-            written = _native.fit(os.fspath(run_dir), **kwargs)
-        finally:
-            if isinstance(callback, _Progress):
-                callback.close()
-        if out is not None:
-            return _idata.load(written, log_likelihood_draws)
-        return _idata.from_native(_native.load_run(written, log_likelihood_draws), None)
+        # The lock is taken before anything is written into the run directory (the dict's
+        # data files) and held until the fit and its report are written.
+        with _native.RunDirLock(os.fspath(run_dir)) as lock:
+            if isinstance(model, dict):
+                kwargs["model_json"] = _model_json(model, run_dir / "data")
+                kwargs["base_dir"] = os.getcwd()
+            else:
+                kwargs["model_path"] = os.fspath(model)
+            try:
+                written = _native.fit(lock, **kwargs)
+            finally:
+                if isinstance(callback, _Progress):
+                    callback.close()
+        raw = _native.load_run(written, log_likelihood_draws)
+        return _idata.from_native(raw, written if out is not None else None)

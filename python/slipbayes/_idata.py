@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from collections import OrderedDict
 
 import numpy as np
@@ -33,8 +34,14 @@ def _floats(raw: bytes, shape) -> np.ndarray:
     return np.frombuffer(raw, dtype=np.float64).reshape(shape).copy()
 
 
-def from_native(raw: dict, run_dir=None):
-    """The InferenceData of the dict ``_native.load_run`` returns."""
+class SlipbayesWarning(UserWarning):
+    """A result of slipbayes lacks something a user may expect (e.g. the log_likelihood group
+    of a fit whose long record was reduced to sufficient statistics)."""
+
+
+def from_native(raw: dict, run_dir=None, stacklevel=3):
+    """The InferenceData of the dict ``_native.load_run`` returns; warnings point
+    ``stacklevel`` frames up."""
     az = _arviz()
     import xarray as xr
 
@@ -135,16 +142,37 @@ def from_native(raw: dict, run_dir=None):
             {"force": (("observation",), np.concatenate(forces), {"units": "N"})},
             coords=obs_coords,
         )
-        if raw.get("log_likelihood") is not None:
-            steps_ll = np.asarray(raw["log_likelihood_steps"])
-            terms = [
-                _floats(values, (chains, len(steps_ll), -1)) for _, values in raw["log_likelihood"]
-            ]
-            groups["log_likelihood"] = xr.Dataset(
-                {"force": (("chain", "draw", "observation"), np.concatenate(terms, axis=2))},
-                coords={"chain": np.arange(chains), "draw": steps_ll, **extra_coords,
-                        **obs_coords},
+
+        def pointwise(name, description):
+            """A group over (chain, draw, observation) of the draws the library chose."""
+            grid_chains = np.asarray(raw[f"{name}_chains"])
+            grid_steps = np.asarray(raw[f"{name}_steps"])
+            shape = (grid_chains.size, grid_steps.size, -1)
+            values = np.concatenate([_floats(v, shape) for _, v in raw[name]], axis=2)
+            ds = xr.Dataset(
+                {"force": (("chain", "draw", "observation"), values)},
+                coords={
+                    "chain": grid_chains,
+                    "draw": grid_steps,
+                    "ensemble": ("chain", grid_chains // walkers),
+                    "walker": ("chain", grid_chains % walkers),
+                    **obs_coords,
+                },
             )
+            ds["force"].attrs["description"] = description
+            return ds
+
+        if raw.get("log_likelihood") is not None:
+            groups["log_likelihood"] = pointwise(
+                "log_likelihood", "ln N(observed force | model force, sigma^2) at the draw"
+            )
+        if raw.get("posterior_predictive") is not None:
+            groups["posterior_predictive"] = pointwise(
+                "posterior_predictive",
+                "replicated observation: the model force at the draw plus Gaussian noise of "
+                "the draw's sigma",
+            )
+            groups["posterior_predictive"]["force"].attrs["units"] = "N"
 
     sampler = summary["sampler"]
     attrs = {
@@ -167,6 +195,14 @@ def from_native(raw: dict, run_dir=None):
         attrs["run_dir"] = os.fspath(run_dir)
     if raw.get("observed_error"):
         attrs["observed_data_missing"] = raw["observed_error"]
+    if raw.get("log_likelihood_missing"):
+        attrs["log_likelihood_missing"] = raw["log_likelihood_missing"]
+        warnings.warn(
+            "slipbayes: the InferenceData has no log_likelihood group, so az.loo and "
+            "az.compare cannot use it: " + raw["log_likelihood_missing"],
+            SlipbayesWarning,
+            stacklevel=stacklevel,
+        )
     idata = az.InferenceData(**groups)
     for name in idata.groups():
         idata[name].attrs.update(attrs)
@@ -184,8 +220,9 @@ def load(run_dir, log_likelihood_draws=2000):
     ``F_peak_run``), ``sample_stats`` (``lp``, the log-density; ``moved``), ``observed_data``
     (``force``: every run's data as the fit used them, one after the other along
     ``observation``, whose coordinates ``run_of_observation`` and ``time_s`` say which run
-    and when), ``log_likelihood`` (below) and attributes with the seed, the settings and the
-    version.
+    and when; select a run with ``.where(... == "name", drop=True)`` or a boolean mask),
+    ``log_likelihood`` and ``posterior_predictive`` (below) and attributes with the seed, the
+    settings and the version.
 
     Chains and draws: ``chain`` is a walker of an ensemble and ``draw`` a step, post-burn-in
     steps only. Then ArviZ's own functions reproduce slipbayes' numbers as follows:
@@ -203,12 +240,31 @@ def load(run_dir, log_likelihood_draws=2000):
       ensembles: every column as slipbayes reports it.
 
     ``log_likelihood`` (for ``az.loo`` and ``az.compare``): ``force``, the pointwise
-    log-likelihood ln N(F_i | model_i, σ²) of every observation of ``observed_data``, at every n-th kept step of every chain, n the smallest that evaluates at most about
-    ``log_likelihood_draws`` draws (every draw of a long run would take
-    gigabytes: 128 chains × 385 steps × 5,500 points is 2 GB); its ``draw`` coordinate says
-    which steps. σ is the reported ``sigma`` of the draw (where the fit integrates σ out, its
-    draw from the conditional posterior, so that the parameters and σ are a joint posterior
-    draw). ``log_likelihood_draws=None`` leaves the group out.
+    log-likelihood ln N(F_i | model_i, σ²) of every observation of ``observed_data``, at
+    every n-th kept step of every chain, n the smallest that evaluates at most about
+    ``log_likelihood_draws`` draws (every draw of a long run would take gigabytes: 128 chains
+    × 385 steps × 5,500 points is 2 GB); its ``draw`` coordinate says which steps. σ is the
+    reported ``sigma`` of the draw (where the fit integrates σ out, its draw from the
+    conditional posterior, so that the parameters and σ are a joint posterior draw). A run
+    whose record was fitted on sufficient statistics (more than ``[likelihood] exact_up_to``
+    points, 10,000 by default) keeps no likelihood per point, and leave-one-out needs every
+    point's term: then the group is left out, the attribute ``log_likelihood_missing`` says
+    why, and a ``SlipbayesWarning`` names the run (thin its record with ``every = N``, or raise
+    ``exact_up_to``, to compare models on it).
+
+    ``posterior_predictive`` (for ``az.plot_ppc`` and posterior predictive checks): ``force``,
+    a replicated observation of every point of ``observed_data`` (same name, same
+    ``observation`` dimension and coordinates) at each draw: the model force at the draw's
+    parameters plus Gaussian noise of the draw's σ, computed by the library
+    (``Posterior::replicated_observations``) at the draws of ``log_likelihood`` (also when
+    that group is left out). The noise of the draw at step s of chain c comes from a stream
+    of its own of the run's seed, so that loading a run twice, or with other
+    ``log_likelihood_draws``, gives the same numbers for the same draw. When those draws
+    would hold more than 25 million values (200 MB; a 10⁶-point record), fewer are used:
+    evenly spaced steps of every chain, or one step of every m-th chain, as the group's
+    ``chain`` and ``draw`` coordinates say.
+
+    ``log_likelihood_draws=None`` leaves both groups out.
     """
     raw = _native.load_run(os.fspath(run_dir), log_likelihood_draws)
     return from_native(raw, run_dir)

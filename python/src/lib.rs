@@ -16,10 +16,12 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 
-use slipbayes::fit::{fit_model, FitError, FitSettings, RunDir, SettingOverrides};
+use slipbayes::fit::{
+    fit_model, replicate_rng, FitError, FitSettings, RunDir, RunLock, SettingOverrides,
+};
 use slipbayes::law::{Elastic, Law, LawParams};
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::{ModelFile, ModelSpec, Posterior, SpecError};
 use slipbayes::sampler::{Observer, Progress};
 use slipbayes::simulate::{simulate as simulate_run, SimulationSpec};
 
@@ -241,18 +243,60 @@ fn simulate<'py>(
     ))
 }
 
-/// A model from a JSON object of the model file's structure: converted to TOML text and read
-/// as a model file would be, so that it is validated by the same code and its errors name the
-/// same keys. Data paths are relative to `base_dir`.
+/// A model from a JSON object of the model file's structure, validated by the same code as a
+/// model file. Its errors name the key path in the dict (`run[2].velocity_m_per_s`), since the
+/// dict has no lines to point at. Data paths are relative to `base_dir`.
 fn model_from_json(json: &str, base_dir: &Path) -> PyResult<ModelSpec> {
+    let source = base_dir.join("<model dict>");
     let value: serde_json::Value = serde_json::from_str(json)
         .map_err(|e| SlipbayesError::new_err(format!("model dict: {e}")))?;
-    let text = toml::to_string(&value).map_err(|e| {
-        SlipbayesError::new_err(format!(
-            "model dict: cannot be written as a model file: {e}"
-        ))
+    let file: ModelFile = serde_path_to_error::deserialize(value).map_err(|e| {
+        let key = e.path().to_string();
+        error(&SpecError::Invalid {
+            path: source.clone(),
+            key,
+            message: e.into_inner().to_string(),
+        })
     })?;
-    ModelSpec::parse(&text, &base_dir.join("<model dict>")).map_err(|e| error(&e))
+    ModelSpec::validate(file, base_dir.to_path_buf(), source).map_err(|e| error(&e))
+}
+
+/// A held lock on a run directory (`RunLock`, the command line's): `fit` writes only into a
+/// directory whose lock the caller holds, from before it writes the run's data files until
+/// the fit ends.
+#[pyclass(module = "slipbayes._native")]
+struct RunDirLock {
+    lock: Option<RunLock>,
+}
+
+#[pymethods]
+impl RunDirLock {
+    /// Locks `run_dir` (created if need be); raises SlipbayesError naming the holder and the
+    /// lock file when another live process holds it.
+    #[new]
+    fn new(run_dir: PathBuf) -> PyResult<Self> {
+        let lock = RunLock::acquire(&run_dir).map_err(|e| error(&e))?;
+        Ok(Self { lock: Some(lock) })
+    }
+
+    /// Releases the lock (removes the lock file); releasing twice does nothing.
+    fn release(&mut self) {
+        self.lock = None;
+    }
+
+    fn __enter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __exit__(
+        &mut self,
+        _kind: Option<PyObject>,
+        _value: Option<PyObject>,
+        _traceback: Option<PyObject>,
+    ) -> bool {
+        self.release();
+        false
+    }
 }
 
 /// What a running fit shares with the thread that waits for it.
@@ -281,21 +325,21 @@ impl Observer for SharedObserver {
     }
 }
 
-/// Fits a model into the run directory `out` (as `slipbayes fit MODEL --out OUT`) and returns
-/// the directory. The sampler runs on a thread pool of its own (`threads`, default: every
+/// Fits a model into the run directory that `lock` holds (as `slipbayes fit MODEL --out OUT`)
+/// and returns the directory. The sampler runs on a thread pool of its own (`threads`, default: every
 /// core) with the GIL released; meanwhile this thread hands the progress to `progress(step,
 /// last_step, acceptance, tau_max, r_hat_max, eta_s)` and watches for Ctrl-C, which stops the
 /// fit after its current step and a checkpoint (resumable with `resume=True`).
 #[pyfunction]
 #[pyo3(signature = (
-    out, model_path=None, model_json=None, base_dir=None, seed=None, walkers=None, steps=None,
+    lock, model_path=None, model_json=None, base_dir=None, seed=None, walkers=None, steps=None,
     max_steps=None, max_time_s=None, threads=None, overwrite=false, resume=false,
     report=false, progress=None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
-    out: PathBuf,
+    lock: PyRef<'_, RunDirLock>,
     model_path: Option<PathBuf>,
     model_json: Option<String>,
     base_dir: Option<PathBuf>,
@@ -333,8 +377,10 @@ fn fit(
         ..SettingOverrides::default()
     };
     let settings = FitSettings::for_model(&posterior, &overrides);
-    std::fs::create_dir_all(&out)
-        .map_err(|e| SlipbayesError::new_err(format!("creating {}: {e}", out.display())))?;
+    let lock = lock
+        .lock
+        .as_ref()
+        .ok_or_else(|| PyValueError::new_err("the run directory's lock was released"))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
         .build()
@@ -350,7 +396,7 @@ fn fit(
         let worker = scope.spawn(|| {
             pool.install(|| {
                 let outcome =
-                    fit_model(&posterior, &settings, &out, resume, command, &mut observer)?;
+                    fit_model(&posterior, &settings, lock, resume, command, &mut observer)?;
                 if report {
                     slipbayes::report::write_report(&outcome.dir, &posterior)
                         .map_err(|e| ReportFailed(message(&e)))?;
@@ -427,13 +473,94 @@ impl From<ReportFailed> for FitOrReport {
     }
 }
 
+/// Values in the posterior predictive group at most (8 bytes each, 200 MB): replicating a
+/// 10⁶-point record at 2,000 draws would take 16 GB.
+const MAX_PREDICTIVE_VALUES: usize = 25_000_000;
+
+/// The draws a pointwise group holds: the kept steps `steps` (indices from the first kept
+/// step) of the chains `chains`, chain-major.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct DrawGrid {
+    chains: Vec<usize>,
+    steps: Vec<usize>,
+}
+
+impl DrawGrid {
+    /// About `draws` draws: every n-th kept step of every chain, n the smallest that gives
+    /// each chain ⌈draws / chains⌉ steps at most (one at least).
+    fn every_chain(chains: usize, kept: usize, draws: usize) -> Self {
+        let every = kept.div_ceil(draws.div_ceil(chains).max(1)).max(1);
+        Self {
+            chains: (0..chains).collect(),
+            steps: (0..kept).step_by(every).collect(),
+        }
+    }
+
+    /// At most `draws` draws (one at least): every chain at evenly spaced kept steps while
+    /// there are draws enough for every chain, else the first kept step of every m-th chain.
+    fn at_most(chains: usize, kept: usize, draws: usize) -> Self {
+        let draws = draws.max(1);
+        if draws >= chains {
+            let per_chain = (draws / chains).min(kept);
+            Self {
+                chains: (0..chains).collect(),
+                steps: (0..kept).step_by(kept.div_ceil(per_chain)).collect(),
+            }
+        } else {
+            Self {
+                chains: (0..chains).step_by(chains.div_ceil(draws)).collect(),
+                steps: vec![0],
+            }
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.chains.len() * self.steps.len()
+    }
+
+    /// `{group}_chains` and `{group}_steps` (step numbers, burn-in included) of `out`.
+    fn set_items(&self, out: &Bound<'_, PyDict>, group: &str, burn_in: u64) -> PyResult<()> {
+        out.set_item(format!("{group}_chains"), self.chains.clone())?;
+        let steps: Vec<u64> = self.steps.iter().map(|&s| s as u64 + burn_in).collect();
+        out.set_item(format!("{group}_steps"), steps)
+    }
+
+    /// Every (chain, kept step) of the grid, chain-major.
+    fn draws(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.chains
+            .iter()
+            .flat_map(|&c| self.steps.iter().map(move |&s| (c, s)))
+    }
+}
+
+/// Per run, its values of every draw one after the other (draw-major): `values[draw][run]`
+/// laid out as the InferenceData's (chain, draw, observation).
+fn per_run<'py>(
+    py: Python<'py>,
+    spec: &ModelSpec,
+    values: &[Vec<Vec<f64>>],
+) -> PyResult<Bound<'py, PyList>> {
+    let out = PyList::empty(py);
+    for (i, run) in spec.file.runs.iter().enumerate() {
+        let run_values: Vec<f64> = values.iter().flat_map(|v| v[i].iter().copied()).collect();
+        out.append((run.name.clone(), to_bytes(py, &run_values)))?;
+    }
+    Ok(out)
+}
+
 /// Everything of a finished run directory that its InferenceData holds, as plain Python
 /// values and `f64` bytes. Draws are the kept (post-burn-in) steps, laid out chain-major with
 /// one chain per walker of each ensemble (`chain = ensemble * walkers + walker`), each
-/// chain's steps contiguous. With `log_likelihood_draws`, also every run's pointwise
-/// log-likelihood (`Posterior::pointwise_log_likelihood`) at every n-th kept step of every
-/// chain, n the smallest that evaluates at most that many draws, laid out (chain, draw,
-/// observation).
+/// chain's steps contiguous.
+///
+/// With `log_likelihood_draws` (and the run's data readable), also, at about that many draws
+/// (every n-th kept step of every chain, n the smallest that evaluates at most that many),
+/// laid out (chain, draw, observation):
+/// - every run's pointwise log-likelihood (`Posterior::pointwise_log_likelihood`), or, when a
+///   run is evaluated on sufficient statistics, `log_likelihood_missing` saying so;
+/// - every run's replicated observations (`Posterior::replicated_observations`, the draw at
+///   row `row` of the chains from `replicate_rng(seed, row)`), at the same draws unless they
+///   would hold more than `MAX_PREDICTIVE_VALUES` values, then at fewer.
 #[pyfunction]
 #[pyo3(signature = (run_dir, log_likelihood_draws=None))]
 fn load_run<'py>(
@@ -502,6 +629,7 @@ fn load_run<'py>(
             moved[c * kept] = f64::NAN;
         }
     }
+    let out = PyDict::new(py);
     let observed = PyList::empty(py);
     let mut observed_error = None;
     for (i, run) in spec.file.runs.iter().enumerate() {
@@ -517,44 +645,70 @@ fn load_run<'py>(
             }
         }
     }
-    let out = PyDict::new(py);
-    if let Some(draws) = log_likelihood_draws.filter(|&d| d > 0) {
-        let every = kept.div_ceil(draws.div_ceil(chains).max(1)).max(1);
-        let steps_kept: Vec<usize> = (0..kept).step_by(every).collect();
+    let draws = log_likelihood_draws.filter(|&d| d > 0 && observed_error.is_none());
+    if let Some(draws) = draws {
         let posterior = py
             .allow_threads(|| Posterior::new(&spec))
             .map_err(|e| error(&e))?;
-        // Every (chain, kept step) draw in chain-major order, as sampler coordinates.
-        let draws: Vec<Vec<f64>> = (0..chains)
-            .flat_map(|c| steps_kept.iter().map(move |&s| (c, s)))
-            .map(|(c, s)| params.iter().map(|p| p[(s + skip) * chains + c]).collect())
-            .collect();
-        let terms = py.allow_threads(|| {
-            use rayon::prelude::*;
-            draws
-                .par_iter()
-                .map(|x| posterior.pointwise_log_likelihood(x))
-                .collect::<Result<Vec<_>, _>>()
-        });
-        let terms = terms.map_err(|e| {
+        let points: usize = (0..spec.file.runs.len())
+            .map(|i| posterior.observed_forces(i).len())
+            .sum();
+        // Sampler coordinates of (chain, kept step).
+        let at = |(c, s): (usize, usize)| -> Vec<f64> {
+            params.iter().map(|p| p[(s + skip) * chains + c]).collect()
+        };
+        let failed = |e: slipbayes::model::PointwiseError| {
             SlipbayesError::new_err(format!(
                 "{}: a kept draw has no finite density: {e}",
                 run_dir.display()
             ))
-        })?;
-        let per_run = PyList::empty(py);
-        for (i, run) in spec.file.runs.iter().enumerate() {
-            let values: Vec<f64> = terms.iter().flat_map(|t| t[i].iter().copied()).collect();
-            per_run.append((run.name.clone(), to_bytes(py, &values)))?;
+        };
+        let log_likelihood = DrawGrid::every_chain(chains, kept, draws);
+        match posterior.pointwise_available() {
+            Ok(()) => {
+                let grid: Vec<Vec<f64>> = log_likelihood.draws().map(at).collect();
+                let terms = py.allow_threads(|| {
+                    use rayon::prelude::*;
+                    grid.par_iter()
+                        .map(|x| posterior.pointwise_log_likelihood(x))
+                        .collect::<Result<Vec<_>, _>>()
+                });
+                out.set_item(
+                    "log_likelihood",
+                    per_run(py, &spec, &terms.map_err(failed)?)?,
+                )?;
+                log_likelihood.set_items(&out, "log_likelihood", burn_in)?;
+            }
+            Err(e) => out.set_item("log_likelihood_missing", e.to_string())?,
         }
-        out.set_item("log_likelihood", per_run)?;
+        let predictive = if log_likelihood.len() * points <= MAX_PREDICTIVE_VALUES {
+            log_likelihood
+        } else {
+            DrawGrid::at_most(chains, kept, MAX_PREDICTIVE_VALUES / points.max(1))
+        };
+        let seed = summary.sampler.seed;
+        let grid: Vec<(u64, Vec<f64>)> = predictive
+            .draws()
+            .map(|(c, s)| {
+                (
+                    ((s as u64 + burn_in) * chains as u64 + c as u64),
+                    at((c, s)),
+                )
+            })
+            .collect();
+        let replicates = py.allow_threads(|| {
+            use rayon::prelude::*;
+            grid.par_iter()
+                .map(|(row, x)| {
+                    posterior.replicated_observations(x, &mut replicate_rng(seed, *row))
+                })
+                .collect::<Result<Vec<_>, _>>()
+        });
         out.set_item(
-            "log_likelihood_steps",
-            steps_kept
-                .iter()
-                .map(|&s| s as u64 + burn_in)
-                .collect::<Vec<_>>(),
+            "posterior_predictive",
+            per_run(py, &spec, &replicates.map_err(failed)?)?,
         )?;
+        predictive.set_items(&out, "posterior_predictive", burn_in)?;
     }
     out.set_item("summary_json", summary_json)?;
     out.set_item("settings_json", settings_json)?;
@@ -603,6 +757,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(peak, m)?)?;
     m.add_function(wrap_pyfunction!(observed_forces, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_class::<RunDirLock>()?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(load_run, m)?)?;
     Ok(())

@@ -15,6 +15,8 @@ DATA = REPO / "data"
 # uses the same settings.
 STEPS = 300
 SEED = 7
+# The law's parameters of the bundled PTFE data (SI), for simulations.
+PTFE = dict(alpha_per_m=0.92e6, a_n=6.2e-3, f_d_n=10e-3, t0_s=14.8)
 
 
 def same_bits(a, b):

@@ -38,6 +38,25 @@ def test_an_invalid_value_names_the_key(tmp_path):
         slipbayes.fit(model, steps=10, progress=False)
 
 
+def test_a_dict_of_the_wrong_shape_names_the_key_path_not_a_line():
+    model = one_contact()
+    model["run"][1]["velocity_m_per_s"] = "fast"
+    with pytest.raises(slipbayes.SlipbayesError) as info:
+        slipbayes.fit(model, steps=10, progress=False)
+    message = str(info.value)
+    assert 'run[1].velocity_m_per_s: invalid type: string "fast", expected f64' in message
+    # The dict has no lines: none are named (the TOML made from it had them).
+    assert "line" not in message and "<model dict>" in message
+    model = one_contact()
+    model["priors"] = {"alpha": {"dist": "log-normal", "mu": 1.0}}
+    with pytest.raises(slipbayes.SlipbayesError, match=r"priors\.alpha: unknown field `mu`"):
+        slipbayes.fit(model, steps=10, progress=False)
+    model = one_contact()
+    model["sampler"] = {"seed": 1.5}
+    with pytest.raises(slipbayes.SlipbayesError, match=r"sampler\.seed: invalid type"):
+        slipbayes.fit(model, steps=10, progress=False)
+
+
 def test_a_missing_data_file_names_the_file(tmp_path):
     missing = tmp_path / "missing.csv"
     with pytest.raises(slipbayes.SlipbayesError, match="missing.csv"):

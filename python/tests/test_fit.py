@@ -3,7 +3,9 @@ against summary.json."""
 
 import json
 import os
+import re
 import signal
+import subprocess
 import threading
 import warnings
 import time
@@ -14,7 +16,7 @@ import pandas as pd
 import pytest
 
 import slipbayes
-from conftest import DATA, SEED, STEPS, one_contact, same_bits
+from conftest import DATA, PTFE, SEED, STEPS, one_contact, same_bits
 
 
 def assert_same_posterior(a, b):
@@ -223,3 +225,123 @@ def test_pointwise_log_likelihood_and_az_loo(fitted):
     assert (loo["pareto_k"].values < 0.7).all()
     # About one effective parameter per sampled one (α, a/F_d, F_d, t0, k, and two σ).
     assert 4 < loo["p_loo"] < 10
+
+
+def test_posterior_predictive_replicates_every_observation(fitted, tmp_path):
+    idata, run_dir = fitted
+    pp = idata.posterior_predictive["force"]
+    ll = idata.log_likelihood["force"]
+    obs = idata.observed_data["force"]
+    # The draws of log_likelihood, the observations of observed_data, the same names.
+    assert pp.dims == ("chain", "draw", "observation")
+    assert pp.sizes["observation"] == obs.sizes["observation"]
+    assert list(pp["chain"].values) == list(ll["chain"].values)
+    assert list(pp["draw"].values) == list(ll["draw"].values)
+    walkers = idata.posterior.attrs["walkers"]
+    assert list(pp["walker"].values) == [c % walkers for c in pp["chain"].values]
+    for coord in ("run_of_observation", "time_s"):
+        assert (pp[coord].values == obs[coord].values).all()
+    assert pp.attrs["units"] == "N"
+    # Reproducible: the same run read again gives the same bits; with fewer draws, the draws
+    # both hold have the same replicates (each draw has a noise stream of its own).
+    again = slipbayes.load(run_dir)
+    assert same_bits(again.posterior_predictive["force"].values, pp.values)
+    fewer = slipbayes.load(run_dir, log_likelihood_draws=300).posterior_predictive["force"]
+    common = sorted(set(fewer["draw"].values) & set(pp["draw"].values))
+    assert common and fewer.sizes["draw"] < pp.sizes["draw"]
+    assert same_bits(fewer.sel(draw=common).values, pp.sel(draw=common).values)
+    # Each replicate scatters around the fitted forces with the draw's σ: the mean over the
+    # draws is the posterior median force of predictive.csv (written by the fit from other
+    # draws) within the Monte Carlo error of the noise (σ / √draws, 5 standard errors), plus
+    # a quarter of the model's own 95 % band for its mean against its median and the band's
+    # 200 draws.
+    bands = pd.read_csv(run_dir / "predictive.csv")
+    draws = pp.sizes["chain"] * pp.sizes["draw"]
+    mean = pp.mean(("chain", "draw")).values
+    spread = pp.std(("chain", "draw")).values
+    runs = obs["run_of_observation"].values
+    time_s = obs["time_s"].values
+    for run, band in bands.groupby("run"):
+        index = {t: i for i, t in enumerate(time_s) if runs[i] == run}
+        at = np.array([index[t] for t in band["time_s"].values])
+        sigma = float(idata.posterior["sigma"].sel(run=run).median())
+        width = (band["model_q975_N"] - band["model_q025_N"]).values
+        error = np.abs(mean[at] - band["model_median_N"].values)
+        assert (error < 5 * sigma / np.sqrt(draws) + 0.25 * width).all(), run
+        # Not the observations: those scatter by σ around the model.
+        assert np.sqrt(np.mean((band["observed_N"].values - mean[at]) ** 2)) > 0.5 * sigma
+        of_run = runs == run
+        assert np.mean(spread[of_run]) == pytest.approx(sigma, rel=0.05), run
+    # az.plot_ppc pairs observed_data and posterior_predictive by name.
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes = az.plot_ppc(idata, num_pp_samples=50, random_seed=1)
+    assert np.size(axes) == 1
+    plt.close("all")
+
+
+def test_a_record_on_sufficient_statistics_has_no_log_likelihood_and_a_warning():
+    # 20,001 points, over the 10,000 that the likelihood evaluates point by point.
+    sim = slipbayes.simulate("first", **PTFE, velocity_m_per_s=1e-9, k_n_per_m=1.2e4,
+                             duration_s=20000.0, interval_s=1.0, sigma_n=1e-4, seed=3)
+    model = {
+        "material": [{"name": "PTFE"}],
+        "contact": [{"name": "c"}],
+        "run": [{"name": "long", "contact": "c", "data": (sim.time_s, sim.force_n),
+                 "velocity_m_per_s": 1e-9, "scene": "first"}],
+    }
+    model["contact"][0]["material"] = "PTFE"
+    with pytest.warns(slipbayes.SlipbayesWarning,
+                      match=r'run "long" has 20001 points and is evaluated on sufficient '
+                            r'statistics.*leave-one-out needs') as caught:
+        idata = slipbayes.fit(model, seed=SEED, steps=80, progress=False)
+    assert "no log_likelihood group" in str(caught[0].message)
+    assert "log_likelihood" not in idata.groups()
+    assert "sufficient statistics" in idata.posterior.attrs["log_likelihood_missing"]
+    # The replicates are there, solved at every point: at 2,048 draws they would hold 41
+    # million values, over the 25 million allowed, so every chain at fewer steps.
+    pp = idata.posterior_predictive["force"]
+    assert pp.sizes["observation"] == sim.time_s.size
+    assert pp.sizes["chain"] == idata.posterior.sizes["chain"]
+    assert pp.sizes["chain"] * pp.sizes["draw"] * sim.time_s.size <= 25_000_000
+    assert pp.sizes["chain"] * pp.sizes["draw"] > 1000
+    # Around the truth, with the noise of the simulation.
+    mean = pp.mean(("chain", "draw")).values
+    assert np.sqrt(np.mean((mean - sim.clean_force_n) ** 2)) < 0.2e-4
+    assert float(pp.std(("chain", "draw")).mean()) == pytest.approx(1e-4, rel=0.05)
+
+
+def test_a_second_fit_into_a_locked_run_directory_fails_naming_the_lock(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    lock = out / ".slipbayes.lock"
+    first = pd.read_csv(DATA / "ptfe-c1-first.csv")
+    # A live process holds the lock, as a fit in another process would.
+    holder = subprocess.Popen(["sleep", "60"])
+    try:
+        lock.write_text(f"{holder.pid}\nsleep 60\n")
+        with pytest.raises(slipbayes.SlipbayesError, match=re.escape(str(lock))) as info:
+            slipbayes.fit(one_contact(first=first), steps=STEPS, out=out, progress=False)
+        assert f"process {holder.pid} (`sleep 60`)" in str(info.value)
+        # Nothing was written, not even the dict's data.
+        assert sorted(p.name for p in out.iterdir()) == [".slipbayes.lock"]
+    finally:
+        holder.kill()
+        holder.wait()
+    # Its holder gone, the lock is taken over; while that fit runs, a second fit from this
+    # very process into the same directory is refused too.
+    refused = []
+
+    def progress(step, *_):
+        if not refused:
+            with pytest.raises(slipbayes.SlipbayesError, match=re.escape(str(lock))) as info:
+                slipbayes.fit(one_contact(), steps=STEPS, out=out, overwrite=True,
+                              progress=False)
+            refused.append(str(info.value))
+
+    slipbayes.fit(one_contact(first=first), seed=SEED, steps=STEPS, out=out, progress=progress)
+    assert refused and f"process {os.getpid()}" in refused[0]
+    assert (out / "summary.json").exists() and not lock.exists()

@@ -8,9 +8,7 @@ import numpy as np
 import pytest
 
 import slipbayes
-from conftest import REPO, same_bits, slipbayes_binary
-
-PTFE = dict(alpha_per_m=0.92e6, a_n=6.2e-3, f_d_n=10e-3, t0_s=14.8)
+from conftest import PTFE, REPO, same_bits, slipbayes_binary
 
 
 def cli_simulate(tmp_path, *args):

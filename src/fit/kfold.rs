@@ -106,7 +106,7 @@ pub fn kfold(
     observer: &mut impl Observer,
 ) -> Result<KFold, FitError> {
     // Refuse what cannot be scored before any fold is fitted.
-    posterior.check_pointwise().map_err(FitError::Loo)?;
+    posterior.pointwise_available().map_err(FitError::Loo)?;
     let Folds {
         folds,
         blocks_per_fold,

@@ -52,8 +52,8 @@ use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 pub use error::FitError;
 pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{
-    AggregateSummary, Comparison, FitSummary, QuantitySummary, RunDir, RunDirError, RunRecord,
-    SamplerSummary,
+    AggregateSummary, Comparison, FitSummary, LockError, QuantitySummary, RunDir, RunDirError,
+    RunLock, RunRecord, SamplerSummary,
 };
 
 /// Default checkpoint interval, in steps.
@@ -67,6 +67,20 @@ pub const DEFAULT_INTERVAL_PROB: f64 = 0.95;
 /// ChaCha8 stream of the seed used to draw the initial walkers; the sampler's streams are
 /// `(ensemble << 32) | walker`, far from this one.
 pub const INIT_STREAM: u64 = u64::MAX;
+/// First ChaCha8 stream of the seed for the replicated observations of a finished run's draws
+/// (the Python package's `posterior_predictive`): see [`replicate_rng`]. Disjoint from the
+/// sampler's `(ensemble << 32) | walker` while there are fewer than 2³¹ ensembles.
+pub const REPLICATE_STREAMS: u64 = 1 << 63;
+
+/// The random stream of the replicated observations of the draw at chain row `row` (step ×
+/// chains + chain, as the chains are stored) of a run sampled with `seed`: one stream per
+/// draw, so that a draw's replicate is the same bits whichever other draws are replicated,
+/// in whatever order or on however many threads.
+pub fn replicate_rng(seed: u64, row: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(REPLICATE_STREAMS | row);
+    rng
+}
 
 /// The default mixture of moves of a fit: half the Student-t independence proposal fitted to
 /// the complementary half (τ ≈ 6 steps on the one-contact posterior against 52 for the

@@ -1,9 +1,7 @@
 //! Fitting a friction model: what its summary reports, how a model file's sampler settings
 //! combine with a caller's, and the files a friction fit adds to its run directory.
 
-use std::path::Path;
-
-use super::run_dir::{relative_path, LooPoint, LooSummary, RunRecord};
+use super::run_dir::{relative_path, LooPoint, LooSummary, RunLock, RunRecord};
 use super::{
     default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit, Aggregate,
     ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
@@ -196,9 +194,10 @@ pub fn peak_notes(posterior: &Posterior, summary: &FitSummary) -> Vec<String> {
     notes
 }
 
-/// Fits `posterior` into the run directory `out` and writes all of it: the chains and
-/// checkpoint, `summary.json` and `summary.csv` ([`run_fit`] with [`summary_spec`]), then
-/// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`.
+/// Fits `posterior` into the run directory that `lock` holds and writes all of it: the chains
+/// and checkpoint, `summary.json` and `summary.csv` ([`run_fit`] with [`summary_spec`]), then
+/// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`. Taking the lock
+/// rather than a path, it cannot write a directory another fit is writing.
 ///
 /// # Errors
 /// As [`run_fit`]; [`FitError::RunDir`] when a file cannot be written;
@@ -206,11 +205,12 @@ pub fn peak_notes(posterior: &Posterior, summary: &FitSummary) -> Vec<String> {
 pub fn fit_model(
     posterior: &Posterior,
     settings: &FitSettings,
-    out: &Path,
+    lock: &RunLock,
     resume: bool,
     command: Vec<String>,
     observer: &mut impl Observer,
 ) -> Result<FitOutcome, FitError> {
+    let out = lock.dir();
     let dir = RunDir::new(out);
     let spec = posterior.spec();
     let mut outcome = run_fit(

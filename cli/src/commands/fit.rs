@@ -9,14 +9,13 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use slipbayes::diagnostics::problem_lines;
-use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, SettingOverrides};
+use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::sampler::{CarryFit, Mixture, Updates};
 
 use super::import::ImportArgs;
 use super::{non_negative, positive, EXIT_NOT_CONVERGED};
 use crate::interrupt::{self, EXIT_INTERRUPTED};
-use crate::lock::RunLock;
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
 
 /// Where `demo` writes by default: a user's results, ignored by git (`/runs/` in
@@ -246,7 +245,7 @@ fn fit_and_report(
     let posterior = Posterior::new(spec)?;
     let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let _lock = RunLock::acquire(out)?;
+    let lock = RunLock::acquire(out)?;
     interrupt::install();
     let mut observer =
         ProgressBarObserver::new(run.quiet, Duration::from_secs_f64(run.progress_every))
@@ -255,7 +254,7 @@ fn fit_and_report(
     let outcome = match fit_model(
         &posterior,
         &settings,
-        out,
+        &lock,
         run.resume,
         command.clone(),
         &mut observer,

@@ -12,8 +12,8 @@ use slipbayes::fit::{FitError, RunDir};
 use slipbayes::model::Posterior;
 
 use crate::interrupt::{self, EXIT_INTERRUPTED};
-use crate::lock::RunLock;
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
+use slipbayes::fit::RunLock;
 
 /// Cross-validate a finished fit (a `fit --out` directory) by blocks of time: each run's
 /// record is cut into FOLDS × BLOCKS contiguous blocks, dealt to the folds in turn; fold j

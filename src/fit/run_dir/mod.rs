@@ -12,6 +12,7 @@
 //! DIR/chains/*.parquet    the draws (see crate::storage)
 //! DIR/checkpoint.bin      the sampler state of the last checkpoint (MessagePack)
 //! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
+//! DIR/.slipbayes.lock     held while a fit writes the directory ([`RunLock`])
 //! ```
 //!
 //! A fit writes the first eight ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
@@ -21,6 +22,7 @@
 
 mod csv;
 mod kfold;
+mod lock;
 mod loo;
 mod predictive;
 mod record;
@@ -34,6 +36,7 @@ use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError}
 
 pub use csv::{summary_csv, CSV_COLUMNS};
 pub use kfold::{KFoldPoint, KFoldSummary, RunKFold, KFOLD_HEADER};
+pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
 pub use predictive::PREDICTIVE_HEADER;
 pub use record::{relative_path, RunRecord};

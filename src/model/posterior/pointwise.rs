@@ -1,5 +1,6 @@
-//! The likelihood of each observation at a posterior draw, and the model's leave-one-out
-//! predictive accuracy from it (PSIS-LOO, [`crate::diagnostics::loo`]).
+//! The likelihood of each observation at a posterior draw, the model's leave-one-out
+//! predictive accuracy from it (PSIS-LOO, [`crate::diagnostics::loo`]), and replicated
+//! observations (posterior predictive draws) from the same model and σ.
 //!
 //! A draw's σ is the one the chains report: its sampled coordinate, or, for σ integrated out
 //! of the likelihood, the exact conditional draw of the derived column (seeded by the same
@@ -7,6 +8,9 @@
 //! model, so each has its own log-likelihood ln N(y_i | F_i(θ), σ²).
 
 use std::ops::Range;
+
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
 
 use super::layout::SigmaSource;
 use super::likelihood::LN_SQRT_2PI;
@@ -78,9 +82,7 @@ impl Posterior {
     /// [`PointwiseError::Draw`] where the model cannot be evaluated at `x` (outside the
     /// prior's support, stick-slip: a posterior draw never is).
     pub fn pointwise_log_likelihood(&self, x: &[f64]) -> Result<Vec<Vec<f64>>, PointwiseError> {
-        for run in 0..self.runs.len() {
-            self.check_exact(run)?;
-        }
+        self.pointwise_available()?;
         let noise = self.draw_noise(x, 0)?;
         (0..self.runs.len())
             .map(|run| self.run_log_likelihood(x, run, &noise, 0))
@@ -129,9 +131,7 @@ impl Posterior {
         fold: &Posterior,
         x: &[f64],
     ) -> Result<Vec<Vec<f64>>, PointwiseError> {
-        for run in 0..self.runs.len() {
-            self.check_exact(run)?;
-        }
+        self.pointwise_available()?;
         if fold.param_names() != self.param_names() {
             return Err(PointwiseError::Draw {
                 draw: 0,
@@ -151,9 +151,7 @@ impl Posterior {
     /// # Errors
     /// As [`Posterior::pointwise_log_likelihood`]; [`PointwiseError::Loo`] for too few draws.
     pub fn psis_loo(&self, draws: &[Vec<f64>], r_eff: f64) -> Result<ModelLoo, PointwiseError> {
-        for run in 0..self.runs.len() {
-            self.check_exact(run)?;
-        }
+        self.pointwise_available()?;
         let noise = draws
             .iter()
             .enumerate()
@@ -181,14 +179,6 @@ impl Posterior {
         Ok(ModelLoo { runs, total, r_eff })
     }
 
-    /// Whether every run keeps a likelihood per observation, as LOO and K-fold need.
-    ///
-    /// # Errors
-    /// [`PointwiseError::Reduced`] naming the first run evaluated on sufficient statistics.
-    pub fn check_pointwise(&self) -> Result<(), PointwiseError> {
-        (0..self.runs.len()).try_for_each(|run| self.check_exact(run))
-    }
-
     /// Every run's name and number of observations, in the model's order.
     pub fn run_points(&self) -> Vec<(&str, usize)> {
         self.runs
@@ -197,15 +187,54 @@ impl Posterior {
             .collect()
     }
 
-    fn check_exact(&self, run: usize) -> Result<(), PointwiseError> {
-        let r = &self.runs[run];
-        match r.reduction {
-            Some(_) => Err(PointwiseError::Reduced {
+    /// Whether every run keeps the likelihood of each of its points, as
+    /// [`Posterior::pointwise_log_likelihood`] and [`Posterior::psis_loo`] need.
+    ///
+    /// # Errors
+    /// [`PointwiseError::Reduced`] naming the first run evaluated on sufficient statistics.
+    pub fn pointwise_available(&self) -> Result<(), PointwiseError> {
+        match self.runs.iter().find(|r| r.reduction.is_some()) {
+            Some(r) => Err(PointwiseError::Reduced {
                 run: r.name.clone(),
                 points: r.data.n_obs,
             }),
             None => Ok(()),
         }
+    }
+
+    /// Replicated observations at sampler coordinates `x`: y_i = F_i(x) + σ ε_i at every data
+    /// time of every run (one `Vec` per run in the model's order), the ε_i standard normal
+    /// from `rng`, drawn run after run and point after point. σ is the draw's, as in
+    /// [`Posterior::pointwise_log_likelihood`]. A run evaluated on sufficient statistics has
+    /// its model solved at every data time here, so it gets replicates too.
+    ///
+    /// # Errors
+    /// [`PointwiseError::Draw`] where the model cannot be evaluated at `x` (a posterior draw
+    /// never is).
+    pub fn replicated_observations<R: Rng + ?Sized>(
+        &self,
+        x: &[f64],
+        rng: &mut R,
+    ) -> Result<Vec<Vec<f64>>, PointwiseError> {
+        let noise = self.draw_noise(x, 0)?;
+        (0..self.runs.len())
+            .map(|run| {
+                let forces =
+                    self.forces_after(x, &noise.f_end, run)
+                        .map_err(|e| PointwiseError::Draw {
+                            draw: 0,
+                            reason: e.to_string(),
+                        })?;
+                let sigma = noise.sigma[run];
+                Ok(forces
+                    .into_iter()
+                    .map(|f| {
+                        let e: f64 = StandardNormal.sample(rng);
+                        f + sigma * e
+                    })
+                    .collect())
+            })
+            .collect()
     }
 
     /// Every run's σ and F_end at draw `x` (number `draw`), as the density and the derived

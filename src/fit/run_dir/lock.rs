@@ -1,19 +1,64 @@
-//! A lock on a run directory, so that two fits never write one directory at once. The lock
-//! file holds the pid and command line of its holder; a lock whose holder is gone (killed,
-//! crashed) is taken over instead of blocking forever.
+//! A lock on a run directory, so that two fits never write one directory at once, whichever
+//! front end (the command line, the Python package) runs them. The lock file holds the pid and
+//! command line of its holder; a lock whose holder is gone (killed, crashed) is taken over
+//! instead of blocking forever.
 
 use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
-
 /// The lock file inside the run directory.
 pub const LOCK_FILE: &str = ".slipbayes.lock";
 
-/// A held lock; dropping it releases the directory.
+/// Why a run directory could not be locked; each names the directory or the lock file.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    /// Another live process holds the lock.
+    #[error(
+        "{} is in use by another fit: process {pid} (`{command}`) holds its lock {}; wait for \
+         it to finish or choose another --out",
+        dir.display(),
+        lock.display()
+    )]
+    Held {
+        /// The run directory.
+        dir: PathBuf,
+        /// Its lock file.
+        lock: PathBuf,
+        /// The holder's process id.
+        pid: u32,
+        /// The holder's command line.
+        command: String,
+    },
+    /// The directory or the lock file could not be created, written or removed.
+    #[error("{action} {}: {source}", path.display())]
+    Io {
+        /// What was being done, e.g. "creating the lock".
+        action: &'static str,
+        /// The directory or lock file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The lock file was replaced again after a stale one was removed.
+    #[error(
+        "cannot lock {}: another process keeps replacing {}",
+        dir.display(),
+        lock.display()
+    )]
+    Contended {
+        /// The run directory.
+        dir: PathBuf,
+        /// Its lock file.
+        lock: PathBuf,
+    },
+}
+
+/// A held lock on a run directory; dropping it releases the directory.
 #[derive(Debug)]
 pub struct RunLock {
+    dir: PathBuf,
     path: PathBuf,
 }
 
@@ -62,12 +107,22 @@ fn this_process() -> Holder {
 }
 
 impl RunLock {
-    /// Locks the run directory `dir` (which must exist) for this process.
+    /// Locks the run directory `dir` for this process, creating the directory if need be.
     ///
     /// # Errors
-    /// When another live process holds it (naming its pid and command), or the lock file
-    /// cannot be written.
-    pub fn acquire(dir: &Path) -> anyhow::Result<Self> {
+    /// [`LockError::Held`] when another live process holds it (naming its pid and command),
+    /// [`LockError::Io`] when the directory or the lock file cannot be created or written,
+    /// [`LockError::Contended`] when a stale lock, once removed, is replaced again.
+    pub fn acquire(dir: &Path) -> Result<Self, LockError> {
+        let io = |action, path: &Path| {
+            let path = path.to_path_buf();
+            move |source| LockError::Io {
+                action,
+                path,
+                source,
+            }
+        };
+        std::fs::create_dir_all(dir).map_err(io("creating", dir))?;
         let path = dir.join(LOCK_FILE);
         let me = this_process();
         // Twice at most: once more after removing a dead holder's lock.
@@ -75,42 +130,48 @@ impl RunLock {
             match OpenOptions::new().write(true).create_new(true).open(&path) {
                 Ok(mut file) => {
                     writeln!(file, "{}\n{}", me.pid, me.command)
-                        .with_context(|| format!("writing the lock {}", path.display()))?;
-                    return Ok(Self { path });
+                        .map_err(io("writing the lock", &path))?;
+                    return Ok(Self {
+                        dir: dir.to_path_buf(),
+                        path,
+                    });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                     let text = std::fs::read_to_string(&path).unwrap_or_default();
                     match Holder::parse(&text) {
-                        Some(holder) if holder.is_alive() => bail!(
-                            "{} is in use by another fit: process {} (`{}`) holds its lock {}; \
-                             wait for it to finish or choose another --out",
-                            dir.display(),
-                            holder.pid,
-                            holder.command,
-                            path.display()
-                        ),
+                        Some(holder) if holder.is_alive() => {
+                            return Err(LockError::Held {
+                                dir: dir.to_path_buf(),
+                                lock: path,
+                                pid: holder.pid,
+                                command: holder.command,
+                            })
+                        }
                         // A dead holder's lock, or one cut short while being written.
                         _ => match std::fs::remove_file(&path) {
                             Ok(()) => {}
                             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                            Err(e) => {
-                                return Err(e).with_context(|| {
-                                    format!("removing the stale lock {}", path.display())
-                                })
-                            }
+                            Err(e) => return Err(io("removing the stale lock", &path)(e)),
                         },
                     }
                 }
-                Err(e) => {
-                    return Err(e).with_context(|| format!("creating the lock {}", path.display()))
-                }
+                Err(e) => return Err(io("creating the lock", &path)(e)),
             }
         }
-        bail!(
-            "cannot lock {}: another process keeps replacing {}",
-            dir.display(),
-            path.display()
-        )
+        Err(LockError::Contended {
+            dir: dir.to_path_buf(),
+            lock: path,
+        })
+    }
+
+    /// The locked run directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Its lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 }
 
