@@ -255,7 +255,7 @@ mod fits {
 
     /// Fits `model` in `dir` for `steps` steps and returns the summary.
     fn fit(dir: &Path, spec: &ModelSpec, steps: u64) -> slipbayes::fit::FitSummary {
-        use slipbayes::fit::{fit_model, FitSettings};
+        use slipbayes::fit::{fit_model, FitSettings, RunLock};
         use slipbayes::sampler::{Silent, Steps};
         let post = Posterior::new(spec).unwrap();
         let settings = FitSettings {
@@ -269,7 +269,7 @@ mod fits {
         fit_model(
             &post,
             &settings,
-            &dir.join("fit"),
+            &RunLock::acquire(&dir.join("fit")).unwrap(),
             false,
             vec![],
             &mut Silent,
