@@ -137,7 +137,7 @@ pub fn kfold(
             .without(&held_out)
             .map_err(|source| FitError::Fold { fold, source })?;
         let fold_dir = RunDir::new(dir.path().join(KFOLD_DIR).join(format!("fold-{fold}")));
-        let (summary, fold_dir) = fit_fold(&fold_posterior, settings, fold_dir, resume, observer)?;
+        let summary = fit_fold(&fold_posterior, settings, &fold_dir, resume, observer)?;
         if !summary.sampler.converged {
             unconverged_folds.push(fold);
         }
@@ -187,13 +187,13 @@ pub fn kfold(
 fn fit_fold(
     posterior: &Posterior,
     settings: &FitSettings,
-    dir: RunDir,
+    dir: &RunDir,
     resume: bool,
     observer: &mut impl Observer,
-) -> Result<(super::FitSummary, RunDir), FitError> {
+) -> Result<super::FitSummary, FitError> {
     if resume {
         if let Ok(summary) = dir.read_summary() {
-            return Ok((summary, dir));
+            return Ok(summary);
         }
     }
     let continues = resume && dir.chain_files().checkpoint.exists();
@@ -206,11 +206,11 @@ fn fit_fold(
         &summary_spec(posterior),
         posterior.start(),
         &settings,
-        &dir,
+        dir,
         continues,
         observer,
     )?;
-    Ok((outcome.summary, dir))
+    Ok(outcome.summary)
 }
 
 /// ln of the mean of e^v over `values`, without overflow.

@@ -11,7 +11,7 @@ use clap::Args;
 
 use slipbayes::data::write_atomically;
 use slipbayes::diagnostics::{compare, Compared, Loo};
-use slipbayes::fit::RunDir;
+use slipbayes::fit::{FitSummary, RunDir};
 
 /// Compare finished fits of the same data (each `fit --out` directory) by PSIS-LOO: the best
 /// first, how much lower each other model's elpd_loo is (elpd_diff) with the standard error of
@@ -74,12 +74,17 @@ impl Observed {
 
 pub(super) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     let dirs: Vec<RunDir> = args.dirs.iter().map(RunDir::new).collect();
-    let criterion = criterion(&dirs, args.loo)?;
+    let summaries = dirs
+        .iter()
+        .map(RunDir::read_summary)
+        .collect::<Result<Vec<_>, _>>()?;
+    let criterion = criterion(&summaries, args.loo);
     let fits = dirs
         .iter()
-        .map(|dir| match criterion {
-            Criterion::Loo => read_loo(dir),
-            Criterion::KFold(_) => read_kfold(dir),
+        .zip(summaries)
+        .map(|(dir, summary)| match criterion {
+            Criterion::Loo => read_loo(dir, summary),
+            Criterion::KFold(_) => read_kfold(dir, summary),
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
     same_data(&fits)?;
@@ -118,24 +123,20 @@ pub(super) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// K-fold where every fit has it with the same number of folds (and not `--loo`), else LOO.
-fn criterion(dirs: &[RunDir], force_loo: bool) -> anyhow::Result<Criterion> {
-    if force_loo {
-        return Ok(Criterion::Loo);
-    }
-    let folds = dirs
+fn criterion(summaries: &[FitSummary], force_loo: bool) -> Criterion {
+    let folds: Vec<Option<usize>> = summaries
         .iter()
-        .map(|dir| Ok(dir.read_summary()?.kfold.map(|k| k.folds)))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    Ok(match folds[..] {
-        [Some(k), ..] if folds.iter().all(|f| *f == Some(k)) => Criterion::KFold(k),
+        .map(|s| s.kfold.as_ref().map(|k| k.folds))
+        .collect();
+    match folds[..] {
+        [Some(k), ..] if !force_loo && folds.iter().all(|f| *f == Some(k)) => Criterion::KFold(k),
         _ => Criterion::Loo,
-    })
+    }
 }
 
-fn read_kfold(dir: &RunDir) -> anyhow::Result<Fitted> {
+fn read_kfold(dir: &RunDir, summary: FitSummary) -> anyhow::Result<Fitted> {
     let shown = dir.path().display();
-    let kfold = dir
-        .read_summary()?
+    let kfold = summary
         .kfold
         .with_context(|| format!("{shown} has no K-fold result; run slipbayes kfold {shown}"))?;
     let points = dir.read_kfold()?;
@@ -167,9 +168,8 @@ fn forward_model(dir: &RunDir) -> anyhow::Result<String> {
     Ok(model.forward().to_string())
 }
 
-fn read_loo(dir: &RunDir) -> anyhow::Result<Fitted> {
+fn read_loo(dir: &RunDir, summary: FitSummary) -> anyhow::Result<Fitted> {
     let shown = dir.path().display();
-    let summary = dir.read_summary()?;
     let Some(loo) = summary.loo else {
         let why = summary.loo_not_computed.unwrap_or_else(|| {
             "it was fitted by an earlier release; fit it again to compute it".to_owned()

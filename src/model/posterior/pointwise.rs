@@ -15,7 +15,7 @@ use rand_distr::{Distribution, StandardNormal};
 use super::layout::SigmaSource;
 use super::likelihood::LN_SQRT_2PI;
 use super::{Posterior, PosteriorError};
-use crate::density::{LogDensity, LogDensityError};
+use crate::density::LogDensityError;
 use crate::diagnostics::loo::{psis_loo, Loo, LooError};
 use crate::law::{LawError, Scene};
 
@@ -132,7 +132,15 @@ impl Posterior {
         x: &[f64],
     ) -> Result<Vec<Vec<f64>>, PointwiseError> {
         self.pointwise_available()?;
-        if fold.param_names() != self.param_names() {
+        // Called once per draw: compare the coordinates' names in place, without the two
+        // `Vec<String>`s of `param_names`.
+        let same_coords = fold.coords.len() == self.coords.len()
+            && fold
+                .coords
+                .iter()
+                .zip(&self.coords)
+                .all(|(a, b)| a.name == b.name);
+        if !same_coords {
             return Err(PointwiseError::Draw {
                 draw: 0,
                 reason: "the fold's posterior is of another model than the full data's".into(),
