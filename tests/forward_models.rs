@@ -77,6 +77,7 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
             ForwardModel {
                 law: LawKind::LogAging,
                 elastic: true,
+                ..ForwardModel::default()
             },
         ),
         (
@@ -84,6 +85,7 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
             ForwardModel {
                 law: LawKind::AgingRejuvenation,
                 elastic: false,
+                ..ForwardModel::default()
             },
         ),
         (
@@ -91,6 +93,7 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
             ForwardModel {
                 law: LawKind::LogAging,
                 elastic: false,
+                ..ForwardModel::default()
             },
         ),
     ] {
@@ -100,17 +103,18 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
         ForwardModel::default(),
         ForwardModel {
             law: LawKind::AgingRejuvenation,
-            elastic: true
+            elastic: true,
+            state_law: slipbayes::law::StateLaw::Aging,
         }
     );
-    let path = write(d, "bad.toml", &model("\nlaw = \"rate-state\""));
+    let path = write(d, "bad.toml", &model("\nlaw = \"coulomb\""));
     let e = ModelSpec::load(&path).unwrap_err().to_string();
     for needed in [
         "bad.toml",
         "line 2",
         "column 7",
-        "`law = \"rate-state\"`",
-        "\"aging-rejuvenation\", \"log-aging\"",
+        "`law = \"coulomb\"`",
+        "\"aging-rejuvenation\", \"log-aging\", \"rate-state\"",
     ] {
         assert!(e.contains(needed), "`{needed}` missing from: {e}");
     }

@@ -82,6 +82,16 @@ pub enum LawError {
         /// Its value.
         time: f64,
     },
+    /// The rate-and-state forward model could not be integrated at these parameters
+    /// ([`RateStateError::Solver`] or [`RateStateError::Unbounded`]): in a fit, a rejected
+    /// proposal.
+    #[error("rate-and-state: {message}")]
+    RateState {
+        /// Time (s) of the failure.
+        time_s: f64,
+        /// The solver's account and what to check.
+        message: String,
+    },
     /// Output and input slices differ in length.
     #[error("output has {got} elements, expected {expected} (one per time)")]
     LengthMismatch {
@@ -129,26 +139,39 @@ pub enum LawKind {
     /// Its α → 0 limit, pure logarithmic aging F = a ln(τ/t0) (a, t0): no rejuvenation, no
     /// peak.
     LogAging,
+    /// Rate-and-state friction on the spring-slider ([`rate_state`]; a, b, D_c, F_d as F0,
+    /// t0 as the hold age θ(0)): not a law in interface time but an ODE over the whole slide,
+    /// with the state law of the model file's `state_law`.
+    RateState,
 }
 
 impl LawKind {
     /// Every law, in the order the documentation lists them.
-    pub const ALL: [LawKind; 2] = [Self::AgingRejuvenation, Self::LogAging];
+    pub const ALL: [LawKind; 3] = [Self::AgingRejuvenation, Self::LogAging, Self::RateState];
 
     /// The name written in model files.
     pub fn name(self) -> &'static str {
         match self {
             Self::AgingRejuvenation => "aging-rejuvenation",
             Self::LogAging => "log-aging",
+            Self::RateState => "rate-state",
         }
     }
 
-    /// Whether the law can have an interior static-friction peak.
+    /// Whether the law has an interior static-friction peak that the fit reports (F_peak,
+    /// τ_peak, ...). A rate-and-state first slide peaks too, but its peak is a point of an
+    /// ODE solution with no interface time: it is not among the derived quantities.
     pub fn has_peak(self) -> bool {
         match self {
             Self::AgingRejuvenation => true,
-            Self::LogAging => false,
+            Self::LogAging | Self::RateState => false,
         }
+    }
+
+    /// Whether the law is solved in interface time through the elastic correction
+    /// ([`InterfaceLaw`], [`ObservedSlide`]); rate-and-state is an ODE over the slide instead.
+    pub fn in_interface_time(self) -> bool {
+        !matches!(self, Self::RateState)
     }
 }
 

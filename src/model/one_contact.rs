@@ -112,6 +112,8 @@ impl ModelSpec {
                 .into_iter()
                 .collect(),
             law: Default::default(),
+            state_law: None,
+            reference_velocity_m_per_s: None,
             elastic: true,
             aging: Default::default(),
             pooling: PoolingSpec::default(),

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::prior::Prior;
 use crate::data::units::{parse_unit, KNOWN_UNITS};
 use crate::data::{Clock, ColumnMap, Format, ImportOptions, IntervalChoice};
-use crate::law::{LawKind, Scene};
+use crate::law::{LawKind, Scene, StateLaw};
 use crate::sampler::{CarryFit, Mixture, Updates};
 
 /// Errors loading a model file.
@@ -51,13 +51,22 @@ pub enum Param {
     /// Shear-rejuvenation constant α (1/m).
     #[serde(rename = "alpha")]
     Alpha,
-    /// Aging amplitude a (N), or a/F_d when `aging = "ratio"`.
+    /// Aging amplitude a (N), or a/F_d when `aging = "ratio"`; under rate-and-state the
+    /// direct-effect amplitude a (N).
     #[serde(rename = "a")]
     A,
-    /// Steady-state friction F_d (N).
+    /// Rate-and-state evolution-effect amplitude b (N).
+    #[serde(rename = "b")]
+    B,
+    /// Rate-and-state critical slip distance D_c (m).
+    #[serde(rename = "D_c")]
+    Dc,
+    /// Steady-state friction F_d (N); under rate-and-state F0, the steady force at the
+    /// reference velocity.
     #[serde(rename = "F_d")]
     FD,
-    /// Short-time cut-off t0 (s).
+    /// Short-time cut-off t0 (s); under rate-and-state the contact's age θ(0) at the start
+    /// of a first slide.
     #[serde(rename = "t0")]
     T0,
     /// Machine stiffness k (N/m).
@@ -70,9 +79,11 @@ pub enum Param {
 
 impl Param {
     /// All parameters, in reporting order.
-    pub const ALL: [Param; 6] = [
+    pub const ALL: [Param; 8] = [
         Self::Alpha,
         Self::A,
+        Self::B,
+        Self::Dc,
         Self::FD,
         Self::T0,
         Self::K,
@@ -84,6 +95,8 @@ impl Param {
         match self {
             Self::Alpha => "alpha",
             Self::A => "a",
+            Self::B => "b",
+            Self::Dc => "D_c",
             Self::FD => "F_d",
             Self::T0 => "t0",
             Self::K => "k",
@@ -95,7 +108,8 @@ impl Param {
     pub fn unit(self) -> &'static str {
         match self {
             Self::Alpha => "1/m",
-            Self::A | Self::FD | Self::Sigma => "N",
+            Self::A | Self::B | Self::FD | Self::Sigma => "N",
+            Self::Dc => "m",
             Self::T0 => "s",
             Self::K => "N/m",
         }
@@ -104,23 +118,26 @@ impl Param {
     /// The default level (docs/model.md §5), used when the model file says nothing.
     pub fn default_level(self) -> Level {
         match self {
-            Self::Alpha | Self::A => Level::Material,
+            Self::Alpha | Self::A | Self::B | Self::Dc => Level::Material,
             Self::FD | Self::K => Level::Contact,
             Self::T0 | Self::Sigma => Level::Run,
         }
     }
 }
 
-/// The forward model of a fit: the law its first and fast slides follow (`law`) and whether
-/// the machine's spring is modelled (`elastic`). It decides which parameters each run uses,
-/// and so which are sampled and reported ("model only what a scene needs").
+/// The forward model of a fit: the law its first and fast slides follow (`law`, with
+/// `state_law` under rate-and-state) and whether the machine's spring is modelled
+/// (`elastic`). It decides which parameters each run uses, and so which are sampled and
+/// reported ("model only what a scene needs").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ForwardModel {
-    /// The law in interface time.
+    /// The law in interface time, or rate-and-state friction.
     pub law: LawKind,
     /// `false`: the machine is rigid (k → ∞), τ = t on every slide and a repeat slide is
     /// F = F_end from its start.
     pub elastic: bool,
+    /// The state law under `law = "rate-state"` (ignored under the other laws).
+    pub state_law: StateLaw,
 }
 
 impl Default for ForwardModel {
@@ -129,6 +146,7 @@ impl Default for ForwardModel {
         Self {
             law: LawKind::default(),
             elastic: true,
+            state_law: StateLaw::default(),
         }
     }
 }
@@ -139,32 +157,45 @@ impl ForwardModel {
         match self.law {
             LawKind::AgingRejuvenation => &[Param::Alpha, Param::A, Param::FD, Param::T0],
             LawKind::LogAging => &[Param::A, Param::T0],
+            LawKind::RateState => &[Param::A, Param::B, Param::Dc, Param::FD, Param::T0],
         }
     }
 
-    /// Whether a run of `scene` uses parameter `p`. A repeat slide needs no law, only the
-    /// force it slides at: F_end of the slide it follows (`follows_slide`), else F_d; it
-    /// keeps F_d whenever the law has F_d, so that a contact's F_d is one parameter.
+    /// Whether a run of `scene` uses parameter `p`. Under a law in interface time a repeat
+    /// slide needs no law, only the force it slides at: F_end of the slide it follows
+    /// (`follows_slide`), else F_d; it keeps F_d whenever the law has F_d, so that a
+    /// contact's F_d is one parameter. Under rate-and-state a repeat slide is a slide of the
+    /// same law from the state steady sliding left (docs/model.md §10): every parameter of
+    /// the law but the hold age t0.
     pub fn uses(self, p: Param, scene: Scene, follows_slide: bool) -> bool {
         let in_law = self.law_params().contains(&p);
         match p {
             Param::Sigma => true,
             Param::K => self.elastic && scene != Scene::StiffFast,
+            Param::T0 if scene == Scene::Repeat => false,
+            _ if scene == Scene::Repeat && self.law == LawKind::RateState => in_law,
             Param::FD if scene == Scene::Repeat => in_law || !follows_slide,
             _ => scene != Scene::Repeat && in_law,
         }
     }
 
-    /// Whether `a` is sampled as a/F_d: under `aging = "ratio"`, when the law has F_d.
+    /// Whether `a` is sampled as a/F_d: under `aging = "ratio"`, when a is the aging
+    /// amplitude of a law with F_d (not rate-and-state's direct effect, sampled in newtons).
     pub fn aging_ratio(self, aging: Aging) -> bool {
-        aging == Aging::Ratio && self.law_params().contains(&Param::FD)
+        aging == Aging::Ratio
+            && self.law != LawKind::RateState
+            && self.law_params().contains(&Param::FD)
     }
 }
 
 impl std::fmt::Display for ForwardModel {
-    /// The law as model files name it, and `, rigid` when the spring is not modelled.
+    /// The law as model files name it (with its state law under rate-and-state), and
+    /// `, rigid` when the spring is not modelled.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.law.name())?;
+        if self.law == LawKind::RateState {
+            write!(f, " ({} law)", self.state_law)?;
+        }
         if !self.elastic {
             f.write_str(", rigid")?;
         }
@@ -377,7 +408,7 @@ impl PoolingSpec {
             Param::FD => self.f_d,
             Param::K => self.k,
             Param::A => self.a,
-            Param::Alpha | Param::Sigma => false,
+            Param::Alpha | Param::B | Param::Dc | Param::Sigma => false,
         }
     }
 
@@ -530,6 +561,14 @@ pub struct ModelFile {
     /// law).
     #[serde(default, skip_serializing_if = "is_default_law")]
     pub law: LawKind,
+    /// Under `law = "rate-state"`: how the state evolves (`"aging"`, the default, or
+    /// `"slip"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_law: Option<StateLaw>,
+    /// Under `law = "rate-state"`: the reference velocity V0 (m/s) at which F_d is the steady
+    /// force F0; by default each run's own driving velocity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_velocity_m_per_s: Option<f64>,
     /// Whether the machine's spring is modelled (`elastic = false`: k → ∞, k not sampled).
     #[serde(
         default = "elastic_default",
@@ -572,8 +611,12 @@ pub fn default_prior(name: &str) -> Option<Prior> {
     match name {
         // 1/m: rejuvenation over 1 nm to 1 mm of sliding.
         "alpha" => lu(1e3, 1e9),
-        // N: aging amplitude from 1 µN to 10 N.
+        // N: aging amplitude (rate-and-state: direct effect) from 1 µN to 10 N.
         "a" => lu(1e-6, 10.0),
+        // N: rate-and-state evolution effect, as a.
+        "b" => lu(1e-6, 10.0),
+        // m: rate-and-state critical slip distance from 1 pm to 1 mm.
+        "D_c" => lu(1e-12, 1e-3),
         // a/F_d from 1e-3 to 100.
         "a_over_F_d" => lu(1e-3, 1e2),
         // N: dynamic friction from 1 µN to 10 N.
@@ -611,9 +654,11 @@ pub fn default_prior(name: &str) -> Option<Prior> {
 }
 
 /// Names a model file may give priors for.
-pub const PRIOR_NAMES: [&str; 17] = [
+pub const PRIOR_NAMES: [&str; 19] = [
     "alpha",
     "a",
+    "b",
+    "D_c",
     "a_over_F_d",
     "F_d",
     "t0",
@@ -818,6 +863,7 @@ impl ModelSpec {
                 ));
             }
         }
+        validate_rate_state(&file).map_err(|(k, m)| invalid(k, m))?;
         for p in [Param::T0, Param::FD, Param::K, Param::A] {
             let level = file.levels.get(&p).copied().unwrap_or(p.default_level());
             if file.pooling.pools(p) && level == Level::Material {
@@ -875,6 +921,7 @@ impl ModelSpec {
         ForwardModel {
             law: self.file.law,
             elastic: self.file.elastic,
+            state_law: self.file.state_law.unwrap_or_default(),
         }
     }
 
@@ -950,6 +997,57 @@ impl ModelSpec {
     pub fn data_path(&self, run: usize) -> PathBuf {
         self.base_dir.join(&self.file.runs[run].data)
     }
+}
+
+/// Checks the keys of rate-and-state friction: used only under `law = "rate-state"`, which
+/// needs the machine's spring (its k is the spring of the spring-slider) on every run.
+fn validate_rate_state(file: &ModelFile) -> Result<(), (String, String)> {
+    let rate_state = file.law == LawKind::RateState;
+    if !rate_state {
+        for (key, given) in [
+            ("state_law", file.state_law.is_some()),
+            (
+                "reference_velocity_m_per_s",
+                file.reference_velocity_m_per_s.is_some(),
+            ),
+        ] {
+            if given {
+                return Err((
+                    key.into(),
+                    format!(
+                        "only rate-and-state friction has a {key}: add `law = \"rate-state\"` \
+                         or remove the key"
+                    ),
+                ));
+            }
+        }
+        return Ok(());
+    }
+    if let Some(v) = file.reference_velocity_m_per_s {
+        if !(v.is_finite() && v > 0.0) {
+            return Err((
+                "reference_velocity_m_per_s".into(),
+                format!("{v} must be a velocity > 0 in m/s (or remove it: each run's own)"),
+            ));
+        }
+    }
+    if !file.elastic {
+        return Err((
+            "elastic".into(),
+            "rate-and-state friction is solved on the spring-slider, whose spring is the \
+             machine's stiffness k: remove `elastic = false`"
+                .into(),
+        ));
+    }
+    if let Some(i) = file.runs.iter().position(|r| r.scene == Scene::StiffFast) {
+        return Err((
+            format!("run[{i}].scene"),
+            "under rate-and-state every slide is solved through the machine's spring: write \
+             `scene = \"first\"` for a fast first slide"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Checks a run's import settings; the error names the key below `run[i]`.

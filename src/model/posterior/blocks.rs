@@ -40,7 +40,9 @@ pub(super) struct Block {
 impl RunModel {
     /// Every coordinate this run's term reads.
     pub(super) fn coords_read(&self) -> Vec<usize> {
-        let mut out: Vec<usize> = [self.alpha, self.a, self.f_d, self.t0, self.k]
+        let mut out: Vec<usize> = [
+            self.alpha, self.a, self.b, self.d_c, self.f_d, self.t0, self.k,
+        ]
             .into_iter()
             .flatten()
             .collect();

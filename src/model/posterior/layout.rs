@@ -353,8 +353,8 @@ impl<'a> Builder<'a> {
     }
 
     /// Run `i` with its data: the coordinates of the parameters its scene uses under the
-    /// model's forward model, in the order α, a, F_d, t0, k, σ ("model only what a scene
-    /// needs").
+    /// model's forward model, in the order α, a, b, D_c, F_d, t0, k, σ ("model only what a
+    /// scene needs").
     fn run(&mut self, i: usize, data: RunData) -> RunModel {
         let spec = self.spec;
         let run = &spec.file.runs[i];
@@ -362,6 +362,8 @@ impl<'a> Builder<'a> {
         let uses = |p: Param| spec.uses(p, i);
         let alpha = uses(Param::Alpha).then(|| self.shared(Param::Alpha, i));
         let a = uses(Param::A).then(|| self.shared(Param::A, i));
+        let b = uses(Param::B).then(|| self.shared(Param::B, i));
+        let d_c = uses(Param::Dc).then(|| self.shared(Param::Dc, i));
         let f_d = uses(Param::FD).then(|| self.shared(Param::FD, i));
         let t0 = uses(Param::T0).then(|| self.shared(Param::T0, i));
         let k = uses(Param::K).then(|| self.shared(Param::K, i));
@@ -380,6 +382,10 @@ impl<'a> Builder<'a> {
             alpha,
             a,
             ratio: self.ratio,
+            b,
+            d_c,
+            state_law: spec.forward().state_law,
+            reference_velocity: spec.file.reference_velocity_m_per_s,
             f_d,
             t0,
             k,

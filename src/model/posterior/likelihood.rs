@@ -5,13 +5,19 @@
 //!
 //! A repeat slide loads elastically up to F_end, the force where the slide it follows stopped
 //! (its model force at its last recorded time), or F_d when it follows none.
+//!
+//! Under rate-and-state friction every slide, first or repeat, is the spring-slider's ODE
+//! solved over the whole slide at the run's times (`RunModel::spring_slider`); a proposal at
+//! which it cannot be solved is rejected under [`REJECT_RATE_STATE`].
 
 use super::layout::SigmaSource;
 use super::sigma::marginal_sigma_log_likelihood;
 use super::Posterior;
 use crate::density::LogDensityError;
+use crate::law::rate_state::LIKELIHOOD_TOLERANCE;
 use crate::law::{
-    Elastic, InterfaceLaw, Law, LawError, LawKind, LogAging, ObservedSlide, RepeatSlide, Scene,
+    Elastic, InitialState, InterfaceLaw, Law, LawError, LawKind, LogAging, ObservedSlide,
+    RateStateParams, RepeatSlide, Scene, SpringSlider, StateLaw,
 };
 use crate::model::data::RunData;
 use crate::model::sufficient::Reduction;
@@ -28,6 +34,9 @@ pub const REJECT_STICK_SLIP: &str = "stick_slip";
 pub const REJECT_PRIOR: &str = "outside_prior";
 /// Rejection label: the law cannot be evaluated at these parameters (e.g. αv·t0 underflows).
 pub const REJECT_LAW: &str = "law_invalid";
+/// Rejection label: the rate-and-state slide cannot be integrated (its solver gave up, or the
+/// slip velocity ran away: an unstable, stick-slipping slide).
+pub const REJECT_RATE_STATE: &str = "rate_state_unsolvable";
 
 /// A run with its data and the coordinates of its parameters.
 #[derive(Debug, Clone)]
@@ -43,6 +52,13 @@ pub(super) struct RunModel {
     /// Coordinate of ln a (or of ln a/F_d when `ratio`).
     pub a: Option<usize>,
     pub ratio: bool,
+    /// Coordinates of ln b and ln D_c (rate-and-state).
+    pub b: Option<usize>,
+    pub d_c: Option<usize>,
+    /// The state law under rate-and-state.
+    pub state_law: StateLaw,
+    /// The reference velocity V0 of rate-and-state (`None`: the run's velocity).
+    pub reference_velocity: Option<f64>,
     /// Coordinate of ln F_d (`None` when neither the law nor the repeat slide needs it).
     pub f_d: Option<usize>,
     pub t0: Option<usize>,
@@ -81,7 +97,58 @@ impl RunModel {
                 Law::from_rate(alpha * self.velocity, a, f_d, t0)?.into()
             }
             LawKind::LogAging => LogAging::new(a, t0)?.into(),
+            LawKind::RateState => {
+                return Err(LawError::InvalidParameter {
+                    name: "law",
+                    value: f64::NAN,
+                    expected: "a law in interface time (rate-and-state is a spring_slider)",
+                })
+            }
         })
+    }
+
+    /// The rate-and-state slide of this run at `x`: a first slide starts unloaded from the
+    /// hold age θ(0) = t0; a repeat slide starts unloaded from the state steady sliding at
+    /// the run's velocity left, θ(0) = D_c/v (the interface does not re-age between the two
+    /// slides, docs/model.md §4). F_d is F0, the steady force at the reference velocity.
+    ///
+    /// # Errors
+    /// [`LawError::InvalidParameter`] naming the parameter out of its domain.
+    pub fn spring_slider(&self, x: &[f64]) -> Result<SpringSlider, LawError> {
+        let value = |c: Option<usize>| c.map_or(f64::NAN, |i| x[i].exp());
+        let params =
+            RateStateParams::new(value(self.a), value(self.b), value(self.d_c), value(self.f_d))?;
+        let initial = match self.scene {
+            Scene::Repeat => InitialState::Hold {
+                hold_s: params.dc_m / self.velocity,
+            },
+            Scene::First | Scene::StiffFast => InitialState::Hold {
+                hold_s: value(self.t0),
+            },
+        };
+        let slider = SpringSlider::new(params, self.state_law, value(self.k), self.velocity, initial)?
+            .with_tolerance(LIKELIHOOD_TOLERANCE)?;
+        match self.reference_velocity {
+            Some(v0) => slider.with_reference_velocity(v0),
+            None => Ok(slider),
+        }
+    }
+
+    /// Visits (index, force) of the rate-and-state slide at `x` at each of `times`: zero
+    /// before driving starts (t < 0), the spring-slider's force from t = 0.
+    fn visit_rate_state(
+        &self,
+        x: &[f64],
+        times: &[f64],
+        mut visit: impl FnMut(usize, f64),
+    ) -> Result<(), LawError> {
+        let slider = self.spring_slider(x)?;
+        let driven = times.partition_point(|&t| t < 0.0);
+        for i in 0..driven {
+            visit(i, 0.0);
+        }
+        slider.for_each_state(&times[driven..], |i, state| visit(driven + i, state.force_n))?;
+        Ok(())
     }
 
     /// The machine's elasticity for this run at `x` (none for a slide declared stiff, or
@@ -99,19 +166,34 @@ impl RunModel {
         &self,
         x: &[f64],
         f_end: Option<f64>,
+        visit: impl FnMut(usize, f64),
+    ) -> Result<(), LawError> {
+        self.visit_forces_at(x, f_end, &self.data.model_times, visit)
+    }
+
+    /// Visits (index, force) of the model at each of `times` (increasing); `f_end` as for
+    /// [`visit_forces`](Self::visit_forces).
+    pub fn visit_forces_at(
+        &self,
+        x: &[f64],
+        f_end: Option<f64>,
+        times: &[f64],
         mut visit: impl FnMut(usize, f64),
     ) -> Result<(), LawError> {
+        if self.law == LawKind::RateState {
+            return self.visit_rate_state(x, times, visit);
+        }
         match self.scene {
             Scene::Repeat => {
                 let slide = self.repeat_slide(x, f_end)?;
-                for (i, &t) in self.data.model_times.iter().enumerate() {
+                for (i, &t) in times.iter().enumerate() {
                     visit(i, slide.force(t));
                 }
                 Ok(())
             }
             Scene::First | Scene::StiffFast => {
                 let slide = ObservedSlide::new(self.law(x)?, self.elastic(x)?);
-                slide.for_each_force(&self.data.model_times, |i, _, f| visit(i, f))
+                slide.for_each_force(times, |i, _, f| visit(i, f))
             }
         }
     }
@@ -182,6 +264,10 @@ impl RunModel {
 
     /// Instrument times where this run's model at `x` has a kink (NaN: none).
     pub fn kinks(&self, x: &[f64], f_end: Option<f64>) -> Result<[f64; 2], LawError> {
+        if self.law == LawKind::RateState {
+            // The spring starts to load at t = 0; the ODE's solution is smooth after it.
+            return Ok([0.0, f64::NAN]);
+        }
         match self.scene {
             Scene::Repeat => Ok(repeat_kinks(&self.repeat_slide(x, f_end)?)),
             Scene::First | Scene::StiffFast => Ok(slide_kinks(&ObservedSlide::new(
@@ -213,6 +299,7 @@ fn repeat_kinks(slide: &RepeatSlide) -> [f64; 2] {
 pub(super) fn law_rejection(e: LawError) -> LogDensityError {
     match e {
         LawError::StickSlip { .. } => LogDensityError::rejected(REJECT_STICK_SLIP),
+        LawError::RateState { .. } => LogDensityError::rejected(REJECT_RATE_STATE),
         _ => LogDensityError::rejected(REJECT_LAW),
     }
 }
@@ -278,7 +365,6 @@ impl Posterior {
         for &i in &self.order {
             let r = &self.runs[i];
             if r.scene == Scene::First {
-                let slide = ObservedSlide::new(r.law(x)?, r.elastic(x)?);
                 let mut last = 0.0;
                 // A reduced run's F_end alone (its record may hold 10⁶ points); a short run
                 // is solved along all its times, as its likelihood solves it.
@@ -286,7 +372,7 @@ impl Posterior {
                     Some(_) => &r.data.model_times[r.data.model_times.len() - 1..],
                     None => &r.data.model_times[..],
                 };
-                slide.for_each_force(times, |_, _, f| last = f)?;
+                r.visit_forces_at(x, None, times, |_, f| last = f)?;
                 f_end[i] = Some(last);
             }
         }

@@ -66,6 +66,9 @@ impl Posterior {
             .reduction_tolerances(&points)
             .into_iter()
             .enumerate()
+            // A rate-and-state slide is an ODE solved over the whole record, whose cost does
+            // not fall with fewer evaluation times as a closed form's does: it stays exact.
+            .filter(|&(i, _)| self.runs[i].law.in_interface_time())
             .filter_map(|(i, tolerance)| tolerance.map(|t| (i, t)))
             .collect();
         if long.is_empty() {

@@ -42,7 +42,7 @@ use super::spec::{Blocking, ModelSpec, PopulationUpdates};
 use crate::density::{BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap};
 use crate::law::Scene;
 
-pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_STICK_SLIP};
+pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_RATE_STATE, REJECT_STICK_SLIP};
 pub use pointwise::{ModelLoo, PointwiseError};
 pub use predictive::Band;
 pub use prior_predictive::{PriorDraw, PriorDrawError};

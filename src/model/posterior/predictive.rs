@@ -76,29 +76,21 @@ impl Posterior {
             .copied()
             .collect();
         let mut out = Vec::with_capacity(times.len());
-        match r.scene {
-            Scene::Repeat => {
-                let slide = r.repeat_slide(x, r.follows.and_then(|j| f_end[j]))?;
-                out.extend(times.iter().map(|&t| slide.force(t)));
-            }
-            Scene::First | Scene::StiffFast => {
-                ObservedSlide::new(r.law(x)?, r.elastic(x)?)
-                    .for_each_force(&times, |_, _, f| out.push(f))?;
-            }
-        }
+        r.visit_forces_at(x, r.follows.and_then(|j| f_end[j]), &times, |_, f| out.push(f))?;
         Ok(out)
     }
 
     /// The first or fast slide of run `run` at the sampler coordinates `x`: its law in
     /// interface time and the machine's elasticity, so that a report can redraw curves the
     /// data do not sample (interface time, sliding distance, the peak against t0). `None` for
-    /// a repeat slide, which has no law of its own.
+    /// a repeat slide, which has no law of its own, and under rate-and-state, which has no
+    /// law in interface time.
     ///
     /// # Errors
     /// A law error (invalid parameters) at `x`.
     pub fn run_slide(&self, x: &[f64], run: usize) -> Result<Option<ObservedSlide>, LawError> {
         let r = &self.runs[run];
-        if r.scene == Scene::Repeat {
+        if r.scene == Scene::Repeat || !r.law.in_interface_time() {
             return Ok(None);
         }
         Ok(Some(ObservedSlide::new(r.law(x)?, r.elastic(x)?)))

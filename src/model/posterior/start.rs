@@ -1,6 +1,8 @@
 //! The start of the optimiser that places the walkers: rough features of each run's data
 //! (the loading slope and plateau of repeat slides), then every first or fast slide fitted on
 //! its own by least squares, the results combined over the runs that share a parameter.
+//! Under rate-and-state a first slide alone is fitted from the features of its peak
+//! (`Posterior::fit_rate_state_alone`).
 
 use std::borrow::Cow;
 
@@ -34,6 +36,9 @@ struct RunAlone {
     t0: f64,
     f_d: f64,
     k: Option<f64>,
+    /// Rate-and-state b and D_c (NaN under the other laws).
+    b: f64,
+    d_c: f64,
 }
 
 impl Posterior {
@@ -77,7 +82,10 @@ impl Posterior {
             .collect();
         let fits: Vec<RunAlone> = slides
             .par_iter()
-            .map(|r| self.fit_run_alone(r, k_known[r.contact]))
+            .map(|r| match r.law {
+                LawKind::RateState => self.fit_rate_state_alone(r, k_known[r.contact]),
+                _ => self.fit_run_alone(r, k_known[r.contact]),
+            })
             .collect();
         for (r, fitted) in slides.into_iter().zip(fits) {
             vote_sigma(&mut votes, r, fitted.sigma);
@@ -101,6 +109,12 @@ impl Posterior {
             }
             if let Some(i) = r.t0 {
                 votes[i].push(fitted.t0);
+            }
+            if let Some(i) = r.b {
+                votes[i].push(fitted.b);
+            }
+            if let Some(i) = r.d_c {
+                votes[i].push(fitted.d_c);
             }
         }
         // Natural-scale values from the centre of each coordinate's log estimates.
@@ -305,6 +319,7 @@ impl Posterior {
                     Law::from_rate(alpha * r.velocity, ratio * f_d, f_d, t0).map(Into::into)
                 }
                 LawKind::LogAging => LogAging::new(ratio * f_d, t0).map(Into::into),
+                LawKind::RateState => return f64::INFINITY,
             };
             let Ok(law) = law else {
                 return f64::INFINITY;
@@ -364,6 +379,107 @@ impl Posterior {
             t0: get(2),
             f_d: get(3),
             k: if free_k { Some(get(4)) } else { None },
+            b: f64::NAN,
+            d_c: f64::NAN,
+        }
+    }
+
+    /// Least squares of one rate-and-state first slide alone, σ profiled out, with k fixed
+    /// when a repeat slide gave it. The start reads the slide's features: F0 is the late
+    /// level, k the slope of the elastic loading, D_c the slip over which the force falls
+    /// halfway from its peak to the late level; at the peak V = v, so the excess of the peak
+    /// over F0 is b ln(v θ_peak/D_c) with θ_peak ≈ θ(0) + t_peak. From a few hold ages θ(0)
+    /// (a tenth, once and ten times t_peak), each with the b that gives the excess.
+    fn fit_rate_state_alone(&self, r: &RunModel, k_known: Option<f64>) -> RunAlone {
+        let d = &r.data;
+        let v = r.velocity;
+        let late = d.late_level();
+        let n = d.n_obs;
+        let times = &d.model_times[..n];
+        let force = &d.force[..n];
+        let t_end = times[n - 1].max(f64::MIN_POSITIVE);
+        let k0 = k_known.unwrap_or(d.initial_slope() / v);
+        let free_k = k_known.is_none();
+        let (i_peak, &peak) = force
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap_or((0, &late));
+        let t_peak = times[i_peak].max(t_end / n as f64);
+        let excess = (peak - late).max(0.01 * late.abs()).max(f64::MIN_POSITIVE);
+        let t_half = times[i_peak..]
+            .iter()
+            .zip(&force[i_peak..])
+            .find(|(_, &f)| f - late < 0.5 * excess)
+            .map_or(t_end, |(&t, _)| t);
+        let d_c0 = (v * (t_half - t_peak)).max(v * t_end / (10.0 * n as f64));
+        let picked = subsample(n);
+        let fit_times: Vec<f64> = match &picked {
+            Some(p) => p.iter().map(|&j| times[j]).collect(),
+            None => times.to_vec(),
+        };
+        let n_fitted = fit_times.len();
+        let mut scratch = r.clone();
+        // The coordinates of the copy: [ln a, ln b, ln D_c, ln F0, ln t0, ln k].
+        scratch.a = Some(0);
+        scratch.b = Some(1);
+        scratch.d_c = Some(2);
+        scratch.f_d = Some(3);
+        scratch.t0 = Some(4);
+        scratch.k = Some(5);
+        scratch.scene = Scene::First;
+        let ssr = |p: &[f64]| -> f64 {
+            let mut x = p.to_vec();
+            if !free_k {
+                x.push(k0.ln());
+            }
+            let mut sum = 0.0;
+            let ok = scratch.visit_forces_at(&x, None, &fit_times, |m, f| {
+                let j = picked.as_ref().map_or(m, |p| p[m]);
+                sum += (force[j] - f).powi(2);
+            });
+            if ok.is_err() || !sum.is_finite() {
+                f64::INFINITY
+            } else {
+                sum.ln()
+            }
+        };
+        let options = NelderMeadOptions {
+            initial_step: 0.05,
+            max_evals: 600,
+            restarts: 1,
+            ..NelderMeadOptions::default()
+        };
+        let mut best: Option<(Vec<f64>, f64)> = None;
+        for hold_per_peak in [0.1, 1.0, 10.0] {
+            let t0 = hold_per_peak * t_peak;
+            let b = excess / (v * (t0 + t_peak) / d_c0).ln().max(1.0);
+            let mut p = vec![
+                (0.5 * b).ln(),
+                b.ln(),
+                d_c0.ln(),
+                late.max(f64::MIN_POSITIVE).ln(),
+                t0.ln(),
+            ];
+            if free_k {
+                p.push(k0.ln());
+            }
+            let (x, f, _) = nelder_mead(&ssr, &p, &options);
+            if best.as_ref().is_none_or(|(_, fb)| f < *fb) {
+                best = Some((x, f));
+            }
+        }
+        let (x, ln_ssr) = best.unwrap_or_default();
+        let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
+        RunAlone {
+            sigma: (ln_ssr.exp() / n_fitted as f64).sqrt(),
+            alpha: f64::NAN,
+            ratio: get(0) / get(3),
+            t0: get(4),
+            f_d: get(3),
+            k: free_k.then(|| get(5)),
+            b: get(1),
+            d_c: get(2),
         }
     }
 }
