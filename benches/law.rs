@@ -7,6 +7,7 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use slipbayes::law::rate_state::{DEFAULT_TOLERANCE, LIKELIHOOD_TOLERANCE};
 use slipbayes::law::{
     Elastic, InitialState, Law, LawParams, ObservedSlide, RateStateParams, Simd, SpringSlider,
     StateLaw,
@@ -26,7 +27,7 @@ fn slow_first_slide() -> (ObservedSlide, Vec<f64>) {
 }
 
 /// A rate-and-state slide on the same times and machine: 1 nm/s, k = 1.2e4 N/m, a 10^4 s hold
-/// (θ0 = 10 θ_ss with D_c = 1 µm, so a peak), slip 25 D_c, at the default tolerance.
+/// (θ0 = 10 θ_ss with D_c = 1 µm, so a peak), slip 25 D_c.
 fn rate_state_slide(law: StateLaw) -> SpringSlider {
     let params = RateStateParams::new(1e-3, 1.2e-3, 1e-6, 10e-3).expect("valid parameters");
     SpringSlider::new(params, law, 1.2e4, 1e-9, InitialState::Hold { hold_s: 1e4 })
@@ -90,11 +91,21 @@ fn per_point(c: &mut Criterion) {
             last
         })
     });
-    for (name, state_law) in [
-        ("rate_state_aging", StateLaw::Aging),
-        ("rate_state_slip", StateLaw::Slip),
+    // At the default tolerance (the reference's), and at the looser one a fit's likelihood
+    // solves its slides to.
+    for (name, state_law, tolerance) in [
+        ("rate_state_aging", StateLaw::Aging, DEFAULT_TOLERANCE),
+        ("rate_state_slip", StateLaw::Slip, DEFAULT_TOLERANCE),
+        (
+            "rate_state_aging_fit",
+            StateLaw::Aging,
+            LIKELIHOOD_TOLERANCE,
+        ),
+        ("rate_state_slip_fit", StateLaw::Slip, LIKELIHOOD_TOLERANCE),
     ] {
-        let rate_state = rate_state_slide(state_law);
+        let rate_state = rate_state_slide(state_law)
+            .with_tolerance(tolerance)
+            .expect("valid tolerance");
         group.bench_function(name, |b| {
             b.iter(|| {
                 rate_state

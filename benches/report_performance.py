@@ -19,6 +19,8 @@ rows = [
     ("observed_model_serial", "observed-time model, serial reference solve", None),
     ("rate_state_aging", "rate-and-state spring-slider, aging law (Radau5, tol 1e-13)", None),
     ("rate_state_slip", "rate-and-state spring-slider, slip law (Radau5, tol 1e-13)", None),
+    ("rate_state_aging_fit", "rate-and-state as a fit's likelihood solves it, aging law (tol 1e-7)", None),
+    ("rate_state_slip_fit", "rate-and-state as a fit's likelihood solves it, slip law (tol 1e-7)", None),
 ]
 # Per instruction set the machine has (criterion leaves the others out).
 for simd in ("avx512", "avx2", "baseline"):

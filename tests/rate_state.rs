@@ -7,10 +7,10 @@
 //! variables (F, ln θ), each observation time an end point of its own integration.
 
 use serde_json::Value;
+use slipbayes::law::rate_state::LIKELIHOOD_TOLERANCE;
 use slipbayes::law::{
     InitialState, LawError, RateStateError, RateStateParams, SliderState, SpringSlider, StateLaw,
 };
-use slipbayes::law::rate_state::LIKELIHOOD_TOLERANCE;
 use slipbayes::prec::{RATE_STATE_LIKELIHOOD_REL_TOL, RATE_STATE_REL_TOL};
 
 fn reference() -> Value {

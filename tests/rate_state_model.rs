@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::law::rate_state::LIKELIHOOD_TOLERANCE;
 use slipbayes::law::{InitialState, LawKind, RateStateParams, SpringSlider, StateLaw};
-use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::posterior::REJECT_RATE_STATE;
+use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, Posterior};
 
 /// A slow first slide with a peak and an undershoot under the slip law (docs/model.md §10).
@@ -112,7 +112,10 @@ fn rate_state_keys_parse_and_refuse_what_does_not_apply_by_name() {
     let d = dir.path();
     for (head, state_law) in [
         ("law = \"rate-state\"", StateLaw::Aging),
-        ("law = \"rate-state\"\nstate_law = \"aging\"", StateLaw::Aging),
+        (
+            "law = \"rate-state\"\nstate_law = \"aging\"",
+            StateLaw::Aging,
+        ),
         ("law = \"rate-state\"\nstate_law = \"slip\"", StateLaw::Slip),
     ] {
         let expected = ForwardModel {
@@ -154,12 +157,15 @@ fn rate_state_keys_parse_and_refuse_what_does_not_apply_by_name() {
     );
     let e = error("law = \"rate-state\"\nelastic = false");
     assert!(e.contains(": elastic:") && e.contains("spring"), "{e}");
-    let stiff = model("law = \"rate-state\"").replace("scene = \"first\"", "scene = \"stiff-fast\"");
+    let stiff =
+        model("law = \"rate-state\"").replace("scene = \"first\"", "scene = \"stiff-fast\"");
     let e = ModelSpec::load(&write(d, "bad.toml", &stiff))
         .unwrap_err()
         .to_string();
     assert!(e.contains(": run[0].scene:"), "{e}");
-    let e = error("law = \"rate-state\"\n[priors]\nD_c = { dist = \"log-uniform\", low = 0.0, high = 1e-3 }");
+    let e = error(
+        "law = \"rate-state\"\n[priors]\nD_c = { dist = \"log-uniform\", low = 0.0, high = 1e-3 }",
+    );
     assert!(e.contains("priors.D_c"), "{e}");
 }
 
@@ -190,6 +196,20 @@ fn rate_state_samples_its_own_parameters() {
             .any(|n| n.contains("peak") || n.contains("alpha")),
         "{derived:?}"
     );
+    // Levels and priors of the new parameters are set as the others'.
+    let text = model(
+        "law = \"rate-state\"\n[priors]\nD_c = { dist = \"log-normal\", median = 1e-6, sd_log = 2.0 }",
+    )
+    .replace("a = \"contact\"", "a = \"contact\"\nb = \"contact\"");
+    let spec = ModelSpec::load(&write(d, "levels.toml", &text)).unwrap();
+    let post = Posterior::new(&spec).unwrap();
+    assert!(post.param_names().contains(&"ln_b[c]".to_owned()));
+    let priors = post.prior_descriptions();
+    let d_c = priors
+        .iter()
+        .find(|(n, _)| n.starts_with("ln_D_c"))
+        .unwrap();
+    assert!(d_c.1.contains("log-normal(median 1e-6"), "{d_c:?}");
 }
 
 /// The likelihood's forces of both runs at a point are the spring-slider's, solved directly
@@ -230,7 +250,13 @@ fn likelihood_forces_are_the_spring_sliders() {
         let mut log_likelihood = 0.0;
         for (run, initial, file) in [
             (0, InitialState::Hold { hold_s: t0 }, "first.csv"),
-            (1, InitialState::Hold { hold_s: d_c / VELOCITY }, "repeat.csv"),
+            (
+                1,
+                InitialState::Hold {
+                    hold_s: d_c / VELOCITY,
+                },
+                "repeat.csv",
+            ),
         ] {
             let data = std::fs::read_to_string(d.join(file)).unwrap();
             let (t, observed): (Vec<f64>, Vec<f64>) = data

@@ -43,9 +43,9 @@ impl RunModel {
         let mut out: Vec<usize> = [
             self.alpha, self.a, self.b, self.d_c, self.f_d, self.t0, self.k,
         ]
-            .into_iter()
-            .flatten()
-            .collect();
+        .into_iter()
+        .flatten()
+        .collect();
         if let SigmaSource::Coord(s) = self.sigma {
             out.push(s);
         }

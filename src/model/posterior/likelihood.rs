@@ -116,8 +116,12 @@ impl RunModel {
     /// [`LawError::InvalidParameter`] naming the parameter out of its domain.
     pub fn spring_slider(&self, x: &[f64]) -> Result<SpringSlider, LawError> {
         let value = |c: Option<usize>| c.map_or(f64::NAN, |i| x[i].exp());
-        let params =
-            RateStateParams::new(value(self.a), value(self.b), value(self.d_c), value(self.f_d))?;
+        let params = RateStateParams::new(
+            value(self.a),
+            value(self.b),
+            value(self.d_c),
+            value(self.f_d),
+        )?;
         let initial = match self.scene {
             Scene::Repeat => InitialState::Hold {
                 hold_s: params.dc_m / self.velocity,
@@ -126,8 +130,14 @@ impl RunModel {
                 hold_s: value(self.t0),
             },
         };
-        let slider = SpringSlider::new(params, self.state_law, value(self.k), self.velocity, initial)?
-            .with_tolerance(LIKELIHOOD_TOLERANCE)?;
+        let slider = SpringSlider::new(
+            params,
+            self.state_law,
+            value(self.k),
+            self.velocity,
+            initial,
+        )?
+        .with_tolerance(LIKELIHOOD_TOLERANCE)?;
         match self.reference_velocity {
             Some(v0) => slider.with_reference_velocity(v0),
             None => Ok(slider),
@@ -147,7 +157,9 @@ impl RunModel {
         for i in 0..driven {
             visit(i, 0.0);
         }
-        slider.for_each_state(&times[driven..], |i, state| visit(driven + i, state.force_n))?;
+        slider.for_each_state(&times[driven..], |i, state| {
+            visit(driven + i, state.force_n)
+        })?;
         Ok(())
     }
 

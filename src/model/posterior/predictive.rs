@@ -76,7 +76,9 @@ impl Posterior {
             .copied()
             .collect();
         let mut out = Vec::with_capacity(times.len());
-        r.visit_forces_at(x, r.follows.and_then(|j| f_end[j]), &times, |_, f| out.push(f))?;
+        r.visit_forces_at(x, r.follows.and_then(|j| f_end[j]), &times, |_, f| {
+            out.push(f)
+        })?;
         Ok(out)
     }
 
