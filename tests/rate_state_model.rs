@@ -258,15 +258,7 @@ fn likelihood_forces_are_the_spring_sliders() {
                 "repeat.csv",
             ),
         ] {
-            let data = std::fs::read_to_string(d.join(file)).unwrap();
-            let (t, observed): (Vec<f64>, Vec<f64>) = data
-                .lines()
-                .skip(1)
-                .map(|l| {
-                    let (t, f) = l.split_once(',').unwrap();
-                    (t.parse::<f64>().unwrap(), f.parse::<f64>().unwrap())
-                })
-                .unzip();
+            let (t, observed) = read_csv(&d.join(file));
             let direct = SpringSlider::new(params, law, k, VELOCITY, initial)
                 .unwrap()
                 .with_tolerance(LIKELIHOOD_TOLERANCE)
@@ -281,14 +273,7 @@ fn likelihood_forces_are_the_spring_sliders() {
                     "{law} run {run}: {g} vs {e}"
                 );
             }
-            log_likelihood += observed
-                .iter()
-                .zip(&expected)
-                .map(|(o, e)| {
-                    let z = (o - e) / sigma;
-                    -0.5 * z * z - sigma.ln() - 0.5 * (std::f64::consts::TAU).ln()
-                })
-                .sum::<f64>();
+            log_likelihood += gaussian_log_likelihood(&observed, &expected, sigma);
         }
         // The log-density minus the log prior at x is the log-likelihood: compare the
         // difference between two σ, where every prior but σ's cancels.
@@ -314,23 +299,35 @@ fn log_likelihood_at(post: &Posterior, x: &[f64], d: &Path) -> f64 {
     let sigma = x[6].exp();
     let mut total = 0.0;
     for (run, file) in [(0, "first.csv"), (1, "repeat.csv")] {
-        let data = std::fs::read_to_string(d.join(file)).unwrap();
-        let observed: Vec<f64> = data
-            .lines()
-            .skip(1)
-            .map(|l| l.split_once(',').unwrap().1.parse().unwrap())
-            .collect();
-        let model = post.run_forces(x, run).unwrap();
-        total += observed
-            .iter()
-            .zip(&model)
-            .map(|(o, e)| {
-                let z = (o - e) / sigma;
-                -0.5 * z * z - sigma.ln() - 0.5 * (std::f64::consts::TAU).ln()
-            })
-            .sum::<f64>();
+        let (_, observed) = read_csv(&d.join(file));
+        total += gaussian_log_likelihood(&observed, &post.run_forces(x, run).unwrap(), sigma);
     }
     total
+}
+
+/// Σ ln N(observed | model, σ²).
+fn gaussian_log_likelihood(observed: &[f64], model: &[f64], sigma: f64) -> f64 {
+    observed
+        .iter()
+        .zip(model)
+        .map(|(o, e)| {
+            let z = (o - e) / sigma;
+            -0.5 * z * z - sigma.ln() - 0.5 * std::f64::consts::TAU.ln()
+        })
+        .sum()
+}
+
+/// (times, forces) of a CSV written by [`simulate`].
+fn read_csv(path: &Path) -> (Vec<f64>, Vec<f64>) {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (t, f) = l.split_once(',').unwrap();
+            (t.parse::<f64>().unwrap(), f.parse::<f64>().unwrap())
+        })
+        .unzip()
 }
 
 /// A proposal whose slide cannot be integrated (the slip law on a spring far softer than

@@ -329,11 +329,7 @@ fn compare_prefers_the_full_law_on_data_with_a_peak() {
         .collect();
     assert!(!names.contains(&"alpha"), "{names:?}");
     let stdout = compare_two(&log_aging, &full);
-    let verdict = format!(
-        "{} predicts worse than {}",
-        log_aging.display(),
-        full.display()
-    );
+    let verdict = predicts_worse(&log_aging, &full);
     assert!(stdout.contains(&verdict), "{stdout}");
 }
 
@@ -371,6 +367,16 @@ fn fit_slide_as(dir: &Path, name: &str, head: &str, velocity_m_per_s: f64) -> Pa
     out
 }
 
+/// The verdict `compare` prints when fit `worse` predicts worse than fit `better`.
+#[cfg(feature = "parquet")]
+fn predicts_worse(worse: &Path, better: &Path) -> String {
+    format!(
+        "{} predicts worse than {}",
+        worse.display(),
+        better.display()
+    )
+}
+
 /// What `slipbayes compare a b` prints; it must succeed.
 #[cfg(feature = "parquet")]
 fn compare_two(a: &Path, b: &Path) -> String {
@@ -394,7 +400,6 @@ fn compare_two(a: &Path, b: &Path) -> String {
 #[cfg(feature = "parquet")]
 #[test]
 fn compare_does_not_reject_log_aging_on_log_aging_data() {
-    use slipbayes::data::Series;
     use slipbayes::law::{Elastic, LogAging, ObservedSlide};
     let dir = tempfile::tempdir().unwrap();
     let slide = ObservedSlide::new(
@@ -404,34 +409,12 @@ fn compare_does_not_reject_log_aging_on_log_aging_data() {
     let time_s: Vec<f64> = (1..=120).map(|i| f64::from(i) * 100.0).collect();
     let mut force_n = vec![0.0; time_s.len()];
     slide.forces(&time_s, &mut force_n, None).unwrap();
-    // Gaussian noise of 0.1 mN: a 64-bit LCG and Box–Muller, so the data are the same on
-    // every machine.
-    let mut state: u64 = 4;
-    let mut uniform = || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
-    for f in &mut force_n {
-        let (u1, u2) = (uniform(), uniform());
-        *f += 1e-4 * (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-    }
-    Series {
-        time_s,
-        force_n,
-        normal_force_n: None,
-    }
-    .write_csv(&dir.path().join("first.csv"))
-    .unwrap();
+    // Gaussian noise of 0.1 mN.
+    write_noisy_first(dir.path(), time_s, force_n, 1e-4, 4);
     let full = fit_first_slide(dir.path(), "");
     let log_aging = fit_first_slide(dir.path(), "law = \"log-aging\"");
     let stdout = compare_two(&log_aging, &full);
-    let rejected = format!(
-        "{} predicts worse than {}",
-        log_aging.display(),
-        full.display()
-    );
+    let rejected = predicts_worse(&log_aging, &full);
     assert!(!stdout.contains(&rejected), "{stdout}");
     assert!(
         stdout.contains("predict equally well")
@@ -494,11 +477,7 @@ fn compare_prefers_rate_state_on_a_slip_law_slide() {
     );
     let full = fit_slide_as(dir.path(), "full", "", v);
     let stdout = compare_two(&rate_state, &full);
-    let verdict = format!(
-        "{} predicts worse than {}",
-        full.display(),
-        rate_state.display()
-    );
+    let verdict = predicts_worse(&full, &rate_state);
     assert!(stdout.contains(&verdict), "{stdout}");
 }
 
@@ -526,11 +505,7 @@ fn compare_does_not_reject_the_full_law_on_a_fast_slide_rate_state_mimics() {
     let full = fit_slide_as(dir.path(), "full", "", v);
     let rate_state = fit_slide_as(dir.path(), "rate-state", "law = \"rate-state\"", v);
     let stdout = compare_two(&rate_state, &full);
-    let rejected = format!(
-        "{} predicts worse than {}",
-        full.display(),
-        rate_state.display()
-    );
+    let rejected = predicts_worse(&full, &rate_state);
     assert!(!stdout.contains(&rejected), "{stdout}");
     assert!(
         stdout.contains("predict equally well")

@@ -355,9 +355,8 @@ impl Posterior {
             restarts: 1,
             ..NelderMeadOptions::default()
         };
-        let mut best: Option<(Vec<f64>, f64)> = None;
         // α such that the record spans x = αvt of 1, 5 and 25 at its end.
-        for x_end in [1.0, 5.0, 25.0] {
+        let starts = [1.0, 5.0, 25.0].map(|x_end| {
             let alpha = x_end / (r.velocity * t_end);
             let overshoot = ((peak - late) / late).clamp(0.05, 5.0);
             let t0 = 1e-3 / (alpha * r.velocity);
@@ -365,12 +364,9 @@ impl Posterior {
             if free_k {
                 p.push(k0.ln());
             }
-            let (x, f, _) = nelder_mead(&ssr, &p, &options);
-            if best.as_ref().is_none_or(|(_, fb)| f < *fb) {
-                best = Some((x, f));
-            }
-        }
-        let (x, ln_ssr) = best.unwrap_or_default();
+            p
+        });
+        let (x, ln_ssr) = best_search(&ssr, starts, &options);
         let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
         RunAlone {
             sigma: (ln_ssr.exp() / n_fitted as f64).sqrt(),
@@ -450,8 +446,7 @@ impl Posterior {
             restarts: 1,
             ..NelderMeadOptions::default()
         };
-        let mut best: Option<(Vec<f64>, f64)> = None;
-        for hold_per_peak in [0.1, 1.0, 10.0] {
+        let starts = [0.1, 1.0, 10.0].map(|hold_per_peak| {
             let t0 = hold_per_peak * t_peak;
             let b = excess / (v * (t0 + t_peak) / d_c0).ln().max(1.0);
             let mut p = vec![
@@ -464,12 +459,9 @@ impl Posterior {
             if free_k {
                 p.push(k0.ln());
             }
-            let (x, f, _) = nelder_mead(&ssr, &p, &options);
-            if best.as_ref().is_none_or(|(_, fb)| f < *fb) {
-                best = Some((x, f));
-            }
-        }
-        let (x, ln_ssr) = best.unwrap_or_default();
+            p
+        });
+        let (x, ln_ssr) = best_search(&ssr, starts, &options);
         let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
         RunAlone {
             sigma: (ln_ssr.exp() / n_fitted as f64).sqrt(),
@@ -482,6 +474,23 @@ impl Posterior {
             d_c: get(2),
         }
     }
+}
+
+/// The lowest point of Nelder–Mead searches of `objective` from each of `starts` and its
+/// value (the earliest start wins a tie); empty and 0 when there is no start.
+fn best_search(
+    objective: impl Fn(&[f64]) -> f64,
+    starts: impl IntoIterator<Item = Vec<f64>>,
+    options: &NelderMeadOptions,
+) -> (Vec<f64>, f64) {
+    let mut best: Option<(Vec<f64>, f64)> = None;
+    for p in starts {
+        let (x, f, _) = nelder_mead(&objective, &p, options);
+        if best.as_ref().is_none_or(|(_, fb)| f < *fb) {
+            best = Some((x, f));
+        }
+    }
+    best.unwrap_or_default()
 }
 
 /// Records up to this many points are fitted whole by [`Posterior::fit_run_alone`].
