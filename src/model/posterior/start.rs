@@ -366,7 +366,7 @@ impl Posterior {
             }
             p
         });
-        let (x, ln_ssr) = best_search(&ssr, starts, &options);
+        let (x, ln_ssr) = best_search(ssr, starts, &options);
         let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
         RunAlone {
             sigma: (ln_ssr.exp() / n_fitted as f64).sqrt(),
@@ -461,7 +461,7 @@ impl Posterior {
             }
             p
         });
-        let (x, ln_ssr) = best_search(&ssr, starts, &options);
+        let (x, ln_ssr) = best_search(ssr, starts, &options);
         let get = |i: usize| x.get(i).map_or(f64::NAN, |v| v.exp());
         RunAlone {
             sigma: (ln_ssr.exp() / n_fitted as f64).sqrt(),
