@@ -31,6 +31,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         scene: Scene::First,
         params,
         stiffness_n_per_m: Some(k),
+        law: Default::default(),
+        rigid: false,
         velocity_m_per_s: v,
         duration_s: DURATION_S,
         interval_s: interval,

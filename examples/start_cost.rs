@@ -43,12 +43,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         window_s: None,
         likelihood_tolerance: None,
         import: ImportOptions::default(),
+        forward: Default::default(),
     })?;
     let params = LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8)?;
     let slide = |scene, duration_s, interval_s, seed, after_first_s| SimulationSpec {
         scene,
         params,
         stiffness_n_per_m: Some(1.2e4),
+        law: Default::default(),
+        rigid: false,
         velocity_m_per_s: 1e-9,
         duration_s,
         interval_s,

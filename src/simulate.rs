@@ -10,7 +10,10 @@ use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
 use crate::data::Series;
-use crate::law::{Elastic, Law, LawError, LawParams, ObservedSlide, RepeatSlide, Scene};
+use crate::law::{
+    Elastic, InterfaceLaw, Law, LawError, LawKind, LawParams, LogAging, ObservedSlide, RepeatSlide,
+    Scene,
+};
 
 /// Errors of a simulation.
 #[derive(Debug, thiserror::Error)]
@@ -35,11 +38,19 @@ pub enum SimulateError {
 pub struct SimulationSpec {
     /// Kind of slide.
     pub scene: Scene,
+    /// The law of a first or fast slide (the aging–rejuvenation law when absent).
+    #[serde(default)]
+    pub law: LawKind,
     /// The law's parameters (F_d is also the sliding force of a repeat slide unless
-    /// `f_end_n` or `after_first_s` says otherwise).
+    /// `f_end_n` or `after_first_s` says otherwise). Pure logarithmic aging reads only a and
+    /// t0 (the command line records α = 0, the limit it is).
     pub params: LawParams,
-    /// Machine stiffness k (N/m); ignored by a stiff fast slide.
+    /// Machine stiffness k (N/m); ignored by a stiff fast slide and on a rigid machine.
     pub stiffness_n_per_m: Option<f64>,
+    /// A rigid machine (k → ∞): τ = t on a first slide, and a repeat slide is F_end from its
+    /// start (`elastic = false` in a model file).
+    #[serde(default)]
+    pub rigid: bool,
     /// Sliding velocity v (m/s).
     pub velocity_m_per_s: f64,
     /// Length of the record (s).
@@ -90,10 +101,36 @@ fn setting(
 }
 
 impl SimulationSpec {
+    /// The law of a first or fast slide.
+    ///
+    /// # Errors
+    /// [`SimulateError::Law`] when the parameters are invalid for the law.
+    pub fn interface_law(&self) -> Result<InterfaceLaw, SimulateError> {
+        let p = &self.params;
+        Ok(match self.law {
+            LawKind::AgingRejuvenation => Law::new(p, self.velocity_m_per_s)?.into(),
+            LawKind::LogAging => LogAging::new(p.a_n, p.t0_s)?.into(),
+            LawKind::RateState => {
+                return Err(SimulateError::InvalidSetting {
+                    name: "law",
+                    value: self.law.to_string(),
+                    expected: "\"aging-rejuvenation\" or \"log-aging\" (a rate-and-state slide \
+                               is simulated with slipbayes::law::SpringSlider)",
+                })
+            }
+        })
+    }
+
     /// The elasticity of the run's machine.
-    fn elastic(&self) -> Result<Elastic, SimulateError> {
+    pub fn elastic(&self) -> Result<Elastic, SimulateError> {
         match (self.scene, self.stiffness_n_per_m) {
             (Scene::StiffFast, _) => Ok(Elastic::Stiff),
+            (_, None) if self.rigid => Ok(Elastic::Stiff),
+            (_, Some(k)) if self.rigid => Err(SimulateError::InvalidSetting {
+                name: "k",
+                value: k.to_string(),
+                expected: "no stiffness on a rigid machine: drop k or rigid",
+            }),
             (_, Some(k)) => Ok(Elastic::spring(k, self.velocity_m_per_s)?),
             (_, None) => Err(SimulateError::InvalidSetting {
                 name: "k",
@@ -113,12 +150,11 @@ impl SimulationSpec {
     /// # Errors
     /// Invalid settings, or a law error (e.g. stick-slip).
     pub fn clean_forces(&self, times: &[f64]) -> Result<(Vec<f64>, Option<f64>), SimulateError> {
-        let v = self.velocity_m_per_s;
         let elastic = self.elastic()?;
         let mut forces = vec![0.0; times.len()];
         match self.scene {
             Scene::First | Scene::StiffFast => {
-                let slide = ObservedSlide::new(Law::new(&self.params, v)?, elastic);
+                let slide = ObservedSlide::new(self.interface_law()?, elastic);
                 slide.forces(times, &mut forces, None)?;
                 Ok((forces, None))
             }
@@ -132,7 +168,15 @@ impl SimulationSpec {
                             t.is_finite() && t > 0.0,
                             "a duration > 0 s",
                         )?;
-                        ObservedSlide::new(Law::new(&self.params, v)?, elastic).force_at(t)?
+                        ObservedSlide::new(self.interface_law()?, elastic).force_at(t)?
+                    }
+                    (None, None) if self.law == LawKind::LogAging => {
+                        return Err(SimulateError::InvalidSetting {
+                            name: "f-end",
+                            value: "none".into(),
+                            expected: "pure logarithmic aging has no F_d to slide at: give \
+                                       --f-end or --after-first",
+                        })
                     }
                     (None, None) => self.params.f_d_n,
                     (Some(f), Some(_)) => {

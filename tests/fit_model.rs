@@ -254,6 +254,8 @@ fn two_material_joint_posterior_covers_the_truth() {
                 scene,
                 params: LawParams::new(alpha, ratio * f_d, f_d, t0).unwrap(),
                 stiffness_n_per_m: Some(k),
+                law: Default::default(),
+                rigid: false,
                 velocity_m_per_s: 1e-9,
                 duration_s: dur,
                 interval_s: dt,

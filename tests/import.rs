@@ -324,6 +324,8 @@ proptest! {
             scene: Scene::First,
             params: LawParams::new(ln_alpha.exp(), ratio * f_d, f_d, 10.0).unwrap(),
             stiffness_n_per_m: Some(1e5),
+            law: Default::default(),
+            rigid: false,
             velocity_m_per_s: 1e-9,
             duration_s: 5000.0,
             interval_s: 37.0,

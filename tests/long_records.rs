@@ -56,6 +56,8 @@ impl Slide {
             scene,
             params,
             stiffness_n_per_m: Some(self.k),
+            law: Default::default(),
+            rigid: false,
             velocity_m_per_s: VELOCITY,
             duration_s,
             interval_s: self.interval_s,

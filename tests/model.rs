@@ -112,6 +112,66 @@ fn bad_models_and_data_fail_before_sampling_naming_the_culprit() {
     );
 }
 
+/// A prior, level or pooling of a parameter that no forward model samples is refused by its
+/// key (a/F_d sampled in place of a, a pooled t0's own prior); one of a parameter only the
+/// chosen rival law drops (`priors.alpha` under log-aging, `priors.k` on a rigid machine) is
+/// accepted, so a model file can be refitted under a rival law with one line changed, and is
+/// listed as unread.
+#[test]
+fn settings_no_model_reads_are_refused_and_rival_leftovers_listed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = one_run_model("ok.csv", "1e-9", "first");
+    let load = |extra: &str| ModelSpec::load(&write(d, "model.toml", &format!("{extra}\n{base}")));
+    let prior = "{ dist = \"log-uniform\", low = 1e3, high = 1e9 }";
+    for (extra, key) in [
+        (format!("[priors]\na = {prior}"), "priors.a"),
+        (
+            format!("[levels]\nt0 = \"contact\"\n[pooling]\nt0 = true\n[priors]\nt0 = {prior}"),
+            "priors.t0",
+        ),
+        (
+            format!("law = \"log-aging\"\naging = \"absolute\"\n[priors]\na_over_F_d = {prior}"),
+            "priors.a_over_F_d",
+        ),
+    ] {
+        let e = load(&extra).unwrap_err().to_string();
+        assert!(
+            e.contains(key) && e.contains("would have no effect"),
+            "{extra}: {e}"
+        );
+    }
+    for (extra, unread) in [
+        (format!("aging = \"absolute\"\n[priors]\na = {prior}"), vec![]),
+        (format!("[pooling]\nF_d = true\n[levels]\nF_d = \"contact\"\n[priors]\nF_d = {prior}"), vec![]),
+        (
+            format!("law = \"log-aging\"\n[levels]\nalpha = \"contact\"\n[priors]\nalpha = {prior}\na_over_F_d = {prior}"),
+            vec!["levels.alpha", "priors.a_over_F_d", "priors.alpha"],
+        ),
+        (
+            format!("elastic = false\n[levels]\nk = \"run\"\n[pooling]\nk = true\n[priors]\nk_pop_median = {prior}"),
+            vec!["levels.k", "pooling.k", "priors.k_pop_median"],
+        ),
+    ] {
+        let spec = load(&extra).unwrap_or_else(|e| panic!("{extra}: {e}"));
+        assert_eq!(spec.unread_settings(), unread, "{extra}");
+    }
+}
+
+/// Every model file the repository ships loads.
+#[test]
+fn committed_model_files_load() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for file in ["models", "benches/peer"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(root.join(d)).unwrap())
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+    {
+        ModelSpec::load(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    }
+}
+
 /// Only parameters a scene uses are sampled; σ (log-uniform) is integrated out.
 #[test]
 fn layout_samples_only_what_scenes_use() {

@@ -34,6 +34,7 @@ fn quick_fit() -> &'static Path {
             window_s: None,
             likelihood_tolerance: None,
             import: ImportOptions::default(),
+            forward: Default::default(),
         })
         .unwrap();
         let posterior = Posterior::new(&spec).unwrap();

@@ -302,6 +302,8 @@ fn compare_prefers_the_full_law_on_data_with_a_peak() {
         scene: Scene::First,
         params: LawParams::new(0.92e6, 0.62 * 10e-3, 10e-3, 14.8).unwrap(),
         stiffness_n_per_m: Some(1.2e4),
+        law: Default::default(),
+        rigid: false,
         velocity_m_per_s: 1e-9,
         duration_s: 12_000.0,
         interval_s: 100.0,
@@ -512,4 +514,86 @@ fn compare_does_not_reject_the_full_law_on_a_fast_slide_rate_state_mimics() {
             || stdout.contains(&format!("{} predicts worse", rate_state.display())),
         "{stdout}"
     );
+}
+
+/// The nested laws end to end on the command line: `simulate --law log-aging` and `--rigid`
+/// write a first and a repeat slide, the quick path fits them with `--law log-aging` and
+/// `--rigid`, and summary.json records the forward model and reports only its parameters.
+#[test]
+fn nested_laws_simulate_and_fit_on_the_quick_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = |args: &[&str]| {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_slipbayes"))
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    };
+    let common = ["--a", "6.2e-3", "--t0", "14.8", "--velocity", "1e-9"];
+    for (name, model, law, first_s) in [
+        (
+            "log",
+            ["--law", "log-aging", "--k", "1.2e4"],
+            "log-aging",
+            "5000",
+        ),
+        (
+            "rigid",
+            ["--alpha", "0.92e6", "--f-d", "1e-2"],
+            "aging-rejuvenation",
+            "20000",
+        ),
+    ] {
+        let rigid: &[&str] = if name == "rigid" { &["--rigid"] } else { &[] };
+        let (first, repeat) = (format!("{name}-first.csv"), format!("{name}-repeat.csv"));
+        let slide = |scene: &str, out: &str, duration: &str, extra: &[&str]| {
+            let mut args = vec!["simulate", "--scene", scene, "--out", out];
+            args.extend(common);
+            args.extend(model);
+            args.extend(rigid);
+            args.extend(["--duration", duration, "--interval", "50"]);
+            args.extend(extra);
+            run(&args);
+        };
+        slide("first", &first, first_s, &[]);
+        slide(
+            "repeat",
+            &repeat,
+            "1000",
+            &["--after-first", first_s, "--seed", "2"],
+        );
+        let truth: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(format!("{name}-first.json"))).unwrap())
+                .unwrap();
+        assert_eq!(truth["spec"]["law"], law, "{truth}");
+        assert_eq!(truth["spec"]["rigid"], name == "rigid", "{truth}");
+
+        let out = format!("{name}-fit");
+        let mut args = vec!["fit", "--quiet", "--steps", "200", "--out", &out];
+        args.extend(["--first", &first, "--repeat", &repeat, "--velocity", "1e-9"]);
+        if name == "log" {
+            args.extend(["--law", "log-aging"]);
+        }
+        args.extend(rigid);
+        run(&args);
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(&out).join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(summary["model"]["law"], law, "{}", summary["model"]);
+        assert_eq!(summary["model"]["elastic"], name != "rigid");
+        let names: Vec<&str> = summary["parameters"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|q| q["name"].as_str().unwrap())
+            .collect();
+        assert_eq!(names.contains(&"alpha"), name == "rigid", "{names:?}");
+        assert_eq!(names.contains(&"k"), name != "rigid", "{names:?}");
+    }
 }

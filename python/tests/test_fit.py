@@ -345,3 +345,23 @@ def test_a_second_fit_into_a_locked_run_directory_fails_naming_the_lock(tmp_path
     slipbayes.fit(one_contact(first=first), seed=SEED, steps=STEPS, out=out, progress=progress)
     assert refused and f"process {os.getpid()}" in refused[0]
     assert (out / "summary.json").exists() and not lock.exists()
+
+
+def test_a_dict_chooses_the_law_and_the_machine(tmp_path):
+    """`law` and `elastic` of a model dict are the model file's keys: the fit samples only the
+    chosen model's parameters, and summary.json records the model and the settings it did not
+    read; a prior no model reads is refused by its key."""
+    prior = {"dist": "log-uniform", "low": 1e3, "high": 1e9}
+    model = dict(one_contact(), law="log-aging", elastic=False, priors={"alpha": prior})
+    out = tmp_path / "log-aging-rigid"
+    idata = slipbayes.fit(model, seed=SEED, steps=100, out=out, progress=False)
+    assert "alpha" not in idata.posterior and "k" not in idata.posterior
+    assert "a" in idata.posterior and "t0" in idata.posterior
+    assert summary_json(out)["model"] == {
+        "law": "log-aging",
+        "elastic": False,
+        "unread": ["priors.alpha"],
+    }
+    model = dict(one_contact(), priors={"a": prior})
+    with pytest.raises(slipbayes.SlipbayesError, match=r"priors\.a: .*no effect"):
+        slipbayes.fit(model, steps=10, progress=False)

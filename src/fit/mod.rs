@@ -52,8 +52,8 @@ use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 pub use error::FitError;
 pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{
-    AggregateSummary, Comparison, FitSummary, LockError, QuantitySummary, RunDir, RunDirError,
-    RunLock, RunRecord, SamplerSummary,
+    AggregateSummary, Comparison, FitSummary, ForwardModelRecord, LockError, QuantitySummary,
+    RunDir, RunDirError, RunLock, RunRecord, SamplerSummary,
 };
 
 /// Default checkpoint interval, in steps.
@@ -195,6 +195,8 @@ pub struct SummarySpec {
     pub comparisons: ComparisonSpec,
     /// Where the data came from, recorded as they are.
     pub data: Vec<Provenance>,
+    /// The forward model, recorded as it is.
+    pub model: Option<ForwardModelRecord>,
 }
 
 impl SummarySpec {

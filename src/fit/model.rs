@@ -1,7 +1,7 @@
 //! Fitting a friction model: what its summary reports, how a model file's sampler settings
 //! combine with a caller's, and the files a friction fit adds to its run directory.
 
-use super::run_dir::{relative_path, LooPoint, LooSummary, RunLock, RunRecord};
+use super::run_dir::{relative_path, ForwardModelRecord, LooPoint, LooSummary, RunLock, RunRecord};
 use super::{
     default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit, Aggregate,
     ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
@@ -163,6 +163,11 @@ pub fn summary_spec(posterior: &Posterior) -> SummarySpec {
         aggregates,
         comparisons,
         data: posterior.data_provenance(),
+        model: Some(ForwardModelRecord {
+            law: spec.file.law.name().to_owned(),
+            elastic: spec.file.elastic,
+            unread: spec.unread_settings(),
+        }),
     }
 }
 

@@ -407,6 +407,7 @@ impl Plan {
                 steps_run: report.steps_run,
             },
             data: self.spec.data.clone(),
+            model: self.spec.model.clone(),
             notes: Vec::new(),
             loo: None,
             loo_not_computed: None,
@@ -643,6 +644,7 @@ mod tests {
                 groups: names(&["A", "B"]),
             },
             data: Vec::new(),
+            model: None,
         };
         let err = |s: SummarySpec| Plan::new(&params, &derived, &s).unwrap_err().to_string();
         assert!(err(with(vec![mean("A", &[]), mean("B", &["b"])])).contains("no columns"));

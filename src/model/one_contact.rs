@@ -4,10 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use crate::data::ImportOptions;
-use crate::law::Scene;
+use crate::law::{LawKind, Scene};
 
 use super::spec::{
-    ContactSpec, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec, SamplerSpec,
+    ContactSpec, ForwardModel, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec,
+    SamplerSpec,
 };
 use super::{ModelSpec, SpecError};
 
@@ -31,6 +32,9 @@ pub struct OneContact {
     pub likelihood_tolerance: Option<f64>,
     /// Format, column mapping, moment arm, intervals and drop rule of every file.
     pub import: ImportOptions,
+    /// The law and whether the machine's spring is modelled (the model file's `law` and
+    /// `elastic`).
+    pub forward: ForwardModel,
 }
 
 /// The name of the one source the quick path's errors point to.
@@ -38,7 +42,7 @@ const COMMAND_LINE: &str = "<command line>";
 
 impl ModelSpec {
     /// The model of one contact: runs `first` and `repeat`, contact `contact` of material
-    /// `material`, α and a per contact, default priors and sampler. Relative data paths are
+    /// `material`, the law's α and a per contact, default priors and sampler. Relative data paths are
     /// made absolute so the run directory's `model.toml` can be fitted again from anywhere.
     ///
     /// # Errors
@@ -108,13 +112,15 @@ impl ModelSpec {
                 normal_force_n: q.normal_force_n,
             }],
             runs,
+            // α and a per contact, where the law has them.
             levels: [(Param::Alpha, Level::Contact), (Param::A, Level::Contact)]
                 .into_iter()
+                .filter(|(p, _)| q.forward.law_params().contains(p))
                 .collect(),
-            law: Default::default(),
-            state_law: None,
+            law: q.forward.law,
+            state_law: (q.forward.law == LawKind::RateState).then_some(q.forward.state_law),
             reference_velocity_m_per_s: None,
-            elastic: true,
+            elastic: q.forward.elastic,
             aging: Default::default(),
             pooling: PoolingSpec::default(),
             priors: Default::default(),

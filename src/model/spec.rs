@@ -2,7 +2,7 @@
 //! sampler settings. Deserialised with serde and validated once here, so that everything
 //! downstream can trust it; every error names the key at fault and says what to write.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashSet};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -906,14 +906,132 @@ impl ModelSpec {
                 "steps, max_steps and checkpoint_every must be > 0".into(),
             ));
         }
-        Ok(Self {
+        let spec = Self {
             file,
             base_dir,
-            source,
+            source: source.clone(),
             contact_material,
             run_contact,
             run_follows,
-        })
+        };
+        spec.refuse_unused_settings()
+            .map_err(|(key, message)| invalid(key, message))?;
+        Ok(spec)
+    }
+
+    /// The parameters some run of the model samples under the forward model `forward`.
+    pub fn params_in_use(&self, forward: ForwardModel) -> BTreeSet<Param> {
+        let mut used = BTreeSet::new();
+        for (r, follows) in self.file.runs.iter().zip(&self.run_follows) {
+            used.extend(
+                Param::ALL
+                    .into_iter()
+                    .filter(|&p| forward.uses(p, r.scene, follows.is_some())),
+            );
+        }
+        used
+    }
+
+    /// The names whose priors the model reads under `forward`: each sampled parameter's
+    /// (a/F_d's in place of a's under `aging = "ratio"`), and for a pooled one its
+    /// population's, whose median follows the parameter's own prior (except t0's).
+    pub fn prior_names_in_use(&self, forward: ForwardModel) -> BTreeSet<String> {
+        let ratio = forward.aging_ratio(self.file.aging);
+        let mut names = BTreeSet::new();
+        for p in self.params_in_use(forward) {
+            let name = if p == Param::A && ratio {
+                "a_over_F_d"
+            } else {
+                p.name()
+            };
+            if self.file.pooling.pools(p) {
+                names.insert(format!("{name}_pop_median"));
+                names.insert(format!("{name}_pop_log_sd"));
+                if p == Param::T0 {
+                    continue;
+                }
+            }
+            names.insert(name.to_owned());
+        }
+        names
+    }
+
+    /// Every `[levels]`, `[pooling]` and `[priors]` key of the file, as `table.name`, with
+    /// whether the model reads it under `forward`.
+    fn setting_keys(&self, forward: ForwardModel) -> Vec<(String, bool)> {
+        let used = self.params_in_use(forward);
+        let priors = self.prior_names_in_use(forward);
+        let levels = self
+            .file
+            .levels
+            .keys()
+            .map(|p| (format!("levels.{}", p.name()), used.contains(p)));
+        let pooling = Param::ALL
+            .into_iter()
+            .filter(|&p| self.file.pooling.pools(p))
+            .map(|p| (format!("pooling.{}", p.name()), used.contains(&p)));
+        let prior_keys = self
+            .file
+            .priors
+            .keys()
+            .map(|n| (format!("priors.{n}"), priors.contains(n)));
+        levels.chain(pooling).chain(prior_keys).collect()
+    }
+
+    /// The settings of the file that name a parameter this model does not sample but the
+    /// default model (the aging–rejuvenation law through the spring) does: left over when a
+    /// model file is fitted again under a rival law with one line changed, which is how rival
+    /// models are meant to be compared. They are not read; a fit records them
+    /// ([`ForwardModelRecord`](crate::fit::ForwardModelRecord)`::unread`) and says so.
+    pub fn unread_settings(&self) -> Vec<String> {
+        self.setting_keys(self.forward())
+            .into_iter()
+            .filter(|(_, read)| !read)
+            .map(|(key, _)| key)
+            .collect()
+    }
+
+    /// A prior, level or pooling that no forward model would read (a/F_d sampled in place of
+    /// a, a pooled t0's own prior, a level of a parameter no scene uses): an error naming its
+    /// key, since a user who wrote it expects it to act.
+    fn refuse_unused_settings(&self) -> Result<(), (String, String)> {
+        // What the default model or the rival rate-and-state model reads: either's settings
+        // are left over when a file is refitted under the other with the law line changed.
+        let rate_state = ForwardModel {
+            law: LawKind::RateState,
+            ..ForwardModel::default()
+        };
+        let default_reads: BTreeSet<String> = [ForwardModel::default(), rate_state]
+            .into_iter()
+            .flat_map(|forward| self.setting_keys(forward))
+            .filter_map(|(key, read)| read.then_some(key))
+            .collect();
+        let Some((key, _)) = self
+            .setting_keys(self.forward())
+            .into_iter()
+            .find(|(key, read)| !read && !default_reads.contains(key))
+        else {
+            return Ok(());
+        };
+        let aging = match self.file.aging {
+            Aging::Ratio => "ratio",
+            Aging::Absolute => "absolute",
+        };
+        let read: Vec<String> = self
+            .prior_names_in_use(self.forward())
+            .into_iter()
+            .collect();
+        Err((
+            key,
+            format!(
+                "this model (law = \"{}\", elastic = {}, aging = \"{aging}\") samples no \
+                 parameter this setting applies to, so it would have no effect; remove it (priors \
+                 are read for {})",
+                self.file.law,
+                self.file.elastic,
+                read.join(", ")
+            ),
+        ))
     }
 
     /// The forward model: the law and whether the spring is modelled.

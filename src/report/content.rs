@@ -391,6 +391,15 @@ fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<Block> {
             "Leave-one-out (PSIS-LOO) was not computed: {reason}."
         )));
     }
+    if let Some(model) = summary.model.as_ref().filter(|m| !m.unread.is_empty()) {
+        blocks.push(Block::Paragraph(format!(
+            "Settings of the model file not read by this model (law = \"{}\", elastic = {}; \
+             their parameters are not sampled): {}.",
+            model.law,
+            model.elastic,
+            model.unread.join(", ")
+        )));
+    }
     let notes = &summary.notes;
     if !notes.is_empty() {
         blocks.push(Block::Paragraph("What the data do not show:".into()));

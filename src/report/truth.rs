@@ -78,15 +78,23 @@ impl Truths {
             _ => return None,
         };
         let mut found: Option<f64> = None;
-        // Simulations follow the aging–rejuvenation law through a spring whatever law a fit
-        // chooses: a run's truth holds the parameters that model uses.
+        // A run's truth holds the parameters of the model it was simulated by (which need not
+        // be the model fitted); one a simulation did not set (α = 0 and F_d = 0 under pure
+        // logarithmic aging) is no truth.
         for (run, contact, material, scene, truth) in &self.runs {
-            if !(run == group || contact == group || material == group)
-                || !ForwardModel::default().uses(param, *scene, false)
-            {
+            if !(run == group || contact == group || material == group) {
                 continue;
             }
-            let v = value(truth.as_ref()?)?;
+            let truth = truth.as_ref()?;
+            let simulated_by = ForwardModel {
+                law: truth.law,
+                elastic: !truth.rigid,
+                ..ForwardModel::default()
+            };
+            if !simulated_by.uses(param, *scene, false) {
+                continue;
+            }
+            let v = value(truth).filter(|v| v.is_finite() && *v > 0.0)?;
             match found {
                 Some(f) if (f - v).abs() > 1e-9 * f.abs().max(v.abs()) => return None,
                 _ => found = Some(v),
@@ -115,6 +123,8 @@ mod tests {
             scene,
             params: crate::law::LawParams::new(0.92e6, a_n, 10e-3, 14.8).unwrap(),
             stiffness_n_per_m: k,
+            law: Default::default(),
+            rigid: false,
             velocity_m_per_s: 1e-9,
             duration_s: 100.0,
             interval_s: 1.0,

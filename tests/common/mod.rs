@@ -70,6 +70,8 @@ pub fn simulate_ptfe(
         scene,
         params: LawParams::new(0.92e6, 0.62 * 10e-3, 10e-3, 14.8).unwrap(),
         stiffness_n_per_m: Some(1.2e4),
+        law: Default::default(),
+        rigid: false,
         velocity_m_per_s: 1e-9,
         duration_s: duration,
         interval_s: interval,

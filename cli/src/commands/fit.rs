@@ -10,11 +10,13 @@ use clap::Args;
 
 use slipbayes::diagnostics::problem_lines;
 use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides};
+use slipbayes::law::LawKind;
+use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::sampler::{CarryFit, Mixture, Updates};
 
 use super::import::ImportArgs;
-use super::{non_negative, positive, EXIT_NOT_CONVERGED};
+use super::{law_name, non_negative, positive, EXIT_NOT_CONVERGED};
 use crate::interrupt::{self, EXIT_INTERRUPTED};
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
 
@@ -65,6 +67,14 @@ pub(super) struct FitArgs {
     /// Quick path: the first slide is fast and declared stiff (no elastic correction).
     #[arg(long, requires = "first")]
     stiff: bool,
+    /// Quick path: the law of the first slide, `aging-rejuvenation` (default) or `log-aging`
+    /// (its α → 0 limit), as `law` in a model file.
+    #[arg(long, value_parser = law_name, requires = "first")]
+    law: Option<LawKind>,
+    /// Quick path: the machine is rigid (k → ∞, no elastic correction; `elastic = false` in a
+    /// model file).
+    #[arg(long, requires = "first")]
+    rigid: bool,
     /// Quick path: normal force (N), for μ_s.
     #[arg(long = "normal-force", allow_hyphen_values = true, value_parser = positive)]
     normal_force: Option<f64>,
@@ -216,6 +226,11 @@ fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
         window_s: args.window_s,
         likelihood_tolerance: args.likelihood_tolerance,
         import: args.import.options(),
+        forward: ForwardModel {
+            law: args.law.unwrap_or_default(),
+            elastic: !args.rigid,
+            ..ForwardModel::default()
+        },
     })?)
 }
 
@@ -357,6 +372,18 @@ fn print_summary(outcome: &FitOutcome) {
     }
     for note in &s.notes {
         println!("  note: {note}");
+    }
+    if let Some(model) = s.model.as_ref().filter(|m| !m.unread.is_empty()) {
+        println!(
+            "  note: not read under law = \"{}\"{}: {} (their parameters are not sampled)",
+            model.law,
+            if model.elastic {
+                ""
+            } else {
+                ", elastic = false"
+            },
+            model.unread.join(", ")
+        );
     }
     println!("written to {}", outcome.dir.path().display());
 }

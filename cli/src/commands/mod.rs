@@ -104,6 +104,15 @@ pub(crate) fn positive(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A law by the name model files give it, for `--law`.
+pub(crate) fn law_name(text: &str) -> Result<slipbayes::law::LawKind, String> {
+    use slipbayes::law::LawKind;
+    text.parse().map_err(|_| {
+        let known: Vec<&str> = LawKind::ALL.iter().map(|k| k.name()).collect();
+        format!("unknown law; use one of {}", known.join(", "))
+    })
+}
+
 /// A number ≥ 0 (and finite), for flags such as `--likelihood-tolerance`.
 pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {

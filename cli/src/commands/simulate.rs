@@ -8,10 +8,10 @@ use clap::{Args, ValueEnum};
 use serde::Serialize;
 
 use slipbayes::data::write_atomically;
-use slipbayes::law::{Elastic, Law, LawParams, Scene};
+use slipbayes::law::{Elastic, LawKind, LawParams, Scene};
 use slipbayes::simulate::{simulate, SimulationSpec};
 
-use super::positive;
+use super::{law_name, positive};
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum SceneArg {
@@ -39,21 +39,29 @@ pub(super) struct SimulateArgs {
     /// Kind of slide.
     #[arg(long, value_enum)]
     scene: SceneArg,
-    /// Shear-rejuvenation constant α (1/m).
+    /// The law of a first or fast slide: `aging-rejuvenation` (default) or `log-aging` (its
+    /// α → 0 limit, F = a ln(τ/t0): give no --alpha).
+    #[arg(long, value_parser = law_name, default_value = "aging-rejuvenation")]
+    law: LawKind,
+    /// Shear-rejuvenation constant α (1/m); required by the aging–rejuvenation law.
     #[arg(long, allow_hyphen_values = true)]
-    alpha: f64,
+    alpha: Option<f64>,
     /// Logarithmic aging amplitude a (N).
     #[arg(long, allow_hyphen_values = true)]
     a: f64,
-    /// Steady-state friction F_d (N).
+    /// Steady-state friction F_d (N); required by the aging–rejuvenation law, and the force a
+    /// repeat slide slides at unless --f-end or --after-first says otherwise.
     #[arg(long = "f-d", allow_hyphen_values = true)]
-    f_d: f64,
+    f_d: Option<f64>,
     /// Short-time cut-off t0 (s).
     #[arg(long, allow_hyphen_values = true)]
     t0: f64,
-    /// Machine stiffness k (N/m); required for first and repeat slides.
+    /// Machine stiffness k (N/m); required for first and repeat slides unless --rigid.
     #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     k: Option<f64>,
+    /// A rigid machine (k → ∞): τ = t, and a repeat slide is at F_end from its start.
+    #[arg(long, conflicts_with = "k")]
+    rigid: bool,
     /// Sliding velocity v (m/s).
     #[arg(long, allow_hyphen_values = true, value_parser = positive)]
     velocity: f64,
@@ -127,11 +135,38 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
         SceneArg::Repeat => Scene::Repeat,
         SceneArg::StiffFast => Scene::StiffFast,
     };
-    let params = LawParams::new(args.alpha, args.a, args.f_d, args.t0)?;
+    let params = match (args.law, args.alpha, args.f_d) {
+        (LawKind::AgingRejuvenation, Some(alpha), Some(f_d)) => {
+            LawParams::new(alpha, args.a, f_d, args.t0)?
+        }
+        (LawKind::AgingRejuvenation, ..) => {
+            bail!("the aging-rejuvenation law needs --alpha (1/m) and --f-d (N)")
+        }
+        (LawKind::LogAging, Some(_), _) => {
+            bail!("--law log-aging is the α → 0 limit: it has no α, drop --alpha")
+        }
+        (LawKind::RateState, ..) => {
+            bail!(
+                "simulate writes slides of the aging-rejuvenation law or its limits; a \
+                 rate-and-state slide is simulated with slipbayes::law::SpringSlider (see \
+                 tests/rate_state_model.rs)"
+            )
+        }
+        // α = 0 is the limit the law is; F_d only sets the force a repeat slide slides at.
+        (LawKind::LogAging, None, f_d) => {
+            let checked = LawParams::new(1.0, args.a, f_d.unwrap_or(0.0), args.t0)?;
+            LawParams {
+                alpha_per_m: 0.0,
+                ..checked
+            }
+        }
+    };
     let spec = SimulationSpec {
         scene,
+        law: args.law,
         params,
         stiffness_n_per_m: args.k,
+        rigid: args.rigid,
         velocity_m_per_s: args.velocity,
         duration_s: args.duration,
         interval_s: args.interval,
@@ -146,13 +181,10 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let peak = match scene {
         Scene::Repeat => None,
         Scene::First | Scene::StiffFast => {
-            let law = Law::new(&params, args.velocity)?;
-            let kv = match (scene, args.k) {
-                (Scene::First, Some(k)) => match Elastic::spring(k, args.velocity)? {
-                    Elastic::Spring { kv } => Some(kv),
-                    Elastic::Stiff => None,
-                },
-                _ => None,
+            let law = spec.interface_law()?;
+            let kv = match spec.elastic()? {
+                Elastic::Spring { kv } => Some(kv),
+                Elastic::Stiff => None,
             };
             law.peak().interior().map(|p| TruePeak {
                 f_peak_n: p.force_n,

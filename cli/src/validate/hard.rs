@@ -272,6 +272,8 @@ fn fit_case(
         scene,
         params: case.params,
         stiffness_n_per_m: Some(case.k_n_per_m),
+        law: Default::default(),
+        rigid: false,
         velocity_m_per_s: VELOCITY,
         duration_s: duration,
         interval_s: interval,

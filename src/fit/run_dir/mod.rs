@@ -40,7 +40,9 @@ pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
 pub use predictive::PREDICTIVE_HEADER;
 pub use record::{relative_path, RunRecord};
-pub use summary::{AggregateSummary, Comparison, FitSummary, QuantitySummary, SamplerSummary};
+pub use summary::{
+    AggregateSummary, Comparison, FitSummary, ForwardModelRecord, QuantitySummary, SamplerSummary,
+};
 
 /// The exact model fitted.
 pub const MODEL_TOML: &str = "model.toml";

@@ -139,6 +139,10 @@ pub struct FitSummary {
     /// not a friction model).
     #[serde(default)]
     pub data: Vec<Provenance>,
+    /// The forward model the runs were fitted with (absent when the density is not a
+    /// friction model), so that a reader of the summary alone knows which law it describes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<ForwardModelRecord>,
     /// What the data do not show, in sentences: a peak beyond the end of its record, whose
     /// height is then extrapolated by the law rather than observed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -152,6 +156,19 @@ pub struct FitSummary {
     /// K-fold cross-validation by time blocks, once `slipbayes kfold` has run on the fit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub kfold: Option<super::KFoldSummary>,
+}
+
+/// The forward model of a fit as model files name it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ForwardModelRecord {
+    /// The law of first and fast slides (`law` in the model file).
+    pub law: String,
+    /// Whether the machine's spring is modelled (`elastic` in the model file).
+    pub elastic: bool,
+    /// Keys of the model file (`priors.alpha`, `levels.k`, …) for parameters this model does
+    /// not sample, left from the default model's file and not read.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unread: Vec<String>,
 }
 
 impl FitSummary {
