@@ -410,3 +410,15 @@ fn a_short_fit_of_slip_law_data_covers_the_truth() {
         );
     }
 }
+
+/// A file refitted under the default law with the `law` line removed keeps its priors and
+/// levels of b and D_c: they are a rival law's leftovers, accepted and listed as unread.
+#[test]
+fn rate_state_settings_are_leftovers_under_the_default_law() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = model("[priors]\nD_c = { dist = \"log-uniform\", low = 1e-9, high = 1e-4 }")
+        .replace("a = \"contact\"", "a = \"contact\"\nb = \"contact\"");
+    let spec = ModelSpec::load(&write(d, "leftover.toml", &text)).unwrap();
+    assert_eq!(spec.unread_settings(), ["levels.b", "priors.D_c"]);
+}

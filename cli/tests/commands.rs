@@ -477,6 +477,10 @@ fn compare_prefers_rate_state_on_a_slip_law_slide() {
         "law = \"rate-state\"\nstate_law = \"slip\"",
         v,
     );
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(rate_state.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["model"]["law"], "rate-state");
+    assert_eq!(summary["model"]["state_law"], "slip");
     let full = fit_slide_as(dir.path(), "full", "", v);
     let stdout = compare_two(&rate_state, &full);
     let verdict = predicts_worse(&full, &rate_state);

@@ -165,6 +165,8 @@ pub fn summary_spec(posterior: &Posterior) -> SummarySpec {
         data: posterior.data_provenance(),
         model: Some(ForwardModelRecord {
             law: spec.file.law.name().to_owned(),
+            state_law: (spec.file.law == crate::law::LawKind::RateState)
+                .then(|| spec.forward().state_law.name().to_owned()),
             elastic: spec.file.elastic,
             unread: spec.unread_settings(),
         }),

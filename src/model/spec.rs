@@ -995,15 +995,25 @@ impl ModelSpec {
     /// a, a pooled t0's own prior, a level of a parameter no scene uses): an error naming its
     /// key, since a user who wrote it expects it to act.
     fn refuse_unused_settings(&self) -> Result<(), (String, String)> {
-        // What the default model or the rival rate-and-state model reads: either's settings
-        // are left over when a file is refitted under the other with the law line changed.
+        // What the default model reads, and the settings of rate-and-state's own parameters
+        // (b, D_c): either are left over when a file is refitted under the other law with
+        // the law line changed.
         let rate_state = ForwardModel {
             law: LawKind::RateState,
             ..ForwardModel::default()
         };
-        let default_reads: BTreeSet<String> = [ForwardModel::default(), rate_state]
+        let own_to_rate_state = |key: &str| {
+            key.split_once('.')
+                .is_some_and(|(_, name)| [Param::B, Param::Dc].map(Param::name).contains(&name))
+        };
+        let default_reads: BTreeSet<String> = self
+            .setting_keys(ForwardModel::default())
             .into_iter()
-            .flat_map(|forward| self.setting_keys(forward))
+            .chain(
+                self.setting_keys(rate_state)
+                    .into_iter()
+                    .filter(|(key, _)| own_to_rate_state(key)),
+            )
             .filter_map(|(key, read)| read.then_some(key))
             .collect();
         let Some((key, _)) = self

@@ -163,6 +163,9 @@ pub struct FitSummary {
 pub struct ForwardModelRecord {
     /// The law of first and fast slides (`law` in the model file).
     pub law: String,
+    /// The state law under rate-and-state (`state_law`, `"aging"` or `"slip"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_law: Option<String>,
     /// Whether the machine's spring is modelled (`elastic` in the model file).
     pub elastic: bool,
     /// Keys of the model file (`priors.alpha`, `levels.k`, …) for parameters this model does
