@@ -13,6 +13,7 @@ use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
 use super::moves::{CarryTuning, Move, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
+use super::offload::{Batch, EvalKind, Offload};
 use super::report::{
     chosen_tau_report, rhat_from_history, tau_windows, EnsembleReport, RunReport, StopReason,
     TAU_WINDOWS,
@@ -167,6 +168,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// The history was released ([`release_history`](Self::release_history)) and must be
     /// restored before the next run.
     history_released: bool,
+    /// Where the proposals are evaluated when not in this process alone.
+    offload: Option<&'a mut dyn Offload>,
 }
 
 impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
@@ -487,6 +490,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             shown_r_hat_at: None,
             poisoned: false,
             history_released: false,
+            offload: None,
         }
     }
 
@@ -560,6 +564,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// Stops every later run at `deadline` (with [`StopReason::TimeCap`]), or never.
     pub fn set_deadline(&mut self, deadline: Option<Instant>) {
         self.deadline = deadline;
+    }
+
+    /// Evaluates the proposals of every half-step through `offload` (other processes), except
+    /// the slice move's updates, which run here. The chains stay the same bits (see
+    /// [`Offload`]).
+    pub fn set_offload(&mut self, offload: &'a mut dyn Offload) {
+        self.offload = Some(offload);
     }
 
     /// Updates of each walker per step by the moves: one per block (and one more for a block
@@ -976,6 +987,31 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.half_steps += 1;
         let timed = parallel || cost.is_none() || self.half_steps % RETIME_EVERY == 0;
         let started = timed.then(Instant::now);
+        if let Some(offload) = self.offload.as_deref_mut() {
+            let kind = match block {
+                None => EvalKind::Full,
+                Some(b) if exact => EvalKind::BlockAlone(b),
+                Some(b) => EvalKind::Block(b),
+            };
+            let slots: Vec<usize> = (0..evals.len()).filter(|&k| !skip[k / half]).collect();
+            let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
+                kind.evaluate(density, x, d, c)
+            };
+            offload.evaluate(&mut Batch {
+                kind,
+                ndim,
+                nderived,
+                cache_len,
+                slots: &slots,
+                proposals,
+                derived,
+                cache,
+                evals,
+                local: &local,
+                parallel: self.config.parallel() && threads > 1,
+            });
+            return;
+        }
         let eval = |(k, (((x, d), c), e)): (usize, EvalItem)| {
             if skip[k / half] {
                 return;
