@@ -34,8 +34,12 @@ use crate::sampler::{Batch, EvalKind, Offload};
 /// Errors of the MPI layer.
 #[derive(Debug, Error)]
 pub enum ClusterError {
-    /// MPI was initialised already in this process (or could not be).
-    #[error("MPI could not be initialised (it may be initialised already in this process)")]
+    /// MPI was initialised already in this process, or could not be, or does not let any
+    /// thread call it (one at a time).
+    #[error(
+        "MPI could not be initialised with the thread level MPI_THREAD_SERIALIZED (it may be \
+         initialised already in this process, or built without thread support)"
+    )]
     Init,
     /// Rank 0 asked for evaluations of another density than this rank's.
     #[error(
@@ -94,6 +98,11 @@ pub struct Cluster {
     _universe: Universe,
 }
 
+// SAFETY: MPI is initialised at the `Serialized` thread level (checked in `init`): any thread
+// may call it as long as no two do at once. `Cluster` stays `!Sync` (its communicator is), so
+// only the one thread that holds it can call MPI through it.
+unsafe impl Send for Cluster {}
+
 impl std::fmt::Debug for Cluster {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Cluster")
@@ -105,13 +114,18 @@ impl std::fmt::Debug for Cluster {
 }
 
 impl Cluster {
-    /// Initialises MPI (only the main thread calls it; the rayon threads only evaluate).
+    /// Initialises MPI. The rayon threads only evaluate; MPI is called by whichever thread
+    /// holds the `&mut Cluster` (the sampler may run inside a rayon pool), one at a time: the
+    /// `Serialized` thread level.
     ///
     /// # Errors
-    /// [`ClusterError::Init`] when MPI is initialised already.
+    /// [`ClusterError::Init`] when MPI is initialised already or does not provide that level.
     pub fn init() -> Result<Self, ClusterError> {
-        let (universe, _) =
-            mpi::initialize_with_threading(mpi::Threading::Funneled).ok_or(ClusterError::Init)?;
+        let (universe, provided) =
+            mpi::initialize_with_threading(mpi::Threading::Serialized).ok_or(ClusterError::Init)?;
+        if provided < mpi::Threading::Serialized {
+            return Err(ClusterError::Init);
+        }
         Ok(Self {
             world: universe.world(),
             stats: CommStats::default(),

@@ -67,8 +67,11 @@ fn check(out: Output, what: &str) -> String {
     err
 }
 
-/// Every row of the chains (indices and every value column, as bits) of run directory `run`.
-fn chain_bits(run: &Path) -> (Vec<(u64, u32, u32)>, Vec<Vec<u64>>) {
+/// Every row's (step, ensemble, walker), and every value column as bits.
+type ChainBits = (Vec<(u64, u32, u32)>, Vec<Vec<u64>>);
+
+/// The chains of run directory `run`, every value as its bits.
+fn chain_bits(run: &Path) -> ChainBits {
     let chains = read_chains(&run.join("chains")).expect("reading the chains");
     let rows = (0..chains.len())
         .map(|i| (chains.step[i], chains.ensemble[i], chains.walker[i]))
@@ -151,7 +154,7 @@ fn a_killed_rank_ends_the_job_naming_it_and_the_last_checkpoint_resumes() {
     }
     let dir = tempfile::tempdir().unwrap();
     let run = dir.path().join("killed");
-    let mut job = mpirun(ranks)
+    let job = mpirun(ranks)
         .args(fit_args(&run, 20_000))
         .stdout(Stdio::null())
         .stderr(Stdio::piped())

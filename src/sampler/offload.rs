@@ -51,6 +51,9 @@ impl EvalKind {
     }
 }
 
+/// One item of a batch: its point, derived values, cache and outcome.
+type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
+
 /// The evaluation of one item in this process: the sampler's density behind the batch's kind.
 type LocalEval<'b> =
     dyn Fn(EvalKind, &[f64], &mut [f64], &mut [f64]) -> Result<f64, LogDensityError> + Sync + 'b;
@@ -151,7 +154,7 @@ impl Batch<'_> {
         let (kind, ndim, nderived, cache_len) =
             (self.kind, self.ndim, self.nderived, self.cache_len);
         let local = self.local;
-        let eval = |(s, ((x, d), c), e): (usize, ((&[f64], &mut [f64]), &mut [f64]), &mut Eval)| {
+        let eval = |(s, (((x, d), c), e)): (usize, EvalItem)| {
             if wanted[s] {
                 *e = sort(local(kind, x, &mut d[..nderived], &mut c[..cache_len]));
             }
@@ -164,7 +167,7 @@ impl Batch<'_> {
                 .zip(self.cache.par_chunks_mut(cstride))
                 .zip(self.evals.par_iter_mut())
                 .enumerate()
-                .for_each(|(s, (xdc, e))| eval((s, xdc, e)));
+                .for_each(eval);
         } else {
             self.proposals
                 .chunks(ndim)
@@ -172,14 +175,15 @@ impl Batch<'_> {
                 .zip(self.cache.chunks_mut(cstride))
                 .zip(self.evals.iter_mut())
                 .enumerate()
-                .for_each(|(s, (xdc, e))| eval((s, xdc, e)));
+                .for_each(eval);
         }
     }
 }
 
-/// Evaluates the sampler's batches, in this process and others. Set on a sampler with
+/// Evaluates the sampler's batches, in this process and others (`Send`: a sampler may be
+/// moved into a thread pool). Set on a sampler with
 /// [`EnsembleSampler::set_offload`](super::EnsembleSampler::set_offload).
-pub trait Offload {
+pub trait Offload: Send {
     /// Evaluates every item of `batch`: items this process keeps through
     /// [`Batch::evaluate_here`], the others by storing what other processes computed through
     /// [`Batch::set_outcome`]. Each item must be evaluated by the sampler's density with the

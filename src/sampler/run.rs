@@ -961,7 +961,6 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     fn evaluate(&mut self, block: Option<usize>, exact: bool) {
         let density = self.density;
         let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
-        let (stride, cstride) = (nderived.max(1), cache_len.max(1));
         let half = self.config.walkers() / 2;
         // The ensembles whose half-step is a slice update have their points already.
         let skip: Vec<bool> = self
@@ -987,58 +986,40 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.half_steps += 1;
         let timed = parallel || cost.is_none() || self.half_steps % RETIME_EVERY == 0;
         let started = timed.then(Instant::now);
-        if let Some(offload) = self.offload.as_deref_mut() {
-            let kind = match block {
-                None => EvalKind::Full,
-                Some(b) if exact => EvalKind::BlockAlone(b),
-                Some(b) => EvalKind::Block(b),
-            };
-            let slots: Vec<usize> = (0..evals.len()).filter(|&k| !skip[k / half]).collect();
-            let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
-                kind.evaluate(density, x, d, c)
-            };
-            offload.evaluate(&mut Batch {
-                kind,
-                ndim,
-                nderived,
-                cache_len,
-                slots: &slots,
-                proposals,
-                derived,
-                cache,
-                evals,
-                local: &local,
-                parallel: self.config.parallel() && threads > 1,
-            });
-            return;
-        }
-        let eval = |(k, (((x, d), c), e)): (usize, EvalItem)| {
-            if skip[k / half] {
+        let kind = match block {
+            None => EvalKind::Full,
+            Some(b) if exact => EvalKind::BlockAlone(b),
+            Some(b) => EvalKind::Block(b),
+        };
+        let slots: Vec<usize> = (0..evals.len()).filter(|&k| !skip[k / half]).collect();
+        let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
+            kind.evaluate(density, x, d, c)
+        };
+        let mut batch = Batch {
+            kind,
+            ndim,
+            nderived,
+            cache_len,
+            slots: &slots,
+            proposals,
+            derived,
+            cache,
+            evals,
+            local: &local,
+            // Another process's share costs far more than a parallel loop: this process's
+            // share always goes to the pool.
+            parallel: if self.offload.is_some() {
+                self.config.parallel() && threads > 1
+            } else {
+                parallel
+            },
+        };
+        match self.offload.as_deref_mut() {
+            Some(offload) => {
+                offload.evaluate(&mut batch);
                 return;
             }
-            let (d, c) = (&mut d[..nderived], &mut c[..cache_len]);
-            *e = sort(match block {
-                None => density.log_density_cached(x, d, c),
-                Some(b) if exact => density.log_density_block_alone(b, x, d, c),
-                Some(b) => density.log_density_block(b, x, d, c),
-            });
-        };
-        if parallel {
-            proposals
-                .par_chunks(ndim)
-                .zip(derived.par_chunks_mut(stride))
-                .zip(cache.par_chunks_mut(cstride))
-                .zip(evals.par_iter_mut())
-                .enumerate()
-                .for_each(eval);
-        } else {
-            proposals
-                .chunks(ndim)
-                .zip(derived.chunks_mut(stride))
-                .zip(cache.chunks_mut(cstride))
-                .zip(evals.iter_mut())
-                .enumerate()
-                .for_each(eval);
+            None => batch.evaluate_here(0..n),
         }
         if let Some(t) = started {
             let ns = t.elapsed().as_secs_f64() * 1e9;
@@ -1355,8 +1336,6 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 
 /// One proposal's buffers as the evaluation loop zips them: position, derived values, cache,
 /// outcome.
-type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
-
 /// Serial cost (ns) of a half-step's evaluations above which they are spread over the rayon
 /// pool. One parallel loop costs a few to tens of µs of synchronisation on a busy
 /// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only

@@ -76,7 +76,7 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
             "only fit, demo and mpi-latency run on several ranks; run this command without mpirun"
         ),
     };
-    if cluster.size() > 1 {
+    if cluster.size() > 1 && cluster.stats().requests > 0 {
         let wall = started.elapsed().as_secs_f64();
         let stats = cluster.stats();
         eprintln!(
