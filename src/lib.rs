@@ -27,6 +27,8 @@
 //! - [`plot`]: the one plotting layer (SVG written by the crate) of reports, `bench` and
 //!   `validate`: figures, charts, axes and ticks, lines, markers, bands, bars, legends, one
 //!   palette.
+//! - `distributed`: a fit over the ranks of an MPI job, every rank evaluating a share of
+//!   each half-step's proposals (feature `mpi`).
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
 //!   directory (feature `report`).
 //!
@@ -39,6 +41,8 @@
 pub mod data;
 pub mod density;
 pub mod diagnostics;
+#[cfg(feature = "mpi")]
+pub mod distributed;
 #[cfg(feature = "parquet")]
 pub mod fit;
 pub mod law;

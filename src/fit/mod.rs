@@ -44,13 +44,13 @@ use crate::data::Provenance;
 use crate::density::{ColumnUnit, LogDensity, Quantity};
 use crate::optimize::initial_around_optimum;
 use crate::sampler::{
-    CarryFit, EnsembleSampler, Move, Observer, RunReport, SamplerConfig, SamplerError,
+    CarryFit, EnsembleSampler, Move, Observer, Offload, RunReport, SamplerConfig, SamplerError,
     SamplerState, Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
 use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 
 pub use error::FitError;
-pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
+pub use model::{fit_model, fit_model_offloaded, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{
     AggregateSummary, Comparison, FitSummary, ForwardModelRecord, LockError, QuantitySummary,
     RunDir, RunDirError, RunLock, RunRecord, SamplerSummary,
@@ -406,6 +406,25 @@ pub fn run_fit<D: LogDensity + ?Sized>(
     resume: bool,
     observer: &mut impl Observer,
 ) -> Result<FitOutcome, FitError> {
+    run_fit_offloaded(density, spec, start, settings, dir, resume, observer, None)
+}
+
+/// [`run_fit`] with the sampler's evaluations handed to `offload` (other processes, e.g. the
+/// ranks of an MPI job); the chains and every file are the same as [`run_fit`]'s.
+///
+/// # Errors
+/// As [`run_fit`].
+#[allow(clippy::too_many_arguments)]
+pub fn run_fit_offloaded<D: LogDensity + ?Sized>(
+    density: &D,
+    spec: &SummarySpec,
+    start: &[f64],
+    settings: &FitSettings,
+    dir: &RunDir,
+    resume: bool,
+    observer: &mut impl Observer,
+    offload: Option<&mut dyn Offload>,
+) -> Result<FitOutcome, FitError> {
     let started = Instant::now();
     settings.validate(resume)?;
     let param_names = density.param_names();
@@ -502,6 +521,9 @@ pub fn run_fit<D: LogDensity + ?Sized>(
         (sampler, sink, settings.steps)
     };
 
+    if let Some(offload) = offload {
+        sampler.set_offload(offload);
+    }
     sink.describe(chain_description(density, spec, settings));
     dir.remove_summaries()?;
     // Quiet hides progress, but a request to stop must still reach the sampler.

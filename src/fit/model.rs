@@ -3,13 +3,13 @@
 
 use super::run_dir::{relative_path, ForwardModelRecord, LooPoint, LooSummary, RunLock, RunRecord};
 use super::{
-    default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit, Aggregate,
-    ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
+    default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit_offloaded,
+    Aggregate, ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
 };
 use crate::density::LogDensity;
 use crate::law::Scene;
 use crate::model::{PointwiseError, Posterior};
-use crate::sampler::{CarryFit, Move, Observer, Steps, Updates};
+use crate::sampler::{CarryFit, Move, Observer, Offload, Steps, Updates};
 
 /// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
 /// to cost seconds.
@@ -202,12 +202,12 @@ pub fn peak_notes(posterior: &Posterior, summary: &FitSummary) -> Vec<String> {
 }
 
 /// Fits `posterior` into the run directory that `lock` holds and writes all of it: the chains
-/// and checkpoint, `summary.json` and `summary.csv` ([`run_fit`] with [`summary_spec`]), then
+/// and checkpoint, `summary.json` and `summary.csv` ([`run_fit`](super::run_fit) with [`summary_spec`]), then
 /// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`. Taking the lock
 /// rather than a path, it cannot write a directory another fit is writing.
 ///
 /// # Errors
-/// As [`run_fit`]; [`FitError::RunDir`] when a file cannot be written;
+/// As [`run_fit`](super::run_fit); [`FitError::RunDir`] when a file cannot be written;
 /// [`FitError::Predictive`] when a posterior draw has no valid law.
 pub fn fit_model(
     posterior: &Posterior,
@@ -217,10 +217,27 @@ pub fn fit_model(
     command: Vec<String>,
     observer: &mut impl Observer,
 ) -> Result<FitOutcome, FitError> {
+    fit_model_offloaded(posterior, settings, lock, resume, command, observer, None)
+}
+
+/// [`fit_model`] with the sampler's evaluations handed to `offload` (other processes, e.g. the
+/// ranks of an MPI job): the same chains and files.
+///
+/// # Errors
+/// As [`fit_model`].
+pub fn fit_model_offloaded(
+    posterior: &Posterior,
+    settings: &FitSettings,
+    lock: &RunLock,
+    resume: bool,
+    command: Vec<String>,
+    observer: &mut impl Observer,
+    offload: Option<&mut dyn Offload>,
+) -> Result<FitOutcome, FitError> {
     let out = lock.dir();
     let dir = RunDir::new(out);
     let spec = posterior.spec();
-    let mut outcome = run_fit(
+    let mut outcome = run_fit_offloaded(
         posterior,
         &summary_spec(posterior),
         posterior.start(),
@@ -228,6 +245,7 @@ pub fn fit_model(
         &dir,
         resume,
         observer,
+        offload,
     )?;
     outcome.summary.notes = peak_notes(posterior, &outcome.summary);
     if !outcome.summary.notes.is_empty() {

@@ -5,8 +5,9 @@
 //! Solving t = τ + F(τ)/(kv) point after point (the reference,
 //! [`ObservedSlide::for_each_force_serial`](super::ObservedSlide::for_each_force_serial)) is
 //! one serial chain: each point's Newton iteration starts from the previous point's root.
-//! Here only every 65th point (an *anchor*; every 33rd where the guesses below needed a
-//! second round, see `spring_lanes`) is solved one after the other, by Newton steps from the
+//! Here only every 129th point (an *anchor*; every 33rd where the guesses below needed a
+//! second round, every 65th while they grow back, see `spring_lanes`) is solved one after the
+//! other, by Newton steps from the
 //! previous chunk's quintic Hermite interpolant extrapolated to it, or from a cubic Taylor
 //! guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from the law) where there is none or it leaves
 //! the bracket. The points between two anchors get a quintic Hermite guess of τ(t) from the
@@ -61,8 +62,12 @@ use crate::special::{in_series_apart, in_series_close, in_subtraction};
 /// slower per point on this project's machine, 16 about 5 % slower than 32).
 pub const LANES: usize = 32;
 /// Batches between two anchors where the Hermite guesses have been good: a chunk of
-/// `MAX_BATCHES_PER_CHUNK * LANES + 1` points.
-const MAX_BATCHES_PER_CHUNK: usize = 2;
+/// `MAX_BATCHES_PER_CHUNK * LANES + 1` points. An anchor is a serial chain of scalar law
+/// evaluations (about 34 ns each on this project's machine, whatever the vector width), so
+/// longer chunks pay for fewer of them; 4 (129 points) was 4 % faster per point than 2 on the
+/// bench's slide on AVX2 and AVX-512 (more anchors take a second Newton step, 35 of 56 against
+/// 32 of 87, and the batches take no more rounds); 8 took more rounds and was slower.
+const MAX_BATCHES_PER_CHUNK: usize = 4;
 /// Chunks in a row whose every batch converged in one Newton round before a short chunk (one
 /// batch between anchors) grows back.
 const CLEAN_CHUNKS_TO_GROW: usize = 2;
@@ -587,7 +592,7 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     // The chunk's length adapts to how good the guesses are: where a batch needed a second
     // Newton round (the steep rise at the start of a slow slide), the next chunks are one batch
     // long, whose guesses are 2⁶ times closer; after `CLEAN_CHUNKS_TO_GROW` clean chunks they
-    // grow back. Rounds are the same on every instruction set, so are the anchors.
+    // double, up to `MAX_BATCHES_PER_CHUNK`. Rounds are the same on every instruction set, so are the anchors.
     let (mut batches, mut clean) = (1, 0);
     let mut guess = None;
     while i < n {

@@ -23,6 +23,8 @@
 //! - Draws go to a [`ChainSink`] (contract in [`sink`]); the complete [`SamplerState`] is
 //!   checkpointed through it, and [`EnsembleSampler::from_state`] resumes bit-identically.
 //! - Progress goes to an [`Observer`]; the library never prints.
+//! - Other processes: an [`Offload`] ([`EnsembleSampler::set_offload`]) evaluates each
+//!   half-step's proposals, split over the ranks of an MPI job; the chains stay the same bits.
 //!
 //! # Quick start
 //! ```
@@ -62,6 +64,7 @@ mod history;
 mod memory;
 mod moves;
 mod observer;
+mod offload;
 mod report;
 mod run;
 pub mod sink;
@@ -80,6 +83,7 @@ pub use moves::{
     CarryTuning, Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0,
 };
 pub use observer::{Observer, Progress, RunStart, Silent};
+pub use offload::{Batch, EvalKind, Offload};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{
     EnsembleSampler, SamplerState, CARRY_FIT_STEPS, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS,

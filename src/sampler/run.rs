@@ -13,6 +13,7 @@ use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
 use super::moves::{CarryTuning, Move, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
+use super::offload::{Batch, EvalKind, Offload};
 use super::report::{
     chosen_tau_report, rhat_from_history, tau_windows, EnsembleReport, RunReport, StopReason,
     TAU_WINDOWS,
@@ -167,6 +168,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// The history was released ([`release_history`](Self::release_history)) and must be
     /// restored before the next run.
     history_released: bool,
+    /// Where the proposals are evaluated when not in this process alone.
+    offload: Option<&'a mut dyn Offload>,
 }
 
 impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
@@ -487,6 +490,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             shown_r_hat_at: None,
             poisoned: false,
             history_released: false,
+            offload: None,
         }
     }
 
@@ -560,6 +564,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// Stops every later run at `deadline` (with [`StopReason::TimeCap`]), or never.
     pub fn set_deadline(&mut self, deadline: Option<Instant>) {
         self.deadline = deadline;
+    }
+
+    /// Evaluates the proposals of every half-step through `offload` (other processes), except
+    /// the slice move's updates, which run here. The chains stay the same bits (see
+    /// [`Offload`]).
+    pub fn set_offload(&mut self, offload: &'a mut dyn Offload) {
+        self.offload = Some(offload);
     }
 
     /// Updates of each walker per step by the moves: one per block (and one more for a block
@@ -950,7 +961,6 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     fn evaluate(&mut self, block: Option<usize>, exact: bool) {
         let density = self.density;
         let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
-        let (stride, cstride) = (nderived.max(1), cache_len.max(1));
         let half = self.config.walkers() / 2;
         // The ensembles whose half-step is a slice update have their points already.
         let skip: Vec<bool> = self
@@ -976,33 +986,40 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.half_steps += 1;
         let timed = parallel || cost.is_none() || self.half_steps % RETIME_EVERY == 0;
         let started = timed.then(Instant::now);
-        let eval = |(k, (((x, d), c), e)): (usize, EvalItem)| {
-            if skip[k / half] {
+        let kind = match block {
+            None => EvalKind::Full,
+            Some(b) if exact => EvalKind::BlockAlone(b),
+            Some(b) => EvalKind::Block(b),
+        };
+        let slots: Vec<usize> = (0..evals.len()).filter(|&k| !skip[k / half]).collect();
+        let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
+            kind.evaluate(density, x, d, c)
+        };
+        let mut batch = Batch {
+            kind,
+            ndim,
+            nderived,
+            cache_len,
+            slots: &slots,
+            proposals,
+            derived,
+            cache,
+            evals,
+            local: &local,
+            // Another process's share costs far more than a parallel loop: this process's
+            // share always goes to the pool.
+            parallel: if self.offload.is_some() {
+                self.config.parallel() && threads > 1
+            } else {
+                parallel
+            },
+        };
+        match self.offload.as_deref_mut() {
+            Some(offload) => {
+                offload.evaluate(&mut batch);
                 return;
             }
-            let (d, c) = (&mut d[..nderived], &mut c[..cache_len]);
-            *e = sort(match block {
-                None => density.log_density_cached(x, d, c),
-                Some(b) if exact => density.log_density_block_alone(b, x, d, c),
-                Some(b) => density.log_density_block(b, x, d, c),
-            });
-        };
-        if parallel {
-            proposals
-                .par_chunks(ndim)
-                .zip(derived.par_chunks_mut(stride))
-                .zip(cache.par_chunks_mut(cstride))
-                .zip(evals.par_iter_mut())
-                .enumerate()
-                .for_each(eval);
-        } else {
-            proposals
-                .chunks(ndim)
-                .zip(derived.chunks_mut(stride))
-                .zip(cache.chunks_mut(cstride))
-                .zip(evals.iter_mut())
-                .enumerate()
-                .for_each(eval);
+            None => batch.evaluate_here(0..n),
         }
         if let Some(t) = started {
             let ns = t.elapsed().as_secs_f64() * 1e9;
@@ -1319,8 +1336,6 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 
 /// One proposal's buffers as the evaluation loop zips them: position, derived values, cache,
 /// outcome.
-type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
-
 /// Serial cost (ns) of a half-step's evaluations above which they are spread over the rayon
 /// pool. One parallel loop costs a few to tens of µs of synchronisation on a busy
 /// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only

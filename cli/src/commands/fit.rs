@@ -9,11 +9,13 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use slipbayes::diagnostics::problem_lines;
-use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides};
+use slipbayes::fit::{
+    fit_model_offloaded, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides,
+};
 use slipbayes::law::LawKind;
 use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
-use slipbayes::sampler::{CarryFit, Mixture, Updates};
+use slipbayes::sampler::{CarryFit, Mixture, Offload, Updates};
 
 use super::import::ImportArgs;
 use super::{law_name, non_negative, positive, EXIT_NOT_CONVERGED};
@@ -171,25 +173,36 @@ pub(super) struct DemoArgs {
     run: RunArgs,
 }
 
-pub(super) fn run(args: &FitArgs) -> anyhow::Result<ExitCode> {
-    let spec = match (&args.model, &args.first) {
+/// `fit`, its evaluations handed to `offload` when given (the ranks of an MPI job).
+pub(super) fn run(args: &FitArgs, offload: Option<&mut dyn Offload>) -> anyhow::Result<ExitCode> {
+    fit_and_report(&fit_spec(args)?, &args.out, &args.run, false, offload)
+}
+
+/// The model `fit` fits: the model file, or the quick path's one-contact model.
+pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<ModelSpec> {
+    Ok(match (&args.model, &args.first) {
         (Some(path), None) => ModelSpec::load(path)?,
         (None, Some(first)) => quick_model(args, first)?,
         (None, None) => {
             bail!("give a model file, or --first FIRST.csv for the one-contact quick path")
         }
         (Some(_), Some(_)) => bail!("give either a model file or --first, not both"),
-    };
-    fit_and_report(&spec, &args.out, &args.run, false)
+    })
 }
 
-pub(super) fn demo(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+/// `demo`, its evaluations handed to `offload` when given.
+pub(super) fn demo(args: &DemoArgs, offload: Option<&mut dyn Offload>) -> anyhow::Result<ExitCode> {
+    let spec = demo_spec(args)?;
+    // The main job is re-run as it is: it replaces its earlier results unless resuming.
+    fit_and_report(&spec, &args.out, &args.run, !args.run.resume, offload)
+}
+
+/// The model `demo` fits.
+pub(super) fn demo_spec(args: &DemoArgs) -> anyhow::Result<ModelSpec> {
     if !args.model.exists() {
         bail!("{}", missing_demo_model(&args.model));
     }
-    let spec = ModelSpec::load(&args.model)?;
-    // The main job is re-run as it is: it replaces its earlier results unless resuming.
-    fit_and_report(&spec, &args.out, &args.run, !args.run.resume)
+    Ok(ModelSpec::load(&args.model)?)
 }
 
 /// Where `demo` looked for its model and how to point it at the one bundled with the source.
@@ -256,6 +269,7 @@ fn fit_and_report(
     out: &Path,
     run: &RunArgs,
     replace_earlier: bool,
+    offload: Option<&mut dyn Offload>,
 ) -> anyhow::Result<ExitCode> {
     let posterior = Posterior::new(spec)?;
     let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
@@ -266,13 +280,14 @@ fn fit_and_report(
         ProgressBarObserver::new(run.quiet, Duration::from_secs_f64(run.progress_every))
             .stop_when(&interrupt::INTERRUPTED);
     let command: Vec<String> = std::env::args().collect();
-    let outcome = match fit_model(
+    let outcome = match fit_model_offloaded(
         &posterior,
         &settings,
         &lock,
         run.resume,
         command.clone(),
         &mut observer,
+        offload,
     ) {
         Err(FitError::Interrupted { dir, step }) => {
             eprintln!(

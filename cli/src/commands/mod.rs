@@ -9,6 +9,8 @@ mod fit;
 mod import;
 #[cfg(feature = "parquet")]
 mod kfold;
+#[cfg(feature = "mpi")]
+mod ranks;
 #[cfg(feature = "report")]
 mod report;
 mod simulate;
@@ -61,12 +63,23 @@ enum Command {
     Validate(validate::ValidateArgs),
     #[cfg(feature = "parquet")]
     Bench(bench::BenchArgs),
+    #[cfg(feature = "mpi")]
+    MpiLatency(ranks::LatencyArgs),
 }
 
 /// Entry point of the `slipbayes` binary.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(cli) {
+    #[cfg(feature = "mpi")]
+    if ranks::launched_by_mpirun() {
+        return ranks::main(cli);
+    }
+    exit_code(run(cli))
+}
+
+/// The exit code of a command's outcome, after printing its error.
+fn exit_code(outcome: anyhow::Result<ExitCode>) -> ExitCode {
+    match outcome {
         Ok(code) => code,
         Err(err) => {
             for line in error_lines(&err) {
@@ -125,9 +138,9 @@ pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
 fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         #[cfg(feature = "parquet")]
-        Command::Demo(args) => fit::demo(&args),
+        Command::Demo(args) => fit::demo(&args, None),
         #[cfg(feature = "parquet")]
-        Command::Fit(args) => fit::run(&args),
+        Command::Fit(args) => fit::run(&args, None),
         #[cfg(feature = "report")]
         Command::Report(args) => report::run(&args),
         Command::Simulate(args) => simulate::run(&args),
@@ -139,6 +152,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate(args) => validate::run(&args),
         #[cfg(feature = "parquet")]
         Command::Bench(args) => bench::run_bench(&args),
+        #[cfg(feature = "mpi")]
+        Command::MpiLatency(_) => {
+            anyhow::bail!("mpi-latency measures MPI: run it with mpirun -n R (R ≥ 2)")
+        }
     }
 }
 

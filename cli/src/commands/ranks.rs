@@ -1,0 +1,164 @@
+//! The command line under `mpirun` (feature `mpi`): rank 0 runs the command as one process
+//! would, with its evaluations shared by every rank; the other ranks load the same model and
+//! serve evaluations until rank 0 releases them (see `slipbayes::distributed`).
+//!
+//! `fit` and `demo` run on several ranks, and `mpi-latency` measures the collectives they use;
+//! other commands refuse. A rank that fails prints its rank and the cause and aborts the job,
+//! so that no rank waits for it; a fit's last checkpoint stays resumable.
+
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+
+use slipbayes::distributed::Cluster;
+use slipbayes::model::Posterior;
+use slipbayes::sampler::Offload;
+
+use super::{error_lines, exit_code, fit, Cli, Command};
+
+/// Whether this process was started by an MPI launcher (Open MPI's `mpirun`, or a PMI/PMIx
+/// launcher such as Slurm's `srun`): only then is MPI initialised.
+pub(super) fn launched_by_mpirun() -> bool {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some())
+}
+
+/// Measure the latency of the collectives a fit over MPI uses, for a range of request sizes:
+/// `mpirun -n R slipbayes mpi-latency`. One request is a broadcast of a header, a scatter of
+/// ITEMS points of VALUES numbers over the ranks and two gathers back (as in a fit).
+#[derive(Debug, Args)]
+pub(super) struct LatencyArgs {
+    /// Points per request.
+    #[arg(long, default_value_t = 128)]
+    items: usize,
+    /// Values per point, one request size per value (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "1,64,512,2048")]
+    values: Vec<usize>,
+    /// Requests timed per size.
+    #[arg(long, default_value_t = 2000)]
+    reps: usize,
+}
+
+/// Runs `cli` as one rank of an MPI job.
+pub(super) fn main(cli: Cli) -> ExitCode {
+    let mut cluster = match Cluster::init() {
+        Ok(cluster) => cluster,
+        Err(e) => return exit_code(Err(e.into())),
+    };
+    let rank = cluster.rank();
+    if rank == 0 {
+        let outcome = root(cli, &mut cluster);
+        cluster.release();
+        return exit_code(outcome);
+    }
+    match serve(cli, &mut cluster) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            for line in error_lines(&err) {
+                eprintln!("rank {rank}: {line}");
+            }
+            // Rank 0 waits for this rank's share: end the whole job.
+            cluster.abort(1)
+        }
+    }
+}
+
+/// Rank 0: the command itself, with the cluster evaluating.
+fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
+    let started = std::time::Instant::now();
+    let outcome = match cli.command {
+        Command::Fit(args) => fit::run(&args, Some(&mut *cluster as &mut dyn Offload)),
+        Command::Demo(args) => fit::demo(&args, Some(&mut *cluster as &mut dyn Offload)),
+        Command::MpiLatency(args) => latency(&args, cluster),
+        _ => anyhow::bail!(
+            "only fit, demo and mpi-latency run on several ranks; run this command without mpirun"
+        ),
+    };
+    if cluster.size() > 1 && cluster.stats().requests > 0 {
+        let wall = started.elapsed().as_secs_f64();
+        let stats = cluster.stats();
+        eprintln!(
+            "MPI: {} ranks; rank 0 spent {:.3} s of its {wall:.3} s in MPI calls ({:.1} %), {} \
+             requests, {:.1} MB",
+            cluster.size(),
+            stats.mpi_s,
+            100.0 * stats.mpi_s / wall,
+            stats.requests,
+            stats.bytes as f64 / 1e6
+        );
+    }
+    outcome
+}
+
+/// Ranks other than 0: load the model the command fits and evaluate until released.
+fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
+    let rank = cluster.rank();
+    let spec = match &cli.command {
+        Command::Fit(args) => fit::fit_spec(args)?,
+        Command::Demo(args) => fit::demo_spec(args)?,
+        Command::MpiLatency(args) => {
+            latency(args, cluster)?;
+            // Then wait for rank 0's release, as after a fit.
+            cluster.serve(&NoDensity)?;
+            return Ok(());
+        }
+        // Rank 0 refuses the command and releases this rank at once.
+        _ => {
+            cluster.serve(&NoDensity)?;
+            return Ok(());
+        }
+    };
+    let posterior =
+        Posterior::new(&spec).with_context(|| format!("rank {rank}: loading the model"))?;
+    let started = std::time::Instant::now();
+    cluster.serve(&posterior)?;
+    let wall = started.elapsed().as_secs_f64();
+    let stats = cluster.stats();
+    eprintln!(
+        "MPI: rank {rank} served {} requests, {:.1} % of its {wall:.3} s in MPI calls (waiting for rank 0 included)",
+        stats.requests,
+        100.0 * stats.mpi_s / wall
+    );
+    Ok(())
+}
+
+/// What a rank serves when rank 0 runs a command that evaluates nothing: any request is a
+/// mismatch (no coordinates).
+struct NoDensity;
+
+impl slipbayes::density::LogDensity for NoDensity {
+    fn dim(&self) -> usize {
+        0
+    }
+
+    fn log_density(
+        &self,
+        _x: &[f64],
+        _derived: &mut [f64],
+    ) -> Result<f64, slipbayes::density::LogDensityError> {
+        Ok(0.0)
+    }
+}
+
+/// `mpi-latency`: every rank times the requests; rank 0 prints the table.
+fn latency(args: &LatencyArgs, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
+    if cluster.rank() == 0 {
+        println!("ranks,items,values_per_item,bytes_per_request,latency_us");
+    }
+    for &values in &args.values {
+        let seconds = cluster.request_latency_s(args.items, values, args.reps);
+        if cluster.rank() == 0 {
+            // Points out and outcomes back.
+            let bytes = 2 * 8 * args.items * values;
+            println!(
+                "{},{},{values},{bytes},{:.2}",
+                cluster.size(),
+                args.items,
+                seconds * 1e6
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

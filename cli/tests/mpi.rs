@@ -1,0 +1,199 @@
+//! Fits over MPI (feature `mpi`): `mpirun -n R slipbayes fit` gives the same chains, bit for
+//! bit, as one process without MPI, for R = 1, 2 and 3 on loopback; a rank that dies ends the
+//! job with a message naming it, and the last checkpoint resumes on another number of ranks
+//! to the chains of an uninterrupted run.
+//!
+//! Needs Open MPI's `mpirun` on PATH (`.ci/run` installs it). `SLIPBAYES_MPI_RANKS` (e.g.
+//! `2`) limits the rank counts tried (default `1,2,3`).
+#![cfg(feature = "mpi")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use slipbayes::storage::read_chains;
+
+/// Three contacts of one material with t0 pooled: material blocks, contact blocks and the
+/// exact draws of a population, each a kind of request the ranks serve.
+fn model() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/campaign-3/campaign.toml")
+}
+
+fn slipbayes() -> &'static str {
+    env!("CARGO_BIN_EXE_slipbayes")
+}
+
+/// `mpirun -n ranks slipbayes ARGS` on loopback, allowed to run as root (CI runs as root)
+/// and on more ranks than cores.
+fn mpirun(ranks: usize) -> Command {
+    let mut cmd = Command::new("mpirun");
+    cmd.args(["--oversubscribe", "--allow-run-as-root", "-n"])
+        .arg(ranks.to_string())
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .arg(slipbayes());
+    cmd
+}
+
+fn ranks_to_try() -> Vec<usize> {
+    std::env::var("SLIPBAYES_MPI_RANKS")
+        .unwrap_or_else(|_| "1,2,3".to_owned())
+        .split(',')
+        .map(|r| {
+            r.trim()
+                .parse()
+                .expect("SLIPBAYES_MPI_RANKS: ranks, e.g. 1,2,3")
+        })
+        .collect()
+}
+
+fn fit_args(out: &Path, steps: u64) -> Vec<String> {
+    vec![
+        "fit".into(),
+        model().display().to_string(),
+        "--out".into(),
+        out.display().to_string(),
+        "--steps".into(),
+        steps.to_string(),
+        "--seed".into(),
+        "11".into(),
+        "--quiet".into(),
+    ]
+}
+
+fn check(out: Output, what: &str) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{what} failed:\n{err}");
+    err
+}
+
+/// Every row's (step, ensemble, walker), and every value column as bits.
+type ChainBits = (Vec<(u64, u32, u32)>, Vec<Vec<u64>>);
+
+/// The chains of run directory `run`, every value as its bits.
+fn chain_bits(run: &Path) -> ChainBits {
+    let chains = read_chains(&run.join("chains")).expect("reading the chains");
+    let rows = (0..chains.len())
+        .map(|i| (chains.step[i], chains.ensemble[i], chains.walker[i]))
+        .collect();
+    let values = chains
+        .columns
+        .iter()
+        .map(|c| c.iter().map(|v| v.to_bits()).collect())
+        .collect();
+    (rows, values)
+}
+
+fn single_process(out: &Path, steps: u64) {
+    let output = Command::new(slipbayes())
+        .args(fit_args(out, steps))
+        .output()
+        .unwrap();
+    check(output, "the single-process fit");
+}
+
+#[test]
+fn chains_are_the_same_bits_on_one_process_and_on_1_2_and_3_ranks() {
+    let dir = tempfile::tempdir().unwrap();
+    let alone = dir.path().join("alone");
+    single_process(&alone, 150);
+    let expected = chain_bits(&alone);
+    let summary = std::fs::read(alone.join("summary.csv")).unwrap();
+    for ranks in ranks_to_try() {
+        let run = dir.path().join(format!("ranks-{ranks}"));
+        let err = check(
+            mpirun(ranks).args(fit_args(&run, 150)).output().unwrap(),
+            &format!("the fit on {ranks} ranks"),
+        );
+        if ranks > 1 {
+            // The requests really went to the other ranks.
+            assert!(err.contains(&format!("MPI: {ranks} ranks")), "{err}");
+            assert!(err.contains("rank 1 served"), "{err}");
+        }
+        assert!(
+            chain_bits(&run) == expected,
+            "{ranks} ranks: the chains differ from one process's"
+        );
+        assert_eq!(
+            std::fs::read(run.join("summary.csv")).unwrap(),
+            summary,
+            "{ranks} ranks"
+        );
+        // Only rank 0 wrote: one run directory, one set of chains.
+        assert_eq!(
+            std::fs::read_dir(run.join("chains")).unwrap().count(),
+            std::fs::read_dir(alone.join("chains")).unwrap().count()
+        );
+    }
+}
+
+/// The process id of rank `rank` of the job writing `out` (read from /proc: its environment
+/// holds Open MPI's rank, its command line the run directory).
+fn rank_pid(rank: usize, out: &Path) -> Option<u32> {
+    let wanted = format!("OMPI_COMM_WORLD_RANK={rank}");
+    for entry in std::fs::read_dir("/proc").ok()?.flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let cmdline = std::fs::read(entry.path().join("cmdline")).unwrap_or_default();
+        let environ = std::fs::read(entry.path().join("environ")).unwrap_or_default();
+        let has =
+            |haystack: &[u8], needle: &[u8]| haystack.split(|&b| b == 0).any(|part| part == needle);
+        if has(&cmdline, out.as_os_str().as_encoded_bytes()) && has(&environ, wanted.as_bytes()) {
+            return Some(pid);
+        }
+    }
+    None
+}
+
+#[test]
+fn a_killed_rank_ends_the_job_naming_it_and_the_last_checkpoint_resumes() {
+    let ranks = *ranks_to_try().iter().max().unwrap();
+    if ranks < 2 {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("killed");
+    let job = mpirun(ranks)
+        .args(fit_args(&run, 20_000))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Killed once a checkpoint (every 200 steps) is on disk.
+    let started = Instant::now();
+    while !run.join("checkpoint.bin").exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(300),
+            "no checkpoint"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let pid = rank_pid(1, &run).expect("rank 1 is running");
+    assert!(Command::new("kill")
+        .args(["-KILL", &pid.to_string()])
+        .status()
+        .unwrap()
+        .success());
+    let out = job.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    // Open MPI names the rank that failed and how.
+    assert!(err.contains("rank 1") && err.contains("signal 9"), "{err}");
+
+    // The checkpoint is complete: the run resumes on another number of ranks and ends with
+    // the chains of an uninterrupted run in one process.
+    let mut resume = fit_args(&run, 600);
+    resume.push("--resume".into());
+    check(
+        mpirun(ranks - 1).args(&resume).output().unwrap(),
+        &format!("resuming the killed job's run on {} ranks", ranks - 1),
+    );
+    let alone = dir.path().join("alone");
+    single_process(&alone, 600);
+    assert!(
+        chain_bits(&run) == chain_bits(&alone),
+        "killed on {ranks} ranks, resumed on {}: the chains differ from one process's",
+        ranks - 1
+    );
+}

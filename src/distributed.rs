@@ -1,0 +1,473 @@
+//! A fit over the ranks of an MPI job (feature `mpi`): rank 0 samples, every rank evaluates.
+//!
+//! Rank 0 runs the whole fit as one process would: it draws every random number, decides when
+//! to stop, checkpoints and writes the run directory. Only the expensive part is shared: each
+//! half-step's proposals (a [`Batch`], the same for joint updates, block updates and exact
+//! draws) are split into contiguous shares, one per rank; rank 0 evaluates its own share and
+//! the other ranks, which hold the same posterior and wait in [`Cluster::serve`], evaluate
+//! theirs and send the outcomes back. Each proposal is evaluated by the same pure density from
+//! the same inputs wherever it runs, so the chains are the same bits for any number of ranks,
+//! including one process without MPI.
+//!
+//! One request is four collectives: a broadcast of its header, a scatter of the points (with
+//! the walkers' derived values and caches for a block update), a gather of the outcomes and a
+//! gather of the rejection labels and fatal messages among them.
+//!
+//! A fatal evaluation on another rank comes back as a fatal outcome naming the rank and stops
+//! the run on rank 0 like any fatal evaluation (its last checkpoint stays resumable). A rank
+//! that fails outside an evaluation must abort the job ([`Cluster::abort`]) so that no rank
+//! waits for it forever; rank 0 releases the others when its [`Cluster`] is dropped, however
+//! the fit ended.
+
+use std::time::Instant;
+
+use mpi::datatype::{Partition, PartitionMut};
+use mpi::environment::Universe;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+use thiserror::Error;
+
+use crate::density::{Eval, LogDensity, LogDensityError};
+use crate::sampler::{Batch, EvalKind, Offload};
+
+/// Errors of the MPI layer.
+#[derive(Debug, Error)]
+pub enum ClusterError {
+    /// MPI was initialised already in this process, or could not be, or does not let any
+    /// thread call it (one at a time).
+    #[error(
+        "MPI could not be initialised with the thread level MPI_THREAD_SERIALIZED (it may be \
+         initialised already in this process, or built without thread support)"
+    )]
+    Init,
+    /// Rank 0 asked for evaluations of another density than this rank's.
+    #[error(
+        "rank {rank}: rank 0 sends points of {root} {what} but this rank's posterior has {here}; \
+         every rank must load the same model (same file and data)"
+    )]
+    Mismatch {
+        /// This rank.
+        rank: usize,
+        /// What differs (coordinates, derived values, cache length).
+        what: &'static str,
+        /// Rank 0's count.
+        root: usize,
+        /// This rank's count.
+        here: usize,
+    },
+}
+
+/// Time and traffic of this rank's MPI calls, to judge what communication costs.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CommStats {
+    /// Requests (batches) handled.
+    pub requests: u64,
+    /// Wall time inside MPI calls (s), waiting for the other ranks included.
+    pub mpi_s: f64,
+    /// Bytes this rank sent and received in them.
+    pub bytes: u64,
+}
+
+/// Header codes: what a request asks for.
+const STOP: u64 = 0;
+const FULL: u64 = 1;
+const BLOCK: u64 = 2;
+const BLOCK_ALONE: u64 = 3;
+
+/// Outcome codes, first value of each outcome record.
+const FINITE: f64 = 0.0;
+const REJECTED: f64 = 1.0;
+const FATAL: f64 = 2.0;
+/// Values of an outcome record before its derived values and cache: code, value, length of
+/// its text (a rejection label or a fatal message, in the gathered bytes).
+const RECORD_HEAD: usize = 3;
+/// Byte buffers are allocated even when empty: the dangling pointer of an empty `Vec<u8>` is
+/// 1, which Open MPI reads as `MPI_IN_PLACE` (and then refuses the call).
+const TEXT_CAPACITY: usize = 64;
+
+/// This process's place in an MPI job, and the evaluation service between its ranks.
+pub struct Cluster {
+    // Dropped last: MPI is finalised when the universe goes.
+    world: SimpleCommunicator,
+    stats: CommStats,
+    /// Rejection labels received from other ranks, kept for the life of the process: the
+    /// sampler counts rejections under `&'static str` labels, of which a density has a few.
+    labels: Vec<&'static str>,
+    released: bool,
+    _universe: Universe,
+}
+
+// SAFETY: MPI is initialised at the `Serialized` thread level (checked in `init`): any thread
+// may call it as long as no two do at once. `Cluster` stays `!Sync` (its communicator is), so
+// only the one thread that holds it can call MPI through it.
+unsafe impl Send for Cluster {}
+
+impl std::fmt::Debug for Cluster {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Cluster")
+            .field("rank", &self.rank())
+            .field("size", &self.size())
+            .field("stats", &self.stats)
+            .finish()
+    }
+}
+
+impl Cluster {
+    /// Initialises MPI. The rayon threads only evaluate; MPI is called by whichever thread
+    /// holds the `&mut Cluster` (the sampler may run inside a rayon pool), one at a time: the
+    /// `Serialized` thread level.
+    ///
+    /// # Errors
+    /// [`ClusterError::Init`] when MPI is initialised already or does not provide that level.
+    pub fn init() -> Result<Self, ClusterError> {
+        let (universe, provided) =
+            mpi::initialize_with_threading(mpi::Threading::Serialized).ok_or(ClusterError::Init)?;
+        if provided < mpi::Threading::Serialized {
+            return Err(ClusterError::Init);
+        }
+        Ok(Self {
+            world: universe.world(),
+            stats: CommStats::default(),
+            labels: Vec::new(),
+            released: false,
+            _universe: universe,
+        })
+    }
+
+    /// This process's rank (0 samples and writes).
+    pub fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    /// Number of ranks.
+    pub fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    /// Time and traffic of this rank's MPI calls so far.
+    pub fn stats(&self) -> CommStats {
+        self.stats
+    }
+
+    /// Ends every rank of the job with `code` (after this rank has said why).
+    pub fn abort(&self, code: i32) -> ! {
+        self.world.abort(code)
+    }
+
+    /// On ranks other than 0: evaluates the shares of `density` that rank 0 sends until it
+    /// releases the ranks (when its [`Cluster`] is dropped).
+    ///
+    /// # Errors
+    /// [`ClusterError::Mismatch`] when rank 0 samples another density (the caller must then
+    /// [`abort`](Self::abort): rank 0 waits for this rank's share).
+    pub fn serve<D: LogDensity + ?Sized>(&mut self, density: &D) -> Result<(), ClusterError> {
+        let (ndim, nderived, cache_len) = (
+            density.dim(),
+            density.derived_names().len(),
+            density.cache_len(),
+        );
+        let rank = self.rank();
+        let root = self.world.process_at_rank(0);
+        loop {
+            let mut header = [0u64; 6];
+            let started = Instant::now();
+            root.broadcast_into(&mut header[..]);
+            count(&mut self.stats, started, 48);
+            let [code, block, items, root_ndim, root_nderived, root_cache_len] = header;
+            let kind = match code {
+                STOP => return Ok(()),
+                FULL => EvalKind::Full,
+                BLOCK => EvalKind::Block(block as usize),
+                _ => EvalKind::BlockAlone(block as usize),
+            };
+            for (what, root, here) in [
+                ("coordinates", root_ndim, ndim),
+                ("derived values", root_nderived, nderived),
+                ("cached values", root_cache_len, cache_len),
+            ] {
+                if root as usize != here {
+                    return Err(ClusterError::Mismatch {
+                        rank,
+                        what,
+                        root: root as usize,
+                        here,
+                    });
+                }
+            }
+            let share = share(items as usize, self.size(), rank);
+            let mine = share.len();
+            let input = input_len(kind, ndim, nderived, cache_len);
+            let mut received = vec![0.0; mine * input];
+            let started = Instant::now();
+            root.scatter_varcount_into(&mut received[..]);
+            count(&mut self.stats, started, 8 * received.len());
+
+            let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
+            let mut proposals = vec![0.0; mine * ndim];
+            let mut derived = vec![0.0; mine * dstride];
+            let mut cache = vec![0.0; mine * cstride];
+            for (k, item) in received.chunks_exact(input.max(1)).take(mine).enumerate() {
+                proposals[k * ndim..(k + 1) * ndim].copy_from_slice(&item[..ndim]);
+                if kind.reads_cache() {
+                    derived[k * dstride..k * dstride + nderived]
+                        .copy_from_slice(&item[ndim..ndim + nderived]);
+                    cache[k * cstride..k * cstride + cache_len]
+                        .copy_from_slice(&item[ndim + nderived..]);
+                }
+            }
+            let mut evals = vec![Eval::Finite(0.0); mine];
+            let slots: Vec<usize> = (0..mine).collect();
+            let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
+                kind.evaluate(density, x, d, c)
+            };
+            Batch {
+                kind,
+                ndim,
+                nderived,
+                cache_len,
+                slots: &slots,
+                proposals: &proposals,
+                derived: &mut derived,
+                cache: &mut cache,
+                evals: &mut evals,
+                local: &local,
+                parallel: rayon::current_num_threads() > 1,
+            }
+            .evaluate_here(0..mine);
+
+            let record = RECORD_HEAD + nderived + cache_len;
+            let mut outcomes = Vec::with_capacity(mine * record);
+            let mut text = Vec::with_capacity(TEXT_CAPACITY);
+            for (k, eval) in evals.iter().enumerate() {
+                let (code, value, words) = match eval {
+                    Eval::Finite(v) => (FINITE, *v, String::new()),
+                    Eval::Rejected(label) => (REJECTED, 0.0, (*label).to_owned()),
+                    Eval::Fatal(message) => (FATAL, 0.0, format!("on rank {rank}: {message}")),
+                };
+                outcomes.extend([code, value, words.len() as f64]);
+                text.extend_from_slice(words.as_bytes());
+                outcomes.extend_from_slice(&derived[k * dstride..k * dstride + nderived]);
+                outcomes.extend_from_slice(&cache[k * cstride..k * cstride + cache_len]);
+            }
+            let started = Instant::now();
+            root.gather_varcount_into(&outcomes[..]);
+            root.gather_varcount_into(&text[..]);
+            count(&mut self.stats, started, 8 * outcomes.len() + text.len());
+            self.stats.requests += 1;
+        }
+    }
+
+    /// On rank 0: releases the ranks waiting in [`serve`](Self::serve) (also done on drop).
+    pub fn release(&mut self) {
+        if self.rank() == 0 && self.size() > 1 && !self.released {
+            let mut header = [STOP, 0, 0, 0, 0, 0];
+            self.world
+                .process_at_rank(0)
+                .broadcast_into(&mut header[..]);
+            self.released = true;
+        }
+    }
+
+    /// The `&'static str` of a rejection label received from another rank.
+    fn label(&mut self, text: &str) -> &'static str {
+        if let Some(known) = self.labels.iter().find(|l| **l == text) {
+            return known;
+        }
+        let leaked: &'static str = Box::leak(text.to_owned().into_boxed_str());
+        self.labels.push(leaked);
+        leaked
+    }
+
+    /// Mean wall time (s) of one request's collectives on every rank, with `items` points of
+    /// `values` f64 each split over the ranks and as many sent back: a broadcast of a header,
+    /// a scatter and two gathers, as [`serve`](Self::serve) and the offload do them, `reps`
+    /// times. Every rank must call it with the same arguments.
+    pub fn request_latency_s(&self, items: usize, values: usize, reps: usize) -> f64 {
+        let root = self.world.process_at_rank(0);
+        let (size, rank) = (self.size(), self.rank());
+        let data = vec![1.0_f64; items * values];
+        let (counts, displs) = partition(items, size, values);
+        let mine = share(items, size, rank).len() * values;
+        let mut buffer = vec![0.0_f64; mine];
+        let mut gathered = vec![0.0_f64; items * values];
+        let text: Vec<u8> = Vec::with_capacity(TEXT_CAPACITY);
+        let zeros = vec![0 as Count; size];
+        let mut no_text: Vec<u8> = Vec::with_capacity(TEXT_CAPACITY);
+        self.world.barrier();
+        let started = Instant::now();
+        for _ in 0..reps {
+            let mut header = [FULL, 0, items as u64, 0, 0, 0];
+            root.broadcast_into(&mut header[..]);
+            if rank == 0 {
+                root.scatter_varcount_into_root(
+                    &Partition::new(&data[..], &counts[..], &displs[..]),
+                    &mut buffer[..],
+                );
+                root.gather_varcount_into_root(
+                    &buffer[..],
+                    &mut PartitionMut::new(&mut gathered[..], &counts[..], &displs[..]),
+                );
+                root.gather_varcount_into_root(
+                    &text[..],
+                    &mut PartitionMut::new(&mut no_text[..], &zeros[..], &zeros[..]),
+                );
+            } else {
+                root.scatter_varcount_into(&mut buffer[..]);
+                root.gather_varcount_into(&buffer[..]);
+                root.gather_varcount_into(&text[..]);
+            }
+        }
+        self.world.barrier();
+        started.elapsed().as_secs_f64() / reps.max(1) as f64
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        self.release();
+    }
+}
+
+/// Adds MPI calls that began at `started` and moved `bytes` to `stats`.
+fn count(stats: &mut CommStats, started: Instant, bytes: usize) {
+    stats.mpi_s += started.elapsed().as_secs_f64();
+    stats.bytes += bytes as u64;
+}
+
+/// Items `[r·n/R, (r+1)·n/R)` of `n` go to rank `r` of `ranks`: contiguous, balanced, and
+/// fixed by `n` and the number of ranks alone.
+fn share(n: usize, ranks: usize, r: usize) -> std::ops::Range<usize> {
+    n * r / ranks..n * (r + 1) / ranks
+}
+
+/// Counts and displacements (in values) of every rank's share of `n` items of `per_item`
+/// values.
+fn partition(n: usize, ranks: usize, per_item: usize) -> (Vec<Count>, Vec<Count>) {
+    (0..ranks)
+        .map(|r| {
+            let s = share(n, ranks, r);
+            ((s.len() * per_item) as Count, (s.start * per_item) as Count)
+        })
+        .unzip()
+}
+
+/// Values sent per item: the point, and for a block update the walker's derived values and
+/// cache.
+fn input_len(kind: EvalKind, ndim: usize, nderived: usize, cache_len: usize) -> usize {
+    if kind.reads_cache() {
+        ndim + nderived + cache_len
+    } else {
+        ndim
+    }
+}
+
+impl Offload for Cluster {
+    /// On rank 0: splits `batch` over the ranks, evaluates rank 0's share here and stores the
+    /// others' outcomes.
+    fn evaluate(&mut self, batch: &mut Batch<'_>) {
+        let ranks = self.size();
+        if ranks == 1 {
+            batch.evaluate_here(0..batch.len());
+            return;
+        }
+        let (kind, n) = (batch.kind(), batch.len());
+        let (ndim, nderived, cache_len) = (batch.ndim(), batch.nderived(), batch.cache_len());
+        let (code, block) = match kind {
+            EvalKind::Full => (FULL, 0),
+            EvalKind::Block(b) => (BLOCK, b),
+            EvalKind::BlockAlone(b) => (BLOCK_ALONE, b),
+        };
+        let root = self.world.process_at_rank(0);
+        let mut header = [
+            code,
+            block as u64,
+            n as u64,
+            ndim as u64,
+            nderived as u64,
+            cache_len as u64,
+        ];
+        let started = Instant::now();
+        root.broadcast_into(&mut header[..]);
+        count(&mut self.stats, started, 48);
+
+        let input = input_len(kind, ndim, nderived, cache_len);
+        let others = share(n, ranks, 0).end..n;
+        let mut send = Vec::with_capacity(others.len() * input);
+        for k in others.clone() {
+            send.extend_from_slice(batch.point(k));
+            if kind.reads_cache() {
+                send.extend_from_slice(batch.derived(k));
+                send.extend_from_slice(batch.cache(k));
+            }
+        }
+        // Rank 0's own share stays here: its count is 0 and the others start at 0.
+        let (mut counts, mut displs) = partition(n, ranks, input);
+        let skipped = displs[1];
+        counts[0] = 0;
+        for d in &mut displs {
+            *d = (*d - skipped).max(0);
+        }
+        let started = Instant::now();
+        root.scatter_varcount_into_root(
+            &Partition::new(&send[..], &counts[..], &displs[..]),
+            &mut [0.0_f64; 0][..],
+        );
+        count(&mut self.stats, started, 8 * send.len());
+
+        batch.evaluate_here(share(n, ranks, 0));
+
+        let record = RECORD_HEAD + nderived + cache_len;
+        let (mut counts, mut displs) = partition(n, ranks, record);
+        let skipped = displs[1];
+        counts[0] = 0;
+        for d in &mut displs {
+            *d = (*d - skipped).max(0);
+        }
+        let mut outcomes = vec![0.0; others.len() * record];
+        let started = Instant::now();
+        root.gather_varcount_into_root(
+            &[0.0_f64; 0][..],
+            &mut PartitionMut::new(&mut outcomes[..], &counts[..], &displs[..]),
+        );
+        // The texts' lengths are in the outcomes: each rank's bytes follow the previous one's.
+        let mut text_counts = vec![0 as Count; ranks];
+        for (r, count) in text_counts.iter_mut().enumerate().skip(1) {
+            let s = share(n, ranks, r);
+            *count = outcomes[(s.start - others.start) * record..(s.end - others.start) * record]
+                .chunks_exact(record)
+                .map(|o| o[2] as Count)
+                .sum();
+        }
+        let text_displs: Vec<Count> = text_counts
+            .iter()
+            .scan(0, |at, &c| {
+                let d = *at;
+                *at += c;
+                Some(d)
+            })
+            .collect();
+        let total = text_counts.iter().sum::<Count>() as usize;
+        let mut text = Vec::with_capacity(total.max(TEXT_CAPACITY));
+        text.resize(total, 0u8);
+        root.gather_varcount_into_root(
+            &[0u8; 1][..0],
+            &mut PartitionMut::new(&mut text[..], &text_counts[..], &text_displs[..]),
+        );
+        count(&mut self.stats, started, 8 * outcomes.len() + text.len());
+        self.stats.requests += 1;
+
+        let mut at = 0;
+        for (k, o) in others.zip(outcomes.chunks_exact(record)) {
+            let words = String::from_utf8_lossy(&text[at..at + o[2] as usize]).into_owned();
+            at += o[2] as usize;
+            let result = match o[0] {
+                c if c < REJECTED => Ok(o[1]),
+                c if c < FATAL => Err(LogDensityError::rejected(self.label(&words))),
+                _ => Err(LogDensityError::fatal(words)),
+            };
+            let (derived, cache) = o[RECORD_HEAD..].split_at(nderived);
+            batch.set_outcome(k, result, derived, cache);
+        }
+    }
+}

@@ -1,0 +1,192 @@
+//! Evaluating a half-step's proposals in other processes ([`Offload`]), e.g. on the ranks of
+//! an MPI job (`crate::distributed`, feature `mpi`).
+//!
+//! The sampler draws every random number itself, serially, and then evaluates the proposals of
+//! a half-step, which are independent pure computations. An [`Offload`] receives them as one
+//! [`Batch`] and may hand any share to other processes, as long as each item is evaluated by
+//! the same density with the same inputs (the point and, for a block update, the walker's
+//! derived values and cache): the outcome is then the same bits wherever it was computed, and
+//! the chains do not depend on how the batch was split.
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use crate::density::{sort, Eval, LogDensity, LogDensityError};
+
+/// Which evaluation a batch asks for (the same for all its items).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EvalKind {
+    /// [`LogDensity::log_density_cached`]: the whole density, filling the cache.
+    Full,
+    /// [`LogDensity::log_density_block`] of this block, from the walker's cache.
+    Block(usize),
+    /// [`LogDensity::log_density_block_alone`] of this block (an exact conditional draw).
+    BlockAlone(usize),
+}
+
+impl EvalKind {
+    /// Whether the evaluation reads the walker's derived values and cache (a block update
+    /// changes only their parts of the block): they must travel with the point.
+    pub fn reads_cache(self) -> bool {
+        !matches!(self, Self::Full)
+    }
+
+    /// Evaluates `density` at `x` this way, writing `derived` and `cache`.
+    ///
+    /// # Errors
+    /// As the density's method.
+    pub fn evaluate<D: LogDensity + ?Sized>(
+        self,
+        density: &D,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        match self {
+            Self::Full => density.log_density_cached(x, derived, cache),
+            Self::Block(b) => density.log_density_block(b, x, derived, cache),
+            Self::BlockAlone(b) => density.log_density_block_alone(b, x, derived, cache),
+        }
+    }
+}
+
+/// One item of a batch: its point, derived values, cache and outcome.
+type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
+
+/// The evaluation of one item in this process: the sampler's density behind the batch's kind.
+type LocalEval<'b> =
+    dyn Fn(EvalKind, &[f64], &mut [f64], &mut [f64]) -> Result<f64, LogDensityError> + Sync + 'b;
+
+/// The proposals of one half-step to evaluate: `len()` items, each a point of `ndim()`
+/// coordinates with buffers for its derived values and cache (inputs as well for a block
+/// update, see [`EvalKind::reads_cache`]) and a slot for its outcome.
+pub struct Batch<'b> {
+    pub(crate) kind: EvalKind,
+    pub(crate) ndim: usize,
+    pub(crate) nderived: usize,
+    pub(crate) cache_len: usize,
+    /// Positions of the items in the buffers below (which hold skipped slots too).
+    pub(crate) slots: &'b [usize],
+    pub(crate) proposals: &'b [f64],
+    /// Stride `max(nderived, 1)`.
+    pub(crate) derived: &'b mut [f64],
+    /// Stride `max(cache_len, 1)`.
+    pub(crate) cache: &'b mut [f64],
+    pub(crate) evals: &'b mut [Eval],
+    pub(crate) local: &'b LocalEval<'b>,
+    /// Whether this process evaluates its items on the rayon pool.
+    pub(crate) parallel: bool,
+}
+
+impl Batch<'_> {
+    /// The evaluation asked for.
+    pub fn kind(&self) -> EvalKind {
+        self.kind
+    }
+
+    /// Number of items.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Whether there is nothing to evaluate.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Coordinates per point.
+    pub fn ndim(&self) -> usize {
+        self.ndim
+    }
+
+    /// Derived values per point.
+    pub fn nderived(&self) -> usize {
+        self.nderived
+    }
+
+    /// Cache length per point.
+    pub fn cache_len(&self) -> usize {
+        self.cache_len
+    }
+
+    /// The point of item `k`.
+    pub fn point(&self, k: usize) -> &[f64] {
+        let s = self.slots[k];
+        &self.proposals[s * self.ndim..(s + 1) * self.ndim]
+    }
+
+    /// The derived values of item `k` (the walker's before, the point's after evaluation).
+    pub fn derived(&self, k: usize) -> &[f64] {
+        let (s, stride) = (self.slots[k], self.nderived.max(1));
+        &self.derived[s * stride..s * stride + self.nderived]
+    }
+
+    /// The cache of item `k` (the walker's before, the point's after evaluation).
+    pub fn cache(&self, k: usize) -> &[f64] {
+        let (s, stride) = (self.slots[k], self.cache_len.max(1));
+        &self.cache[s * stride..s * stride + self.cache_len]
+    }
+
+    /// Stores the outcome of item `k` evaluated elsewhere: its value and the derived values
+    /// and cache it left.
+    pub fn set_outcome(
+        &mut self,
+        k: usize,
+        result: Result<f64, LogDensityError>,
+        derived: &[f64],
+        cache: &[f64],
+    ) {
+        let s = self.slots[k];
+        let (d, c) = (self.nderived.max(1), self.cache_len.max(1));
+        self.derived[s * d..s * d + self.nderived].copy_from_slice(derived);
+        self.cache[s * c..s * c + self.cache_len].copy_from_slice(cache);
+        self.evals[s] = sort(result);
+    }
+
+    /// Evaluates items `items` in this process (on the rayon pool when the sampler evaluates
+    /// in parallel), exactly as the sampler does without an offload.
+    pub fn evaluate_here(&mut self, items: Range<usize>) {
+        let mut wanted = vec![false; self.evals.len()];
+        for &s in &self.slots[items] {
+            wanted[s] = true;
+        }
+        let (kind, ndim, nderived, cache_len) =
+            (self.kind, self.ndim, self.nderived, self.cache_len);
+        let local = self.local;
+        let eval = |(s, (((x, d), c), e)): (usize, EvalItem)| {
+            if wanted[s] {
+                *e = sort(local(kind, x, &mut d[..nderived], &mut c[..cache_len]));
+            }
+        };
+        let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
+        if self.parallel {
+            self.proposals
+                .par_chunks(ndim)
+                .zip(self.derived.par_chunks_mut(dstride))
+                .zip(self.cache.par_chunks_mut(cstride))
+                .zip(self.evals.par_iter_mut())
+                .enumerate()
+                .for_each(eval);
+        } else {
+            self.proposals
+                .chunks(ndim)
+                .zip(self.derived.chunks_mut(dstride))
+                .zip(self.cache.chunks_mut(cstride))
+                .zip(self.evals.iter_mut())
+                .enumerate()
+                .for_each(eval);
+        }
+    }
+}
+
+/// Evaluates the sampler's batches, in this process and others (`Send`: a sampler may be
+/// moved into a thread pool). Set on a sampler with
+/// [`EnsembleSampler::set_offload`](super::EnsembleSampler::set_offload).
+pub trait Offload: Send {
+    /// Evaluates every item of `batch`: items this process keeps through
+    /// [`Batch::evaluate_here`], the others by storing what other processes computed through
+    /// [`Batch::set_outcome`]. Each item must be evaluated by the sampler's density with the
+    /// batch's inputs, so that the chains are the same bits as in one process.
+    fn evaluate(&mut self, batch: &mut Batch<'_>);
+}
