@@ -520,6 +520,35 @@ fn compare_does_not_reject_the_full_law_on_a_fast_slide_rate_state_mimics() {
     );
 }
 
+/// Does the data need k? A slow first slide simulated on a rigid machine (τ = t) and one
+/// through a soft spring (a loading line of about 2,000 s before the law's rise), each fitted
+/// with and without the elastic correction. On the rigid data the elastic model (which holds
+/// the rigid one as k → ∞) may fit as well but must not rank the rigid model worse; on the
+/// spring's data the rigid model predicts worse beyond two standard errors.
+#[cfg(feature = "parquet")]
+#[test]
+fn compare_asks_whether_the_data_need_the_spring() {
+    use slipbayes::law::{Elastic, Law, ObservedSlide};
+    let law = Law::from_rate(0.92e6 * 1e-9, 0.62 * 10e-3, 10e-3, 14.8).unwrap();
+    let time_s: Vec<f64> = (1..=200).map(|i| f64::from(i) * 100.0).collect();
+    for (seed, elastic) in [
+        (13, Elastic::Stiff),
+        (14, Elastic::spring(5e3, 1e-9).unwrap()),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut force_n = vec![0.0; time_s.len()];
+        ObservedSlide::new(law.clone(), elastic)
+            .forces(&time_s, &mut force_n, None)
+            .unwrap();
+        write_noisy_first(dir.path(), time_s.clone(), force_n, 1e-4, seed);
+        let spring = fit_slide_as(dir.path(), "spring", "", 1e-9);
+        let rigid = fit_slide_as(dir.path(), "rigid", "elastic = false", 1e-9);
+        let stdout = compare_two(&rigid, &spring);
+        let rigid_worse = stdout.contains(&predicts_worse(&rigid, &spring));
+        assert_eq!(rigid_worse, elastic != Elastic::Stiff, "{stdout}");
+    }
+}
+
 /// The nested laws end to end on the command line: `simulate --law log-aging` and `--rigid`
 /// write a first and a repeat slide, the quick path fits them with `--law log-aging` and
 /// `--rigid`, and summary.json records the forward model and reports only its parameters.
