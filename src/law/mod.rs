@@ -319,6 +319,25 @@ impl LawParams {
     }
 }
 
+impl LawParams {
+    /// The parameters of pure logarithmic aging, the α → 0 limit: α is 0 (that limit), F_d
+    /// only the force a repeat slide slides at.
+    ///
+    /// # Errors
+    /// [`LawError::InvalidParameter`] when a < 0, F_d < 0, t0 ≤ 0 or any is not finite.
+    pub fn log_aging(a_n: f64, f_d_n: f64, t0_s: f64) -> Result<Self, LawError> {
+        non_negative("a", a_n)?;
+        non_negative("F_d", f_d_n)?;
+        positive("t0", t0_s)?;
+        Ok(Self {
+            alpha_per_m: 0.0,
+            a_n,
+            f_d_n,
+            t0_s,
+        })
+    }
+}
+
 pub(crate) fn positive(name: &'static str, value: f64) -> Result<f64, LawError> {
     if value.is_finite() && value > 0.0 {
         Ok(value)

@@ -152,13 +152,8 @@ pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
                  tests/rate_state_model.rs)"
             )
         }
-        // α = 0 is the limit the law is; F_d only sets the force a repeat slide slides at.
         (LawKind::LogAging, None, f_d) => {
-            let checked = LawParams::new(1.0, args.a, f_d.unwrap_or(0.0), args.t0)?;
-            LawParams {
-                alpha_per_m: 0.0,
-                ..checked
-            }
+            LawParams::log_aging(args.a, f_d.unwrap_or(0.0), args.t0)?
         }
     };
     let spec = SimulationSpec {
