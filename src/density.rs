@@ -179,6 +179,32 @@ pub trait LogDensity: Sync {
         0.0
     }
 
+    /// Blocks (indices into [`blocks`](Self::blocks)) that are conditionally independent of
+    /// one another given every coordinate outside them, each with its own terms of the
+    /// log-density ([`block_log_density`](Self::block_log_density)): typically one block per
+    /// group of data (a contact) given the parameters the groups share. A sampler may then
+    /// update them in any order, or all at once, with the same outcome: it accepts a move of
+    /// such a block on the change of the block's own terms, and draws its random numbers from
+    /// streams keyed by the block, not from a stream the other blocks' updates advance.
+    /// Such a block must have no followers, be no [`conditional`](Self::conditional_blocks)
+    /// block, and its update must write only its own cache entries and derived values
+    /// (besides derived values that are functions of the point alone). Empty (the default):
+    /// none.
+    fn independent_blocks(&self) -> Vec<usize> {
+        Vec::new()
+    }
+
+    /// The terms of the log-density that depend on the coordinates of `block`, one of
+    /// [`independent_blocks`](Self::independent_blocks), at `x` with its `cache` (as
+    /// [`log_density_block`](Self::log_density_block) left it): between two points that
+    /// differ only in the block it must change exactly as the log-density does (to rounding),
+    /// and it must read only the block's own coordinates, coordinates outside every
+    /// independent block, and the cache entries the block's update writes. NaN by default.
+    fn block_log_density(&self, block: usize, x: &[f64], cache: &[f64]) -> f64 {
+        let _ = (block, x, cache);
+        f64::NAN
+    }
+
     /// Length of the per-point cache that [`log_density_cached`](Self::log_density_cached)
     /// fills and [`log_density_block`](Self::log_density_block) reuses (0 by default).
     fn cache_len(&self) -> usize {

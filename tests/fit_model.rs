@@ -65,12 +65,7 @@ fn run(name: &str, file: &str, scene: &str) -> String {
 }
 
 fn get<'a>(s: &'a FitSummary, name: &str, group: &str) -> &'a slipbayes::diagnostics::Summary {
-    &s.parameters
-        .iter()
-        .chain(&s.derived)
-        .find(|q| q.name == name && q.group == group)
-        .unwrap_or_else(|| panic!("no {name}[{group}]"))
-        .stats
+    common::stats(s, name, group)
 }
 
 #[test]
@@ -148,24 +143,19 @@ fn one_contact_posterior_covers_the_truth() {
         .interior()
         .unwrap()
         .force_n;
-    for (name, group, truth) in [
-        ("alpha", "c", alpha),
-        ("a_over_F_d", "c", ratio),
-        ("F_d", "c", f_d),
-        ("t0", "first", t0),
-        ("k", "c", k),
-        ("sigma", "first", 1e-4),
-        ("sigma", "repeat", 1e-4),
-        ("F_peak", "first", peak),
-    ] {
-        let st = get(&s, name, group);
-        assert!(
-            st.ci_low <= truth && truth <= st.ci_high,
-            "{name}[{group}]: truth {truth:e} outside [{:e}, {:e}]",
-            st.ci_low,
-            st.ci_high
-        );
-    }
+    common::assert_covers(
+        &s,
+        &[
+            ("alpha", "c", alpha),
+            ("a_over_F_d", "c", ratio),
+            ("F_d", "c", f_d),
+            ("t0", "first", t0),
+            ("k", "c", k),
+            ("sigma", "first", 1e-4),
+            ("sigma", "repeat", 1e-4),
+            ("F_peak", "first", peak),
+        ],
+    );
 }
 
 #[test]

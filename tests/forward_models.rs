@@ -284,24 +284,8 @@ mod fits {
 
     /// Every parameter has R̂ below 1.05 and its 95 % interval holds the truth.
     fn assert_converged_on(s: &slipbayes::fit::FitSummary, truths: &[(&str, &str, f64)]) {
-        for q in &s.parameters {
-            let r_hat = q.stats.r_hat.unwrap_or(f64::NAN);
-            assert!(r_hat < 1.05, "{}[{}]: R̂ {r_hat}", q.name, q.group);
-        }
-        for &(name, group, truth) in truths {
-            let st = &s
-                .parameters
-                .iter()
-                .find(|q| q.name == name && q.group == group)
-                .unwrap_or_else(|| panic!("no {name}[{group}]"))
-                .stats;
-            assert!(
-                st.ci_low <= truth && truth <= st.ci_high,
-                "{name}[{group}]: truth {truth:e} outside [{:e}, {:e}]",
-                st.ci_low,
-                st.ci_high
-            );
-        }
+        common::assert_r_hat_below_1_05(s);
+        common::assert_covers(s, truths);
     }
 
     /// Data simulated by pure logarithmic aging through the spring: the log-aging fit converges

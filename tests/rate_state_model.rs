@@ -3,6 +3,8 @@
 //! spring-slider solved directly, labelled rejection of unsolvable proposals, and a short fit
 //! of simulated data that covers the truth.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use slipbayes::density::{LogDensity, LogDensityError};
@@ -383,32 +385,19 @@ fn a_short_fit_of_slip_law_data_covers_the_truth() {
     )
     .unwrap()
     .summary;
-    for q in &s.parameters {
-        let r_hat = q.stats.r_hat.unwrap_or(f64::NAN);
-        assert!(r_hat < 1.05, "{}[{}]: R̂ {r_hat}", q.name, q.group);
-    }
-    for (name, group, truth) in [
-        ("a", "c", A),
-        ("b", "m", B),
-        ("D_c", "m", D_C),
-        ("F_d", "c", F0),
-        ("t0", "first", HOLD),
-        ("k", "c", K),
-        ("sigma", "first", NOISE),
-    ] {
-        let st = &s
-            .parameters
-            .iter()
-            .find(|q| q.name == name && q.group == group)
-            .unwrap_or_else(|| panic!("no {name}[{group}]"))
-            .stats;
-        assert!(
-            st.ci_low <= truth && truth <= st.ci_high,
-            "{name}[{group}]: truth {truth:e} outside [{:e}, {:e}]",
-            st.ci_low,
-            st.ci_high
-        );
-    }
+    common::assert_r_hat_below_1_05(&s);
+    common::assert_covers(
+        &s,
+        &[
+            ("a", "c", A),
+            ("b", "m", B),
+            ("D_c", "m", D_C),
+            ("F_d", "c", F0),
+            ("t0", "first", HOLD),
+            ("k", "c", K),
+            ("sigma", "first", NOISE),
+        ],
+    );
 }
 
 /// A file refitted under the default law with the `law` line removed keeps its priors and

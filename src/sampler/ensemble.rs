@@ -34,6 +34,51 @@ pub(crate) fn stream_rng(seed: u64, stream: u64) -> ChaCha8Rng {
     rng
 }
 
+/// Stream id of the update of the independent block keyed `key` (its first coordinate) in
+/// ensemble `e`: `slot` 0 for the split and move choice, w + 1 for walker w. The top bit keeps
+/// these apart from [`ensemble_stream`] and [`walker_stream`].
+fn block_stream(e: usize, key: usize, slot: usize) -> u64 {
+    debug_assert!(e < 1 << 21 && key < 1 << 21 && slot < 1 << 21);
+    1 << 63 | (e as u64) << 42 | (key as u64) << 21 | slot as u64
+}
+
+/// Words of a block stream set aside for one step: an update draws far fewer (a stretch move
+/// three numbers per walker, a slice update a few dozen).
+const BLOCK_STREAM_WORDS_PER_STEP: u128 = 1 << 36;
+
+/// The generator of `slot` of the update of the independent block keyed `key` in ensemble
+/// `e` at step `step`: a function of these alone, so that the update draws the same numbers
+/// whenever, and wherever, it runs.
+fn block_rng(seed: u64, e: usize, key: usize, slot: usize, step: u64) -> ChaCha8Rng {
+    let mut rng = stream_rng(seed, block_stream(e, key, slot));
+    rng.set_word_pos(u128::from(step) * BLOCK_STREAM_WORDS_PER_STEP);
+    rng
+}
+
+/// The terms of the log-density of an independent block at a point with its cache (see
+/// [`block_log_density`](crate::density::LogDensity::block_log_density)).
+pub(crate) type BlockTerms<'a> = dyn Fn(&[f64], &[f64]) -> f64 + 'a;
+
+/// An ensemble's generators (its own, or those of one block update, see
+/// [`Ensemble::swap_streams`]).
+pub(crate) struct Streams {
+    ensemble: ChaCha8Rng,
+    walkers: Vec<ChaCha8Rng>,
+}
+
+impl Streams {
+    /// The generators of the update of the independent block keyed `key` (its first
+    /// coordinate) in ensemble `e` of `walkers` walkers at step `step`.
+    pub fn for_block(seed: u64, e: usize, key: usize, walkers: usize, step: u64) -> Self {
+        Self {
+            ensemble: block_rng(seed, e, key, 0, step),
+            walkers: (0..walkers)
+                .map(|w| block_rng(seed, e, key, w + 1, step))
+                .collect(),
+        }
+    }
+}
+
 /// The coordinates one blocked update moves, and its links (empty unless the updates are
 /// hierarchical): independence proposals are conditional on the walker's `given`
 /// coordinates, and every move carries the `followers` along (evaluated with the block, see
@@ -54,6 +99,11 @@ pub(crate) struct UpdateBlock {
     /// The followers are carried by a regression tuned on the ensemble's own draws and then
     /// frozen ([`CarryTuning`]), not by one fitted to the complement.
     pub tuned_carry: bool,
+    /// Conditionally independent of the other independent blocks
+    /// ([`independent_blocks`](crate::density::LogDensity::independent_blocks)): its update
+    /// draws from streams keyed by the block and accepts on the block's own terms, so that
+    /// the order of these blocks' updates does not change the chains.
+    pub independent: bool,
 }
 
 /// The density's map carrying a block's followers along (see
@@ -196,6 +246,7 @@ impl SliceTask<'_> {
         let followers = self.context.followers.as_ref();
         let mut rejections = Vec::new();
         let (x, derived0, cache0) = (self.x, self.derived0, self.cache0);
+        let independent = block.filter(|(_, ub)| ub.independent).map(|(b, _)| b);
         let (y, derived, cache, eval) = (
             &mut *self.out,
             &mut *self.derived,
@@ -225,7 +276,11 @@ impl SliceTask<'_> {
                 Some((b, _)) => density.log_density_block(b, y, derived, cache),
             });
             match *eval {
-                Eval::Finite(lp) => Ok(lp + ln_jacobian),
+                // An independent block is sliced along its own terms (see `accept`).
+                Eval::Finite(lp) => Ok(match independent {
+                    Some(b) => density.block_log_density(b, y, cache),
+                    None => lp,
+                } + ln_jacobian),
                 Eval::Rejected(reason) => {
                     rejections.push(reason);
                     Ok(f64::NEG_INFINITY)
@@ -233,7 +288,11 @@ impl SliceTask<'_> {
                 Eval::Fatal(ref message) => Err(message.clone()),
             }
         };
-        match update_along_line(self.lp, SLICE_MAX_STEPS_OUT, &mut ln_f, self.rng) {
+        let start = match independent {
+            Some(b) => density.block_log_density(b, x, cache0),
+            None => self.lp,
+        };
+        match update_along_line(start, SLICE_MAX_STEPS_OUT, &mut ln_f, self.rng) {
             Ok(u) => Ok(SliceOutcome {
                 expansions: u.expansions,
                 contractions: u.contractions,
@@ -254,6 +313,11 @@ impl SliceTask<'_> {
             }),
         }
     }
+}
+
+/// Row `i` of `len` values of `rows` (empty when `len` is 0).
+fn row(rows: &[f64], i: usize, len: usize) -> &[f64] {
+    &rows[i * len..(i + 1) * len]
 }
 
 /// Where a fatal evaluation happened.
@@ -373,6 +437,16 @@ impl Ensemble {
             sub_out: Vec::new(),
             kind: HalfStep::Moves,
             slice_tally: (0, 0),
+        }
+    }
+
+    /// Puts `streams` in place of the ensemble's generators and returns those it replaces:
+    /// an update of an independent block draws from its own streams, and the ensemble's
+    /// streams, swapped back in afterwards, are left where they were.
+    pub fn swap_streams(&mut self, streams: Streams) -> Streams {
+        Streams {
+            ensemble: std::mem::replace(&mut self.s.ensemble_rng, streams.ensemble),
+            walkers: std::mem::replace(&mut self.s.walker_rngs, streams.walkers),
         }
     }
 
@@ -773,7 +847,8 @@ impl Ensemble {
 
     /// Accepts or rejects the evaluated proposals of half `h` (`proposals`, `derived` with
     /// stride max(nderived, 1), `caches` with stride max(cache_len, 1), `evals`: this
-    /// ensemble's blocks of [`Work`]).
+    /// ensemble's blocks of [`Work`]): on the change of the log-density, or, for a move of an
+    /// independent block, on the change of the block's own terms `local`.
     pub fn accept(
         &mut self,
         h: usize,
@@ -781,6 +856,7 @@ impl Ensemble {
         derived: &[f64],
         caches: &[f64],
         evals: &[Eval],
+        local: Option<&BlockTerms>,
     ) -> Result<(), Fatal> {
         let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
         let Self {
@@ -835,7 +911,16 @@ impl Ensemble {
                 Eval::Finite(lp) => {
                     // Metropolis–Hastings: accept when ln u < ln f + Δ, i.e. ln(u/f) < Δ; an
                     // uphill move with u < f needs no logarithm at all.
-                    let delta = lp - s.log_density[w];
+                    let delta = match local {
+                        // Each term reads only the block's values, whatever the other
+                        // independent blocks' updates did to the totals.
+                        Some(terms) if !exact => {
+                            let (new, old) = (row(caches, k, cache_len), row(cache, w, cache_len));
+                            terms(&proposals[k * ndim..(k + 1) * ndim], new)
+                                - terms(&s.positions[w * ndim..(w + 1) * ndim], old)
+                        }
+                        _ => lp - s.log_density[w],
+                    };
                     let f = factor[k];
                     let accept = if exact {
                         true

@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 
 use super::config::{SamplerConfig, Steps, Updates};
 use super::ensemble::{
-    Ensemble, EnsembleState, Fatal, ProposalBuffers, SliceContext, UpdateBlock, Work,
+    BlockTerms, Ensemble, EnsembleState, Fatal, ProposalBuffers, SliceContext, Streams,
+    UpdateBlock, Work,
 };
 use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
@@ -857,6 +858,32 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         block: Option<(usize, &UpdateBlock)>,
         exact: bool,
     ) -> Result<(), (usize, Fatal)> {
+        // An independent block draws from its own streams (keyed by its first coordinate, a
+        // name that does not depend on the blocks' order), the ensembles' own streams waiting.
+        let keyed = block.filter(|(_, ub)| ub.independent).map(|(_, ub)| {
+            let (seed, step, walkers) = (self.config.seed(), self.step, self.config.walkers());
+            let key = ub.coords[0];
+            self.ensembles
+                .iter_mut()
+                .enumerate()
+                .map(|(e, ens)| ens.swap_streams(Streams::for_block(seed, e, key, walkers, step)))
+                .collect::<Vec<_>>()
+        });
+        let result = self.update_walkers(block, exact);
+        if let Some(own) = keyed {
+            for (ens, streams) in self.ensembles.iter_mut().zip(own) {
+                ens.swap_streams(streams);
+            }
+        }
+        result
+    }
+
+    /// [`update`](Self::update) with the ensembles' streams in place.
+    fn update_walkers(
+        &mut self,
+        block: Option<(usize, &UpdateBlock)>,
+        exact: bool,
+    ) -> Result<(), (usize, Fatal)> {
         let moves = self.config.moves();
         let half = self.config.walkers() / 2;
         let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
@@ -914,6 +941,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 cache,
                 evals,
             } = &self.work;
+            // An independent block's move is accepted on the change of its own terms, which
+            // the other independent blocks' updates leave alone.
+            let density = self.density;
+            let local = block
+                .filter(|(_, ub)| ub.independent)
+                .map(|(b, _)| move |x: &[f64], c: &[f64]| density.block_log_density(b, x, c));
             for (((((ens, p), props), der), cac), ev) in self
                 .ensembles
                 .iter_mut()
@@ -924,7 +957,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .zip(evals.chunks_exact(half))
             {
                 if p.is_none() {
-                    *p = ens.accept(h, props, der, cac, ev).err();
+                    let local = local.as_ref().map(|f| f as &BlockTerms);
+                    *p = ens.accept(h, props, der, cac, ev, local).err();
                 }
             }
         }
@@ -1486,6 +1520,23 @@ fn blocks_of<D: LogDensity + ?Sized>(
             ),
         });
     }
+    let independent = density.independent_blocks();
+    if let Some(&b) = independent.iter().find(|&&b| {
+        b >= blocks.len()
+            || conditional.contains(&b)
+            || (hierarchical && density.carries_followers(b))
+            || links.get(b).is_some_and(|l| !l.followers.is_empty())
+    }) {
+        return Err(SamplerError::InvalidConfig {
+            name: "independent_blocks",
+            value: format!("{independent:?}"),
+            requirement: format!(
+                "block {b} cannot be updated independently: name existing blocks (below {}) \
+                 that are not drawn exactly and have no followers",
+                blocks.len()
+            ),
+        });
+    }
     let mut links = links.into_iter();
     Ok(blocks
         .into_iter()
@@ -1500,6 +1551,7 @@ fn blocks_of<D: LogDensity + ?Sized>(
                 && density.carries_followers(b)
                 && density.carried_move_optional(b),
             tuned_carry: false,
+            independent: independent.contains(&b),
         })
         .map(|mut b| {
             b.tuned_carry = hierarchical
@@ -1691,6 +1743,154 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// A hierarchical normal: μ ~ N(0, 3²) shared, members θ_j ~ N(μ, 1) each observed once
+    /// (y_j ~ N(θ_j, 0.5²)), in blocks listed in `order` (μ's first). The cache holds each
+    /// member's terms; the members' blocks are independent given μ. One derived value, the
+    /// sum of the coordinates, reads the whole point.
+    struct Members {
+        y: Vec<f64>,
+        order: Vec<usize>,
+    }
+    impl Members {
+        fn member(&self, j: usize, x: &[f64]) -> f64 {
+            let (t, r) = (x[j + 1] - x[0], (self.y[j] - x[j + 1]) / 0.5);
+            -0.5 * (t * t + r * r)
+        }
+        fn total(&self, x: &[f64], cache: &[f64], derived: &mut [f64]) -> f64 {
+            derived[0] = x.iter().sum();
+            cache.iter().fold(-0.5 * x[0] * x[0] / 9.0, |lp, c| lp + c)
+        }
+    }
+    impl LogDensity for Members {
+        fn dim(&self) -> usize {
+            self.y.len() + 1
+        }
+        fn derived_names(&self) -> Vec<String> {
+            vec!["sum".into()]
+        }
+        fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
+            let mut cache = vec![0.0; self.y.len()];
+            self.log_density_cached(x, d, &mut cache)
+        }
+        fn blocks(&self) -> Vec<Vec<usize>> {
+            self.order.iter().map(|&b| vec![b]).collect()
+        }
+        fn independent_blocks(&self) -> Vec<usize> {
+            (0..self.order.len()).filter(|&b| self.order[b] != 0).collect()
+        }
+        fn block_log_density(&self, block: usize, _x: &[f64], cache: &[f64]) -> f64 {
+            cache[self.order[block] - 1]
+        }
+        fn cache_len(&self) -> usize {
+            self.y.len()
+        }
+        fn log_density_cached(
+            &self,
+            x: &[f64],
+            d: &mut [f64],
+            cache: &mut [f64],
+        ) -> Result<f64, LogDensityError> {
+            for (j, c) in cache.iter_mut().enumerate() {
+                *c = self.member(j, x);
+            }
+            Ok(self.total(x, cache, d))
+        }
+        fn log_density_block(
+            &self,
+            block: usize,
+            x: &[f64],
+            d: &mut [f64],
+            cache: &mut [f64],
+        ) -> Result<f64, LogDensityError> {
+            match self.order[block] {
+                0 => self.log_density_cached(x, d, cache),
+                c => {
+                    cache[c - 1] = self.member(c - 1, x);
+                    Ok(self.total(x, cache, d))
+                }
+            }
+        }
+    }
+
+    /// The members' blocks are updated in whatever order the density lists them with the
+    /// same chains, bit for bit, under every kind of move: each draws from streams keyed by
+    /// its first coordinate and accepts on its own terms.
+    #[test]
+    fn independent_blocks_give_the_same_chains_in_any_order() {
+        let y = vec![0.3, -1.2, 2.0, 0.7];
+        let run = |order: Vec<usize>, moves: Vec<(Move, f64)>| {
+            let density = Members { y: y.clone(), order };
+            let config = SamplerConfig::new(12, 2, 11)
+                .unwrap()
+                .with_updates(Updates::Blocked)
+                .with_moves(moves)
+                .unwrap();
+            let init: Vec<Vec<Vec<f64>>> = (0..2)
+                .map(|e| {
+                    (0..12)
+                        .map(|w| {
+                            (0..5)
+                                .map(|i| 0.1 * ((w * 7 + i * 3 + e) % 11) as f64 - 0.5)
+                                .collect()
+                        })
+                        .collect()
+                })
+                .collect();
+            let mut s = EnsembleSampler::new(&density, config, init).unwrap();
+            s.run(Steps::Fixed(40), &mut NullSink, &mut Silent).unwrap();
+            let blocks = s.blocks.iter().filter(|b| b.independent).count();
+            assert_eq!(blocks, 4);
+            s.ensembles
+                .iter()
+                .map(|e| (e.s.positions.clone(), e.s.log_density.clone(), e.s.derived.clone()))
+                .collect::<Vec<_>>()
+        };
+        for moves in [
+            vec![(Move::stretch(), 1.0), (Move::differential_evolution(), 1.0)],
+            vec![(Move::student_t(), 1.0)],
+            vec![(Move::slice(), 1.0)],
+        ] {
+            let listed = run(vec![0, 1, 2, 3, 4], moves.clone());
+            for order in [vec![0, 4, 3, 2, 1], vec![0, 2, 4, 1, 3]] {
+                assert_eq!(run(order, moves.clone()), listed, "moves {moves:?}");
+            }
+            // The walkers did move.
+            assert!(listed[0].0.iter().zip(&listed[1].0).any(|(a, b)| a != b));
+        }
+    }
+
+    /// A block named independent that has followers, or is drawn exactly, is refused.
+    #[test]
+    fn independent_blocks_with_followers_are_refused() {
+        let link = |given: Vec<usize>, followers: Vec<usize>| BlockLinks { given, followers };
+        struct Claims(Linked);
+        impl LogDensity for Claims {
+            fn dim(&self) -> usize {
+                3
+            }
+            fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
+                self.0.log_density(x, d)
+            }
+            fn blocks(&self) -> Vec<Vec<usize>> {
+                self.0.blocks()
+            }
+            fn block_links(&self) -> Vec<BlockLinks> {
+                self.0.block_links()
+            }
+            fn independent_blocks(&self) -> Vec<usize> {
+                vec![0, 1]
+            }
+        }
+        let density = Claims(Linked(vec![link(vec![], vec![1, 2]), link(vec![0], vec![])]));
+        let config = SamplerConfig::new(8, 1, 5)
+            .unwrap()
+            .with_updates(Updates::Hierarchical);
+        match blocks_of(&density, &config) {
+            Err(SamplerError::InvalidConfig { name, .. }) => assert_eq!(name, "independent_blocks"),
+            other => panic!("expected refused independent_blocks, got {other:?}"),
         }
     }
 

@@ -86,3 +86,38 @@ pub fn simulate_ptfe(
     simulate(&spec).unwrap().series.write_csv(&path).unwrap();
     path
 }
+
+/// The summary of quantity `name[group]` (a parameter or a derived value) of a fit.
+pub fn stats<'a>(
+    s: &'a slipbayes::fit::FitSummary,
+    name: &str,
+    group: &str,
+) -> &'a slipbayes::diagnostics::Summary {
+    &s.parameters
+        .iter()
+        .chain(&s.derived)
+        .find(|q| q.name == name && q.group == group)
+        .unwrap_or_else(|| panic!("no {name}[{group}]"))
+        .stats
+}
+
+/// Every parameter of the fit has R̂ below 1.05.
+pub fn assert_r_hat_below_1_05(s: &slipbayes::fit::FitSummary) {
+    for q in &s.parameters {
+        let r_hat = q.stats.r_hat.unwrap_or(f64::NAN);
+        assert!(r_hat < 1.05, "{}[{}]: R̂ {r_hat}", q.name, q.group);
+    }
+}
+
+/// The fit's 95 % interval of each quantity `(name, group, truth)` holds its truth.
+pub fn assert_covers(s: &slipbayes::fit::FitSummary, truths: &[(&str, &str, f64)]) {
+    for &(name, group, truth) in truths {
+        let st = stats(s, name, group);
+        assert!(
+            st.ci_low <= truth && truth <= st.ci_high,
+            "{name}[{group}]: truth {truth:e} outside [{:e}, {:e}]",
+            st.ci_low,
+            st.ci_high
+        );
+    }
+}

@@ -15,7 +15,7 @@
 
 use std::collections::BTreeSet;
 
-use super::layout::{Coord, CoordPrior, SigmaSource};
+use super::layout::{Coord, CoordPrior, Population, SigmaSource};
 use super::likelihood::{RunModel, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
 use super::Posterior;
 use crate::density::{BlockLinks, LogDensityError};
@@ -149,6 +149,37 @@ pub(super) fn blocks(
         .collect()
 }
 
+/// Whether `block` holds populations (each a pooled parameter's μ and ln s in a material).
+pub(super) fn holds_population(block: &Block, populations: &[Population]) -> bool {
+    populations.iter().any(|p| block.coords.contains(&p.mu))
+}
+
+/// `blocks` with the [`independent`] ones moved after all others (each group keeping its
+/// order), so that a step updates the shared parameters and populations first and then every
+/// contact, in one run of independent blocks that can be updated in any order or at once.
+pub(super) fn independent_last(blocks: Vec<Block>, population: impl Fn(&Block) -> bool) -> Vec<Block> {
+    let independent = independent(&blocks, population);
+    let order: Vec<usize> = (0..blocks.len())
+        .filter(|b| !independent.contains(b))
+        .chain(independent.iter().copied())
+        .collect();
+    let mut position = vec![0; blocks.len()];
+    for (k, &b) in order.iter().enumerate() {
+        position[b] = k;
+    }
+    let mut slots: Vec<Option<Block>> = blocks.into_iter().map(Some).collect();
+    order
+        .iter()
+        .map(|&b| {
+            let mut block = slots[b].take().expect("each block once");
+            for p in &mut block.priors {
+                *p = position[*p];
+            }
+            block
+        })
+        .collect()
+}
+
 /// Which derived values an evaluation changes.
 #[derive(Debug, Clone, Copy)]
 pub(super) enum Changed<'b> {
@@ -184,7 +215,53 @@ impl<'c> Cache<'c> {
     }
 }
 
+/// Blocks of `blocks` that are conditionally independent of one another given the rest
+/// (`population`: whether a block is a population's): those that carry no followers, are no
+/// population, and whose update re-fits no run, re-evaluates no prior and touches no σ group
+/// that another such block's update does (a σ shared by several contacts ties them together).
+pub(super) fn independent(blocks: &[Block], population: impl Fn(&Block) -> bool) -> Vec<usize> {
+    let candidates: Vec<usize> = (0..blocks.len())
+        .filter(|&b| !population(&blocks[b]) && blocks[b].links.followers.is_empty())
+        .collect();
+    let overlap = |a: &Block, b: &Block| {
+        a.runs.iter().any(|r| b.runs.contains(r))
+            || a.priors.iter().any(|p| b.priors.contains(p))
+            || a.groups.iter().zip(&b.groups).any(|(&x, &y)| x && y)
+    };
+    candidates
+        .iter()
+        .copied()
+        .filter(|&b| {
+            candidates
+                .iter()
+                .all(|&o| o == b || !overlap(&blocks[b], &blocks[o]))
+        })
+        .collect()
+}
+
 impl Posterior {
+    /// The terms of the log-density that read block `b`'s coordinates, from a walker's
+    /// `cache` at `x`: the priors its update re-evaluates, the Gaussian terms of the runs it
+    /// re-fits and the likelihoods of their σ groups (for an independent block, see
+    /// [`independent`]).
+    pub(super) fn block_terms(&self, b: usize, x: &[f64], cache: &[f64]) -> f64 {
+        let block = &self.blocks[b];
+        let (prior, rest) = cache.split_at(self.blocks.len());
+        let (ssr, rest) = rest.split_at(self.runs.len());
+        let group = &rest[self.runs.len()..];
+        let mut lp = 0.0;
+        for &p in &block.priors {
+            lp += prior[p];
+        }
+        for &i in &block.runs {
+            lp += self.runs[i].gaussian_term(x, ssr[i]);
+        }
+        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
+            lp += group[g];
+        }
+        lp
+    }
+
     /// Length of a walker's cache.
     pub(super) fn cache_size(&self) -> usize {
         self.blocks.len() + 2 * self.runs.len() + self.sigma_groups.len()

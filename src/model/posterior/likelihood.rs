@@ -267,6 +267,20 @@ impl RunModel {
         })
     }
 
+    /// The Gaussian log-likelihood of this run's sum of squared residuals `ssr` at `x` when
+    /// its σ is sampled; 0 when σ is integrated out (its σ group's term holds it).
+    pub fn gaussian_term(&self, x: &[f64], ssr: f64) -> f64 {
+        match self.sigma {
+            SigmaSource::Coord(s) => {
+                // x[s] is ln σ already.
+                let sigma = x[s].exp();
+                let n = self.data.n_obs as f64;
+                -n * (x[s] + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma)
+            }
+            SigmaSource::Marginal(_) => 0.0,
+        }
+    }
+
     /// The repeat slide at `x`, loading up to `f_end` (`None`: F_d).
     pub fn repeat_slide(&self, x: &[f64], f_end: Option<f64>) -> Result<RepeatSlide, LawError> {
         // The layout gives a repeat slide F_d whenever it follows no slide.
@@ -342,12 +356,7 @@ impl Posterior {
     pub(super) fn run_terms(&self, x: &[f64], ssr: &[f64]) -> f64 {
         let mut ll = 0.0;
         for (r, &ssr) in self.runs.iter().zip(ssr) {
-            if let SigmaSource::Coord(s) = r.sigma {
-                // x[s] is ln σ already.
-                let sigma = x[s].exp();
-                let n = r.data.n_obs as f64;
-                ll += -n * (x[s] + LN_SQRT_2PI) - 0.5 * ssr / (sigma * sigma);
-            }
+            ll += r.gaussian_term(x, ssr);
         }
         ll
     }

@@ -125,12 +125,16 @@ impl Posterior {
             Blocking::Material => spec.contact_material[r.contact],
             Blocking::Contact => r.contact,
         };
-        let blocks = blocks::blocks(
-            &layout.coords,
-            &layout.runs,
-            &order,
-            layout.sigma_groups.len(),
-            group,
+        let population = |b: &Block| blocks::holds_population(b, &layout.populations);
+        let blocks = blocks::independent_last(
+            blocks::blocks(
+                &layout.coords,
+                &layout.runs,
+                &order,
+                layout.sigma_groups.len(),
+                group,
+            ),
+            population,
         );
         let mut posterior = Self {
             spec: spec.clone(),
@@ -152,9 +156,7 @@ impl Posterior {
 
     /// Whether block `b` holds populations (each a pooled parameter's μ and ln s in a material).
     fn is_population(&self, b: usize) -> bool {
-        self.populations
-            .iter()
-            .any(|p| self.blocks[b].coords.contains(&p.mu))
+        blocks::holds_population(&self.blocks[b], &self.populations)
     }
 
     /// The model this posterior was built from.
@@ -342,6 +344,18 @@ impl LogDensity for Posterior {
             }
         }
         ln_jacobian
+    }
+
+    /// The contacts' own blocks: given the shared parameters, one contact's runs and priors
+    /// are independent of another's (unless a σ shared between contacts ties them).
+    fn independent_blocks(&self) -> Vec<usize> {
+        blocks::independent(&self.blocks, |b| {
+            blocks::holds_population(b, &self.populations)
+        })
+    }
+
+    fn block_log_density(&self, block: usize, x: &[f64], cache: &[f64]) -> f64 {
+        self.block_terms(block, x, cache)
     }
 
     fn cache_len(&self) -> usize {
