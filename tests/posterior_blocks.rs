@@ -10,7 +10,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::{EnsembleSampler, MemorySink, Move, SamplerConfig, Silent, Steps, Updates};
+use slipbayes::sampler::{
+    EnsembleSampler, MemorySink, Move, SamplerConfig, Silent, Steps, Updates,
+};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -310,10 +312,25 @@ fn block_updates_equal_full_evaluations_in_every_variant() {
 fn contacts_are_independent_unless_a_sigma_ties_them() {
     let dir = tempfile::tempdir().unwrap();
     for (name, extra, blocks, expected) in [
-        ("demo.toml", "", "contact", vec!["ptfe-c1", "ptfe-c2", "pp-c1", "pp-c2"]),
+        (
+            "demo.toml",
+            "",
+            "contact",
+            vec!["ptfe-c1", "ptfe-c2", "pp-c1", "pp-c2"],
+        ),
         ("demo.toml", "", "material", vec!["PTFE", "PP"]),
-        ("pooled.toml", "[pooling]\nt0 = true", "contact", vec!["ptfe-c1", "ptfe-c2", "pp-c1", "pp-c2"]),
-        ("shared-sigma.toml", "[levels]\nsigma = \"material\"", "contact", vec![]),
+        (
+            "pooled.toml",
+            "[pooling]\nt0 = true",
+            "contact",
+            vec!["ptfe-c1", "ptfe-c2", "pp-c1", "pp-c2"],
+        ),
+        (
+            "shared-sigma.toml",
+            "[levels]\nsigma = \"material\"",
+            "contact",
+            vec![],
+        ),
     ] {
         let post = demo_variant(dir.path(), name, extra, blocks);
         let independent = post.independent_blocks();
@@ -382,14 +399,18 @@ impl LogDensity for Reordered<'_> {
     }
     fn conditional_blocks(&self) -> Vec<usize> {
         let c = self.post.conditional_blocks();
-        (0..self.order.len()).filter(|&k| c.contains(&self.back(k))).collect()
+        (0..self.order.len())
+            .filter(|&k| c.contains(&self.back(k)))
+            .collect()
     }
     fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
         self.post.conditional_log_density(self.back(block), x)
     }
     fn independent_blocks(&self) -> Vec<usize> {
         let i = self.post.independent_blocks();
-        (0..self.order.len()).filter(|&k| i.contains(&self.back(k))).collect()
+        (0..self.order.len())
+            .filter(|&k| i.contains(&self.back(k)))
+            .collect()
     }
     fn block_log_density(&self, block: usize, x: &[f64], cache: &[f64]) -> f64 {
         self.post.block_log_density(self.back(block), x, cache)
@@ -449,7 +470,10 @@ fn campaign_chains_do_not_depend_on_the_contacts_order() {
     ] {
         let post = demo_variant(dir.path(), name, extra, "contact");
         let reordered = Reordered::new(&post);
-        assert_ne!(reordered.order, (0..reordered.order.len()).collect::<Vec<_>>());
+        assert_ne!(
+            reordered.order,
+            (0..reordered.order.len()).collect::<Vec<_>>()
+        );
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let init: Vec<Vec<Vec<f64>>> = (0..2)
             .map(|_| {

@@ -88,6 +88,7 @@ pub fn simulate_ptfe(
 }
 
 /// The summary of quantity `name[group]` (a parameter or a derived value) of a fit.
+#[cfg(feature = "parquet")]
 pub fn stats<'a>(
     s: &'a slipbayes::fit::FitSummary,
     name: &str,
@@ -102,6 +103,7 @@ pub fn stats<'a>(
 }
 
 /// Every parameter of the fit has R̂ below 1.05.
+#[cfg(feature = "parquet")]
 pub fn assert_r_hat_below_1_05(s: &slipbayes::fit::FitSummary) {
     for q in &s.parameters {
         let r_hat = q.stats.r_hat.unwrap_or(f64::NAN);
@@ -110,6 +112,7 @@ pub fn assert_r_hat_below_1_05(s: &slipbayes::fit::FitSummary) {
 }
 
 /// The fit's 95 % interval of each quantity `(name, group, truth)` holds its truth.
+#[cfg(feature = "parquet")]
 pub fn assert_covers(s: &slipbayes::fit::FitSummary, truths: &[(&str, &str, f64)]) {
     for &(name, group, truth) in truths {
         let st = stats(s, name, group);

@@ -157,7 +157,10 @@ pub(super) fn holds_population(block: &Block, populations: &[Population]) -> boo
 /// `blocks` with the [`independent`] ones moved after all others (each group keeping its
 /// order), so that a step updates the shared parameters and populations first and then every
 /// contact, in one run of independent blocks that can be updated in any order or at once.
-pub(super) fn independent_last(blocks: Vec<Block>, population: impl Fn(&Block) -> bool) -> Vec<Block> {
+pub(super) fn independent_last(
+    blocks: Vec<Block>,
+    population: impl Fn(&Block) -> bool,
+) -> Vec<Block> {
     let independent = independent(&blocks, population);
     let order: Vec<usize> = (0..blocks.len())
         .filter(|b| !independent.contains(b))
