@@ -28,6 +28,9 @@ pub(super) struct Block {
     pub runs: Vec<usize>,
     /// Per run: whether it reads a coordinate of the block (its peak changes).
     pub reads: Vec<bool>,
+    /// Per coordinate: whether an update of the block moves it (the block's own and its
+    /// followers), i.e. whether its reported value can change.
+    pub moves: Vec<bool>,
     /// Per marginalised σ group: whether one of `runs` belongs to it.
     pub groups: Vec<bool>,
     /// How the block depends on the others: the coordinates read by a strict superset of its
@@ -137,10 +140,12 @@ pub(super) fn blocks(
                     groups[g] = true;
                 }
             }
+            let moves = (0..readers.len()).map(|i| moved(&i)).collect();
             Block {
                 coords,
                 runs: block_runs,
                 reads,
+                moves,
                 groups,
                 links,
                 priors,

@@ -28,7 +28,13 @@ impl Posterior {
         // Peaks are computed once per run and read by several columns.
         let mut peak_cache: Option<(usize, Option<Peak>, Option<f64>)> = None;
         for (out, source) in derived.iter_mut().zip(&self.sources) {
+            // A block update leaves the values of the coordinates it does not move as they
+            // were: recomputing them would cost every contact's values per contact update.
             let unchanged = match (source, changed) {
+                (Source::Coord(i), Changed::Block(b)) => !b.moves[*i],
+                (Source::AContact { ratio, f_d }, Changed::Block(b)) => {
+                    !b.moves[*ratio] && !b.moves[*f_d]
+                }
                 (Source::Peak { run, .. }, Changed::Block(b)) => !b.reads[*run],
                 (Source::Sigma(g), Changed::Block(b)) => !b.groups[*g],
                 (Source::Peak { .. } | Source::Sigma(_), Changed::NoRun) => true,
