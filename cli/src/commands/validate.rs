@@ -148,13 +148,13 @@ pub(super) fn run_root(
         Ok(shared) => {
             if cluster.size() > 1 {
                 eprintln!(
-                "MPI: {} ranks; rank 0 ran {} of the {} replications to run and received {} from \
-                 the other ranks",
-                cluster.size(),
-                shared.replications.len() - shared.received,
-                pending.len(),
-                shared.received
-            );
+                    "MPI: {} ranks; rank 0 ran {} of the {} replications to run and received {} \
+                     from the other ranks",
+                    cluster.size(),
+                    shared.replications.len() - shared.received,
+                    pending.len(),
+                    shared.received
+                );
             }
             reps.extend(shared.replications.into_iter().map(|r| (r.index, r)));
         }
