@@ -3,7 +3,7 @@
 //! job with a message naming it, and the last checkpoint resumes on another number of ranks
 //! to the chains of an uninterrupted run. `mpirun -n R slipbayes validate` gives the records
 //! and report of one process for R = 1, 2 and 3, also when continued; a rank that cannot load
-//! the model ends it naming the rank.
+//! the model, or has other settings than rank 0's, ends it naming the rank.
 //!
 //! Needs Open MPI's `mpirun` on PATH (`.ci/run` installs it). `SLIPBAYES_MPI_RANKS` (e.g.
 //! `2`) limits the rank counts tried (default `1,2,3`).
@@ -337,26 +337,52 @@ fn validate_on_1_2_and_3_ranks_gives_the_replications_and_report_of_one_process(
     );
 }
 
-/// A rank that cannot run its share (here rank 1 is given a model that does not exist, with
-/// mpirun's MPMD syntax) ends the job with an error naming it.
-#[test]
-fn a_rank_that_cannot_load_the_model_ends_validate_naming_it() {
+/// The stderr of a failed validation on 2 ranks whose rank 1 is given `flag` = `value` instead
+/// of rank 0's (mpirun's MPMD syntax: one command line per rank); `None` when
+/// `SLIPBAYES_MPI_RANKS` allows a single rank only.
+fn validate_with_rank_1_given(flag: &str, value: &str) -> Option<String> {
     if *ranks_to_try().iter().max().unwrap() < 2 {
-        return;
+        return None;
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("sbc");
-    let mut broken = validate_args(&out, 4);
-    broken[2] = dir.path().join("missing.toml").display().to_string();
-    let mut cmd = mpirun(1);
-    cmd.args(validate_args(&out, 4))
+    let mut other = validate_args(&out, 4);
+    let at = other.iter().position(|a| a == flag).unwrap();
+    other[at + 1] = value.into();
+    let result = mpirun(1)
+        .args(validate_args(&out, 4))
         .args([":", "-n", "1", slipbayes()])
-        .args(&broken);
-    let result = cmd.output().unwrap();
-    let err = String::from_utf8_lossy(&result.stderr);
+        .args(&other)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&result.stderr).into_owned();
     assert!(!result.status.success(), "{err}");
+    Some(err)
+}
+
+/// A rank that cannot run its share (here rank 1 is given a model that does not exist) ends
+/// the job with an error naming it.
+#[test]
+fn a_rank_that_cannot_load_the_model_ends_validate_naming_it() {
+    let Some(err) = validate_with_rank_1_given("--model", "/nonexistent/missing.toml") else {
+        return;
+    };
     assert!(
         err.contains("rank 1: error: loading the model") && err.contains("missing.toml"),
+        "{err}"
+    );
+}
+
+/// A rank given other settings than rank 0's (here another seed) refuses to run replications
+/// that would belong to another run, and ends the job naming itself.
+#[test]
+fn a_rank_with_other_settings_than_rank_0_ends_validate_naming_it() {
+    let Some(err) = validate_with_rank_1_given("--seed", "6") else {
+        return;
+    };
+    assert!(
+        err.contains("rank 1: error: the settings or the model file")
+            && err.contains("differ from rank 0's"),
         "{err}"
     );
 }

@@ -123,10 +123,11 @@ pub(super) fn run_root(
     let opened = if args.report_only {
         Ok(None)
     } else {
-        SbcRun::open(&settings, &args.out, args.overwrite).map(Some)
+        SbcRun::open(&settings, &args.out, args.overwrite)
+            .and_then(|run| Ok(Some((run, ranks::fingerprint(&settings)?))))
     };
-    let run = match opened {
-        Ok(Some(run)) => run,
+    let (run, fingerprint) = match opened {
+        Ok(Some(opened)) => opened,
         // Nothing for the other ranks to run: they wait for the release.
         Ok(None) => {
             cluster.broadcast_list(None);
@@ -140,7 +141,9 @@ pub(super) fn run_root(
     };
     let mut reps = run.finished();
     let pending = run.pending(&reps);
-    let list: Vec<u64> = pending.iter().map(|&i| i as u64).collect();
+    let list: Vec<u64> = std::iter::once(fingerprint)
+        .chain(pending.iter().map(|&i| i as u64))
+        .collect();
     cluster.broadcast_list(Some(&list));
     let finished = AtomicUsize::new(0);
     let progress = progress_lines(args, &finished);
@@ -190,12 +193,23 @@ pub(super) fn run_rank(
     let Some(list) = cluster.broadcast_list(None) else {
         return Ok(());
     };
-    let pending: Vec<usize> = list.into_iter().map(|i| i as usize).collect();
+    let Some((&root_fingerprint, pending)) = list.split_first() else {
+        anyhow::bail!("rank 0 sent an empty list of replications");
+    };
+    let pending: Vec<usize> = pending.iter().map(|&i| i as usize).collect();
     if ranks::share(&pending, cluster.size(), cluster.rank()).is_empty() {
         return Ok(());
     }
-    let run = SbcRun::load(&sbc_settings(args), &args.out)
+    let settings = sbc_settings(args);
+    let run = SbcRun::load(&settings, &args.out)
         .with_context(|| format!("loading the model {}", args.model.display()))?;
+    if ranks::fingerprint(&settings)? != root_fingerprint {
+        anyhow::bail!(
+            "the settings or the model file {} differ from rank 0's: every rank must run the \
+             same command on the same model file",
+            args.model.display()
+        );
+    }
     ranks::run_rank(&run, &pending, cluster);
     Ok(())
 }

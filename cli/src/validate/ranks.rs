@@ -2,8 +2,9 @@
 //! its share of the replications still to run; rank 0 alone writes the output directory.
 //!
 //! Rank 0 opens the run ([`SbcRun::open`]), finds the replications still to run and gives
-//! every rank the list (`Cluster::broadcast_list`); rank `r` of `R` runs the replications at
-//! positions `r, r + R, ...` of it ([`share`]). A replication depends only on (seed, index),
+//! every rank the list (`Cluster::broadcast_list`), headed by the [`fingerprint`] of its
+//! settings and model file, which every rank checks against its own; rank `r` of `R` runs the
+//! replications at positions `r, r + R, ...` of it ([`share`]). A replication depends only on (seed, index),
 //! never on the rank or the number of threads that ran it, so the records and the report are
 //! those of one process. The other ranks send each finished replication's record to rank 0,
 //! which writes it at once, atomically, as one process does: a job stopped at any moment
@@ -13,13 +14,14 @@
 //! system, on that node's disk).
 
 use std::convert::Infallible;
+use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 
 use slipbayes::distributed::Cluster;
 
-use super::{Replication, SbcRun, ValidateError};
+use super::{Replication, SbcRun, SbcSettings, ValidateError};
 
 /// How long rank 0's collector sleeps when no record has arrived: a replication takes
 /// seconds, and a blocking receive would spin on a core that rank 0's own fits need.
@@ -45,6 +47,28 @@ pub enum RanksError {
     /// Writing a record failed.
     #[error(transparent)]
     Validate(#[from] ValidateError),
+}
+
+/// A fingerprint of what every replication depends on besides its index: the settings and
+/// the bytes of the model file. Rank 0 sends its own with the list; a rank whose own differs
+/// (another command line, another model file at that path on its node) must not run
+/// replications, whose records would belong to another run.
+///
+/// # Errors
+/// [`ValidateError::Io`] when the model file cannot be read.
+pub fn fingerprint(settings: &SbcSettings) -> Result<u64, ValidateError> {
+    let model = std::fs::read(&settings.model).map_err(|source| ValidateError::Io {
+        action: "reading",
+        path: settings.model.clone(),
+        source,
+    })?;
+    // The same binary on every rank: its std hasher (fixed keys) gives the same value.
+    let mut hasher = std::hash::DefaultHasher::new();
+    serde_json::to_vec(settings)
+        .unwrap_or_default()
+        .hash(&mut hasher);
+    model.hash(&mut hasher);
+    Ok(hasher.finish())
 }
 
 /// Rank `rank`'s share of `pending` on `ranks` ranks: the replications at positions
