@@ -13,6 +13,11 @@
 //! the walkers' derived values and caches for a block update), a gather of the outcomes and a
 //! gather of the rejection labels and fatal messages among them.
 //!
+//! Work made of independent pieces (the replications of `slipbayes validate`) is dealt
+//! instead: rank 0 broadcasts the list of pieces ([`Cluster::broadcast_list`]), every rank
+//! takes its own, and the others send each finished piece's result to rank 0
+//! ([`Cluster::send_to_root`], [`Cluster::try_receive`]), which alone writes.
+//!
 //! A fatal evaluation on another rank comes back as a fatal outcome naming the rank and stops
 //! the run on rank 0 like any fatal evaluation (its last checkpoint stays resumable). A rank
 //! that fails outside an evaluation must abort the job ([`Cluster::abort`]) so that no rank
@@ -74,6 +79,9 @@ const STOP: u64 = 0;
 const FULL: u64 = 1;
 const BLOCK: u64 = 2;
 const BLOCK_ALONE: u64 = 3;
+
+/// Tag of the messages of [`Cluster::send_to_root`] (the collectives use none).
+const RESULT_TAG: i32 = 7;
 
 /// Outcome codes, first value of each outcome record.
 const FINITE: f64 = 0.0;
@@ -267,6 +275,56 @@ impl Cluster {
                 .broadcast_into(&mut header[..]);
             self.released = true;
         }
+    }
+
+    /// Rank 0's `list` on every rank, for work that every rank must agree on (e.g. which
+    /// replications remain): rank 0 passes `Some` (or `None` when it has nothing to hand out,
+    /// having failed before), the other ranks pass `None` and receive what rank 0 passed.
+    /// Every rank must call it at the same point.
+    pub fn broadcast_list(&mut self, list: Option<&[u64]>) -> Option<Vec<u64>> {
+        let root = self.world.process_at_rank(0);
+        let mut header = [0u64; 2];
+        if self.rank() == 0 {
+            header = list.map_or([0, 0], |l| [1, l.len() as u64]);
+        }
+        let started = Instant::now();
+        root.broadcast_into(&mut header[..]);
+        let [present, len] = header;
+        let mut values = match (self.rank(), list) {
+            (0, Some(l)) => l.to_vec(),
+            _ => vec![0u64; len as usize],
+        };
+        // An empty buffer is not broadcast: Open MPI may take its pointer for MPI_IN_PLACE.
+        if len > 0 {
+            root.broadcast_into(&mut values[..]);
+        }
+        count(&mut self.stats, started, 16 + 8 * values.len());
+        (present == 1).then_some(values)
+    }
+
+    /// On ranks other than 0: sends `bytes` (one finished piece of work, e.g. a serialised
+    /// record) to rank 0, which takes it with [`try_receive`](Self::try_receive). Blocks until
+    /// MPI holds the bytes; small messages leave at once.
+    pub fn send_to_root(&mut self, bytes: &[u8]) {
+        let started = Instant::now();
+        self.world
+            .process_at_rank(0)
+            .send_with_tag(bytes, RESULT_TAG);
+        count(&mut self.stats, started, bytes.len());
+    }
+
+    /// On rank 0: one message that another rank sent with [`send_to_root`](Self::send_to_root),
+    /// with the rank that sent it, or `None` at once when none has arrived (the caller may
+    /// wait between calls instead of spinning in MPI).
+    pub fn try_receive(&mut self) -> Option<(usize, Vec<u8>)> {
+        let started = Instant::now();
+        let (message, status) = self
+            .world
+            .any_process()
+            .immediate_matched_probe_with_tag(RESULT_TAG)?;
+        let (bytes, _) = (message, status).matched_receive_vec::<u8>();
+        count(&mut self.stats, started, bytes.len());
+        Some((status.source_rank() as usize, bytes))
     }
 
     /// The `&'static str` of a rejection label received from another rank.

@@ -1,7 +1,9 @@
 //! Fits over MPI (feature `mpi`): `mpirun -n R slipbayes fit` gives the same chains, bit for
 //! bit, as one process without MPI, for R = 1, 2 and 3 on loopback; a rank that dies ends the
 //! job with a message naming it, and the last checkpoint resumes on another number of ranks
-//! to the chains of an uninterrupted run.
+//! to the chains of an uninterrupted run. `mpirun -n R slipbayes validate` gives the records
+//! and report of one process for R = 1, 2 and 3, also when continued; a rank that cannot load
+//! the model, or has other settings than rank 0's, ends it naming the rank.
 //!
 //! Needs Open MPI's `mpirun` on PATH (`.ci/run` installs it). `SLIPBAYES_MPI_RANKS` (e.g.
 //! `2`) limits the rank counts tried (default `1,2,3`).
@@ -195,5 +197,192 @@ fn a_killed_rank_ends_the_job_naming_it_and_the_last_checkpoint_resumes() {
         chain_bits(&run) == chain_bits(&alone),
         "killed on {ranks} ranks, resumed on {}: the chains differ from one process's",
         ranks - 1
+    );
+}
+
+/// `slipbayes validate` with a few short replications into `out` (each about a second).
+fn validate_args(out: &Path, replications: usize) -> Vec<String> {
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models/sbc.toml");
+    vec![
+        "validate".into(),
+        "--model".into(),
+        model.display().to_string(),
+        "--replications".into(),
+        replications.to_string(),
+        "--steps".into(),
+        "60".into(),
+        "--seed".into(),
+        "5".into(),
+        "--out".into(),
+        out.display().to_string(),
+    ]
+}
+
+/// Runs a validation and returns its exit code and stderr; a code other than 0 or 4
+/// (miscalibrated, which a few short replications may well be) fails.
+fn validation(cmd: &mut Command, what: &str) -> (Option<i32>, String) {
+    let out = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        matches!(out.status.code(), Some(0 | 4)),
+        "{what} failed:\n{err}"
+    );
+    (out.status.code(), err)
+}
+
+/// A JSON file without the key `timing` (wall time, which no two runs share), anywhere.
+fn json_without(path: &Path, timing: &str) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut value: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let object = value.as_object_mut().unwrap();
+    assert!(
+        object.remove(timing).is_some(),
+        "{}: no {timing}",
+        path.display()
+    );
+    value
+}
+
+/// What a validation run left that must not depend on how it ran: every replication record
+/// (index, truth, ranks, quantiles, fit diagnostics; not its wall time), the report (not its
+/// median wall time) and the rank histograms, bytes for bytes.
+fn validation_results(
+    out: &Path,
+) -> (Vec<(String, serde_json::Value)>, serde_json::Value, Vec<u8>) {
+    let mut records: Vec<(String, serde_json::Value)> = std::fs::read_dir(out.join("replications"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, json_without(&p, "wall_s"))
+        })
+        .collect();
+    records.sort_by(|a, b| a.0.cmp(&b.0));
+    (
+        records,
+        json_without(&out.join("validation.json"), "wall_s_median"),
+        std::fs::read(out.join("rank_histograms.svg")).unwrap(),
+    )
+}
+
+/// The indices of the replications a run reports finished (done or failed) on its stderr.
+fn replications_done(err: &str) -> Vec<usize> {
+    let mut done: Vec<usize> = err
+        .lines()
+        .filter_map(|l| l.strip_prefix("replication "))
+        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .collect();
+    done.sort_unstable();
+    done
+}
+
+#[test]
+fn validate_on_1_2_and_3_ranks_gives_the_replications_and_report_of_one_process() {
+    let dir = tempfile::tempdir().unwrap();
+    let alone = dir.path().join("alone");
+    let (code, _) = validation(
+        Command::new(slipbayes()).args(validate_args(&alone, 7)),
+        "the single-process validation",
+    );
+    let expected = validation_results(&alone);
+    assert_eq!(expected.0.len(), 7);
+    let mut largest = None;
+    for ranks in ranks_to_try() {
+        let out = dir.path().join(format!("ranks-{ranks}"));
+        let (ranks_code, err) = validation(
+            mpirun(ranks).args(validate_args(&out, 7)),
+            &format!("the validation on {ranks} ranks"),
+        );
+        assert_eq!(ranks_code, code, "{ranks} ranks:\n{err}");
+        assert_eq!(replications_done(&err), (0..7).collect::<Vec<_>>(), "{err}");
+        if ranks > 1 {
+            // The other ranks ran their shares (every R-th replication from their rank on)
+            // and rank 0 received them over MPI.
+            let received = (1..ranks)
+                .map(|r| (r..7).step_by(ranks).count())
+                .sum::<usize>();
+            let line = format!(
+                "MPI: {ranks} ranks; rank 0 ran {} of the 7 replications to run and received {received} from the other ranks",
+                7 - received
+            );
+            assert!(err.contains(&line), "`{line}` not in:\n{err}");
+        }
+        assert!(
+            validation_results(&out) == expected,
+            "{ranks} ranks: the replications or the report differ from one process's"
+        );
+        largest = Some((ranks, out));
+    }
+
+    // A run stopped part way (records 1, 4 and 5 missing) and grown to 9 replications
+    // continues on the most ranks: only the missing and the new ones run, and the results
+    // are those of one process continued the same way.
+    let Some((ranks, out)) = largest else { return };
+    for i in [1, 4, 5] {
+        std::fs::remove_file(out.join(format!("replications/{i:05}.json"))).unwrap();
+    }
+    let (_, err) = validation(
+        mpirun(ranks).args(validate_args(&out, 9)),
+        &format!("the continued validation on {ranks} ranks"),
+    );
+    assert_eq!(replications_done(&err), vec![1, 4, 5, 7, 8], "{err}");
+    validation(
+        Command::new(slipbayes()).args(validate_args(&alone, 9)),
+        "the continued single-process validation",
+    );
+    assert!(
+        validation_results(&out) == validation_results(&alone),
+        "continued on {ranks} ranks: the replications or the report differ from one process's"
+    );
+}
+
+/// The stderr of a failed validation on 2 ranks whose rank 1 is given `flag` = `value` instead
+/// of rank 0's (mpirun's MPMD syntax: one command line per rank); `None` when
+/// `SLIPBAYES_MPI_RANKS` allows a single rank only.
+fn validate_with_rank_1_given(flag: &str, value: &str) -> Option<String> {
+    if *ranks_to_try().iter().max().unwrap() < 2 {
+        return None;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sbc");
+    let mut other = validate_args(&out, 4);
+    let at = other.iter().position(|a| a == flag).unwrap();
+    other[at + 1] = value.into();
+    let result = mpirun(1)
+        .args(validate_args(&out, 4))
+        .args([":", "-n", "1", slipbayes()])
+        .args(&other)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&result.stderr).into_owned();
+    assert!(!result.status.success(), "{err}");
+    Some(err)
+}
+
+/// A rank that cannot run its share (here rank 1 is given a model that does not exist) ends
+/// the job with an error naming it.
+#[test]
+fn a_rank_that_cannot_load_the_model_ends_validate_naming_it() {
+    let Some(err) = validate_with_rank_1_given("--model", "/nonexistent/missing.toml") else {
+        return;
+    };
+    assert!(
+        err.contains("rank 1: error: loading the model") && err.contains("missing.toml"),
+        "{err}"
+    );
+}
+
+/// A rank given other settings than rank 0's (here another seed) refuses to run replications
+/// that would belong to another run, and ends the job naming itself.
+#[test]
+fn a_rank_with_other_settings_than_rank_0_ends_validate_naming_it() {
+    let Some(err) = validate_with_rank_1_given("--seed", "6") else {
+        return;
+    };
+    assert!(
+        err.contains("rank 1: error: the settings or the model file")
+            && err.contains("differ from rank 0's"),
+        "{err}"
     );
 }

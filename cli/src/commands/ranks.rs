@@ -3,8 +3,10 @@
 //! serve evaluations until rank 0 releases them (see `slipbayes::distributed`).
 //!
 //! `fit` and `demo` run on several ranks, and `mpi-latency` measures the collectives they use;
-//! other commands refuse. A rank that fails prints its rank and the cause and aborts the job,
-//! so that no rank waits for it; a fit's last checkpoint stays resumable.
+//! `validate` deals its replications over the ranks instead (every rank fits its own, rank 0
+//! records them all; see `crate::validate::ranks`); other commands refuse. A rank that fails
+//! prints its rank and the cause and aborts the job, so that no rank waits for it; a fit's
+//! last checkpoint, and the replications recorded, stay resumable.
 
 use std::process::ExitCode;
 
@@ -15,7 +17,7 @@ use slipbayes::distributed::Cluster;
 use slipbayes::model::Posterior;
 use slipbayes::sampler::Offload;
 
-use super::{error_lines, exit_code, fit, Cli, Command};
+use super::{error_lines, exit_code, fit, validate, Cli, Command};
 
 /// Whether this process was started by an MPI launcher (Open MPI's `mpirun`, or a PMI/PMIx
 /// launcher such as Slurm's `srun`): only then is MPI initialised.
@@ -72,8 +74,10 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
         Command::Fit(args) => fit::run(&args, Some(&mut *cluster as &mut dyn Offload)),
         Command::Demo(args) => fit::demo(&args, Some(&mut *cluster as &mut dyn Offload)),
         Command::MpiLatency(args) => latency(&args, cluster),
+        Command::Validate(args) => validate::run_root(&args, cluster),
         _ => anyhow::bail!(
-            "only fit, demo and mpi-latency run on several ranks; run this command without mpirun"
+            "only fit, demo, validate and mpi-latency run on several ranks; run this command \
+             without mpirun"
         ),
     };
     if cluster.size() > 1 && cluster.stats().requests > 0 {
@@ -92,7 +96,8 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
     outcome
 }
 
-/// Ranks other than 0: load the model the command fits and evaluate until released.
+/// Ranks other than 0: load the model the command fits and evaluate until released (or run
+/// their share of `validate`'s replications).
 fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     let rank = cluster.rank();
     let spec = match &cli.command {
@@ -101,6 +106,12 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
         Command::MpiLatency(args) => {
             latency(args, cluster)?;
             // Then wait for rank 0's release, as after a fit.
+            cluster.serve(&NoDensity)?;
+            return Ok(());
+        }
+        Command::Validate(args) => {
+            validate::run_rank(args, cluster)?;
+            // Then wait for rank 0's release, once it has written the report.
             cluster.serve(&NoDensity)?;
             return Ok(());
         }

@@ -8,7 +8,7 @@ use anyhow::Context;
 use clap::Args;
 
 use super::EXIT_MISCALIBRATED;
-use crate::validate::{run_sbc, summarise, write_report, GrossLimits, SbcSettings};
+use crate::validate::{run_sbc, summarise, write_report, GrossLimits, Replication, SbcSettings};
 use slipbayes::sampler::Mixture;
 
 /// Simulation-based calibration (Talts et al. 2018): draw parameters from the model's priors,
@@ -20,6 +20,9 @@ use slipbayes::sampler::Mixture;
 /// quantity). Exit code 4 ("miscalibrated") on gross miscalibration (95 % coverage below
 /// --min-coverage95, 50 % coverage outside [20 %, 80 %], χ² p < 1e-4, or more than 5 % failed
 /// fits), and with --hard when a case fails; 2 is an invalid command line, 1 an error.
+///
+/// Under mpirun (a build with the feature `mpi`) every rank runs a share of the
+/// replications and rank 0 writes --out: the same results as one process (docs/mpi.md).
 #[derive(Debug, Args)]
 #[command(verbatim_doc_comment)]
 pub(super) struct ValidateArgs {
@@ -92,7 +95,127 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
     if args.hard {
         return hard(args);
     }
-    let settings = SbcSettings {
+    let settings = sbc_settings(args);
+    let finished = AtomicUsize::new(0);
+    let progress = progress_lines(args, &finished);
+    let reps = if args.report_only {
+        crate::validate::finished_replications(&args.out)?
+    } else {
+        run_sbc(&settings, &args.out, args.overwrite, &progress)
+            .with_context(|| format!("validating into {}", args.out.display()))?
+    };
+    report(args, &settings, &reps)
+}
+
+/// Rank 0 of `mpirun -n R slipbayes validate`: opens the run, gives every rank the list of
+/// replications still to run, runs its share, records every rank's replications and writes
+/// the report (see `crate::validate::ranks`). The other ranks run [`run_rank`].
+#[cfg(feature = "mpi")]
+pub(super) fn run_root(
+    args: &ValidateArgs,
+    cluster: &mut slipbayes::distributed::Cluster,
+) -> anyhow::Result<ExitCode> {
+    use crate::validate::{ranks, SbcRun};
+    if args.hard {
+        anyhow::bail!("validate --hard runs its cases in one process; run it without mpirun");
+    }
+    let settings = sbc_settings(args);
+    let opened = if args.report_only {
+        Ok(None)
+    } else {
+        SbcRun::open(&settings, &args.out, args.overwrite)
+            .and_then(|run| Ok(Some((run, ranks::fingerprint(&settings)?))))
+    };
+    let (run, fingerprint) = match opened {
+        Ok(Some(opened)) => opened,
+        // Nothing for the other ranks to run: they wait for the release.
+        Ok(None) => {
+            cluster.broadcast_list(None);
+            let reps = crate::validate::finished_replications(&args.out)?;
+            return report(args, &settings, &reps);
+        }
+        Err(e) => {
+            cluster.broadcast_list(None);
+            return Err(e).with_context(|| format!("validating into {}", args.out.display()));
+        }
+    };
+    let mut reps = run.finished();
+    let pending = run.pending(&reps);
+    let list: Vec<u64> = std::iter::once(fingerprint)
+        .chain(pending.iter().map(|&i| i as u64))
+        .collect();
+    cluster.broadcast_list(Some(&list));
+    let finished = AtomicUsize::new(0);
+    let progress = progress_lines(args, &finished);
+    match ranks::run_root(&run, &pending, cluster, &progress) {
+        Ok(shared) => {
+            if cluster.size() > 1 {
+                eprintln!(
+                    "MPI: {} ranks; rank 0 ran {} of the {} replications to run and received {} \
+                     from the other ranks",
+                    cluster.size(),
+                    shared.replications.len() - shared.received,
+                    pending.len(),
+                    shared.received
+                );
+            }
+            reps.extend(shared.replications.into_iter().map(|r| (r.index, r)));
+        }
+        Err(e) => {
+            let err = anyhow::Error::new(e).context(format!(
+                "validating into {} (the replications written are kept: the same command \
+                 continues with the rest)",
+                args.out.display()
+            ));
+            for line in super::error_lines(&err) {
+                eprintln!("rank 0: {line}");
+            }
+            // The other ranks are running their shares: end the whole job.
+            cluster.abort(1)
+        }
+    }
+    let reps: Vec<Replication> = reps.into_values().collect();
+    report(args, &settings, &reps)
+}
+
+/// A rank other than 0 of `mpirun -n R slipbayes validate`: runs its share of the
+/// replications rank 0 lists and sends each to rank 0; nothing when rank 0 lists none (it
+/// failed, or only reports).
+#[cfg(feature = "mpi")]
+pub(super) fn run_rank(
+    args: &ValidateArgs,
+    cluster: &mut slipbayes::distributed::Cluster,
+) -> anyhow::Result<()> {
+    use crate::validate::{ranks, SbcRun};
+    if args.hard {
+        return Ok(());
+    }
+    let Some(list) = cluster.broadcast_list(None) else {
+        return Ok(());
+    };
+    let Some((&root_fingerprint, pending)) = list.split_first() else {
+        anyhow::bail!("rank 0 sent an empty list of replications");
+    };
+    let pending: Vec<usize> = pending.iter().map(|&i| i as usize).collect();
+    if ranks::share(&pending, cluster.size(), cluster.rank()).is_empty() {
+        return Ok(());
+    }
+    let settings = sbc_settings(args);
+    let run = SbcRun::load(&settings, &args.out)
+        .with_context(|| format!("loading the model {}", args.model.display()))?;
+    if ranks::fingerprint(&settings)? != root_fingerprint {
+        anyhow::bail!(
+            "the settings or the model file {} differ from rank 0's: every rank must run the \
+             same command on the same model file",
+            args.model.display()
+        );
+    }
+    ranks::run_rank(&run, &pending, cluster);
+    Ok(())
+}
+
+fn sbc_settings(args: &ValidateArgs) -> SbcSettings {
+    SbcSettings {
         model: args.model.clone(),
         replications: args.replications,
         seed: args.seed,
@@ -104,10 +227,16 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
         ensembles: args.ensembles,
         steps: args.steps,
         rank_draws: args.rank_draws,
-    };
-    let finished = AtomicUsize::new(0);
+    }
+}
+
+/// A line per finished replication on stderr (none with --quiet); `finished` counts them.
+fn progress_lines<'a>(
+    args: &'a ValidateArgs,
+    finished: &'a AtomicUsize,
+) -> impl Fn(&Replication) + Sync + 'a {
     let total = args.replications;
-    let progress = |rep: &crate::validate::Replication| {
+    move |rep: &Replication| {
         let n = finished.fetch_add(1, Ordering::Relaxed) + 1;
         if !args.quiet {
             match &rep.failure {
@@ -121,14 +250,17 @@ pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
                 Some(f) => eprintln!("replication {:>5} failed: {f}", rep.index),
             }
         }
-    };
-    let reps = if args.report_only {
-        crate::validate::finished_replications(&args.out)?
-    } else {
-        run_sbc(&settings, &args.out, args.overwrite, &progress)
-            .with_context(|| format!("validating into {}", args.out.display()))?
-    };
-    let report = summarise(&settings, &reps);
+    }
+}
+
+/// Summarises `reps`, writes the report into --out and prints its table; exit code 4 on gross
+/// miscalibration.
+fn report(
+    args: &ValidateArgs,
+    settings: &SbcSettings,
+    reps: &[Replication],
+) -> anyhow::Result<ExitCode> {
+    let report = summarise(settings, reps);
     let limits = GrossLimits {
         min_coverage95: args.min_coverage95,
         ..GrossLimits::default()

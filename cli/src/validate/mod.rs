@@ -13,9 +13,13 @@
 //! seed, and the fit is bit-identical on any number of threads, so replications run in
 //! parallel and a run can stop and continue. Each finished replication is written at once,
 //! atomically, to `DIR/replications/NNNNN.json`; a re-run with the same settings skips them.
+//! [`SbcRun`] holds these parts apart so that the ranks of an MPI job can share them
+//! (`ranks`, feature `mpi`).
 //!
 //! This part joins model, simulation and fit; it prints nothing (progress goes to a callback).
 pub mod hard;
+#[cfg(feature = "mpi")]
+pub mod ranks;
 pub mod stats;
 pub mod svg;
 
@@ -703,71 +707,165 @@ pub fn run_sbc(
     overwrite: bool,
     progress: &(dyn Fn(&Replication) + Sync),
 ) -> Result<Vec<Replication>, ValidateError> {
-    settings.validate()?;
-    let spec = ModelSpec::load(&settings.model)?;
-    let design = Design::new(spec, settings)?;
-    let reps_dir = out.join(REPLICATIONS_DIR);
-    let settings_path = out.join(SETTINGS_FILE);
-    if overwrite {
-        match std::fs::remove_dir_all(&reps_dir) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                return Err(io("removing", &reps_dir)(e))
-            }
-            _ => {}
-        }
-    } else if let Ok(text) = std::fs::read_to_string(&settings_path) {
-        let earlier: SbcSettings =
-            serde_json::from_str(&text).map_err(|e| ValidateError::SettingsMismatch {
-                dir: out.to_path_buf(),
-                problem: format!("{} does not parse: {e}", settings_path.display()),
-            })?;
-        let mut same = earlier.clone();
-        same.replications = settings.replications;
-        if &same != settings {
-            return Err(ValidateError::SettingsMismatch {
-                dir: out.to_path_buf(),
-                problem: first_difference(&earlier, settings),
-            });
-        }
-    }
-    std::fs::create_dir_all(&reps_dir).map_err(io("creating", &reps_dir))?;
-    let json = serde_json::to_vec_pretty(settings).unwrap_or_default();
-    write_atomically(&settings_path, &json).map_err(io("writing", &settings_path))?;
+    let run = SbcRun::open(settings, out, overwrite)?;
+    let mut finished = run.finished();
+    let pending = run.pending(&finished);
+    let fresh = run.run_share::<ValidateError>(&pending, &|rep| {
+        run.record(rep)?;
+        progress(rep);
+        Ok(())
+    })?;
+    finished.extend(fresh.into_iter().map(|r| (r.index, r)));
+    Ok(finished.into_values().collect())
+}
 
-    let result_path = |i: usize| reps_dir.join(format!("{i:05}.json"));
-    let done = |i: usize| -> Option<Replication> {
-        let text = std::fs::read_to_string(result_path(i)).ok()?;
-        serde_json::from_str(&text).ok()
-    };
-    let run_one = |i: usize| {
-        if let Some(rep) = done(i) {
-            return Ok(rep);
+/// A validation run's output directory and model, ready to run replications: what
+/// [`run_sbc`] does in one process, in parts that the ranks of an MPI job share (rank 0
+/// opens the directory and records every replication; every rank runs its own).
+#[derive(Debug)]
+pub struct SbcRun {
+    settings: SbcSettings,
+    design: Design,
+    reps_dir: PathBuf,
+}
+
+impl SbcRun {
+    /// Checks the settings and the model, and opens `out` for them: its replications are
+    /// removed with `overwrite`, else an earlier run there must have the same settings (the
+    /// number of replications may grow); `settings.json` is (re)written.
+    ///
+    /// # Errors
+    /// [`ValidateError`] for invalid settings, a model with a run SBC cannot simulate, an
+    /// output directory holding another run (unless `overwrite`), or files that cannot be
+    /// written.
+    pub fn open(
+        settings: &SbcSettings,
+        out: &Path,
+        overwrite: bool,
+    ) -> Result<Self, ValidateError> {
+        let run = Self::load(settings, out)?;
+        let reps_dir = &run.reps_dir;
+        let settings_path = out.join(SETTINGS_FILE);
+        if overwrite {
+            match std::fs::remove_dir_all(reps_dir) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(io("removing", reps_dir)(e))
+                }
+                _ => {}
+            }
+        } else if let Ok(text) = std::fs::read_to_string(&settings_path) {
+            let earlier: SbcSettings =
+                serde_json::from_str(&text).map_err(|e| ValidateError::SettingsMismatch {
+                    dir: out.to_path_buf(),
+                    problem: format!("{} does not parse: {e}", settings_path.display()),
+                })?;
+            let mut same = earlier.clone();
+            same.replications = settings.replications;
+            if &same != settings {
+                return Err(ValidateError::SettingsMismatch {
+                    dir: out.to_path_buf(),
+                    problem: first_difference(&earlier, settings),
+                });
+            }
         }
-        let dir = reps_dir.join(format!("{i:05}"));
-        let rep = replicate(&design, settings, i, &dir);
-        let path = result_path(i);
-        let json = serde_json::to_vec_pretty(&rep).unwrap_or_default();
-        write_atomically(&path, &json).map_err(io("writing", &path))?;
-        progress(&rep);
-        Ok(rep)
-    };
-    // As many replications at a time as there are threads. A single parallel loop over all
-    // of them lets a thread that waits inside one fit steal the next replication, so that
-    // dozens were in flight at once, holding their memory, and none finished for minutes.
-    let at_once = rayon::current_num_threads().max(1);
-    let mut reps = Vec::with_capacity(settings.replications);
-    for start in (0..settings.replications).step_by(at_once) {
-        let end = (start + at_once).min(settings.replications);
-        let chunk: Vec<Result<Replication, ValidateError>> = (start..end)
-            .into_par_iter()
-            .with_max_len(1)
-            .map(run_one)
-            .collect();
-        for rep in chunk {
-            reps.push(rep?);
-        }
+        std::fs::create_dir_all(reps_dir).map_err(io("creating", reps_dir))?;
+        let json = serde_json::to_vec_pretty(settings).unwrap_or_default();
+        write_atomically(&settings_path, &json).map_err(io("writing", &settings_path))?;
+        Ok(run)
     }
-    Ok(reps)
+
+    /// Checks the settings and loads the model, touching nothing in `out`: for a rank that
+    /// runs replications of a run that rank 0 opened.
+    ///
+    /// # Errors
+    /// [`ValidateError`] for invalid settings or a model with a run SBC cannot simulate.
+    pub fn load(settings: &SbcSettings, out: &Path) -> Result<Self, ValidateError> {
+        settings.validate()?;
+        let spec = ModelSpec::load(&settings.model)?;
+        Ok(Self {
+            design: Design::new(spec, settings)?,
+            settings: settings.clone(),
+            reps_dir: out.join(REPLICATIONS_DIR),
+        })
+    }
+
+    /// The replications among `0..settings.replications` whose records are on disk (a record
+    /// that does not parse is not finished: it is run again).
+    pub fn finished(&self) -> BTreeMap<usize, Replication> {
+        (0..self.settings.replications)
+            .filter_map(|i| {
+                let text = std::fs::read_to_string(self.record_path(i)).ok()?;
+                let rep: Replication = serde_json::from_str(&text).ok()?;
+                Some((i, rep))
+            })
+            .collect()
+    }
+
+    /// The indices of the replications still to run, in order.
+    pub fn pending(&self, finished: &BTreeMap<usize, Replication>) -> Vec<usize> {
+        (0..self.settings.replications)
+            .filter(|i| !finished.contains_key(i))
+            .collect()
+    }
+
+    /// Runs replications `indices` (each fit in its own directory `replications/NNNNN/`),
+    /// as many at a time as there are threads, and hands each to `done` as it finishes, from
+    /// whichever thread ran it; returns them in the order of `indices`. Stops after the
+    /// replications in flight when `done` fails, with its error.
+    ///
+    /// # Errors
+    /// The first error of `done`.
+    pub fn run_share<E: Send>(
+        &self,
+        indices: &[usize],
+        done: &(dyn Fn(&Replication) -> Result<(), E> + Sync),
+    ) -> Result<Vec<Replication>, E> {
+        // As many replications at a time as there are threads. A single parallel loop over
+        // all of them lets a thread that waits inside one fit steal the next replication, so
+        // that dozens were in flight at once, holding their memory, and none finished for
+        // minutes.
+        let at_once = rayon::current_num_threads().max(1);
+        let mut reps = Vec::with_capacity(indices.len());
+        for chunk in indices.chunks(at_once) {
+            let ran: Vec<Result<Replication, E>> = chunk
+                .par_iter()
+                .with_max_len(1)
+                .map(|&i| {
+                    let rep = replicate(
+                        &self.design,
+                        &self.settings,
+                        i,
+                        &self.reps_dir.join(format!("{i:05}")),
+                    );
+                    done(&rep)?;
+                    Ok(rep)
+                })
+                .collect();
+            for rep in ran {
+                reps.push(rep?);
+            }
+        }
+        Ok(reps)
+    }
+
+    /// Writes `rep`'s record, `replications/NNNNN.json`, atomically: a run stopped at any
+    /// moment leaves whole records, which a continued run reads back.
+    ///
+    /// # Errors
+    /// [`ValidateError::Io`] when it cannot be written.
+    pub fn record(&self, rep: &Replication) -> Result<(), ValidateError> {
+        let path = self.record_path(rep.index);
+        write_atomically(&path, &Self::record_bytes(rep)).map_err(io("writing", &path))
+    }
+
+    /// The bytes of `rep`'s record, as [`record`](Self::record) writes them.
+    pub fn record_bytes(rep: &Replication) -> Vec<u8> {
+        serde_json::to_vec_pretty(rep).unwrap_or_default()
+    }
+
+    fn record_path(&self, index: usize) -> PathBuf {
+        self.reps_dir.join(format!("{index:05}.json"))
+    }
 }
 
 /// The replications finished so far in `out` (any order of indices), to report on a run that
