@@ -197,7 +197,7 @@ impl ObservedSlide {
                 expected: "an instruction set this machine has (Simd::available)",
             });
         }
-        check_sorted(times)?;
+        check_sorted(simd, times)?;
         let law = match &self.law {
             InterfaceLaw::AgingRejuvenation(law) => law,
             InterfaceLaw::LogAging(law) => {
@@ -266,7 +266,7 @@ fn serial_forces(
     times: &[f64],
     mut visit: impl FnMut(usize, f64, f64),
 ) -> Result<(), LawError> {
-    check_sorted(times)?;
+    check_sorted(Simd::active(), times)?;
     let kv = match elastic {
         Elastic::Stiff => {
             for (i, &t) in times.iter().enumerate() {
@@ -320,17 +320,11 @@ fn serial_forces(
     Ok(())
 }
 
-/// Times must strictly increase (NaN fails the comparison too).
-fn check_sorted(times: &[f64]) -> Result<(), LawError> {
-    // Branch-free over the pairs, so that it vectorises (a branch per point cost about 5 % of
-    // a stiff slide's evaluation); the offending index is looked for only on failure.
-    let increasing = times.first().is_none_or(|&t| t > f64::NEG_INFINITY)
-        && times
-            .get(1..)
-            .unwrap_or_default()
-            .iter()
-            .zip(times)
-            .fold(true, |ok, (&next, &previous)| ok & (next > previous));
+/// Times must strictly increase (NaN fails the comparison too); the pairs are compared in
+/// `simd`'s registers (`kernel::strictly_increasing`), the offending index looked for only on
+/// failure.
+fn check_sorted(simd: Simd, times: &[f64]) -> Result<(), LawError> {
+    let increasing = kernel::strictly_increasing(simd, times);
     if increasing {
         return Ok(());
     }

@@ -141,6 +141,9 @@ pub(crate) fn ln(x: f64) -> f64 {
 /// or two at a boundary between pieces).
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Pieces {
+    /// Every lane lies in the one piece the batch needs (the bulk of a slide): no lane keeps
+    /// another piece's value, so the per-lane select is left out (the same values).
+    whole: bool,
     mid: bool,
     upto_10: bool,
     upto_20: bool,
@@ -152,12 +155,21 @@ impl Pieces {
     /// The pieces that x in [lo, hi] needs.
     #[inline(always)]
     pub(crate) fn spanning(lo: f64, hi: f64) -> Self {
+        let (mid, upto_10, upto_20, upto_40, beyond_40) = (
+            lo <= 6.0,
+            lo <= 10.0 && hi > 6.0,
+            lo <= 20.0 && hi > 10.0,
+            lo <= 40.0 && hi > 20.0,
+            hi > 40.0,
+        );
+        let needed = [mid, upto_10, upto_20, upto_40, beyond_40];
         Self {
-            mid: lo <= 6.0,
-            upto_10: lo <= 10.0 && hi > 6.0,
-            upto_20: lo <= 20.0 && hi > 10.0,
-            upto_40: lo <= 40.0 && hi > 20.0,
-            beyond_40: hi > 40.0,
+            whole: needed.iter().filter(|&&p| p).count() == 1,
+            mid,
+            upto_10,
+            upto_20,
+            upto_40,
+            beyond_40,
         }
     }
 }
@@ -182,43 +194,53 @@ pub(crate) fn d_subtracted<const L: usize>(
     d: &mut [f64; L],
     inv_x: &mut [f64; L],
 ) {
+    if pieces.whole {
+        d_pieces::<L, true>(x, e, ei0, pieces, d, inv_x);
+    } else {
+        d_pieces::<L, false>(x, e, ei0, pieces, d, inv_x);
+    }
+}
+
+/// [`d_subtracted`], each piece's lanes selected unless the batch lies in one piece (`WHOLE`).
+#[inline(always)]
+fn d_pieces<const L: usize, const WHOLE: bool>(
+    x: &[f64; L],
+    e: &[f64; L],
+    ei0: f64,
+    pieces: Pieces,
+    d: &mut [f64; L],
+    inv_x: &mut [f64; L],
+) {
     if pieces.mid {
         for l in 0..L {
             let xl = x[l].clamp(1.0, 6.0);
             let mid = e[l] * (fits::ei_mid_given_ln(xl, ln(xl)) - ei0);
-            let inside = x[l] <= 6.0;
+            let inside = WHOLE || x[l] <= 6.0;
             d[l] = if inside { mid } else { d[l] };
             inv_x[l] = if inside { 1.0 / xl } else { inv_x[l] };
         }
     }
     if pieces.upto_10 {
-        g_piece(x, e, ei0, (6.0, 10.0), fits::xg_fraction_upto_10, d, inv_x);
+        g_piece::<L, WHOLE>(x, e, ei0, (6.0, 10.0), fits::xg_fraction_upto_10, d, inv_x);
     }
     if pieces.upto_20 {
-        g_piece(x, e, ei0, (10.0, 20.0), fits::xg_fraction_upto_20, d, inv_x);
+        g_piece::<L, WHOLE>(x, e, ei0, (10.0, 20.0), fits::xg_fraction_upto_20, d, inv_x);
     }
     if pieces.upto_40 {
-        g_piece(x, e, ei0, (20.0, 40.0), fits::xg_fraction_upto_40, d, inv_x);
+        g_piece::<L, WHOLE>(x, e, ei0, (20.0, 40.0), fits::xg_fraction_upto_40, d, inv_x);
     }
     if pieces.beyond_40 {
-        g_piece(
-            x,
-            e,
-            ei0,
-            (40.0, f64::INFINITY),
-            fits::xg_fraction_beyond_40,
-            d,
-            inv_x,
-        );
+        let beyond = (40.0, f64::INFINITY);
+        g_piece::<L, WHOLE>(x, e, ei0, beyond, fits::xg_fraction_beyond_40, d, inv_x);
     }
 }
 
 /// The lanes of `x` in (lo, hi] get g(x) + e^(−x) [x − Ei(x0)] and 1/x, from x g(x) as the
 /// fraction n/q that `fraction` gives; the others keep their values. Every lane is evaluated
 /// (clamped into the piece's range, so nothing overflows) and the result selected, which
-/// vectorises.
+/// vectorises; where every lane is in the piece (`WHOLE`), without the select.
 #[inline(always)]
-fn g_piece<const L: usize>(
+fn g_piece<const L: usize, const WHOLE: bool>(
     x: &[f64; L],
     e: &[f64; L],
     ei0: f64,
@@ -232,7 +254,7 @@ fn g_piece<const L: usize>(
         let (n, q) = fraction(xl);
         let r = 1.0 / (q * xl);
         let v = n * r + e[l] * (x[l] - ei0);
-        let inside = (x[l] > lo) & (x[l] <= hi);
+        let inside = WHOLE || ((x[l] > lo) & (x[l] <= hi));
         d[l] = if inside { v } else { d[l] };
         inv_x[l] = if inside { q * r } else { inv_x[l] };
     }
@@ -392,6 +414,41 @@ mod tests {
     fn ulps(got: f64, want: f64) -> f64 {
         let ulp = f64::from_bits(want.abs().to_bits() + 1) - want.abs();
         (got - want).abs() / ulp
+    }
+
+    /// A batch inside one piece of D is evaluated without the per-lane select, to the same
+    /// bits as with it; a batch across a boundary between pieces keeps the select.
+    #[test]
+    fn a_batch_in_one_piece_skips_the_select_with_the_same_bits() {
+        let ei0 = crate::special::ei(0.0136);
+        for (lo, hi) in [
+            (1.5, 5.5),
+            (6.5, 9.5),
+            (10.5, 19.5),
+            (20.5, 39.5),
+            (41.0, 90.0),
+        ] {
+            let pieces = Pieces::spanning(lo, hi);
+            assert!(pieces.whole, "[{lo}, {hi}]");
+            let x: [f64; 16] = std::array::from_fn(|l| lo + (hi - lo) * l as f64 / 15.0);
+            let e = x.map(exp_neg);
+            let (mut d_whole, mut inv_whole) = ([0.0; 16], [0.0; 16]);
+            let (mut d_each, mut inv_each) = ([0.0; 16], [0.0; 16]);
+            d_pieces::<16, true>(&x, &e, ei0, pieces, &mut d_whole, &mut inv_whole);
+            d_pieces::<16, false>(&x, &e, ei0, pieces, &mut d_each, &mut inv_each);
+            for l in 0..16 {
+                assert_eq!(d_whole[l].to_bits(), d_each[l].to_bits(), "x = {}", x[l]);
+                assert_eq!(
+                    inv_whole[l].to_bits(),
+                    inv_each[l].to_bits(),
+                    "x = {}",
+                    x[l]
+                );
+            }
+        }
+        for (lo, hi) in [(5.5, 6.5), (9.0, 11.0), (19.0, 41.0)] {
+            assert!(!Pieces::spanning(lo, hi).whole, "[{lo}, {hi}]");
+        }
     }
 
     /// The lane functions against 40-digit mpmath values
