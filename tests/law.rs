@@ -600,20 +600,23 @@ fn the_kernel_takes_its_fast_paths_on_a_typical_slide() {
         eprintln!("dt {dt} s, {n} points: {c:?}");
         assert_eq!(c.serial_points, 0, "dt {dt}: {c:?}");
         assert!(c.rounds as f64 <= 1.25 * c.batches as f64, "dt {dt}: {c:?}");
+        // Second rounds only on the steep rise at the start, where the septic guesses leave
+        // 8 batches of the 5,000-point slide a second round (the quintic ones left 16).
+        assert!(c.rounds - c.batches <= 10, "dt {dt}: {c:?}");
         assert!(
             c.scalar_law_batches as f64 <= 0.05 * c.rounds as f64,
             "dt {dt}: {c:?}"
         );
         // Anchors start from the previous chunk's interpolant extrapolated: on densely sampled
         // data one Newton step nearly always suffices.
-        // And the chunks between anchors grow to their full length (129 points), so that
+        // And the chunks between anchors grow to their full length (257 points), so that
         // the serial anchors cost little per point.
         if dt <= 1.0 {
             assert!(
                 c.anchor_evaluations as f64 <= 1.25 * c.anchors as f64,
                 "dt {dt}: {c:?}"
             );
-            assert!(c.anchors * 100 <= n as u64, "dt {dt}: {c:?}");
+            assert!(c.anchors * 200 <= n as u64, "dt {dt}: {c:?}");
         }
     }
 }

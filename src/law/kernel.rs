@@ -5,14 +5,14 @@
 //! Solving t = τ + F(τ)/(kv) point after point (the reference,
 //! [`ObservedSlide::for_each_force_serial`](super::ObservedSlide::for_each_force_serial)) is
 //! one serial chain: each point's Newton iteration starts from the previous point's root.
-//! Here only every 129th point (an *anchor*; every 33rd where the guesses below needed a
-//! second round, every 65th while they grow back, see `spring_lanes`) is solved one after the
-//! other, by Newton steps from the
-//! previous chunk's quintic Hermite interpolant extrapolated to it, or from a cubic Taylor
-//! guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from the law) where there is none or it leaves
-//! the bracket. The points between two anchors get a quintic Hermite guess of τ(t) from the
-//! anchors' τ, dτ/dt and d²τ/dt², which makes them independent of one another, and are solved
-//! together: one evaluation of the law per lane and one Newton step, batch after batch.
+//! Here only every 257th point (an *anchor*; every 33rd where the guesses below needed a
+//! second round, every 65th or 129th while they grow back, see `spring_lanes`) is solved one
+//! after the other, by Newton steps from the previous chunk's septic Hermite interpolant
+//! extrapolated to it, or from a cubic Taylor guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from
+//! the law) where there is none or it leaves the bracket. The points between two anchors get a
+//! septic Hermite guess of τ(t) from the anchors' τ, dτ/dt, d²τ/dt² and d³τ/dt³, which makes
+//! them independent of one another, and are solved together: one evaluation of the law per
+//! lane and one Newton step, batch after batch.
 //!
 //! # Exactness
 //! A Newton step from a guess off by s leaves an error of ½ |G''/G'| s² in τ, G(τ) = τ +
@@ -66,8 +66,11 @@ pub const LANES: usize = 32;
 /// evaluations (about 34 ns each on this project's machine, whatever the vector width), so
 /// longer chunks pay for fewer of them; 4 (129 points) was 4 % faster per point than 2 on the
 /// bench's slide on AVX2 and AVX-512 (more anchors take a second Newton step, 35 of 56 against
-/// 32 of 87, and the batches take no more rounds); 8 took more rounds and was slower.
-const MAX_BATCHES_PER_CHUNK: usize = 4;
+/// 32 of 87, and the batches take no more rounds). With the quintic guesses 8 took more rounds
+/// and was slower; with the septic ones (error ∝ spacing⁸) 8 (257 points) takes one batch round
+/// more than 4 on the bench's slide but 33 anchors instead of 48: callgrind 88.04 → 86.73
+/// instructions per point on AVX2.
+const MAX_BATCHES_PER_CHUNK: usize = 8;
 /// Chunks in a row whose every batch converged in one Newton round before a short chunk (one
 /// batch between anchors) grows back.
 const CLEAN_CHUNKS_TO_GROW: usize = 2;
@@ -630,8 +633,10 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     let mut left = Anchor::new(law, kv, loading_ends, t0, force_t0, rate_t0);
     // The chunk's length adapts to how good the guesses are: where a batch needed a second
     // Newton round (the steep rise at the start of a slow slide), the next chunks are one batch
-    // long, whose guesses are 2⁶ times closer; after `CLEAN_CHUNKS_TO_GROW` clean chunks they
-    // double, up to `MAX_BATCHES_PER_CHUNK`. Rounds are the same on every instruction set, so are the anchors.
+    // long, whose guesses are far closer (their error falls as the eighth power of the
+    // spacing); after `CLEAN_CHUNKS_TO_GROW` clean chunks they double, up to
+    // `MAX_BATCHES_PER_CHUNK`. Rounds are the same on every instruction set, so are the
+    // anchors.
     let (mut batches, mut clean) = (1, 0);
     let mut guess = None;
     while i < n {
@@ -658,7 +663,7 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
 
 /// The point at time `t` after `left`: Newton steps until one's predicted error is round-off,
 /// else the safeguarded iteration on [τ_left, t]. They start from the previous chunk's Hermite
-/// interpolant extrapolated to `t` (`previous`; its error grows as the sixth power of the
+/// interpolant extrapolated to `t` (`previous`; its error grows as the eighth power of the
 /// spacing, against the fourth for a Taylor guess, so that one step usually suffices) where
 /// that lies in (τ_left, t], else from the cubic Taylor guess along τ(t).
 #[inline(always)]
@@ -763,16 +768,17 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
     Ok(one_round)
 }
 
-/// The quintic Hermite interpolant of τ(t) between two anchors, from their τ, dτ/dt and
-/// d²τ/dt² (its error falls as the sixth power of the anchors' spacing, so that one Newton
-/// step usually leaves only round-off), as a polynomial in u = (t − t_left)/span whose
-/// coefficients are formed once per chunk: a guess then costs a multiplication and five
-/// Horner steps.
+/// The septic Hermite interpolant of τ(t) between two anchors, from their τ, dτ/dt, d²τ/dt²
+/// and d³τ/dt³ (its error falls as the eighth power of the anchors' spacing, so that one
+/// Newton step usually leaves only round-off, also on the steep rise at the start of a slow
+/// slide, where the quintic interpolant of τ, dτ/dt and d²τ/dt² left most batches a second
+/// round), as a polynomial in u = (t − t_left)/span whose coefficients are formed once per
+/// chunk: a guess then costs a multiplication and seven Horner steps.
 struct Hermite {
     t_left: f64,
     inv_span: f64,
-    /// Coefficients of u⁰ … u⁵.
-    c: [f64; 6],
+    /// Coefficients of u⁰ … u⁷.
+    c: [f64; 8],
 }
 
 impl Hermite {
@@ -782,6 +788,8 @@ impl Hermite {
         let rise = right.tau - left.tau;
         let (d0, d1) = (span * left.slope, span * right.slope);
         let (c0, c1) = (span * span * left.curvature, span * span * right.curvature);
+        let cube = span * span * span;
+        let (j0, j1) = (cube * left.jerk, cube * right.jerk);
         Self {
             t_left: left.t,
             inv_span: 1.0 / span,
@@ -789,9 +797,15 @@ impl Hermite {
                 left.tau,
                 d0,
                 0.5 * c0,
-                10.0 * rise - 6.0 * d0 - 4.0 * d1 - 1.5 * c0 + 0.5 * c1,
-                -15.0 * rise + 8.0 * d0 + 7.0 * d1 + 1.5 * c0 - c1,
-                6.0 * rise - 3.0 * (d0 + d1) - 0.5 * (c0 - c1),
+                j0 / 6.0,
+                35.0 * rise - 20.0 * d0 - 15.0 * d1 - 5.0 * c0 + 2.5 * c1
+                    - j0 * (2.0 / 3.0)
+                    - j1 / 6.0,
+                -84.0 * rise + 45.0 * d0 + 39.0 * d1 + 10.0 * c0 - 7.0 * c1 + j0 + 0.5 * j1,
+                70.0 * rise - 36.0 * d0 - 34.0 * d1 - 7.5 * c0 + 6.5 * c1
+                    - j0 * (2.0 / 3.0)
+                    - 0.5 * j1,
+                -20.0 * rise + 10.0 * (d0 + d1) + 2.0 * (c0 - c1) + (j0 + j1) / 6.0,
             ],
         }
     }
@@ -806,7 +820,8 @@ impl Hermite {
     fn at(&self, t: f64) -> f64 {
         let u = (t - self.t_left) * self.inv_span;
         let c = &self.c;
-        c[0] + u * (c[1] + u * (c[2] + u * (c[3] + u * (c[4] + u * c[5]))))
+        c[0] + u
+            * (c[1] + u * (c[2] + u * (c[3] + u * (c[4] + u * (c[5] + u * (c[6] + u * c[7]))))))
     }
 }
 

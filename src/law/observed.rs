@@ -136,8 +136,8 @@ impl ObservedSlide {
     ///
     /// The points of the aging–rejuvenation law are solved in batches in vector registers
     /// (`kernel`): every
-    /// 33rd, 65th or 129th point by Newton steps from a Taylor guess, one after the other,
-    /// the points between by one Newton step each from a quintic Hermite guess between those
+    /// 33rd, 65th, 129th or 257th point by Newton steps from a Taylor guess, one after the other,
+    /// the points between by one Newton step each from a septic Hermite guess between those
     /// anchors, repeated where a lane's predicted error is above round-off. The result agrees
     /// with [`for_each_force_serial`](Self::for_each_force_serial) to rounding, on whatever
     /// vector instructions the machine has ([`Simd::active`](super::Simd::active)), and is
