@@ -3,6 +3,7 @@ against summary.json."""
 
 import json
 import os
+import pathlib
 import re
 import signal
 import subprocess
@@ -322,6 +323,12 @@ def test_a_second_fit_into_a_locked_run_directory_fails_naming_the_lock(tmp_path
     # A live process holds the lock, as a fit in another process would.
     holder = subprocess.Popen(["sleep", "60"])
     try:
+        # Popen may return before the child has become `sleep` (its /proc cmdline is empty
+        # until then, and the lock would rightly be judged stale): wait until it has.
+        cmdline = pathlib.Path(f"/proc/{holder.pid}/cmdline")
+        deadline = time.monotonic() + 10
+        while cmdline.read_bytes() != b"sleep\x0060\x00" and time.monotonic() < deadline:
+            time.sleep(0.01)
         lock.write_text(f"{holder.pid}\nsleep 60\n")
         with pytest.raises(slipbayes.SlipbayesError, match=re.escape(str(lock))) as info:
             slipbayes.fit(one_contact(first=first), steps=STEPS, out=out, progress=False)
