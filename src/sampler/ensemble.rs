@@ -67,15 +67,22 @@ pub(crate) struct Streams {
 }
 
 impl Streams {
-    /// The generators of the update of the independent block keyed `key` (its first
-    /// coordinate) in ensemble `e` of `walkers` walkers at step `step`.
-    pub fn for_block(seed: u64, e: usize, key: usize, walkers: usize, step: u64) -> Self {
+    /// Room for the generators of block updates (none yet: see [`rekey`](Self::rekey)).
+    pub fn new() -> Self {
         Self {
-            ensemble: block_rng(seed, e, key, 0, step),
-            walkers: (0..walkers)
-                .map(|w| block_rng(seed, e, key, w + 1, step))
-                .collect(),
+            ensemble: stream_rng(0, 0),
+            walkers: Vec::new(),
         }
+    }
+
+    /// Makes these the generators of the update of the independent block keyed `key` (its
+    /// first coordinate) in ensemble `e` of `walkers` walkers at step `step`, in the same
+    /// buffers.
+    pub fn rekey(&mut self, seed: u64, e: usize, key: usize, walkers: usize, step: u64) {
+        self.ensemble = block_rng(seed, e, key, 0, step);
+        self.walkers.clear();
+        self.walkers
+            .extend((0..walkers).map(|w| block_rng(seed, e, key, w + 1, step)));
     }
 }
 
@@ -440,14 +447,12 @@ impl Ensemble {
         }
     }
 
-    /// Puts `streams` in place of the ensemble's generators and returns those it replaces:
-    /// an update of an independent block draws from its own streams, and the ensemble's
-    /// streams, swapped back in afterwards, are left where they were.
-    pub fn swap_streams(&mut self, streams: Streams) -> Streams {
-        Streams {
-            ensemble: std::mem::replace(&mut self.s.ensemble_rng, streams.ensemble),
-            walkers: std::mem::replace(&mut self.s.walker_rngs, streams.walkers),
-        }
+    /// Exchanges the ensemble's generators with `streams`: an update of an independent
+    /// block draws from its own streams, and the ensemble's, exchanged back afterwards, are
+    /// left where they were.
+    pub fn swap_streams(&mut self, streams: &mut Streams) {
+        std::mem::swap(&mut self.s.ensemble_rng, &mut streams.ensemble);
+        std::mem::swap(&mut self.s.walker_rngs, &mut streams.walkers);
     }
 
     /// Starts a step: the random split into halves and the move of this step, both from the

@@ -142,6 +142,9 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     step_moves: Vec<Move>,
     /// Proposals of all ensembles' active halves, evaluated in one loop.
     work: Work,
+    /// Per ensemble, the generators of an independent block's update, re-keyed in place for
+    /// each (the ensemble's own generators wait here meanwhile).
+    block_streams: Vec<Streams>,
     pending: Vec<Option<Fatal>>,
     step: u64,
     history: RowHistory,
@@ -473,6 +476,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             pending: (0..ensembles.len()).map(|_| None).collect(),
             step_moves: vec![config.moves()[0].0; ensembles.len()],
             work: Work::new(ensembles.len(), half, ndim, nderived, cache_len),
+            block_streams: (0..ensembles.len()).map(|_| Streams::new()).collect(),
             eval_ns: vec![None; 2 * blocks.len().max(1)],
             half_steps: 0,
             density,
@@ -860,18 +864,24 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ) -> Result<(), (usize, Fatal)> {
         // An independent block draws from its own streams (keyed by its first coordinate, a
         // name that does not depend on the blocks' order), the ensembles' own streams waiting.
-        let keyed = block.filter(|(_, ub)| ub.independent).map(|(_, ub)| {
+        let keyed = block
+            .filter(|(_, ub)| ub.independent)
+            .map(|(_, ub)| ub.coords[0]);
+        if let Some(key) = keyed {
             let (seed, step, walkers) = (self.config.seed(), self.step, self.config.walkers());
-            let key = ub.coords[0];
-            self.ensembles
+            for (e, (ens, streams)) in self
+                .ensembles
                 .iter_mut()
+                .zip(&mut self.block_streams)
                 .enumerate()
-                .map(|(e, ens)| ens.swap_streams(Streams::for_block(seed, e, key, walkers, step)))
-                .collect::<Vec<_>>()
-        });
+            {
+                streams.rekey(seed, e, key, walkers, step);
+                ens.swap_streams(streams);
+            }
+        }
         let result = self.update_walkers(block, exact);
-        if let Some(own) = keyed {
-            for (ens, streams) in self.ensembles.iter_mut().zip(own) {
+        if keyed.is_some() {
+            for (ens, streams) in self.ensembles.iter_mut().zip(&mut self.block_streams) {
                 ens.swap_streams(streams);
             }
         }

@@ -161,22 +161,24 @@ pub(super) fn holds_population(block: &Block, populations: &[Population]) -> boo
 
 /// `blocks` with the [`independent`] ones moved after all others (each group keeping its
 /// order), so that a step updates the shared parameters and populations first and then every
-/// contact, in one run of independent blocks that can be updated in any order or at once.
+/// contact, in one run of independent blocks that can be updated in any order or at once;
+/// and the index of the first independent block (the others are those after it).
 pub(super) fn independent_last(
     blocks: Vec<Block>,
     population: impl Fn(&Block) -> bool,
-) -> Vec<Block> {
+) -> (Vec<Block>, usize) {
     let independent = independent(&blocks, population);
     let order: Vec<usize> = (0..blocks.len())
-        .filter(|b| !independent.contains(b))
-        .chain(independent.iter().copied())
+        .filter(|&b| !independent[b])
+        .chain((0..blocks.len()).filter(|&b| independent[b]))
         .collect();
+    let first = blocks.len() - independent.iter().filter(|&&i| i).count();
     let mut position = vec![0; blocks.len()];
     for (k, &b) in order.iter().enumerate() {
         position[b] = k;
     }
     let mut slots: Vec<Option<Block>> = blocks.into_iter().map(Some).collect();
-    order
+    let reordered = order
         .iter()
         .map(|&b| {
             let mut block = slots[b].take().expect("each block once");
@@ -185,7 +187,8 @@ pub(super) fn independent_last(
             }
             block
         })
-        .collect()
+        .collect();
+    (reordered, first)
 }
 
 /// Which derived values an evaluation changes.
@@ -223,26 +226,45 @@ impl<'c> Cache<'c> {
     }
 }
 
-/// Blocks of `blocks` that are conditionally independent of one another given the rest
-/// (`population`: whether a block is a population's): those that carry no followers, are no
-/// population, and whose update re-fits no run, re-evaluates no prior and touches no σ group
-/// that another such block's update does (a σ shared by several contacts ties them together).
-pub(super) fn independent(blocks: &[Block], population: impl Fn(&Block) -> bool) -> Vec<usize> {
-    let candidates: Vec<usize> = (0..blocks.len())
-        .filter(|&b| !population(&blocks[b]) && blocks[b].links.followers.is_empty())
-        .collect();
-    let overlap = |a: &Block, b: &Block| {
-        a.runs.iter().any(|r| b.runs.contains(r))
-            || a.priors.iter().any(|p| b.priors.contains(p))
-            || a.groups.iter().zip(&b.groups).any(|(&x, &y)| x && y)
-    };
-    candidates
+/// Per block of `blocks`: whether it is conditionally independent of the other such blocks
+/// given the rest (`population`: whether a block is a population's). It is when it carries no
+/// followers, is no population, and its update re-fits no run, re-evaluates no prior and
+/// touches no σ group that another such candidate's update does (a σ shared by several
+/// contacts ties them together).
+fn independent(blocks: &[Block], population: impl Fn(&Block) -> bool) -> Vec<bool> {
+    let candidate: Vec<bool> = blocks
         .iter()
-        .copied()
-        .filter(|&b| {
-            candidates
-                .iter()
-                .all(|&o| o == b || !overlap(&blocks[b], &blocks[o]))
+        .map(|b| !population(b) && b.links.followers.is_empty())
+        .collect();
+    // How many candidates touch each run, prior and σ group.
+    let (runs, groups) = blocks
+        .first()
+        .map_or((0, 0), |b| (b.reads.len(), b.groups.len()));
+    let (mut run_users, mut prior_users, mut group_users) =
+        (vec![0; runs], vec![0; blocks.len()], vec![0; groups]);
+    for block in blocks.iter().zip(&candidate).filter(|c| *c.1).map(|c| c.0) {
+        for &r in &block.runs {
+            run_users[r] += 1;
+        }
+        for &p in &block.priors {
+            prior_users[p] += 1;
+        }
+        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
+            group_users[g] += 1;
+        }
+    }
+    blocks
+        .iter()
+        .zip(candidate)
+        .map(|(block, candidate)| {
+            candidate
+                && block.runs.iter().all(|&r| run_users[r] == 1)
+                && block.priors.iter().all(|&p| prior_users[p] == 1)
+                && block
+                    .groups
+                    .iter()
+                    .enumerate()
+                    .all(|(g, &t)| !t || group_users[g] == 1)
         })
         .collect()
 }

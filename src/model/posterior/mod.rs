@@ -62,6 +62,9 @@ pub struct Posterior {
     order: Vec<usize>,
     /// Blocks of coordinates for blocked updates (see `blocks`).
     blocks: Vec<Block>,
+    /// The blocks from this one on are independent of one another given the others
+    /// (`blocks::independent_last`).
+    first_independent: usize,
     sigma_groups: Vec<SigmaGroup>,
     populations: Vec<Population>,
     materials: Vec<MaterialModel>,
@@ -126,7 +129,7 @@ impl Posterior {
             Blocking::Contact => r.contact,
         };
         let population = |b: &Block| blocks::holds_population(b, &layout.populations);
-        let blocks = blocks::independent_last(
+        let (blocks, first_independent) = blocks::independent_last(
             blocks::blocks(
                 &layout.coords,
                 &layout.runs,
@@ -144,6 +147,7 @@ impl Posterior {
             runs: layout.runs,
             order,
             blocks,
+            first_independent,
             sigma_groups: layout.sigma_groups,
             populations: layout.populations,
             materials: layout.materials,
@@ -349,9 +353,7 @@ impl LogDensity for Posterior {
     /// The contacts' own blocks: given the shared parameters, one contact's runs and priors
     /// are independent of another's (unless a σ shared between contacts ties them).
     fn independent_blocks(&self) -> Vec<usize> {
-        blocks::independent(&self.blocks, |b| {
-            blocks::holds_population(b, &self.populations)
-        })
+        (self.first_independent..self.blocks.len()).collect()
     }
 
     fn block_log_density(&self, block: usize, x: &[f64], cache: &[f64]) -> f64 {
