@@ -205,6 +205,21 @@ pub trait LogDensity: Sync {
         f64::NAN
     }
 
+    /// The log-density at `x` from its `cache` alone, after updates of
+    /// [`independent blocks`](Self::independent_blocks) made apart (each on a copy of the walker
+    /// whose other blocks kept their earlier values) have been merged into `x`, `cache` and
+    /// `derived`: rewrites the derived values that belong to no one independent block (functions
+    /// of the whole point, such as a mean over the blocks) and returns the log-density. It must
+    /// return the bits that [`log_density_block`](Self::log_density_block) and
+    /// [`log_density_cached`](Self::log_density_cached) return at `x`, and leave every derived
+    /// value as they leave it, so that updates made apart and merged give the chains of
+    /// updates made one after another. `None` (the default): the density cannot, and a sampler
+    /// updates its independent blocks in one process.
+    fn log_density_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> Option<f64> {
+        let _ = (x, derived, cache);
+        None
+    }
+
     /// Length of the per-point cache that [`log_density_cached`](Self::log_density_cached)
     /// fills and [`log_density_block`](Self::log_density_block) reuses (0 by default).
     fn cache_len(&self) -> usize {

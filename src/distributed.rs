@@ -1,17 +1,27 @@
 //! A fit over the ranks of an MPI job (feature `mpi`): rank 0 samples, every rank evaluates.
 //!
 //! Rank 0 runs the whole fit as one process would: it draws every random number, decides when
-//! to stop, checkpoints and writes the run directory. Only the expensive part is shared: each
-//! half-step's proposals (a [`Batch`], the same for joint updates, block updates and exact
-//! draws) are split into contiguous shares, one per rank; rank 0 evaluates its own share and
-//! the other ranks, which hold the same posterior and wait in [`Cluster::serve`], evaluate
-//! theirs and send the outcomes back. Each proposal is evaluated by the same pure density from
-//! the same inputs wherever it runs, so the chains are the same bits for any number of ranks,
-//! including one process without MPI.
+//! to stop, checkpoints and writes the run directory. Two kinds of work are shared:
 //!
-//! One request is four collectives: a broadcast of its header, a scatter of the points (with
-//! the walkers' derived values and caches for a block update), a gather of the outcomes and a
-//! gather of the rejection labels and fatal messages among them.
+//! - **The contacts' blocks.** A run of independent blocks (one per contact, see
+//!   [`LogDensity::independent_blocks`]) is cut into contiguous shares, one per rank. Rank 0
+//!   broadcasts the walkers' state as the run begins ([`PhaseRequest`]: the sampler's
+//!   configuration, positions, log-densities, derived values, caches); every other rank updates
+//!   its share on a replica of the sampler ([`EnsembleSampler::replica`]) while rank 0 updates
+//!   the first, and sends back what changed ([`PhaseOutcome`]), which rank 0 merges. Each
+//!   block draws from streams keyed by the block, not by the rank, and reads no other
+//!   contact's values, so the merged state is the bits of one process's updates.
+//! - **Every other update's proposals.** Each half-step's proposals (a [`Batch`], the same for
+//!   joint updates, block updates and exact draws) are split into contiguous shares; rank 0
+//!   evaluates its own share and the other ranks, which hold the same posterior and wait in
+//!   [`Cluster::serve`], evaluate theirs and send the outcomes back. Each proposal is evaluated
+//!   by the same pure density from the same inputs wherever it runs.
+//!
+//! So the chains are the same bits for any number of ranks, including one process without MPI.
+//! A batch is four collectives: a broadcast of its header, a scatter of the points (with the
+//! walkers' derived values and caches for a block update), a gather of the outcomes and a
+//! gather of the rejection labels and fatal messages among them. A run of blocks is six: the
+//! header, the configuration and the state broadcast, and three gathers (sizes, changes, texts).
 //!
 //! Work made of independent pieces (the replications of `slipbayes validate`) is dealt
 //! instead: rank 0 broadcasts the list of pieces ([`Cluster::broadcast_list`]), every rank
@@ -34,7 +44,9 @@ use mpi::Count;
 use thiserror::Error;
 
 use crate::density::{Eval, LogDensity, LogDensityError};
-use crate::sampler::{Batch, EvalKind, Offload};
+use crate::sampler::{
+    Batch, EnsembleSampler, EvalKind, Offload, PhaseOutcome, PhaseRequest, SamplerConfig,
+};
 
 /// Errors of the MPI layer.
 #[derive(Debug, Error)]
@@ -61,13 +73,23 @@ pub enum ClusterError {
         /// This rank's count.
         here: usize,
     },
+    /// This rank cannot build the sampler that updates its share of the contacts' blocks.
+    #[error("rank {rank}: cannot update its share of the blocks: {message}")]
+    Replica {
+        /// This rank.
+        rank: usize,
+        /// Why.
+        message: String,
+    },
 }
 
 /// Time and traffic of this rank's MPI calls, to judge what communication costs.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct CommStats {
-    /// Requests (batches) handled.
+    /// Requests (batches, and runs of independent blocks) handled.
     pub requests: u64,
+    /// Of those, runs of independent blocks (the contacts' blocks) updated in shares.
+    pub runs: u64,
     /// Wall time inside MPI calls (s), waiting for the other ranks included.
     pub mpi_s: f64,
     /// Bytes this rank sent and received in them.
@@ -79,6 +101,8 @@ const STOP: u64 = 0;
 const FULL: u64 = 1;
 const BLOCK: u64 = 2;
 const BLOCK_ALONE: u64 = 3;
+/// A run of independent blocks to update in shares ([`Offload::send_phase`]).
+const PHASE: u64 = 4;
 
 /// Tag of the messages of [`Cluster::send_to_root`] (the collectives use none).
 const RESULT_TAG: i32 = 7;
@@ -176,19 +200,25 @@ impl Cluster {
             density.cache_len(),
         );
         let rank = self.rank();
-        let root = self.world.process_at_rank(0);
+        // The sampler replica that updates this rank's shares of runs of independent blocks,
+        // built at the first (and rebuilt should the configuration change).
+        let mut replica: Option<EnsembleSampler<'_, D>> = None;
         loop {
+            let root = self.world.process_at_rank(0);
             let mut header = [0u64; 6];
             let started = Instant::now();
             root.broadcast_into(&mut header[..]);
             count(&mut self.stats, started, 48);
             let [code, block, items, root_ndim, root_nderived, root_cache_len] = header;
-            let kind = match code {
+            match code {
                 STOP => return Ok(()),
-                FULL => EvalKind::Full,
-                BLOCK => EvalKind::Block(block as usize),
-                _ => EvalKind::BlockAlone(block as usize),
-            };
+                // The replica checks the walkers' shape against this rank's posterior.
+                PHASE => {
+                    self.update_share(density, &mut replica, block as usize, items as usize)?;
+                    continue;
+                }
+                _ => {}
+            }
             for (what, root, here) in [
                 ("coordinates", root_ndim, ndim),
                 ("derived values", root_nderived, nderived),
@@ -203,6 +233,11 @@ impl Cluster {
                     });
                 }
             }
+            let kind = match code {
+                FULL => EvalKind::Full,
+                BLOCK => EvalKind::Block(block as usize),
+                _ => EvalKind::BlockAlone(block as usize),
+            };
             let share = share(items as usize, self.size(), rank);
             let mine = share.len();
             let input = input_len(kind, ndim, nderived, cache_len);
@@ -264,6 +299,60 @@ impl Cluster {
             count(&mut self.stats, started, 8 * outcomes.len() + text.len());
             self.stats.requests += 1;
         }
+    }
+
+    /// On ranks other than 0, in [`serve`](Self::serve): receives a run of independent
+    /// blocks (the sampler's configuration, `config_len` bytes, and the walkers' state,
+    /// `words` values), updates this rank's share on `replica` and sends rank 0 what changed.
+    fn update_share<'d, D: LogDensity + ?Sized>(
+        &mut self,
+        density: &'d D,
+        replica: &mut Option<EnsembleSampler<'d, D>>,
+        config_len: usize,
+        words: usize,
+    ) -> Result<(), ClusterError> {
+        let root = self.world.process_at_rank(0);
+        let started = Instant::now();
+        let mut config = vec![0u8; config_len];
+        root.broadcast_into(&mut config[..]);
+        let mut state = vec![0u64; words];
+        root.broadcast_into(&mut state[..]);
+        count(&mut self.stats, started, config_len + 8 * words);
+        let rank = self.rank();
+        let config: SamplerConfig =
+            serde_json::from_slice(&config).map_err(|e| ClusterError::Replica {
+                rank,
+                message: format!("the sampler's configuration does not read: {e}"),
+            })?;
+        if replica.as_ref().is_none_or(|r| *r.config() != config) {
+            let built = EnsembleSampler::replica(density, config.clone()).map_err(|e| {
+                ClusterError::Replica {
+                    rank,
+                    message: e.to_string(),
+                }
+            })?;
+            *replica = Some(built);
+        }
+        let request = PhaseRequest::from_words(config, state);
+        let outcome = replica
+            .as_mut()
+            .expect("built above")
+            .update_share(&request, self.size(), rank)
+            .map_err(|e| ClusterError::Replica {
+                rank,
+                message: e.to_string(),
+            })?;
+        let (words, bytes) = outcome.parts();
+        let mut text = Vec::with_capacity(bytes.len().max(TEXT_CAPACITY));
+        text.extend_from_slice(bytes);
+        let started = Instant::now();
+        root.gather_into(&[words.len() as u64, text.len() as u64][..]);
+        root.gather_varcount_into(words);
+        root.gather_varcount_into(&text[..]);
+        count(&mut self.stats, started, 8 * words.len() + text.len() + 16);
+        self.stats.requests += 1;
+        self.stats.runs += 1;
+        Ok(())
     }
 
     /// On rank 0: releases the ranks waiting in [`serve`](Self::serve) (also done on drop).
@@ -421,6 +510,82 @@ fn input_len(kind: EvalKind, ndim: usize, nderived: usize, cache_len: usize) -> 
 }
 
 impl Offload for Cluster {
+    /// Every rank updates a share of a run of independent blocks.
+    fn phase_shares(&self) -> usize {
+        self.size()
+    }
+
+    /// On rank 0: broadcasts the sampler's configuration and the walkers' state; every other
+    /// rank updates its share from them in [`serve`](Self::serve).
+    fn send_phase(&mut self, request: &PhaseRequest) {
+        let config = serde_json::to_vec(request.config()).expect("a configuration serialises");
+        let words = request.words();
+        let root = self.world.process_at_rank(0);
+        let mut header = [PHASE, config.len() as u64, words.len() as u64, 0, 0, 0];
+        let started = Instant::now();
+        root.broadcast_into(&mut header[..]);
+        let mut config = config;
+        root.broadcast_into(&mut config[..]);
+        let mut words = words.to_vec();
+        root.broadcast_into(&mut words[..]);
+        count(
+            &mut self.stats,
+            started,
+            48 + config.len() + 8 * words.len(),
+        );
+    }
+
+    /// On rank 0: the other ranks' outcomes, in rank order.
+    fn gather_phase(&mut self) -> Vec<PhaseOutcome> {
+        let ranks = self.size();
+        let root = self.world.process_at_rank(0);
+        let started = Instant::now();
+        let mut sizes = vec![0u64; 2 * ranks];
+        root.gather_into_root(&[0u64, 0][..], &mut sizes[..]);
+        let offsets = |at: usize| -> (Vec<Count>, Vec<Count>) {
+            let counts: Vec<Count> = (0..ranks).map(|r| sizes[2 * r + at] as Count).collect();
+            let displs = counts
+                .iter()
+                .scan(0, |sum, &c| {
+                    let d = *sum;
+                    *sum += c;
+                    Some(d)
+                })
+                .collect();
+            (counts, displs)
+        };
+        let (word_counts, word_displs) = offsets(0);
+        let (text_counts, text_displs) = offsets(1);
+        let mut words = vec![0u64; word_counts.iter().sum::<Count>() as usize];
+        root.gather_varcount_into_root(
+            &[0u64; 0][..],
+            &mut PartitionMut::new(&mut words[..], &word_counts[..], &word_displs[..]),
+        );
+        let total = text_counts.iter().sum::<Count>() as usize;
+        let mut text = Vec::with_capacity(total.max(TEXT_CAPACITY));
+        text.resize(total, 0u8);
+        root.gather_varcount_into_root(
+            &[0u8; 1][..0],
+            &mut PartitionMut::new(&mut text[..], &text_counts[..], &text_displs[..]),
+        );
+        count(
+            &mut self.stats,
+            started,
+            8 * words.len() + text.len() + 16 * ranks,
+        );
+        self.stats.requests += 1;
+        self.stats.runs += 1;
+        (1..ranks)
+            .map(|r| {
+                let (w, t) = (word_displs[r] as usize, text_displs[r] as usize);
+                PhaseOutcome::from_parts(
+                    words[w..w + word_counts[r] as usize].to_vec(),
+                    text[t..t + text_counts[r] as usize].to_vec(),
+                )
+            })
+            .collect()
+    }
+
     /// On rank 0: splits `batch` over the ranks, evaluates rank 0's share here and stores the
     /// others' outcomes.
     fn evaluate(&mut self, batch: &mut Batch<'_>) {

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{
-    EnsembleSampler, MemorySink, Move, SamplerConfig, Silent, Steps, Updates,
+    EnsembleSampler, MemorySink, Move, ReplicaShares, SamplerConfig, Silent, Steps, Updates,
 };
 
 fn root() -> PathBuf {
@@ -95,6 +95,18 @@ fn check_block_updates(label: &str, post: &Posterior) {
     }
     assert!(checked >= 30, "{label}: only {checked} points evaluated");
     assert!(lp.is_finite());
+    // From the cache alone: the same log-density and derived values, bit for bit.
+    let mut d_cache = derived.clone();
+    d_cache.iter_mut().for_each(|d| *d = -1.0);
+    let from_cache = post.log_density_from_cache(&x, &mut d_cache, &cache);
+    assert_eq!(from_cache.map(f64::to_bits), Some(lp.to_bits()), "{label}");
+    for (k, (u, v)) in d_cache.iter().zip(&derived).enumerate() {
+        // Only the values that belong to no one block are rewritten.
+        assert!(
+            same(*u, *v) || *u == -1.0,
+            "{label}: derived {k}: {u} vs {v}"
+        );
+    }
     check_conditional_blocks(label, post, &x);
     assert_eq!(
         post.log_density(&x, &mut derived).unwrap().to_bits(),
@@ -459,8 +471,8 @@ impl LogDensity for Reordered<'_> {
 /// updated: on the demo's campaign with t0 pooled (exact population draws between the
 /// contacts' updates) and with `aging = "absolute"`, under hierarchical and plain blocked
 /// updates, the sampler gives the same draws, log-densities and derived values bit for bit
-/// with the contacts listed in reverse. This is what lets the contacts be updated at once,
-/// or on different processes.
+/// with the contacts listed in reverse, and with the contacts' blocks updated in 2 or 3 shares
+/// on replicas of the sampler and merged, as the ranks of an MPI job update them.
 #[test]
 fn campaign_chains_do_not_depend_on_the_contacts_order() {
     let dir = tempfile::tempdir().unwrap();
@@ -487,7 +499,9 @@ fn campaign_chains_do_not_depend_on_the_contacts_order() {
                     .collect()
             })
             .collect();
-        let chains = |density: &dyn LogDensity| {
+        // With the contacts' blocks updated in `shares` shares, all but the first on
+        // replicas, and merged (1: not split).
+        let chains_split = |density: &dyn LogDensity, shares: usize| {
             let config = SamplerConfig::new(16, 2, 9)
                 .unwrap()
                 .with_updates(updates)
@@ -496,7 +510,11 @@ fn campaign_chains_do_not_depend_on_the_contacts_order() {
                     (Move::differential_evolution(), 1.0),
                 ])
                 .unwrap();
+            let mut replicas = ReplicaShares::new(density, &config, shares).unwrap();
             let mut s = EnsembleSampler::new(density, config, init.clone()).unwrap();
+            if shares > 1 {
+                s.set_offload(&mut replicas);
+            }
             let mut sink = MemorySink::new();
             s.run(Steps::Fixed(30), &mut sink, &mut Silent).unwrap();
             // Bits, so that NaN derived values (no interior peak) compare equal.
@@ -506,8 +524,16 @@ fn campaign_chains_do_not_depend_on_the_contacts_order() {
                 .map(|c| (bits(&c.positions), bits(&c.log_density), bits(&c.derived)))
                 .collect::<Vec<_>>()
         };
+        let chains = |density: &dyn LogDensity| chains_split(density, 1);
         let listed = chains(&post);
         assert_eq!(chains(&reordered), listed, "{name}");
+        for shares in [2, 3] {
+            assert_eq!(
+                chains_split(&post, shares),
+                listed,
+                "{name}: {shares} shares"
+            );
+        }
     }
 }
 

@@ -111,6 +111,13 @@ fn chains_are_the_same_bits_on_one_process_and_on_1_2_and_3_ranks() {
             // The requests really went to the other ranks.
             assert!(err.contains(&format!("MPI: {ranks} ranks")), "{err}");
             assert!(err.contains("rank 1 served"), "{err}");
+            // The contacts' blocks were updated in shares on every rank, once per step: 150
+            // runs, merged into the chains of one process.
+            assert!(
+                err.contains("(150 of them runs of contacts' blocks updated in shares)"),
+                "{err}"
+            );
+            assert!(err.contains("(150 runs of contacts' blocks)"), "{err}");
         }
         assert!(
             chain_bits(&run) == expected,

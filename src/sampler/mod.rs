@@ -86,7 +86,7 @@ pub use observer::{Observer, Progress, RunStart, Silent};
 pub use offload::{Batch, EvalKind, Offload};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{
-    EnsembleSampler, SamplerState, CARRY_FIT_STEPS, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS,
-    RESUME_RTOL, STATE_VERSION,
+    EnsembleSampler, PhaseOutcome, PhaseRequest, ReplicaShares, SamplerState, CARRY_FIT_STEPS,
+    CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS, RESUME_RTOL, STATE_VERSION,
 };
 pub use sink::{ChainSink, StepView};

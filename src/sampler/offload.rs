@@ -12,6 +12,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+use super::run::{PhaseOutcome, PhaseRequest};
 use crate::density::{sort, Eval, LogDensity, LogDensityError};
 
 /// Which evaluation a batch asks for (the same for all its items).
@@ -189,4 +190,26 @@ pub trait Offload: Send {
     /// [`Batch::set_outcome`]. Each item must be evaluated by the sampler's density with the
     /// batch's inputs, so that the chains are the same bits as in one process.
     fn evaluate(&mut self, batch: &mut Batch<'_>);
+
+    /// Into how many shares the sampler may split a run of independent blocks (the
+    /// contacts' blocks of a campaign): this process updates the first, and share `r` goes
+    /// to the `r`-th other process through [`send_phase`](Self::send_phase), each updating it
+    /// with [`EnsembleSampler::update_share`](super::EnsembleSampler::update_share) on a
+    /// replica of the sampler. 1 (the default): runs are not split, and their proposals
+    /// come to [`evaluate`](Self::evaluate) like any others.
+    fn phase_shares(&self) -> usize {
+        1
+    }
+
+    /// Hands the walkers' state as a run of independent blocks begins to the other
+    /// processes, each of which updates its share from it.
+    fn send_phase(&mut self, request: &PhaseRequest) {
+        let _ = request;
+    }
+
+    /// What the other processes' shares changed, in share order (shares 1, 2, ...), once
+    /// each has updated its share of the run last sent.
+    fn gather_phase(&mut self) -> Vec<PhaseOutcome> {
+        Vec::new()
+    }
 }

@@ -26,6 +26,10 @@ use crate::diagnostics::{
     WALKER_CONDITION_LIMIT,
 };
 
+mod phase;
+
+pub use phase::{PhaseOutcome, PhaseRequest, ReplicaShares};
+
 /// Version of the [`SamplerState`] layout.
 pub const STATE_VERSION: u32 = 1;
 
@@ -174,6 +178,9 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     history_released: bool,
     /// Where the proposals are evaluated when not in this process alone.
     offload: Option<&'a mut dyn Offload>,
+    /// Whether the density merges updates of its independent blocks made apart
+    /// ([`LogDensity::log_density_from_cache`]); `None` until asked.
+    merges: Option<bool>,
 }
 
 impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
@@ -496,6 +503,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             poisoned: false,
             history_released: false,
             offload: None,
+            merges: None,
         }
     }
 
@@ -808,32 +816,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// loop (see [`evaluate`](Self::evaluate)).
     fn advance(&mut self, step_no: u64) -> Result<(), SamplerError> {
         let blocks = std::mem::take(&mut self.blocks);
-        // A conditional block is drawn exactly; when the density also carries its followers
-        // (the non-centred map), a move of the block with its followers follows, so that the
-        // two parametrisations of a hierarchical model interweave (Yu & Meng 2011): the exact
-        // draw mixes where the data pin the members, the carried move where they do not.
         let result = if blocks.is_empty() {
             self.update(None, false)
         } else {
-            blocks.iter().enumerate().try_for_each(|(b, block)| {
-                let tuning = block.carry_measured && step_no < CARRY_TUNE_STEPS;
-                let before = tuning.then(|| self.block_positions(block));
-                if block.conditional {
-                    self.update(Some((b, block)), true)?;
-                }
-                let drawn = tuning.then(|| self.block_positions(block));
-                if !block.conditional
-                    || (block.density_carries && self.keeps_carried_move(b, block, step_no))
-                {
-                    self.update(Some((b, block)), false)?;
-                }
-                if let (Some(before), Some(drawn)) = (before, drawn) {
-                    let after = self.block_positions(block);
-                    self.carry_jumps[b][0] += squared_distance(&before, &drawn);
-                    self.carry_jumps[b][1] += squared_distance(&drawn, &after);
-                }
-                Ok(())
-            })
+            self.update_blocks(&blocks, step_no)
         };
         if result.is_ok() && step_no < CARRY_FIT_STEPS && blocks.iter().any(|b| b.tuned_carry) {
             let freeze = step_no + 1 == CARRY_FIT_STEPS / 2 || step_no + 1 == CARRY_FIT_STEPS;
@@ -852,6 +838,47 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 message: f.message,
             }
         })
+    }
+
+    /// One update of every walker in each of `blocks` in turn. A run of independent blocks
+    /// goes to the offload's processes in shares when it splits them (see
+    /// [`update_run`](Self::update_run)).
+    fn update_blocks(
+        &mut self,
+        blocks: &[UpdateBlock],
+        step_no: u64,
+    ) -> Result<(), (usize, Fatal)> {
+        let mut b = 0;
+        while b < blocks.len() {
+            if let Some(run) = self.split_run(blocks, b) {
+                b = run.end;
+                self.update_run(blocks, run)?;
+                continue;
+            }
+            let block = &blocks[b];
+            // A conditional block is drawn exactly; when the density also carries its followers
+            // (the non-centred map), a move of the block with its followers follows, so that the
+            // two parametrisations of a hierarchical model interweave (Yu & Meng 2011): the exact
+            // draw mixes where the data pin the members, the carried move where they do not.
+            let tuning = block.carry_measured && step_no < CARRY_TUNE_STEPS;
+            let before = tuning.then(|| self.block_positions(block));
+            if block.conditional {
+                self.update(Some((b, block)), true)?;
+            }
+            let drawn = tuning.then(|| self.block_positions(block));
+            if !block.conditional
+                || (block.density_carries && self.keeps_carried_move(b, block, step_no))
+            {
+                self.update(Some((b, block)), false)?;
+            }
+            if let (Some(before), Some(drawn)) = (before, drawn) {
+                let after = self.block_positions(block);
+                self.carry_jumps[b][0] += squared_distance(&before, &drawn);
+                self.carry_jumps[b][1] += squared_distance(&drawn, &after);
+            }
+            b += 1;
+        }
+        Ok(())
     }
 
     /// Updates every walker of every ensemble once: all coordinates, or those of `block`
@@ -1796,6 +1823,14 @@ mod tests {
         fn block_log_density(&self, block: usize, _x: &[f64], cache: &[f64]) -> f64 {
             cache[self.order[block] - 1]
         }
+        fn log_density_from_cache(
+            &self,
+            x: &[f64],
+            derived: &mut [f64],
+            cache: &[f64],
+        ) -> Option<f64> {
+            Some(self.total(x, cache, derived))
+        }
         fn cache_len(&self) -> usize {
             self.y.len()
         }
@@ -1844,7 +1879,8 @@ mod tests {
                     .collect()
             })
             .collect();
-        let run = |order: Vec<usize>, moves: Vec<(Move, f64)>| {
+        // Updated in `shares` shares, all but the first on replicas (1: not split).
+        let run_split = |order: Vec<usize>, moves: Vec<(Move, f64)>, shares: usize| {
             let density = Members {
                 y: y.clone(),
                 order,
@@ -1854,7 +1890,11 @@ mod tests {
                 .with_updates(Updates::Blocked)
                 .with_moves(moves)
                 .unwrap();
+            let mut replicas = ReplicaShares::new(&density, &config, shares).unwrap();
             let mut s = EnsembleSampler::new(&density, config, init.clone()).unwrap();
+            if shares > 1 {
+                s.set_offload(&mut replicas);
+            }
             s.run(Steps::Fixed(40), &mut NullSink, &mut Silent).unwrap();
             let blocks = s.blocks.iter().filter(|b| b.independent).count();
             assert_eq!(blocks, 4);
@@ -1862,12 +1902,28 @@ mod tests {
                 .iter()
                 .map(|e| {
                     (
-                        e.s.positions.clone(),
-                        e.s.log_density.clone(),
-                        e.s.derived.clone(),
+                        (
+                            e.s.positions.clone(),
+                            e.s.log_density.clone(),
+                            e.s.derived.clone(),
+                        ),
+                        (
+                            e.s.accepted.clone(),
+                            e.s.evaluations,
+                            e.s.slice_scales.clone(),
+                            e.s.slice_updates,
+                        ),
                     )
                 })
                 .collect::<Vec<_>>()
+        };
+        // The slice move's scales are kept per block in the blocks' order: left out here.
+        let run = |order: Vec<usize>, moves: Vec<(Move, f64)>| {
+            let mut chains = run_split(order, moves, 1);
+            for (_, (_, _, scales, _)) in &mut chains {
+                scales.clear();
+            }
+            chains
         };
         for moves in [
             vec![
@@ -1881,10 +1937,17 @@ mod tests {
             for order in [vec![0, 4, 3, 2, 1], vec![0, 2, 4, 1, 3]] {
                 assert_eq!(run(order, moves.clone()), listed, "moves {moves:?}");
             }
+            // Updated at the same time in shares on replicas, merged: the same bits.
+            let whole = run_split(vec![0, 1, 2, 3, 4], moves.clone(), 1);
+            for shares in [2, 3, 4] {
+                let split = run_split(vec![0, 1, 2, 3, 4], moves.clone(), shares);
+                assert_eq!(split, whole, "moves {moves:?}, {shares} shares");
+            }
             // The walkers did move.
             let start: Vec<f64> = init[0].concat();
             assert!(listed[0]
                 .0
+                 .0
                 .iter()
                 .zip(&start)
                 .any(|(a, b)| a.to_bits() != b.to_bits()));

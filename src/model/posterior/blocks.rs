@@ -200,6 +200,10 @@ pub(super) enum Changed<'b> {
     Block(&'b Block),
     /// None of the runs' peaks or σ draws (no run was re-fitted).
     NoRun,
+    /// Those that belong to no one block (a material's mean over its contacts, a new
+    /// contact's peak): the contacts' updates were made apart and merged, each having written
+    /// its own.
+    Merged,
 }
 
 /// A walker's cache, `blocks + 2 × runs + σ groups` values: the prior of each block, each
@@ -354,7 +358,7 @@ impl Posterior {
         for g in 0..self.sigma_groups.len() {
             cache.group[g] = self.group_term(g, cache.ssr)?;
         }
-        Ok(self.finish(x, derived, lp, &cache, Changed::All))
+        Ok(self.finish(x, derived, lp, cache.ssr, cache.group, Changed::All))
     }
 
     /// The log-density at `x`, which differs from the point of `cache` and `derived` only in
@@ -375,7 +379,14 @@ impl Posterior {
         for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
             cache.group[g] = self.group_term(g, cache.ssr)?;
         }
-        Ok(self.finish(x, derived, lp, &cache, Changed::Block(block)))
+        Ok(self.finish(
+            x,
+            derived,
+            lp,
+            cache.ssr,
+            cache.group,
+            Changed::Block(block),
+        ))
     }
 
     /// The log-density at `x`, which differs from the point of `cache` and `derived` only in
@@ -390,7 +401,7 @@ impl Posterior {
         mut cache: Cache,
     ) -> Result<f64, LogDensityError> {
         let lp = self.refresh_priors(&self.blocks[b], x, &mut cache)?;
-        Ok(self.finish(x, derived, lp, &cache, Changed::NoRun))
+        Ok(self.finish(x, derived, lp, cache.ssr, cache.group, Changed::NoRun))
     }
 
     /// Re-evaluates the priors `block` changes into `cache`; returns the sum of all blocks'
@@ -411,22 +422,40 @@ impl Posterior {
         Ok(lp)
     }
 
-    /// The log-density from the prior `lp` and the cache's likelihood parts (always in the same
-    /// order), after writing the derived values that `changed`.
+    /// The log-density at `x` from its cache alone (see
+    /// [`LogDensity::log_density_from_cache`](crate::density::LogDensity::log_density_from_cache)):
+    /// the sum of the cached priors, as [`refresh_priors`](Self::refresh_priors) and a full
+    /// evaluation add them, and the cached likelihood parts, rewriting the derived values that
+    /// are no one contact's.
+    pub(super) fn evaluate_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> f64 {
+        let (prior, rest) = cache.split_at(self.blocks.len());
+        let (ssr, rest) = rest.split_at(self.runs.len());
+        let group = &rest[self.runs.len()..];
+        let mut lp = 0.0;
+        for p in prior {
+            lp += p;
+        }
+        self.finish(x, derived, lp, ssr, group, Changed::Merged)
+    }
+
+    /// The log-density from the prior `lp` and the cache's likelihood parts, each run's
+    /// weighted sum of squared residuals `ssr` and each σ group's term `group` (always in the
+    /// same order), after writing the derived values that `changed`.
     fn finish(
         &self,
         x: &[f64],
         derived: &mut [f64],
         lp: f64,
-        cache: &Cache,
+        ssr: &[f64],
+        group: &[f64],
         changed: Changed,
     ) -> f64 {
-        let mut ll = self.run_terms(x, cache.ssr);
-        for &g in cache.group[..self.sigma_groups.len()].iter() {
+        let mut ll = self.run_terms(x, ssr);
+        for &g in group[..self.sigma_groups.len()].iter() {
             ll += g;
         }
         if !derived.is_empty() {
-            self.derived_values(x, cache.ssr, derived, changed);
+            self.derived_values(x, ssr, derived, changed);
         }
         lp + ll
     }

@@ -38,6 +38,13 @@ impl Posterior {
                 (Source::Peak { run, .. }, Changed::Block(b)) => !b.reads[*run],
                 (Source::Sigma(g), Changed::Block(b)) => !b.groups[*g],
                 (Source::Peak { .. } | Source::Sigma(_), Changed::NoRun) => true,
+                (
+                    Source::Coord(_)
+                    | Source::AContact { .. }
+                    | Source::Peak { .. }
+                    | Source::Sigma(_),
+                    Changed::Merged,
+                ) => true,
                 _ => false,
             };
             if unchanged {

@@ -360,6 +360,10 @@ impl LogDensity for Posterior {
         self.block_terms(block, x, cache)
     }
 
+    fn log_density_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> Option<f64> {
+        Some(self.evaluate_from_cache(x, derived, cache))
+    }
+
     fn cache_len(&self) -> usize {
         self.cache_size()
     }
