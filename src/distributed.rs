@@ -38,7 +38,7 @@ use std::time::Instant;
 
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::environment::Universe;
-use mpi::topology::SimpleCommunicator;
+use mpi::topology::{Process, SimpleCommunicator};
 use mpi::traits::*;
 use mpi::Count;
 use thiserror::Error;
@@ -482,6 +482,31 @@ fn count(stats: &mut CommStats, started: Instant, bytes: usize) {
     stats.bytes += bytes as u64;
 }
 
+/// Where each rank's part starts when parts of `counts` follow one another.
+fn displacements(counts: &[Count]) -> Vec<Count> {
+    counts
+        .iter()
+        .scan(0, |at, &c| {
+            let d = *at;
+            *at += c;
+            Some(d)
+        })
+        .collect()
+}
+
+/// On rank 0: the bytes every rank sends (`counts[r]` from rank r, none from rank 0), one
+/// rank's after the other's.
+fn gather_text(root: &Process<'_>, counts: &[Count]) -> Vec<u8> {
+    let total = counts.iter().sum::<Count>() as usize;
+    let mut text = Vec::with_capacity(total.max(TEXT_CAPACITY));
+    text.resize(total, 0u8);
+    root.gather_varcount_into_root(
+        &[0u8; 1][..0],
+        &mut PartitionMut::new(&mut text[..], counts, &displacements(counts)[..]),
+    );
+    text
+}
+
 /// Items `[r·n/R, (r+1)·n/R)` of `n` go to rank `r` of `ranks`: contiguous, balanced, and
 /// fixed by `n` and the number of ranks alone.
 fn share(n: usize, ranks: usize, r: usize) -> std::ops::Range<usize> {
@@ -542,32 +567,16 @@ impl Offload for Cluster {
         let started = Instant::now();
         let mut sizes = vec![0u64; 2 * ranks];
         root.gather_into_root(&[0u64, 0][..], &mut sizes[..]);
-        let offsets = |at: usize| -> (Vec<Count>, Vec<Count>) {
-            let counts: Vec<Count> = (0..ranks).map(|r| sizes[2 * r + at] as Count).collect();
-            let displs = counts
-                .iter()
-                .scan(0, |sum, &c| {
-                    let d = *sum;
-                    *sum += c;
-                    Some(d)
-                })
-                .collect();
-            (counts, displs)
-        };
-        let (word_counts, word_displs) = offsets(0);
-        let (text_counts, text_displs) = offsets(1);
+        let counts =
+            |at: usize| -> Vec<Count> { (0..ranks).map(|r| sizes[2 * r + at] as Count).collect() };
+        let (word_counts, text_counts) = (counts(0), counts(1));
+        let (word_displs, text_displs) = (displacements(&word_counts), displacements(&text_counts));
         let mut words = vec![0u64; word_counts.iter().sum::<Count>() as usize];
         root.gather_varcount_into_root(
             &[0u64; 0][..],
             &mut PartitionMut::new(&mut words[..], &word_counts[..], &word_displs[..]),
         );
-        let total = text_counts.iter().sum::<Count>() as usize;
-        let mut text = Vec::with_capacity(total.max(TEXT_CAPACITY));
-        text.resize(total, 0u8);
-        root.gather_varcount_into_root(
-            &[0u8; 1][..0],
-            &mut PartitionMut::new(&mut text[..], &text_counts[..], &text_displs[..]),
-        );
+        let text = gather_text(&root, &text_counts);
         count(
             &mut self.stats,
             started,
@@ -662,21 +671,7 @@ impl Offload for Cluster {
                 .map(|o| o[2] as Count)
                 .sum();
         }
-        let text_displs: Vec<Count> = text_counts
-            .iter()
-            .scan(0, |at, &c| {
-                let d = *at;
-                *at += c;
-                Some(d)
-            })
-            .collect();
-        let total = text_counts.iter().sum::<Count>() as usize;
-        let mut text = Vec::with_capacity(total.max(TEXT_CAPACITY));
-        text.resize(total, 0u8);
-        root.gather_varcount_into_root(
-            &[0u8; 1][..0],
-            &mut PartitionMut::new(&mut text[..], &text_counts[..], &text_displs[..]),
-        );
+        let text = gather_text(&root, &text_counts);
         count(&mut self.stats, started, 8 * outcomes.len() + text.len());
         self.stats.requests += 1;
 

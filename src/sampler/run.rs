@@ -306,12 +306,25 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             });
             caches.push(cache);
         }
-        let history = RowHistory::new(
-            config.ensembles(),
-            walkers * ndim,
-            config.history_rows_for(ndim),
-        );
-        Ok(Self::assemble(
+        let rows = config.history_rows_for(ndim);
+        Ok(Self::at_first_step(
+            density, config, blocks, states, caches, rows,
+        ))
+    }
+
+    /// A sampler whose ensembles are `states` with `caches`, before its first step, keeping
+    /// `history_rows` rows of history.
+    fn at_first_step(
+        density: &'a D,
+        config: SamplerConfig,
+        blocks: Vec<UpdateBlock>,
+        states: Vec<EnsembleState>,
+        caches: Vec<Vec<f64>>,
+        history_rows: usize,
+    ) -> Self {
+        let coords = config.walkers() * density.dim();
+        let history = RowHistory::new(config.ensembles(), coords, history_rows);
+        Self::assemble(
             density,
             config,
             blocks,
@@ -320,7 +333,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             0,
             history,
             vec![None; TAU_WINDOWS.len()],
-        ))
+        )
     }
 
     /// A sampler continuing from `state` (as passed to [`ChainSink::checkpoint`]). The

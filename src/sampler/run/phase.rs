@@ -26,11 +26,10 @@ use rayon::prelude::*;
 
 use super::super::ensemble::{Ensemble, EnsembleState, Fatal, UpdateBlock};
 use super::super::error::SamplerError;
-use super::super::history::RowHistory;
 use super::super::moves::SLICE_MU0;
 use super::super::offload::{Batch, Offload};
+use super::SamplerConfig;
 use super::{blocks_of, check_dims, fresh_carry_fits, slice_slots, EnsembleSampler};
-use super::{SamplerConfig, TAU_WINDOWS};
 use crate::density::LogDensity;
 
 /// The walkers' state as a run of independent blocks begins, for the other processes'
@@ -169,16 +168,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             })
             .collect();
         let caches = vec![vec![0.0; walkers * cache_len]; config.ensembles()];
-        let history = RowHistory::new(config.ensembles(), walkers * ndim, 1);
-        Ok(Self::assemble(
-            density,
-            config,
-            blocks,
-            states,
-            caches,
-            0,
-            history,
-            vec![None; TAU_WINDOWS.len()],
+        // A replica keeps no chains: one row of history.
+        Ok(Self::at_first_step(
+            density, config, blocks, states, caches, 1,
         ))
     }
 
