@@ -260,31 +260,29 @@ struct Start {
 /// vectorises across lanes.
 #[inline(always)]
 fn newton_step(law: &Law, inv_kv: f64, lo: f64, at: Start) -> Step {
-    let Start {
-        t,
-        tau,
-        force,
-        rate,
-        inv_x,
-    } = at;
-    let (g_slope, inv_slope, step) = newton_increment(inv_kv, t, tau, force, rate);
-    let next = tau + step;
-    let next_force = force + rate * step;
+    let (g_slope, inv_slope, step) = newton_increment(inv_kv, &at);
+    let next = at.tau + step;
+    let next_force = at.force + at.rate * step;
     // ½ |d²F/dτ²| s² = ½ |a/τ² + αv dF/dτ| s² = ½ αv |αv a/x² + dF/dτ| s².
-    let remainder =
-        (0.5 * law.alpha_v) * ((law.alpha_v * law.a) * inv_x * inv_x + rate).abs() * (step * step);
+    let remainder = (0.5 * law.alpha_v)
+        * ((law.alpha_v * law.a) * at.inv_x * at.inv_x + at.rate).abs()
+        * (step * step);
     let tau_error = remainder * inv_kv * inv_slope;
     // ½ |F''| s² + |F'| · (the error in τ).
-    let force_error = remainder + rate.abs() * tau_error;
-    checked_step(lo, t, g_slope, next, next_force, tau_error, force_error)
+    let force_error = remainder + at.rate.abs() * tau_error;
+    checked_step(lo, at.t, g_slope, next, next_force, tau_error, force_error)
 }
 
-/// G'(τ) = 1 + (dF/dτ)/(kv), its reciprocal and the Newton step −G/G'.
+/// G'(τ) = 1 + (dF/dτ)/(kv) at `at`, its reciprocal and the Newton step −G/G' from it.
 #[inline(always)]
-fn newton_increment(inv_kv: f64, t: f64, tau: f64, force: f64, rate: f64) -> (f64, f64, f64) {
-    let g_slope = 1.0 + rate * inv_kv;
+fn newton_increment(inv_kv: f64, at: &Start) -> (f64, f64, f64) {
+    let g_slope = 1.0 + at.rate * inv_kv;
     let inv_slope = 1.0 / g_slope;
-    (g_slope, inv_slope, (t - tau - force * inv_kv) * inv_slope)
+    (
+        g_slope,
+        inv_slope,
+        (at.t - at.tau - at.force * inv_kv) * inv_slope,
+    )
 }
 
 /// The [`Step`] to `next` (force `next_force`) with these predicted errors: final where G
@@ -327,31 +325,24 @@ fn checked_step(
 /// ulp, as for the Newton step.
 #[inline(always)]
 fn third_order_step(law: &Law, inv_kv: f64, lo: f64, at: Start) -> Step {
-    let Start {
-        t,
-        tau,
-        force,
-        rate,
-        inv_x,
-    } = at;
-    let (g_slope, inv_slope, newton) = newton_increment(inv_kv, t, tau, force, rate);
+    let (g_slope, inv_slope, newton) = newton_increment(inv_kv, &at);
     let alpha_v = law.alpha_v;
     // a/τ² = αv² a/x², a/τ³ = αv a/τ² · 1/x.
-    let a_over_tau2 = alpha_v * alpha_v * law.a * inv_x * inv_x;
-    let f2 = -a_over_tau2 - alpha_v * rate;
-    let f3 = 2.0 * a_over_tau2 * alpha_v * inv_x - alpha_v * f2;
+    let a_over_tau2 = alpha_v * alpha_v * law.a * at.inv_x * at.inv_x;
+    let f2 = -a_over_tau2 - alpha_v * at.rate;
+    let f3 = 2.0 * a_over_tau2 * alpha_v * at.inv_x - alpha_v * f2;
     let p = f2 * inv_kv * inv_slope;
     let q = f3 * inv_kv * inv_slope;
     let step = newton * (1.0 - 0.5 * p * newton);
     let cube = (newton * newton * newton).abs();
     let tau_error = (0.5 * p * p - q / 6.0).abs() * cube;
-    let force_error = rate.abs() * tau_error + f3.abs() * cube / 6.0;
+    let force_error = at.rate.abs() * tau_error + f3.abs() * cube / 6.0;
     checked_step(
         lo,
-        t,
+        at.t,
         g_slope,
-        tau + step,
-        force + step * (rate + 0.5 * f2 * step),
+        at.tau + step,
+        at.force + step * (at.rate + 0.5 * f2 * step),
         tau_error,
         force_error,
     )
