@@ -5,23 +5,28 @@
 //! Solving t = τ + F(τ)/(kv) point after point (the reference,
 //! [`ObservedSlide::for_each_force_serial`](super::ObservedSlide::for_each_force_serial)) is
 //! one serial chain: each point's Newton iteration starts from the previous point's root.
-//! Here only every 257th point (an *anchor*; every 33rd where the guesses below needed a
-//! second round, every 65th or 129th while they grow back, see `spring_lanes`) is solved one
+//! Here only every 513th point (an *anchor*; every 33rd where a Newton step from the guesses
+//! below was not final, every 65th, 129th or 257th while they grow back, see `spring_lanes`)
+//! is solved one
 //! after the other, by Newton steps from the previous chunk's septic Hermite interpolant
 //! extrapolated to it, or from a cubic Taylor guess along τ(t) (dτ/dt, d²τ/dt², d³τ/dt³ from
 //! the law) where there is none or it leaves the bracket. The points between two anchors get a
 //! septic Hermite guess of τ(t) from the anchors' τ, dτ/dt, d²τ/dt² and d³τ/dt³, which makes
 //! them independent of one another, and are solved together: one evaluation of the law per
-//! lane and one Newton step, batch after batch.
+//! lane and one Newton step, batch after batch (or, where that step is not final, a step of
+//! third order from the same evaluation).
 //!
 //! # Exactness
 //! A Newton step from a guess off by s leaves an error of ½ |G''/G'| s² in τ, G(τ) = τ +
 //! F(τ)/(kv) − t, and carrying F along its tangent leaves ½ |F''| s². Both are computed per
 //! lane from the law's own curvature (|d²F/dτ²| = |a/τ² + αv dF/dτ| = αv |αv a/x² + dF/dτ|,
 //! x = αvτ, with 1/x from the law's own division) and must be below
-//! a quarter of an ulp of τ and of F; a batch where some lane fails takes another Newton
-//! step, and a lane that still fails after four rounds (or leaves its bracket) is solved by the
-//! safeguarded serial iteration. So every point is as exact as the serial solve's: the
+//! a quarter of an ulp of τ and of F. A lane that fails takes, from the same guess and the
+//! same evaluation of the law, a step of third order (Chebyshev's method, `third_order_step`:
+//! F'' and F⁽³⁾ follow from dF/dτ and 1/x), whose error, of order s³, is bounded the same
+//! way; a batch where some lane fails that too takes another Newton round, and a lane that
+//! still fails after four rounds (or leaves its bracket) is solved by the safeguarded serial
+//! iteration. So every point is as exact as the serial solve's: the
 //! difference is rounding (tested against it and against 50-digit references).
 //!
 //! # The law in lanes
@@ -69,9 +74,11 @@ pub const LANES: usize = 32;
 /// 32 of 87, and the batches take no more rounds). With the quintic guesses 8 took more rounds
 /// and was slower; with the septic ones (error ∝ spacing⁸) 8 (257 points) takes one batch round
 /// more than 4 on the bench's slide but 33 anchors instead of 48: callgrind 88.04 → 86.73
-/// instructions per point on AVX2.
-const MAX_BATCHES_PER_CHUNK: usize = 8;
-/// Chunks in a row whose every batch converged in one Newton round before a short chunk (one
+/// instructions per point on AVX2. With the step of third order completing the Newton steps
+/// that miss, 16 (513 points) takes 26 anchors instead of 33 and no more batch work (81.41 →
+/// 80.67); 32 took 24 (80.55), and is left for sparser records' sake.
+const MAX_BATCHES_PER_CHUNK: usize = 16;
+/// Chunks in a row whose every batch's Newton steps were final before a short chunk (one
 /// batch between anchors) grows back.
 const CLEAN_CHUNKS_TO_GROW: usize = 2;
 /// Newton steps a batch may take before its failing lanes are solved serially.
@@ -88,12 +95,16 @@ pub struct KernelCounts {
     /// Batches evaluated: the points between anchors of a slide through a spring, every point
     /// of a stiff slide.
     pub batches: u64,
-    /// Newton rounds over the batches between anchors (one per batch whose guesses were
-    /// close enough for a single step).
+    /// Newton rounds (evaluations of the law) over the batches between anchors: one per batch
+    /// whose guesses were close enough for a single Newton step or, failing that, for the
+    /// step of third order from the same evaluation.
     pub rounds: u64,
     /// Batch evaluations of the law outside the lanes' regimes, done lane by lane by the
     /// scalar law.
     pub scalar_law_batches: u64,
+    /// Batches some of whose lanes were final only after the step of third order from the
+    /// guess (which needs no second evaluation of the law), not after the Newton step.
+    pub third_order_batches: u64,
     /// Anchors solved serially.
     pub anchors: u64,
     /// Evaluations of the scalar law for the anchors.
@@ -234,30 +245,58 @@ struct Step {
     inside: bool,
 }
 
-/// [`Step`] from `tau`, where x = αvτ has reciprocal `inv_x`; branch-free, so that it
-/// vectorises across lanes.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn newton_step(
-    law: &Law,
-    inv_kv: f64,
-    lo: f64,
+/// Where a step starts: the point's time `t`, a τ, the law's F and dF/dτ there and 1/x
+/// (x = αvτ).
+#[derive(Debug, Clone, Copy)]
+struct Start {
     t: f64,
     tau: f64,
     force: f64,
     rate: f64,
     inv_x: f64,
-) -> Step {
-    let g_slope = 1.0 + rate * inv_kv;
-    let inv_slope = 1.0 / g_slope;
-    let step = (t - tau - force * inv_kv) * inv_slope;
-    let next = tau + step;
-    let next_force = force + rate * step;
-    // |d²F/dτ²| = |a/τ² + αv dF/dτ| = αv |αv a/x² + dF/dτ|.
-    let curvature = law.alpha_v * (law.alpha_v * law.a * inv_x * inv_x + rate).abs();
-    let remainder = 0.5 * curvature * step * step;
+}
+
+/// The Newton [`Step`] from `at` (the law's curvature from its 1/x); branch-free, so that it
+/// vectorises across lanes.
+#[inline(always)]
+fn newton_step(law: &Law, inv_kv: f64, lo: f64, at: Start) -> Step {
+    let (g_slope, inv_slope, step) = newton_increment(inv_kv, &at);
+    let next = at.tau + step;
+    let next_force = at.force + at.rate * step;
+    // ½ |d²F/dτ²| s² = ½ |a/τ² + αv dF/dτ| s² = ½ αv |αv a/x² + dF/dτ| s².
+    let remainder = (0.5 * law.alpha_v)
+        * ((law.alpha_v * law.a) * at.inv_x * at.inv_x + at.rate).abs()
+        * (step * step);
     let tau_error = remainder * inv_kv * inv_slope;
-    let force_error = remainder * (1.0 + rate.abs() * inv_kv * inv_slope);
+    // ½ |F''| s² + |F'| · (the error in τ).
+    let force_error = remainder + at.rate.abs() * tau_error;
+    checked_step(lo, at.t, g_slope, next, next_force, tau_error, force_error)
+}
+
+/// G'(τ) = 1 + (dF/dτ)/(kv) at `at`, its reciprocal and the Newton step −G/G' from it.
+#[inline(always)]
+fn newton_increment(inv_kv: f64, at: &Start) -> (f64, f64, f64) {
+    let g_slope = 1.0 + at.rate * inv_kv;
+    let inv_slope = 1.0 / g_slope;
+    (
+        g_slope,
+        inv_slope,
+        (at.t - at.tau - at.force * inv_kv) * inv_slope,
+    )
+}
+
+/// The [`Step`] to `next` (force `next_force`) with these predicted errors: final where G
+/// increases, the step stayed in (lo, t] and both errors are below a quarter ulp.
+#[inline(always)]
+fn checked_step(
+    lo: f64,
+    t: f64,
+    g_slope: f64,
+    next: f64,
+    next_force: f64,
+    tau_error: f64,
+    force_error: f64,
+) -> Step {
     let inside = (next > lo) & (next <= t);
     Step {
         tau: next,
@@ -268,6 +307,45 @@ fn newton_step(
             & (force_error <= ROUND_OFF * next_force.abs()),
         inside,
     }
+}
+
+/// A step of third order from the same start as [`newton_step`], for a point whose Newton step
+/// was not final: it needs no new evaluation of the law, since F'' and F⁽³⁾ follow from F'
+/// and 1/x (Eq. 2: F'' = −a/τ² − αv F', F⁽³⁾ = 2a/τ³ − αv F''), and its error is of order
+/// s³ where Newton's is ½ |G''/G'| s² (s the Newton step), so that a guess some hundred
+/// times worse is still final after it.
+///
+/// # Formula
+/// With p = G''/G' and q = G'''/G', the root lies at τ + e with
+/// e = s − (p/2) s² + (p²/2 − q/6) s³ + O(s⁴) (Chebyshev's method, from the series of the
+/// inverse function). The step takes the first two terms and predicts |p²/2 − q/6| |s|³ as
+/// its error in τ; F is carried along its Taylor polynomial of second order,
+/// F + F' ê + ½ F'' ê² with ê = s − (p/2) s², whose error is
+/// |F'| |p²/2 − q/6| |s|³ + |F⁽³⁾| |s|³ / 6 to leading order. Both must be below a quarter
+/// ulp, as for the Newton step.
+#[inline(always)]
+fn third_order_step(law: &Law, inv_kv: f64, lo: f64, at: Start) -> Step {
+    let (g_slope, inv_slope, newton) = newton_increment(inv_kv, &at);
+    let alpha_v = law.alpha_v;
+    // a/τ² = αv² a/x², a/τ³ = αv a/τ² · 1/x.
+    let a_over_tau2 = alpha_v * alpha_v * law.a * at.inv_x * at.inv_x;
+    let f2 = -a_over_tau2 - alpha_v * at.rate;
+    let f3 = 2.0 * a_over_tau2 * alpha_v * at.inv_x - alpha_v * f2;
+    let p = f2 * inv_kv * inv_slope;
+    let q = f3 * inv_kv * inv_slope;
+    let step = newton * (1.0 - 0.5 * p * newton);
+    let cube = (newton * newton * newton).abs();
+    let tau_error = (0.5 * p * p - q / 6.0).abs() * cube;
+    let force_error = at.rate.abs() * tau_error + f3.abs() * cube / 6.0;
+    checked_step(
+        lo,
+        at.t,
+        g_slope,
+        at.tau + step,
+        at.force + step * (at.rate + 0.5 * f2 * step),
+        tau_error,
+        force_error,
+    )
 }
 
 /// The law's constants for batches.
@@ -631,8 +709,9 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     }
     let lanes = LawLanes::new(law);
     let mut left = Anchor::new(law, kv, loading_ends, t0, force_t0, rate_t0);
-    // The chunk's length adapts to how good the guesses are: where a batch needed a second
-    // Newton round (the steep rise at the start of a slow slide), the next chunks are one batch
+    // The chunk's length adapts to how good the guesses are: where a batch's Newton steps were
+    // not all final (the steep rise at the start of a slow slide; the step of third order from
+    // the same guesses, or a second round, then finished it), the next chunks are one batch
     // long, whose guesses are far closer (their error falls as the eighth power of the
     // spacing); after `CLEAN_CHUNKS_TO_GROW` clean chunks they double, up to
     // `MAX_BATCHES_PER_CHUNK`. Rounds are the same on every instruction set, so are the
@@ -661,8 +740,9 @@ fn spring_lanes<V: FnMut(usize, f64, f64), T: Tally>(
     Ok(())
 }
 
-/// The point at time `t` after `left`: Newton steps until one's predicted error is round-off,
-/// else the safeguarded iteration on [τ_left, t]. They start from the previous chunk's Hermite
+/// The point at time `t` after `left`: Newton steps until the predicted error of one, or of
+/// the step of third order from the same evaluation, is round-off, else the safeguarded
+/// iteration on [τ_left, t]. They start from the previous chunk's Hermite
 /// interpolant extrapolated to `t` (`previous`; its error grows as the eighth power of the
 /// spacing, against the fourth for a Taylor guess, so that one step usually suffices) where
 /// that lies in (τ_left, t], else from the cubic Taylor guess along τ(t).
@@ -689,11 +769,24 @@ fn solve_anchor(
         tally.count(|c| c.anchor_evaluations += 1);
         let (force, rate) = law.force_and_rate(tau);
         let inv_x = 1.0 / (law.alpha_v * tau);
-        let step = newton_step(law, 1.0 / kv, left.tau, t, tau, force, rate, inv_x);
+        let at = Start {
+            t,
+            tau,
+            force,
+            rate,
+            inv_x,
+        };
+        let step = newton_step(law, 1.0 / kv, left.tau, at);
         if step.converged {
             return Ok(Anchor::new(law, kv, t, step.tau, step.force, rate));
         }
-        tau = step.tau;
+        let third = third_order_step(law, 1.0 / kv, left.tau, at);
+        if third.converged {
+            // dF/dτ at the root along its tangent, for the anchor's derivatives.
+            let rate = rate + law.curvature(tau, rate) * (third.tau - tau);
+            return Ok(Anchor::new(law, kv, t, third.tau, third.force, rate));
+        }
+        tau = if third.inside { third.tau } else { step.tau };
     }
     tally.count(|c| c.serial_points += 1);
     let (root, force, rate) = solve_point(law, kv, left.tau, t, tau)?;
@@ -701,9 +794,10 @@ fn solve_anchor(
 }
 
 /// The points strictly between two anchors, `times`, the first of which is point `first` of
-/// the slide, batch by batch: guesses from the anchors' Hermite interpolant `guess`, Newton steps until every lane's predicted error
-/// is round-off, the serial solve for what remains. Returns whether every batch converged in
-/// one round.
+/// the slide, batch by batch: guesses from the anchors' Hermite interpolant `guess`, a Newton
+/// step, the step of third order from the guess for the lanes whose Newton step is not final,
+/// more Newton rounds until every lane's predicted error is round-off, the serial solve for
+/// what remains. Returns whether every batch's Newton steps were final.
 #[inline(always)]
 fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
     lanes: &LawLanes,
@@ -715,57 +809,86 @@ fn solve_between<V: FnMut(usize, f64, f64), T: Tally>(
 ) -> Result<bool, LawError> {
     let law = lanes.law;
     let left_tau = guess.tau_left();
-    let mut one_round = true;
+    let mut newton_sufficed = true;
     let inv_kv = 1.0 / kv;
+    // Each round's τ, and its steps' τ and F. Every lane of each is written before it is read,
+    // so they are set up once here rather than zeroed for every batch.
+    let (mut tau, mut next, mut out_force) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
     let (mut force, mut rate, mut inv_x) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+    // 1 where the lane's last step is not final: a word per lane rather than a bool, so that
+    // a vector comparison stores without being packed to bytes.
+    let mut missed = [0_u64; LANES];
     for (b, chunk) in times.chunks(LANES).enumerate() {
         tally.count(|c| c.batches += 1);
         let t = batch_of(chunk);
-        let mut tau = [0.0; LANES];
         for l in 0..LANES {
             tau[l] = guess.at(t[l]);
         }
-        // 1 where the lane's last step is not final: a word per lane rather than a bool, so
-        // that a vector comparison stores without being packed to bytes.
-        let mut missed = [0_u64; LANES];
-        let mut out_force = [0.0; LANES];
         let mut failed = 0_u64;
         for round in 0..MAX_ROUNDS {
-            one_round &= round == 0;
+            newton_sufficed &= round == 0;
             tally.count(|c| c.rounds += 1);
             lanes.force_and_rate(&tau, &mut force, &mut rate, &mut inv_x, tally);
+            let start = |l: usize| Start {
+                t: t[l],
+                tau: tau[l],
+                force: force[l],
+                rate: rate[l],
+                inv_x: inv_x[l],
+            };
             // Branch-free (`&`, `|`, selects), so that the lanes stay in vector registers.
             failed = 0;
             for l in 0..LANES {
-                let step = newton_step(
-                    law, inv_kv, left_tau, t[l], tau[l], force[l], rate[l], inv_x[l],
-                );
+                let step = newton_step(law, inv_kv, left_tau, start(l));
                 missed[l] = u64::from(!step.converged);
                 failed |= missed[l];
-                // A lane that left its bracket restarts from the bracket's middle.
-                let middle = left_tau + 0.5 * (t[l] - left_tau);
-                tau[l] = if step.inside { step.tau } else { middle };
+                next[l] = step.tau;
                 out_force[l] = step.force;
             }
             if failed == 0 {
                 break;
+            }
+            if round == 0 {
+                // The lanes whose Newton step from the guess is not final take the step of
+                // third order from it instead, which needs no new evaluation of the law.
+                tally.count(|c| c.third_order_batches += 1);
+                newton_sufficed = false;
+                failed = 0;
+                for l in 0..LANES {
+                    let step = third_order_step(law, inv_kv, left_tau, start(l));
+                    let retake = missed[l] != 0;
+                    missed[l] = u64::from(retake & !step.converged);
+                    failed |= missed[l];
+                    next[l] = if retake { step.tau } else { next[l] };
+                    out_force[l] = if retake { step.force } else { out_force[l] };
+                }
+                if failed == 0 {
+                    break;
+                }
+            }
+            // The next round starts from these steps; a lane that left its bracket restarts
+            // from the bracket's middle.
+            for l in 0..LANES {
+                let inside = (next[l] > left_tau) & (next[l] <= t[l]);
+                let middle = left_tau + 0.5 * (t[l] - left_tau);
+                tau[l] = if inside { next[l] } else { middle };
             }
         }
         if failed != 0 {
             for (l, &t) in chunk.iter().enumerate() {
                 if missed[l] != 0 {
                     tally.count(|c| c.serial_points += 1);
-                    (tau[l], out_force[l], _) = solve_point(law, kv, left_tau, t, tau[l])?;
+                    (next[l], out_force[l], _) = solve_point(law, kv, left_tau, t, tau[l])?;
                 }
             }
         }
         // A loop of visits alone, with no call that could see the caller's state, so that
         // the caller's accumulators stay in registers.
         for l in 0..chunk.len() {
-            visit(first + b * LANES + l, tau[l], out_force[l]);
+            visit(first + b * LANES + l, next[l], out_force[l]);
         }
     }
-    Ok(one_round)
+    Ok(newton_sufficed)
 }
 
 /// The septic Hermite interpolant of τ(t) between two anchors, from their τ, dτ/dt, d²τ/dt²
@@ -848,6 +971,59 @@ mod tests {
                     let mut times = sorted.clone();
                     times[i] = odd;
                     assert!(!strictly_increasing(simd, &times), "{simd:?}: {odd} at {i}");
+                }
+            }
+        }
+    }
+
+    /// The step of third order from a guess whose Newton step is far from final lands on the
+    /// root to a few ulps, in τ and in F, and says so; on the steep rise of a slow slide (x = 2)
+    /// and beyond it. Its predicted error must also be honest: a guess so far off that the step
+    /// cannot be final is not declared final.
+    #[test]
+    fn the_third_order_step_is_final_where_the_newton_step_is_not() {
+        let law = Law::new(&LawParams::new(0.92e6, 6.2e-3, 10e-3, 14.8).unwrap(), 1e-9).unwrap();
+        let kv = 1.2e4 * 1e-9;
+        for x in [0.8, 2.0, 7.0, 30.0] {
+            let tau = x / law.alpha_v;
+            let t = tau + law.force_and_rate(tau).0 / kv;
+            let lo = law.t0();
+            let (root, root_force, _) = solve_point(&law, kv, lo, t, tau).unwrap();
+            // (How far the guess is off, relatively; whether the step is final from it; whether
+            // Newton's is off by more than 1e-13 there, which holds on the steep rise.)
+            for (offset, final_expected, newton_far) in [
+                (1e-7, true, false),
+                (1e-6, true, false),
+                (3e-6, true, x <= 7.0),
+                (1e-2, false, true),
+            ] {
+                let guess = root * (1.0 + offset);
+                let (force, rate) = law.force_and_rate(guess);
+                let inv_x = 1.0 / (law.alpha_v * guess);
+                let at = Start {
+                    t,
+                    tau: guess,
+                    force,
+                    rate,
+                    inv_x,
+                };
+                let newton = newton_step(&law, 1.0 / kv, lo, at);
+                let third = third_order_step(&law, 1.0 / kv, lo, at);
+                let what = format!("x {x}, guess off by {offset:e}: {newton:?} {third:?}");
+                assert!(!newton.converged, "{what}");
+                assert_eq!(third.converged, final_expected, "{what}");
+                if final_expected {
+                    assert!(
+                        (third.tau - root).abs() <= 2.0 * f64::EPSILON * root,
+                        "{what}"
+                    );
+                    assert!(
+                        (third.force - root_force).abs() <= 8.0 * f64::EPSILON * root_force.abs(),
+                        "{what}: F {root_force:e}"
+                    );
+                }
+                if newton_far {
+                    assert!((newton.tau - root).abs() > 1e-13 * root, "{what}");
                 }
             }
         }

@@ -136,9 +136,11 @@ impl ObservedSlide {
     ///
     /// The points of the aging–rejuvenation law are solved in batches in vector registers
     /// (`kernel`): every
-    /// 33rd, 65th, 129th or 257th point by Newton steps from a Taylor guess, one after the other,
-    /// the points between by one Newton step each from a septic Hermite guess between those
-    /// anchors, repeated where a lane's predicted error is above round-off. The result agrees
+    /// 33rd, 65th, 129th, 257th or 513th point by Newton steps from an extrapolated or Taylor
+    /// guess, one after the other, the points between by one Newton step each from a septic
+    /// Hermite guess between those anchors, completed by a step of third order from the same
+    /// evaluation of the law where a lane's predicted error is above round-off, and repeated
+    /// where it still is. The result agrees
     /// with [`for_each_force_serial`](Self::for_each_force_serial) to rounding, on whatever
     /// vector instructions the machine has ([`Simd::active`](super::Simd::active)), and is
     /// the same bit for bit on every one of them. Pure logarithmic aging is cheap and never
