@@ -55,6 +55,7 @@ def fit(prefix, env, model, out, steps):
     done = subprocess.run(args, env=full_env, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{' '.join(args)} failed:\n{done.stderr}")
+    (out / "stderr.txt").write_text(done.stderr)
     wall = json.loads((out / "summary.json").read_text())["sampler"]["wall_s"]
     found = MPI_LINE.search(done.stderr)
     mpi = None

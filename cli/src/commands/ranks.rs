@@ -59,7 +59,7 @@ pub(super) fn main(cli: Cli) -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             for line in error_lines(&err) {
-                eprintln!("rank {rank}: {line}");
+                say(format!("rank {rank}: {line}"));
             }
             // Rank 0 waits for this rank's share: end the whole job.
             cluster.abort(1)
@@ -83,7 +83,7 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
     if cluster.size() > 1 && cluster.stats().requests > 0 {
         let wall = started.elapsed().as_secs_f64();
         let stats = cluster.stats();
-        eprintln!(
+        say(format!(
             "MPI: {} ranks; rank 0 spent {:.3} s of its {wall:.3} s in MPI calls ({:.1} %), {} \
              requests ({} of them runs of contacts' blocks updated in shares), {:.1} MB",
             cluster.size(),
@@ -92,9 +92,16 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
             stats.requests,
             stats.runs,
             stats.bytes as f64 / 1e6
-        );
+        ));
     }
     outcome
+}
+
+/// Writes `line` to stderr in one call: `mpirun` forwards the ranks' output as it comes, and a
+/// line written in pieces can be cut by another rank's.
+fn say(line: String) {
+    use std::io::Write;
+    let _ = std::io::stderr().write_all(format!("{line}\n").as_bytes());
 }
 
 /// Ranks other than 0: load the model the command fits and evaluate until released (or run
@@ -128,13 +135,13 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     cluster.serve(&posterior)?;
     let wall = started.elapsed().as_secs_f64();
     let stats = cluster.stats();
-    eprintln!(
+    say(format!(
         "MPI: rank {rank} served {} requests ({} runs of contacts' blocks), {:.1} % of its \
          {wall:.3} s in MPI calls (waiting for rank 0 included)",
         stats.requests,
         stats.runs,
         100.0 * stats.mpi_s / wall
-    );
+    ));
     Ok(())
 }
 
