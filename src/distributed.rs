@@ -45,7 +45,7 @@ use thiserror::Error;
 
 use crate::density::{Eval, LogDensity, LogDensityError};
 use crate::sampler::{
-    Batch, EnsembleSampler, EvalKind, Offload, PhaseOutcome, PhaseRequest, SamplerConfig,
+    share, Batch, EnsembleSampler, EvalKind, Offload, PhaseOutcome, PhaseRequest, SamplerConfig,
 };
 
 /// Errors of the MPI layer.
@@ -505,12 +505,6 @@ fn gather_text(root: &Process<'_>, counts: &[Count]) -> Vec<u8> {
         &mut PartitionMut::new(&mut text[..], counts, &displacements(counts)[..]),
     );
     text
-}
-
-/// Items `[r·n/R, (r+1)·n/R)` of `n` go to rank `r` of `ranks`: contiguous, balanced, and
-/// fixed by `n` and the number of ranks alone.
-fn share(n: usize, ranks: usize, r: usize) -> std::ops::Range<usize> {
-    n * r / ranks..n * (r + 1) / ranks
 }
 
 /// Counts and displacements (in values) of every rank's share of `n` items of `per_item`

@@ -83,6 +83,7 @@ pub use moves::{
     CarryTuning, Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0,
 };
 pub use observer::{Observer, Progress, RunStart, Silent};
+pub(crate) use offload::share;
 pub use offload::{Batch, EvalKind, Offload};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{

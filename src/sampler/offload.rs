@@ -52,6 +52,13 @@ impl EvalKind {
     }
 }
 
+/// Items `[r·n/R, (r+1)·n/R)` of `n` go to share `r` of `parts`: contiguous, balanced, and
+/// fixed by `n` and the number of parts alone (a batch's proposals over ranks, a run of
+/// independent blocks over shares).
+pub(crate) fn share(n: usize, parts: usize, r: usize) -> Range<usize> {
+    n * r / parts..n * (r + 1) / parts
+}
+
 /// One item of a batch: its point, derived values, cache and outcome.
 type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
 

@@ -31,6 +31,7 @@ use super::super::offload::{Batch, Offload};
 use super::SamplerConfig;
 use super::{blocks_of, check_dims, fresh_carry_fits, slice_slots, EnsembleSampler};
 use crate::density::LogDensity;
+use crate::sampler::share;
 
 /// The walkers' state as a run of independent blocks begins, for the other processes'
 /// replicas: the step, the run of blocks (indices into the sampler's blocks), and per
@@ -94,10 +95,10 @@ impl PhaseOutcome {
     }
 }
 
-/// Blocks `[r·n/R, (r+1)·n/R)` of a run of `n` go to share `r` of `shares`.
-pub fn share(run: &Range<usize>, shares: usize, r: usize) -> Range<usize> {
-    let n = run.len();
-    run.start + n * r / shares..run.start + n * (r + 1) / shares
+/// The blocks of share `r` of `shares` of the run `run` (see [`share`]).
+fn blocks_of_share(run: &Range<usize>, shares: usize, r: usize) -> Range<usize> {
+    let part = share(run.len(), shares, r);
+    run.start + part.start..run.start + part.end
 }
 
 /// The arrays of an ensemble that a share's updates may change, in the order of an outcome's
@@ -220,7 +221,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         // The first share is updated by this process with the offload out of the way: its
         // evaluations stay here.
         let mut fatal: Option<PhaseFatal> = None;
-        for b in share(&run, shares, 0) {
+        for b in blocks_of_share(&run, shares, 0) {
             if let Err((e, f)) = self.update(Some((b, &blocks[b])), false) {
                 fatal = Some((b, e, f));
                 break;
@@ -340,7 +341,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         // An independent block is updated by the moves alone: no exact draw, no followers.
         let blocks = std::mem::take(&mut self.blocks);
         let mut fatal = None;
-        for b in share(&request.blocks(), shares, r) {
+        for b in blocks_of_share(&request.blocks(), shares, r) {
             if let Err((e, f)) = self.update(Some((b, &blocks[b])), false) {
                 fatal = Some((b, e, f));
                 break;
