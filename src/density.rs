@@ -5,6 +5,8 @@
 //! density's columns as the [`Quantity`]s the model names (a name, a group such as a material,
 //! a unit). Neither side knows anything of friction.
 
+use std::ops::Range;
+
 use thiserror::Error;
 
 /// Why a log-density could not be evaluated at a point.
@@ -46,6 +48,27 @@ impl LogDensityError {
     /// Whether the sampler may carry on after this error (by rejecting the point).
     pub fn is_recoverable(&self) -> bool {
         matches!(self, Self::Rejected { .. })
+    }
+}
+
+/// A failure in one share of a split block update
+/// ([`LogDensity::log_density_block_share`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShareError {
+    /// Where the failing term comes in the order in which a whole evaluation of the update
+    /// meets its terms.
+    pub position: usize,
+    /// The failure.
+    pub error: LogDensityError,
+}
+
+impl ShareError {
+    /// Keeps in `first` whichever of it and `other` comes first in the evaluation's order (on
+    /// a tie, the one already there: every share meets the terms they share alike).
+    pub fn keep_first(first: &mut Option<Self>, other: Self) {
+        if first.as_ref().is_none_or(|f| other.position < f.position) {
+            *first = Some(other);
+        }
     }
 }
 
@@ -218,6 +241,71 @@ pub trait LogDensity: Sync {
     fn log_density_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> Option<f64> {
         let _ = (x, derived, cache);
         None
+    }
+
+    /// Whether the evaluation of an update of `block`, a block outside the
+    /// [`independent blocks`](Self::independent_blocks) that every one of them depends on (a
+    /// parameter the contacts share), can be split by independent block: each share evaluates,
+    /// at the proposal, the terms of its own independent blocks
+    /// ([`log_density_block_share`](Self::log_density_block_share)), and once their entries
+    /// are merged the update is finished from the cache
+    /// ([`log_density_block_rest`](Self::log_density_block_rest)). False by default.
+    fn block_splits(&self, block: usize) -> bool {
+        let _ = block;
+        false
+    }
+
+    /// The derived values and cache entries (indices) that
+    /// [`log_density_block_share`](Self::log_density_block_share) of `block` writes for the
+    /// independent blocks at positions `parts` of
+    /// [`independent_blocks`](Self::independent_blocks): what a share must hand back. The
+    /// shares' lists are disjoint. Empty by default.
+    fn block_share_entries(&self, block: usize, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
+        let _ = (block, parts);
+        (Vec::new(), Vec::new())
+    }
+
+    /// One share of the evaluation of an update of `block` (see
+    /// [`block_splits`](Self::block_splits)) at `x`: writes the entries
+    /// [`block_share_entries`](Self::block_share_entries)`(block, parts)` of `derived` and
+    /// `cache`, reading none of their other entries (they may hold anything), and may write
+    /// entries that belong to no independent block (every share computes them alike). A failure
+    /// comes with its position in the order in which
+    /// [`log_density_block`](Self::log_density_block) meets the update's terms, so that of
+    /// several shares' failures the first in that order is the one a whole evaluation returns.
+    ///
+    /// # Errors
+    /// [`ShareError`]: the first failure among the terms this share evaluates.
+    fn log_density_block_share(
+        &self,
+        block: usize,
+        parts: Range<usize>,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<(), ShareError> {
+        let _ = (block, parts, x, derived, cache);
+        Err(ShareError {
+            position: 0,
+            error: LogDensityError::fatal("this density does not split its block updates"),
+        })
+    }
+
+    /// Finishes an update of `block` split by independent block: `derived` and `cache` hold
+    /// the walker's values with the entries of one share evaluated in place and every other
+    /// share's entries merged. Writes the derived values that belong to no independent block
+    /// and returns the log-density, the bits [`log_density_block`](Self::log_density_block)
+    /// returns at `x`. Whatever of the update belongs to no independent block must not fail
+    /// (a density whose rest can fail does not split that block). NaN by default.
+    fn log_density_block_rest(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &[f64],
+    ) -> f64 {
+        let _ = (block, x, derived, cache);
+        f64::NAN
     }
 
     /// Length of the per-point cache that [`log_density_cached`](Self::log_density_cached)

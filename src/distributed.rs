@@ -11,17 +11,27 @@
 //!   the first, and sends back what changed ([`PhaseOutcome`]), which rank 0 merges. Each
 //!   block draws from streams keyed by the block, not by the rank, and reads no other
 //!   contact's values, so the merged state is the bits of one process's updates.
-//! - **Every other update's proposals.** Each half-step's proposals (a [`Batch`], the same for
-//!   joint updates, block updates and exact draws) are split into contiguous shares; rank 0
-//!   evaluates its own share and the other ranks, which hold the same posterior and wait in
-//!   [`Cluster::serve`], evaluate theirs and send the outcomes back. Each proposal is evaluated
-//!   by the same pure density from the same inputs wherever it runs.
+//! - **The shared parameters' updates, by contact.** A half-step's proposals of a block that
+//!   every contact depends on (a material's parameters: [`LogDensity::block_splits`]) go to
+//!   every rank ([`Batch::parts`]); rank r evaluates, at every proposal, the terms of the same
+//!   contacts as in a run of blocks, and sends back their entries (each run's fit, each σ
+//!   group's term, their derived values) or its first failure with its position in the
+//!   density's order. Rank 0 merges them into the walkers' caches and finishes each proposal
+//!   from its cache, summing the per-contact terms in the one order a single process sums them
+//!   (not an MPI reduction, whose order of addition is not fixed).
+//! - **Every other update's proposals, by proposal.** The other half-steps' proposals (a
+//!   [`Batch`]: joint updates, blocks that do not split, exact draws) are split into contiguous
+//!   shares; rank 0 evaluates its own share and the other ranks, which hold the same posterior
+//!   and wait in [`Cluster::serve`], evaluate theirs and send the outcomes back. Each proposal
+//!   is evaluated by the same pure density from the same inputs wherever it runs.
 //!
 //! So the chains are the same bits for any number of ranks, including one process without MPI.
-//! A batch is four collectives: a broadcast of its header, a scatter of the points (with the
-//! walkers' derived values and caches for a block update), a gather of the outcomes and a
-//! gather of the rejection labels and fatal messages among them. A run of blocks is six: the
-//! header, the configuration and the state broadcast, and three gathers (sizes, changes, texts).
+//! A batch split by proposal is four collectives: a broadcast of its header, a scatter of the
+//! points (with the walkers' derived values and caches for a block update), a gather of the
+//! outcomes and a gather of the rejection labels and fatal messages among them. A batch split
+//! by contact is four too: the header and the points broadcast, and two gathers (entries,
+//! texts). A run of blocks is six: the header, the configuration and the state broadcast, and
+//! three gathers (sizes, changes, texts).
 //!
 //! Work made of independent pieces (the replications of `slipbayes validate`) is dealt
 //! instead: rank 0 broadcasts the list of pieces ([`Cluster::broadcast_list`]), every rank
@@ -43,9 +53,10 @@ use mpi::traits::*;
 use mpi::Count;
 use thiserror::Error;
 
-use crate::density::{Eval, LogDensity, LogDensityError};
+use crate::density::{Eval, LogDensity, LogDensityError, ShareError};
 use crate::sampler::{
-    share, Batch, EnsembleSampler, EvalKind, Offload, PhaseOutcome, PhaseRequest, SamplerConfig,
+    share, Batch, BlockShares, EnsembleSampler, EvalKind, Offload, PhaseOutcome, PhaseRequest,
+    SamplerConfig, ShareApart, ShareEntries,
 };
 
 /// Errors of the MPI layer.
@@ -90,6 +101,8 @@ pub struct CommStats {
     pub requests: u64,
     /// Of those, runs of independent blocks (the contacts' blocks) updated in shares.
     pub runs: u64,
+    /// Of those, batches of a shared block's updates split by independent block.
+    pub shared: u64,
     /// Wall time inside MPI calls (s), waiting for the other ranks included.
     pub mpi_s: f64,
     /// Bytes this rank sent and received in them.
@@ -103,6 +116,8 @@ const BLOCK: u64 = 2;
 const BLOCK_ALONE: u64 = 3;
 /// A run of independent blocks to update in shares ([`Offload::send_phase`]).
 const PHASE: u64 = 4;
+/// A batch of a shared block's updates split by independent block ([`Batch::parts`]).
+const SHARES: u64 = 5;
 
 /// Tag of the messages of [`Cluster::send_to_root`] (the collectives use none).
 const RESULT_TAG: i32 = 7;
@@ -236,6 +251,10 @@ impl Cluster {
             let kind = match code {
                 FULL => EvalKind::Full,
                 BLOCK => EvalKind::Block(block as usize),
+                SHARES => {
+                    self.evaluate_share(density, block as usize, items as usize)?;
+                    continue;
+                }
                 _ => EvalKind::BlockAlone(block as usize),
             };
             let share = share(items as usize, self.size(), rank);
@@ -276,6 +295,7 @@ impl Cluster {
                 evals: &mut evals,
                 local: &local,
                 parallel: rayon::current_num_threads() > 1,
+                shares: None,
             }
             .evaluate_here(0..mine);
 
@@ -299,6 +319,80 @@ impl Cluster {
             count(&mut self.stats, started, 8 * outcomes.len() + text.len());
             self.stats.requests += 1;
         }
+    }
+
+    /// On ranks other than 0, in [`serve`](Self::serve): receives the `items` points of a
+    /// batch of updates of `block` split by independent block, evaluates this rank's share of
+    /// the independent blocks for every point and sends rank 0 their entries (or where the
+    /// share failed, the failure and its position).
+    fn evaluate_share<D: LogDensity + ?Sized>(
+        &mut self,
+        density: &D,
+        block: usize,
+        items: usize,
+    ) -> Result<(), ClusterError> {
+        let rank = self.rank();
+        if !density.block_splits(block) {
+            return Err(ClusterError::Replica {
+                rank,
+                message: format!(
+                    "rank 0 splits updates of block {block} by contact, which this rank's \
+                     posterior does not; every rank must load the same model"
+                ),
+            });
+        }
+        let (ndim, nderived, cache_len) = (
+            density.dim(),
+            density.derived_names().len(),
+            density.cache_len(),
+        );
+        let root = self.world.process_at_rank(0);
+        let mut proposals = vec![0.0; items * ndim];
+        let started = Instant::now();
+        if !proposals.is_empty() {
+            root.broadcast_into(&mut proposals[..]);
+        }
+        count(&mut self.stats, started, 8 * proposals.len());
+
+        let parts = density.independent_blocks().len();
+        let splitter = BlockShares { density, block };
+        let apart = ShareApart {
+            shares: &splitter,
+            nderived,
+            cache_len,
+            parallel: rayon::current_num_threads() > 1,
+        };
+        let mine = share(parts, self.size(), rank);
+        let points: Vec<&[f64]> = proposals.chunks_exact(ndim.max(1)).take(items).collect();
+        let (failures, values) = apart.evaluate(mine, &points);
+        let width = values.len() / items.max(1);
+
+        // Never a dangling pointer (see TEXT_CAPACITY), though a batch is never empty.
+        let mut records = Vec::with_capacity((items * (RECORD_HEAD + width)).max(1));
+        let mut text = Vec::with_capacity(TEXT_CAPACITY);
+        for (k, failure) in failures.iter().enumerate() {
+            let (code, position, words) = match failure {
+                None => (FINITE, 0, String::new()),
+                Some(f) => match &f.error {
+                    LogDensityError::Rejected { reason } => {
+                        (REJECTED, f.position, (*reason).to_owned())
+                    }
+                    LogDensityError::Fatal { message } => {
+                        (FATAL, f.position, format!("on rank {rank}: {message}"))
+                    }
+                },
+            };
+            records.extend([code, position as f64, words.len() as f64]);
+            records.extend_from_slice(&values[k * width..(k + 1) * width]);
+            text.extend_from_slice(words.as_bytes());
+        }
+        let started = Instant::now();
+        root.gather_varcount_into(&records[..]);
+        root.gather_varcount_into(&text[..]);
+        count(&mut self.stats, started, 8 * records.len() + text.len());
+        self.stats.requests += 1;
+        self.stats.shared += 1;
+        Ok(())
     }
 
     /// On ranks other than 0, in [`serve`](Self::serve): receives a run of independent
@@ -528,6 +622,110 @@ fn input_len(kind: EvalKind, ndim: usize, nderived: usize, cache_len: usize) -> 
     }
 }
 
+impl Cluster {
+    /// On rank 0: the header of a batch's request, `code` for `block` (what
+    /// [`serve`](Self::serve) reads first).
+    fn broadcast_header(&mut self, code: u64, block: usize, batch: &Batch<'_>) {
+        let mut header = [
+            code,
+            block as u64,
+            batch.len() as u64,
+            batch.ndim() as u64,
+            batch.nderived() as u64,
+            batch.cache_len() as u64,
+        ];
+        let started = Instant::now();
+        self.world
+            .process_at_rank(0)
+            .broadcast_into(&mut header[..]);
+        count(&mut self.stats, started, 48);
+    }
+
+    /// On rank 0: a batch of updates of a shared block split by independent block. Every rank
+    /// evaluates, at every point, the terms of its share of the independent blocks (the
+    /// contacts [r·C/R, (r+1)·C/R) of rank r, as in a run of their blocks); rank 0 merges the
+    /// other ranks' entries into the walkers' caches and finishes each point from its cache,
+    /// summing the terms in the one order a single process sums them. Of the failures of a
+    /// point's shares, the first in the density's order is kept, the one a whole evaluation
+    /// returns.
+    fn evaluate_by_part(&mut self, batch: &mut Batch<'_>) {
+        let (ranks, n, parts) = (self.size(), batch.len(), batch.parts());
+        let EvalKind::Block(block) = batch.kind() else {
+            unreachable!("only block updates split by part")
+        };
+        self.broadcast_header(SHARES, block, batch);
+        let mut points = Vec::with_capacity(n * batch.ndim());
+        for k in 0..n {
+            points.extend_from_slice(batch.point(k));
+        }
+        let root = self.world.process_at_rank(0);
+        let started = Instant::now();
+        if !points.is_empty() {
+            root.broadcast_into(&mut points[..]);
+        }
+        count(&mut self.stats, started, 8 * points.len());
+
+        let mut failures = batch.evaluate_share_here(share(parts, ranks, 0));
+
+        let entries: Vec<ShareEntries> = (0..ranks)
+            .map(|r| batch.share_entries(share(parts, ranks, r)))
+            .collect();
+        let counts: Vec<Count> = entries
+            .iter()
+            .enumerate()
+            .map(|(r, e)| {
+                if r == 0 {
+                    0
+                } else {
+                    (n * (RECORD_HEAD + e.len())) as Count
+                }
+            })
+            .collect();
+        let displs = displacements(&counts);
+        let mut records = vec![0.0; counts.iter().sum::<Count>() as usize];
+        let started = Instant::now();
+        root.gather_varcount_into_root(
+            &[0.0_f64; 0][..],
+            &mut PartitionMut::new(&mut records[..], &counts[..], &displs[..]),
+        );
+        let record = |r: usize, k: usize| {
+            let width = RECORD_HEAD + entries[r].len();
+            let at = displs[r] as usize + k * width;
+            &records[at..at + width]
+        };
+        let text_counts: Vec<Count> = (0..ranks)
+            .map(|r| match r {
+                0 => 0,
+                _ => (0..n).map(|k| record(r, k)[2] as Count).sum(),
+            })
+            .collect();
+        let text = gather_text(&root, &text_counts);
+        count(&mut self.stats, started, 8 * records.len() + text.len());
+        self.stats.requests += 1;
+        self.stats.shared += 1;
+
+        let mut at = 0;
+        for (r, their_entries) in entries.iter().enumerate().skip(1) {
+            for (k, failure) in failures.iter_mut().enumerate() {
+                let o = record(r, k);
+                let words = String::from_utf8_lossy(&text[at..at + o[2] as usize]).into_owned();
+                at += o[2] as usize;
+                let error = match o[0] {
+                    c if c < REJECTED => {
+                        batch.store_share(k, their_entries, &o[RECORD_HEAD..]);
+                        continue;
+                    }
+                    c if c < FATAL => LogDensityError::rejected(self.label(&words)),
+                    _ => LogDensityError::fatal(words),
+                };
+                let position = o[1] as usize;
+                ShareError::keep_first(failure, ShareError { position, error });
+            }
+        }
+        batch.finish_shares(failures);
+    }
+}
+
 impl Offload for Cluster {
     /// Every rank updates a share of a run of independent blocks.
     fn phase_shares(&self) -> usize {
@@ -590,11 +788,16 @@ impl Offload for Cluster {
     }
 
     /// On rank 0: splits `batch` over the ranks, evaluates rank 0's share here and stores the
-    /// others' outcomes.
+    /// others' outcomes. A batch that splits by independent block is split so (see
+    /// `evaluate_by_part`), any other by item.
     fn evaluate(&mut self, batch: &mut Batch<'_>) {
         let ranks = self.size();
-        if ranks == 1 {
+        if ranks == 1 || batch.is_empty() {
             batch.evaluate_here(0..batch.len());
+            return;
+        }
+        if batch.parts() > 0 {
+            self.evaluate_by_part(batch);
             return;
         }
         let (kind, n) = (batch.kind(), batch.len());
@@ -604,18 +807,8 @@ impl Offload for Cluster {
             EvalKind::Block(b) => (BLOCK, b),
             EvalKind::BlockAlone(b) => (BLOCK_ALONE, b),
         };
+        self.broadcast_header(code, block, batch);
         let root = self.world.process_at_rank(0);
-        let mut header = [
-            code,
-            block as u64,
-            n as u64,
-            ndim as u64,
-            nderived as u64,
-            cache_len as u64,
-        ];
-        let started = Instant::now();
-        root.broadcast_into(&mut header[..]);
-        count(&mut self.stats, started, 48);
 
         let input = input_len(kind, ndim, nderived, cache_len);
         let others = share(n, ranks, 0).end..n;

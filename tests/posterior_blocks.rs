@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
+use slipbayes::density::{BlockLinks, LogDensity, LogDensityError, ShareError};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, ReplicaShares, SamplerConfig, Silent, Steps, Updates,
@@ -108,10 +108,85 @@ fn check_block_updates(label: &str, post: &Posterior) {
         );
     }
     check_conditional_blocks(label, post, &x);
+    check_split_updates(label, post, &x, &derived, &cache);
     assert_eq!(
         post.log_density(&x, &mut derived).unwrap().to_bits(),
         lp.to_bits()
     );
+}
+
+/// An update of block `b` at `y` split into `shares` shares of the independent blocks, as the
+/// ranks of an MPI job split it: the first share in place on the walker's derived values and
+/// cache, the others on buffers of NaN (a share must read nothing it does not compute) whose
+/// entries are then merged, and the rest finished from the merged cache.
+fn split_update(
+    post: &Posterior,
+    b: usize,
+    y: &[f64],
+    derived: &mut [f64],
+    cache: &mut [f64],
+    shares: usize,
+) -> Result<f64, LogDensityError> {
+    let parts = post.independent_blocks().len();
+    let share = |r: usize| parts * r / shares..parts * (r + 1) / shares;
+    let mut failure = post
+        .log_density_block_share(b, share(0), y, derived, cache)
+        .err();
+    for r in 1..shares {
+        let (mut d, mut c) = (vec![f64::NAN; derived.len()], vec![f64::NAN; cache.len()]);
+        match post.log_density_block_share(b, share(r), y, &mut d, &mut c) {
+            Ok(()) => {
+                let (d_entries, c_entries) = post.block_share_entries(b, share(r));
+                d_entries.iter().for_each(|&j| derived[j] = d[j]);
+                c_entries.iter().for_each(|&j| cache[j] = c[j]);
+            }
+            Err(e) => ShareError::keep_first(&mut failure, e),
+        }
+    }
+    match failure {
+        Some(f) => Err(f.error),
+        None => Ok(post.log_density_block_rest(b, y, derived, cache)),
+    }
+}
+
+/// Every block whose update splits by independent block: split into 1, 2 and 3 shares, its
+/// update from `x` gives the log-density, derived values and cache of the whole update bit for
+/// bit, and where it fails (a coordinate moved far), the same failure.
+fn check_split_updates(label: &str, post: &Posterior, x: &[f64], derived: &[f64], cache: &[f64]) {
+    let blocks = post.blocks();
+    let links = post.block_links();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for b in (0..blocks.len()).filter(|&b| post.block_splits(b)) {
+        for far in [false, true] {
+            let mut y = x.to_vec();
+            for &i in blocks[b].iter().chain(&links[b].followers) {
+                y[i] += 0.01 * rng.random::<f64>() - 0.005;
+            }
+            if far {
+                y[blocks[b][0]] += 40.0;
+            }
+            let (mut d_whole, mut c_whole) = (derived.to_vec(), cache.to_vec());
+            let whole = post.log_density_block(b, &y, &mut d_whole, &mut c_whole);
+            assert_eq!(whole.is_err(), far, "{label}: block {b}: {whole:?}");
+            for shares in 1..=3 {
+                let (mut d, mut c) = (derived.to_vec(), cache.to_vec());
+                let split = split_update(post, b, &y, &mut d, &mut c, shares);
+                let at = format!("{label}: block {b} in {shares} shares, far {far}");
+                match (&whole, &split) {
+                    (Ok(w), Ok(s)) => {
+                        assert_eq!(w.to_bits(), s.to_bits(), "{at}");
+                        for (k, (u, v)) in d.iter().zip(&d_whole).enumerate() {
+                            assert!(same(*u, *v), "{at}: derived {k}: {u} vs {v}");
+                        }
+                        for (k, (u, v)) in c.iter().zip(&c_whole).enumerate() {
+                            assert!(same(*u, *v), "{at}: cache {k}: {u} vs {v}");
+                        }
+                    }
+                    _ => assert_eq!(split, whole, "{at}"),
+                }
+            }
+        }
+    }
 }
 
 /// Each conditional block (a t0 population) at `x`: its conditional density changes as the
@@ -314,6 +389,13 @@ fn block_updates_equal_full_evaluations_in_every_variant() {
                 "{name} by {blocks}"
             );
             check_block_updates(&format!("{name} by {blocks}"), &post);
+            // By contact, a material's shared parameters split over its contacts (unless a σ
+            // shared by the contacts ties them: then no block is independent).
+            if blocks == "contact" {
+                let splits = (0..post.blocks().len()).any(|b| post.block_splits(b));
+                let tied = post.independent_blocks().is_empty();
+                assert_eq!(splits, !tied, "{name} by {blocks}");
+            }
         }
     }
 }
@@ -517,6 +599,9 @@ fn campaign_chains_do_not_depend_on_the_contacts_order() {
             }
             let mut sink = MemorySink::new();
             s.run(Steps::Fixed(30), &mut sink, &mut Silent).unwrap();
+            drop(s);
+            // Split, the material's shared parameters' updates split over the contacts too.
+            assert_eq!(replicas.split_batches() > 0, shares > 1, "{shares} shares");
             // Bits, so that NaN derived values (no interior peak) compare equal.
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             sink.chains

@@ -114,10 +114,23 @@ fn chains_are_the_same_bits_on_one_process_and_on_1_2_and_3_ranks() {
             // The contacts' blocks were updated in shares on every rank, once per step: 150
             // runs, merged into the chains of one process.
             assert!(
-                err.contains("(150 of them runs of contacts' blocks updated in shares)"),
+                err.contains("(150 of them runs of contacts' blocks updated in shares, "),
                 "{err}"
             );
-            assert!(err.contains("(150 runs of contacts' blocks)"), "{err}");
+            assert!(err.contains("(150 runs of contacts' blocks, "), "{err}");
+            // And the updates of the material's shared parameters were split by contact, rank 0
+            // and rank 1 alike.
+            let split = |what: &str| -> Vec<u64> {
+                err.match_indices(what)
+                    .filter_map(|(at, _)| {
+                        let before = err[..at].trim_end();
+                        before[before.rfind(' ')? + 1..].parse().ok()
+                    })
+                    .collect()
+            };
+            let counts = split(" batches of shared updates split by contact)");
+            assert!(counts.len() >= 2, "{err}");
+            assert!(counts.iter().all(|&c| c > 0 && c == counts[0]), "{err}");
         }
         assert!(
             chain_bits(&run) == expected,

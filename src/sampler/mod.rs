@@ -84,7 +84,9 @@ pub use moves::{
 };
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub(crate) use offload::share;
-pub use offload::{Batch, EvalKind, Offload};
+pub use offload::{Batch, EvalKind, Offload, ShareEntries};
+#[cfg(feature = "mpi")]
+pub(crate) use offload::{BlockShares, ShareApart};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{
     EnsembleSampler, PhaseOutcome, PhaseRequest, ReplicaShares, SamplerState, CARRY_FIT_STEPS,

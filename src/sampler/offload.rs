@@ -13,7 +13,7 @@ use std::ops::Range;
 use rayon::prelude::*;
 
 use super::run::{PhaseOutcome, PhaseRequest};
-use crate::density::{sort, Eval, LogDensity, LogDensityError};
+use crate::density::{sort, Eval, LogDensity, LogDensityError, ShareError};
 
 /// Which evaluation a batch asks for (the same for all its items).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -59,6 +59,107 @@ pub(crate) fn share(n: usize, parts: usize, r: usize) -> Range<usize> {
     n * r / parts..n * (r + 1) / parts
 }
 
+/// A batch's evaluations split by independent block instead of by item (see
+/// [`LogDensity::block_splits`]): the density's methods for the batch's block.
+pub(crate) trait Shares: Sync {
+    /// The entries (derived values, cache) that the share of parts `parts` writes.
+    fn entries(&self, parts: Range<usize>) -> (Vec<usize>, Vec<usize>);
+    /// [`LogDensity::log_density_block_share`].
+    fn share(
+        &self,
+        parts: Range<usize>,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<(), ShareError>;
+    /// [`LogDensity::log_density_block_rest`].
+    fn rest(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> f64;
+}
+
+/// [`Shares`] of `density`'s updates of `block`.
+pub(crate) struct BlockShares<'d, D: ?Sized> {
+    pub(crate) density: &'d D,
+    pub(crate) block: usize,
+}
+
+impl<D: LogDensity + ?Sized> Shares for BlockShares<'_, D> {
+    fn entries(&self, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
+        self.density.block_share_entries(self.block, parts)
+    }
+
+    fn share(
+        &self,
+        parts: Range<usize>,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<(), ShareError> {
+        self.density
+            .log_density_block_share(self.block, parts, x, derived, cache)
+    }
+
+    fn rest(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> f64 {
+        self.density
+            .log_density_block_rest(self.block, x, derived, cache)
+    }
+}
+
+/// How another process evaluates its share of a batch split by part, from the points alone.
+pub(crate) struct ShareApart<'s> {
+    pub(crate) shares: &'s dyn Shares,
+    pub(crate) nderived: usize,
+    pub(crate) cache_len: usize,
+    /// Whether to evaluate the points on the rayon pool.
+    pub(crate) parallel: bool,
+}
+
+impl ShareApart<'_> {
+    /// The share of parts `parts` at every point: each point's failure, and the values of the
+    /// share's entries point after point (zeros for a point that failed).
+    pub(crate) fn evaluate(
+        &self,
+        parts: Range<usize>,
+        points: &[&[f64]],
+    ) -> (Vec<Option<ShareError>>, Vec<f64>) {
+        let (derived, cache) = self.shares.entries(parts.clone());
+        let width = derived.len() + cache.len();
+        let eval = |x: &&[f64]| {
+            // NaN where the share must not read: a share that did would spoil its values.
+            let (mut d, mut c) = (
+                vec![f64::NAN; self.nderived],
+                vec![f64::NAN; self.cache_len],
+            );
+            match self.shares.share(parts.clone(), x, &mut d, &mut c) {
+                Ok(()) => {
+                    let values = derived.iter().map(|&j| d[j]);
+                    let values = values.chain(cache.iter().map(|&j| c[j]));
+                    (None, values.collect())
+                }
+                Err(e) => (Some(e), vec![0.0; width]),
+            }
+        };
+        let outcomes: Vec<(Option<ShareError>, Vec<f64>)> = if self.parallel {
+            points.par_iter().map(eval).collect()
+        } else {
+            points.iter().map(eval).collect()
+        };
+        let mut values = Vec::with_capacity(points.len() * width);
+        let failures = outcomes
+            .into_iter()
+            .map(|(e, v)| {
+                values.extend(v);
+                e
+            })
+            .collect();
+        (failures, values)
+    }
+}
+
+/// The density's split of a batch that splits by part.
+fn splitter(shares: Option<(&dyn Shares, usize)>) -> &dyn Shares {
+    shares.expect("a batch split by part").0
+}
+
 /// One item of a batch: its point, derived values, cache and outcome.
 type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
 
@@ -85,6 +186,31 @@ pub struct Batch<'b> {
     pub(crate) local: &'b LocalEval<'b>,
     /// Whether this process evaluates its items on the rayon pool.
     pub(crate) parallel: bool,
+    /// When the batch's block update splits by independent block: how, and into how many
+    /// parts (the independent blocks).
+    pub(crate) shares: Option<(&'b dyn Shares, usize)>,
+}
+
+/// The entries of one share of a batch split by independent block (see [`Batch::parts`]): the
+/// indices of the derived values and of the cache entries it writes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ShareEntries {
+    /// Derived values.
+    pub derived: Vec<usize>,
+    /// Cache entries.
+    pub cache: Vec<usize>,
+}
+
+impl ShareEntries {
+    /// Values per item.
+    pub fn len(&self) -> usize {
+        self.derived.len() + self.cache.len()
+    }
+
+    /// Whether the share writes nothing.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 impl Batch<'_> {
@@ -150,6 +276,131 @@ impl Batch<'_> {
         self.derived[s * d..s * d + self.nderived].copy_from_slice(derived);
         self.cache[s * c..s * c + self.cache_len].copy_from_slice(cache);
         self.evals[s] = sort(result);
+    }
+
+    /// Into how many parts (independent blocks) the batch's evaluations may be split instead
+    /// of by item: 0 when they may not. Split, every share evaluates the terms of its parts for
+    /// every item ([`evaluate_share_here`](Self::evaluate_share_here),
+    /// [`evaluate_share_apart`](Self::evaluate_share_apart)), and the items are finished once
+    /// the shares are merged ([`finish_shares`](Self::finish_shares)).
+    pub fn parts(&self) -> usize {
+        self.shares.map_or(0, |(_, parts)| parts)
+    }
+
+    /// What the share of parts `parts` writes of each item.
+    ///
+    /// # Panics
+    /// When the batch does not split by part.
+    pub fn share_entries(&self, parts: Range<usize>) -> ShareEntries {
+        let (derived, cache) = splitter(self.shares).entries(parts);
+        ShareEntries { derived, cache }
+    }
+
+    /// Evaluates the share of parts `parts` of every item in place, on the walkers' derived
+    /// values and caches (the share that stays in this process); returns each item's failure.
+    ///
+    /// # Panics
+    /// When the batch does not split by part.
+    pub fn evaluate_share_here(&mut self, parts: Range<usize>) -> Vec<Option<ShareError>> {
+        let splitter = splitter(self.shares);
+        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
+        let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
+        let slots = self.slots;
+        let proposals = self.proposals;
+        let (derived, cache) = (&mut *self.derived, &mut *self.cache);
+        let mut items: Vec<(&[f64], &mut [f64], &mut [f64])> = Vec::with_capacity(slots.len());
+        let mut wanted = slots.iter().peekable();
+        for (s, (d, c)) in derived
+            .chunks_mut(dstride)
+            .zip(cache.chunks_mut(cstride))
+            .enumerate()
+        {
+            if wanted.peek() == Some(&&s) {
+                wanted.next();
+                let x = &proposals[s * ndim..(s + 1) * ndim];
+                items.push((x, &mut d[..nderived], &mut c[..cache_len]));
+            }
+        }
+        let eval = |(x, d, c): (&[f64], &mut [f64], &mut [f64])| {
+            splitter.share(parts.clone(), x, d, c).err()
+        };
+        if self.parallel {
+            items.into_par_iter().map(eval).collect()
+        } else {
+            items.into_iter().map(eval).collect()
+        }
+    }
+
+    /// Evaluates the share of parts `parts` of every item apart from the walkers' values, as
+    /// another process does with the points alone: each item's failure, and the values of the
+    /// share's entries ([`share_entries`](Self::share_entries)) item after item (zeros for an
+    /// item that failed).
+    ///
+    /// # Panics
+    /// When the batch does not split by part.
+    pub fn evaluate_share_apart(&self, parts: Range<usize>) -> (Vec<Option<ShareError>>, Vec<f64>) {
+        let points = (0..self.len()).map(|k| self.point(k));
+        let apart = ShareApart {
+            shares: splitter(self.shares),
+            nderived: self.nderived,
+            cache_len: self.cache_len,
+            parallel: self.parallel,
+        };
+        apart.evaluate(parts, &points.collect::<Vec<_>>())
+    }
+
+    /// Stores into item `k` the `values` of another share's `entries`.
+    pub fn store_share(&mut self, k: usize, entries: &ShareEntries, values: &[f64]) {
+        let s = self.slots[k];
+        let (d, c) = (self.nderived.max(1), self.cache_len.max(1));
+        let (from_derived, from_cache) = values.split_at(entries.derived.len());
+        for (&j, &v) in entries.derived.iter().zip(from_derived) {
+            self.derived[s * d + j] = v;
+        }
+        for (&j, &v) in entries.cache.iter().zip(from_cache) {
+            self.cache[s * c + j] = v;
+        }
+    }
+
+    /// Finishes every item of a batch split by part once every share is in: an item that
+    /// failed in a share fails with `failures[k]`, the share's failure first in the density's
+    /// order; the others are finished from their merged caches.
+    ///
+    /// # Panics
+    /// When the batch does not split by part.
+    pub fn finish_shares(&mut self, failures: Vec<Option<ShareError>>) {
+        let splitter = splitter(self.shares);
+        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
+        let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
+        let mut failures = failures.into_iter();
+        let mut items = Vec::with_capacity(self.slots.len());
+        let mut wanted = self.slots.iter().peekable();
+        for (s, ((d, c), e)) in self
+            .derived
+            .chunks_mut(dstride)
+            .zip(self.cache.chunks(cstride))
+            .zip(self.evals.iter_mut())
+            .enumerate()
+        {
+            if wanted.peek() == Some(&&s) {
+                wanted.next();
+                let failure = failures.next().expect("one failure slot per item");
+                let x = &self.proposals[s * ndim..(s + 1) * ndim];
+                items.push((x, &mut d[..nderived], &c[..cache_len], e, failure));
+            }
+        }
+        let finish =
+            |(x, d, c, e, failure): (&[f64], &mut [f64], &[f64], &mut Eval, Option<ShareError>)| {
+                *e = sort(match failure {
+                    Some(f) => Err(f.error),
+                    None => Ok(splitter.rest(x, d, c)),
+                });
+            };
+        if self.parallel {
+            items.into_par_iter().for_each(finish);
+        } else {
+            items.into_iter().for_each(finish);
+        }
     }
 
     /// Evaluates items `items` in this process (on the rayon pool when the sampler evaluates

@@ -14,7 +14,7 @@ use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
 use super::moves::{CarryTuning, Move, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
-use super::offload::{Batch, EvalKind, Offload};
+use super::offload::{Batch, BlockShares, EvalKind, Offload, Shares};
 use super::report::{
     chosen_tau_report, rhat_from_history, tau_windows, EnsembleReport, RunReport, StopReason,
     TAU_WINDOWS,
@@ -1079,6 +1079,18 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
             kind.evaluate(density, x, d, c)
         };
+        // With another process to share with, a shared block's update may be split by
+        // independent block (the contacts' terms where the contacts are).
+        let splitter = match kind {
+            EvalKind::Block(b) if self.offload.is_some() && density.block_splits(b) => {
+                Some(BlockShares { density, block: b })
+            }
+            _ => None,
+        };
+        let parts = match splitter {
+            Some(_) => density.independent_blocks().len(),
+            None => 0,
+        };
         let mut batch = Batch {
             kind,
             ndim,
@@ -1097,6 +1109,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             } else {
                 parallel
             },
+            shares: splitter.as_ref().map(|s| (s as &dyn Shares, parts)),
         };
         match self.offload.as_deref_mut() {
             Some(offload) => {

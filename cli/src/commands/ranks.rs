@@ -85,12 +85,14 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
         let stats = cluster.stats();
         say(format!(
             "MPI: {} ranks; rank 0 spent {:.3} s of its {wall:.3} s in MPI calls ({:.1} %), {} \
-             requests ({} of them runs of contacts' blocks updated in shares), {:.1} MB",
+             requests ({} of them runs of contacts' blocks updated in shares, {} batches of \
+             shared updates split by contact), {:.1} MB",
             cluster.size(),
             stats.mpi_s,
             100.0 * stats.mpi_s / wall,
             stats.requests,
             stats.runs,
+            stats.shared,
             stats.bytes as f64 / 1e6
         ));
     }
@@ -136,10 +138,12 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     let wall = started.elapsed().as_secs_f64();
     let stats = cluster.stats();
     say(format!(
-        "MPI: rank {rank} served {} requests ({} runs of contacts' blocks), {:.1} % of its \
-         {wall:.3} s in MPI calls (waiting for rank 0 included)",
+        "MPI: rank {rank} served {} requests ({} runs of contacts' blocks, {} batches of shared \
+         updates split by contact), {:.1} % of its {wall:.3} s in MPI calls (waiting for rank 0 \
+         included)",
         stats.requests,
         stats.runs,
+        stats.shared,
         100.0 * stats.mpi_s / wall
     ));
     Ok(())

@@ -14,11 +14,12 @@
 //! in a fixed order, exactly as a full evaluation sums it.
 
 use std::collections::BTreeSet;
+use std::ops::Range;
 
 use super::layout::{Coord, CoordPrior, Population, SigmaSource};
 use super::likelihood::{RunModel, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
 use super::Posterior;
-use crate::density::{BlockLinks, LogDensityError};
+use crate::density::{BlockLinks, LogDensityError, ShareError};
 
 /// One block: its coordinates, the runs to re-fit when they change or its followers move
 /// with them (in evaluation order), which runs' peaks and which σ groups they change.
@@ -204,6 +205,81 @@ pub(super) enum Changed<'b> {
     /// contact's peak): the contacts' updates were made apart and merged, each having written
     /// its own.
     Merged,
+    /// Those of an update of the block that belong to the independent blocks at positions
+    /// `start..end` (one share of a split update, see [`Owners`]).
+    Share(&'b Block, &'b Owners, usize, usize),
+    /// Those of an update of the block that belong to no independent block (what is left of
+    /// a split update once its shares are merged).
+    Rest(&'b Block, &'b Owners),
+}
+
+/// Which independent block (its position among them) owns each coordinate, run and
+/// marginalised σ group: the one whose update writes it. An update of a shared block whose
+/// re-fitted runs and σ groups all have owners can be evaluated in shares of the independent
+/// blocks, each share fitting its own contacts' runs at the proposal (MPI's split of a
+/// material's update over the ranks that hold its contacts).
+#[derive(Debug, Clone, Default)]
+pub(super) struct Owners {
+    pub coord: Vec<Option<usize>>,
+    pub run: Vec<Option<usize>>,
+    pub group: Vec<Option<usize>>,
+    /// Per block: whether its update splits so (see [`Owners::new`]).
+    pub splits: Vec<bool>,
+}
+
+impl Owners {
+    /// The owners among `blocks`, of which those from `first` on are independent, of the
+    /// coordinates, runs (`runs`) and σ groups (each the runs in it, `group_runs`).
+    ///
+    /// A block's update splits when it is not independent, there are independent blocks, and
+    /// a share needs nothing of the walker's cache beyond what it computes itself: every run
+    /// it re-fits has an owner and re-fits with the slide it follows, and every σ group it
+    /// touches has an owner and all the group's runs among the re-fitted.
+    pub fn new(
+        blocks: &[Block],
+        first: usize,
+        coords: usize,
+        runs: &[RunModel],
+        group_runs: &[&[usize]],
+    ) -> Self {
+        let mut owners = Self {
+            coord: vec![None; coords],
+            run: vec![None; runs.len()],
+            group: vec![None; group_runs.len()],
+            splits: vec![false; blocks.len()],
+        };
+        for (k, block) in blocks.iter().enumerate().skip(first) {
+            let part = Some(k - first);
+            for &i in &block.coords {
+                owners.coord[i] = part;
+            }
+            for &i in &block.runs {
+                owners.run[i] = part;
+            }
+            for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
+                owners.group[g] = part;
+            }
+        }
+        for (b, block) in blocks.iter().enumerate().take(first) {
+            let refits = |i: &usize| block.runs.contains(i);
+            owners.splits[b] = first < blocks.len()
+                && block.runs.iter().all(|&i| {
+                    owners.run[i].is_some() && runs[i].follows.is_none_or(|j| refits(&j))
+                })
+                && block
+                    .groups
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &t)| t)
+                    .all(|(g, _)| owners.group[g].is_some() && group_runs[g].iter().all(refits));
+        }
+        owners
+    }
+
+    /// Whether `owner` is one of the positions `start..end`.
+    pub fn within(owner: Option<usize>, start: usize, end: usize) -> bool {
+        owner.is_some_and(|k| (start..end).contains(&k))
+    }
 }
 
 /// A walker's cache, `blocks + 2 × runs + σ groups` values: the prior of each block, each
@@ -428,6 +504,18 @@ impl Posterior {
     /// evaluation add them, and the cached likelihood parts, rewriting the derived values that
     /// are no one contact's.
     pub(super) fn evaluate_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> f64 {
+        self.finish_from_cache(x, derived, cache, Changed::Merged)
+    }
+
+    /// The log-density at `x` summed from `cache` (its priors as a block update adds them),
+    /// after rewriting the derived values that `changed`.
+    fn finish_from_cache(
+        &self,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &[f64],
+        changed: Changed,
+    ) -> f64 {
         let (prior, rest) = cache.split_at(self.blocks.len());
         let (ssr, rest) = rest.split_at(self.runs.len());
         let group = &rest[self.runs.len()..];
@@ -435,7 +523,91 @@ impl Posterior {
         for p in prior {
             lp += p;
         }
-        self.finish(x, derived, lp, ssr, group, Changed::Merged)
+        self.finish(x, derived, lp, ssr, group, changed)
+    }
+
+    /// One share of an update of block `b` split by independent block (see [`Owners`]): at
+    /// `x`, every prior the update re-evaluates (all shares alike: they are cheap, and a
+    /// rejection by a prior must come first, as in [`evaluate_block`](Self::evaluate_block)),
+    /// then the runs and σ groups of the independent blocks at positions `parts`, and their
+    /// derived values. A failure carries its position in `evaluate_block`'s order: the
+    /// priors, the re-fitted runs, then the σ groups by index.
+    pub(super) fn evaluate_share(
+        &self,
+        b: usize,
+        parts: Range<usize>,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: Cache,
+    ) -> Result<(), ShareError> {
+        let block = &self.blocks[b];
+        let mine = |owner: Option<usize>| Owners::within(owner, parts.start, parts.end);
+        let at = |position: usize| move |error| ShareError { position, error };
+        for (k, &p) in block.priors.iter().enumerate() {
+            cache.prior[p] = self.block_prior(p, x).map_err(at(k))?;
+        }
+        let runs_at = block.priors.len();
+        for (k, &i) in block.runs.iter().enumerate() {
+            if mine(self.owners.run[i]) {
+                self.fit_run(i, x, cache.ssr, cache.last)
+                    .map_err(at(runs_at + k))?;
+            }
+        }
+        let groups_at = runs_at + block.runs.len();
+        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
+            if mine(self.owners.group[g]) {
+                cache.group[g] = self.group_term(g, cache.ssr).map_err(at(groups_at + g))?;
+            }
+        }
+        if !derived.is_empty() {
+            let changed = Changed::Share(block, &self.owners, parts.start, parts.end);
+            self.derived_values(x, cache.ssr, derived, changed);
+        }
+        Ok(())
+    }
+
+    /// The entries of the derived values and of the cache that [`evaluate_share`]
+    /// (Self::evaluate_share) writes for the independent blocks at positions `parts` and that
+    /// the rest of the update does not: what a share hands back.
+    pub(super) fn share_entries(&self, b: usize, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
+        let block = &self.blocks[b];
+        let mine = |owner: Option<usize>| Owners::within(owner, parts.start, parts.end);
+        let changed = Changed::Share(block, &self.owners, parts.start, parts.end);
+        let derived = (0..self.sources.len())
+            .filter(|&j| self.rewrites(&self.sources[j], changed))
+            .collect();
+        let (nblocks, nruns) = (self.blocks.len(), self.runs.len());
+        let runs: Vec<usize> = block
+            .runs
+            .iter()
+            .copied()
+            .filter(|&i| mine(self.owners.run[i]))
+            .collect();
+        let cache = runs
+            .iter()
+            .map(|&i| nblocks + i)
+            .chain(runs.iter().map(|&i| nblocks + nruns + i))
+            .chain(
+                (0..self.sigma_groups.len())
+                    .filter(|&g| block.groups[g] && mine(self.owners.group[g]))
+                    .map(|g| nblocks + 2 * nruns + g),
+            )
+            .collect();
+        (derived, cache)
+    }
+
+    /// Finishes an update of block `b` split by independent block, from the merged `cache`:
+    /// the log-density, summed as [`evaluate_block`](Self::evaluate_block) sums it, and the
+    /// derived values that no independent block owns.
+    pub(super) fn evaluate_rest(
+        &self,
+        b: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &[f64],
+    ) -> f64 {
+        let changed = Changed::Rest(&self.blocks[b], &self.owners);
+        self.finish_from_cache(x, derived, cache, changed)
     }
 
     /// The log-density from the prior `lp` and the cache's likelihood parts, each run's

@@ -6,7 +6,7 @@
 //! random numbers are a deterministic function of the bits of the draw itself, so that the
 //! density stays a pure function of `x` and the sampler stays reproducible.
 
-use super::blocks::Changed;
+use super::blocks::{Block, Changed, Owners};
 use super::layout::{PeakField, Source};
 use super::Posterior;
 use crate::law::{Elastic, Law, Peak};
@@ -30,24 +30,7 @@ impl Posterior {
         for (out, source) in derived.iter_mut().zip(&self.sources) {
             // A block update leaves the values of the coordinates it does not move as they
             // were: recomputing them would cost every contact's values per contact update.
-            let unchanged = match (source, changed) {
-                (Source::Coord(i), Changed::Block(b)) => !b.moves[*i],
-                (Source::AContact { ratio, f_d }, Changed::Block(b)) => {
-                    !b.moves[*ratio] && !b.moves[*f_d]
-                }
-                (Source::Peak { run, .. }, Changed::Block(b)) => !b.reads[*run],
-                (Source::Sigma(g), Changed::Block(b)) => !b.groups[*g],
-                (Source::Peak { .. } | Source::Sigma(_), Changed::NoRun) => true,
-                (
-                    Source::Coord(_)
-                    | Source::AContact { .. }
-                    | Source::Peak { .. }
-                    | Source::Sigma(_),
-                    Changed::Merged,
-                ) => true,
-                _ => false,
-            };
-            if unchanged {
+            if !self.rewrites(source, changed) {
                 continue;
             }
             *out = match *source {
@@ -85,6 +68,35 @@ impl Posterior {
                 }
                 Source::PeakNew(m) => self.new_contact_peak(x, m),
             };
+        }
+    }
+
+    /// Whether an evaluation that changed `changed` rewrites the column computed from
+    /// `source`.
+    pub(super) fn rewrites(&self, source: &Source, changed: Changed) -> bool {
+        let by_block = |b: &Block| match *source {
+            Source::Coord(i) => b.moves[i],
+            Source::AContact { ratio, f_d } => b.moves[ratio] || b.moves[f_d],
+            Source::Peak { run, .. } => b.reads[run],
+            Source::Sigma(g) => b.groups[g],
+            Source::AMaterial(_) | Source::PeakNew(_) => true,
+        };
+        let owner = |owners: &Owners| match *source {
+            Source::Coord(i) => owners.coord[i],
+            Source::AContact { ratio, f_d } => owners.coord[ratio].or(owners.coord[f_d]),
+            Source::Peak { run, .. } => owners.run[run],
+            Source::Sigma(g) => owners.group[g],
+            Source::AMaterial(_) | Source::PeakNew(_) => None,
+        };
+        match changed {
+            Changed::All => true,
+            Changed::Block(b) => by_block(b),
+            Changed::NoRun => !matches!(source, Source::Peak { .. } | Source::Sigma(_)),
+            Changed::Merged => matches!(source, Source::AMaterial(_) | Source::PeakNew(_)),
+            Changed::Share(b, owners, start, end) => {
+                by_block(b) && Owners::within(owner(owners), start, end)
+            }
+            Changed::Rest(b, owners) => by_block(b) && owner(owners).is_none(),
         }
     }
 

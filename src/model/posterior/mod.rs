@@ -30,6 +30,7 @@ mod prior_predictive;
 mod sigma;
 mod start;
 
+use std::ops::Range;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
@@ -39,7 +40,9 @@ use likelihood::RunModel;
 
 use super::data::RunData;
 use super::spec::{Blocking, ModelSpec, PopulationUpdates};
-use crate::density::{BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap};
+use crate::density::{
+    BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap, ShareError,
+};
 use crate::law::Scene;
 
 pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_RATE_STATE, REJECT_STICK_SLIP};
@@ -65,6 +68,8 @@ pub struct Posterior {
     /// The blocks from this one on are independent of one another given the others
     /// (`blocks::independent_last`).
     first_independent: usize,
+    /// Which independent block owns each coordinate, run and σ group.
+    owners: blocks::Owners,
     sigma_groups: Vec<SigmaGroup>,
     populations: Vec<Population>,
     materials: Vec<MaterialModel>,
@@ -139,6 +144,14 @@ impl Posterior {
             ),
             population,
         );
+        let group_runs: Vec<&[usize]> = layout.sigma_groups.iter().map(|g| &g.runs[..]).collect();
+        let owners = blocks::Owners::new(
+            &blocks,
+            first_independent,
+            layout.coords.len(),
+            &layout.runs,
+            &group_runs,
+        );
         let mut posterior = Self {
             spec: spec.clone(),
             coords: layout.coords,
@@ -148,6 +161,7 @@ impl Posterior {
             order,
             blocks,
             first_independent,
+            owners,
             sigma_groups: layout.sigma_groups,
             populations: layout.populations,
             materials: layout.materials,
@@ -362,6 +376,38 @@ impl LogDensity for Posterior {
 
     fn log_density_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> Option<f64> {
         Some(self.evaluate_from_cache(x, derived, cache))
+    }
+
+    /// A shared block's update whose runs and σ groups all belong to contacts (see
+    /// `blocks::Owners`).
+    fn block_splits(&self, block: usize) -> bool {
+        self.owners.splits.get(block).copied().unwrap_or(false)
+    }
+
+    fn block_share_entries(&self, block: usize, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
+        self.share_entries(block, parts)
+    }
+
+    fn log_density_block_share(
+        &self,
+        block: usize,
+        parts: Range<usize>,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &mut [f64],
+    ) -> Result<(), ShareError> {
+        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
+        self.evaluate_share(block, parts, x, derived, cache)
+    }
+
+    fn log_density_block_rest(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        cache: &[f64],
+    ) -> f64 {
+        self.evaluate_rest(block, x, derived, cache)
     }
 
     fn cache_len(&self) -> usize {

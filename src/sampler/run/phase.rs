@@ -31,6 +31,7 @@ use super::super::offload::{Batch, Offload};
 use super::SamplerConfig;
 use super::{blocks_of, check_dims, fresh_carry_fits, slice_slots, EnsembleSampler};
 use crate::density::LogDensity;
+use crate::density::ShareError;
 use crate::sampler::share;
 
 /// The walkers' state as a run of independent blocks begins, for the other processes'
@@ -481,6 +482,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 pub struct ReplicaShares<'a, D: LogDensity + ?Sized> {
     replicas: Vec<EnsembleSampler<'a, D>>,
     request: Option<PhaseRequest>,
+    /// Batches split by independent block so far.
+    split_batches: usize,
 }
 
 impl<'a, D: LogDensity + ?Sized> ReplicaShares<'a, D> {
@@ -499,13 +502,43 @@ impl<'a, D: LogDensity + ?Sized> ReplicaShares<'a, D> {
         Ok(Self {
             replicas,
             request: None,
+            split_batches: 0,
         })
+    }
+
+    /// How many batches were split by independent block (the rest by item).
+    pub fn split_batches(&self) -> usize {
+        self.split_batches
     }
 }
 
 impl<D: LogDensity + ?Sized> Offload for ReplicaShares<'_, D> {
+    /// A batch that splits by independent block is split as the MPI offload splits it: the
+    /// first share in place, the others apart from the walkers' values (as another process
+    /// evaluates them, from the points alone), then merged.
     fn evaluate(&mut self, batch: &mut Batch<'_>) {
-        batch.evaluate_here(0..batch.len());
+        let (parts, shares) = (batch.parts(), self.phase_shares());
+        if parts == 0 || shares == 1 {
+            batch.evaluate_here(0..batch.len());
+            return;
+        }
+        self.split_batches += 1;
+        let mut failures = batch.evaluate_share_here(share(parts, shares, 0));
+        for r in 1..shares {
+            let (their_failures, values) = batch.evaluate_share_apart(share(parts, shares, r));
+            let entries = batch.share_entries(share(parts, shares, r));
+            for (k, failure) in their_failures.into_iter().enumerate() {
+                match failure {
+                    Some(f) => ShareError::keep_first(&mut failures[k], f),
+                    None => batch.store_share(
+                        k,
+                        &entries,
+                        &values[k * entries.len()..(k + 1) * entries.len()],
+                    ),
+                }
+            }
+        }
+        batch.finish_shares(failures);
     }
 
     fn phase_shares(&self) -> usize {
