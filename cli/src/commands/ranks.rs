@@ -18,6 +18,7 @@ use slipbayes::model::Posterior;
 use slipbayes::sampler::Offload;
 
 use super::{error_lines, exit_code, fit, validate, Cli, Command};
+use crate::bench::memory::peak_rss_kb;
 
 /// Whether this process was started by an MPI launcher (Open MPI's `mpirun`, or a PMI/PMIx
 /// launcher such as Slurm's `srun`): only then is MPI initialised.
@@ -86,17 +87,26 @@ fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
         say(format!(
             "MPI: {} ranks; rank 0 spent {:.3} s of its {wall:.3} s in MPI calls ({:.1} %), {} \
              requests ({} of them runs of contacts' blocks updated in shares, {} batches of \
-             shared updates split by contact), {:.1} MB",
+             shared updates split by contact), {:.1} MB{}",
             cluster.size(),
             stats.mpi_s,
             100.0 * stats.mpi_s / wall,
             stats.requests,
             stats.runs,
             stats.shared,
-            stats.bytes as f64 / 1e6
+            stats.bytes as f64 / 1e6,
+            peak_memory()
         ));
     }
     outcome
+}
+
+/// ", peak memory N MB" of this rank (its resident high-water mark), where the system says
+/// (Linux): what each rank holds of the model and data.
+fn peak_memory() -> String {
+    peak_rss_kb().map_or_else(String::new, |kb| {
+        format!(", peak memory {:.1} MB", kb as f64 / 1e3)
+    })
 }
 
 /// Writes `line` to stderr in one call: `mpirun` forwards the ranks' output as it comes, and a
@@ -140,11 +150,12 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     say(format!(
         "MPI: rank {rank} served {} requests ({} runs of contacts' blocks, {} batches of shared \
          updates split by contact), {:.1} % of its {wall:.3} s in MPI calls (waiting for rank 0 \
-         included)",
+         included){}",
         stats.requests,
         stats.runs,
         stats.shared,
-        100.0 * stats.mpi_s / wall
+        100.0 * stats.mpi_s / wall,
+        peak_memory()
     ));
     Ok(())
 }
