@@ -363,9 +363,11 @@ impl Cluster {
             parallel: rayon::current_num_threads() > 1,
         };
         let mine = share(parts, self.size(), rank);
+        let (derived, cache) = density.block_share_entries(block, mine.clone());
+        let entries = ShareEntries { derived, cache };
         let points: Vec<&[f64]> = proposals.chunks_exact(ndim.max(1)).take(items).collect();
-        let (failures, values) = apart.evaluate(mine, &points);
-        let width = values.len() / items.max(1);
+        let (failures, values) = apart.evaluate(mine, &entries, &points);
+        let width = entries.len();
 
         // Never a dangling pointer (see TEXT_CAPACITY), though a batch is never empty.
         let mut records = Vec::with_capacity((items * (RECORD_HEAD + width)).max(1));
@@ -706,21 +708,22 @@ impl Cluster {
 
         let mut at = 0;
         for (r, their_entries) in entries.iter().enumerate().skip(1) {
-            for (k, failure) in failures.iter_mut().enumerate() {
+            let mut their_failures = Vec::with_capacity(n);
+            let mut values = Vec::with_capacity(n * their_entries.len());
+            for k in 0..n {
                 let o = record(r, k);
                 let words = String::from_utf8_lossy(&text[at..at + o[2] as usize]).into_owned();
                 at += o[2] as usize;
+                values.extend_from_slice(&o[RECORD_HEAD..]);
                 let error = match o[0] {
-                    c if c < REJECTED => {
-                        batch.store_share(k, their_entries, &o[RECORD_HEAD..]);
-                        continue;
-                    }
-                    c if c < FATAL => LogDensityError::rejected(self.label(&words)),
-                    _ => LogDensityError::fatal(words),
+                    c if c < REJECTED => None,
+                    c if c < FATAL => Some(LogDensityError::rejected(self.label(&words))),
+                    _ => Some(LogDensityError::fatal(words)),
                 };
                 let position = o[1] as usize;
-                ShareError::keep_first(failure, ShareError { position, error });
+                their_failures.push(error.map(|error| ShareError { position, error }));
             }
+            batch.merge_share(&mut failures, their_entries, (their_failures, values));
         }
         batch.finish_shares(failures);
     }

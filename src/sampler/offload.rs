@@ -114,43 +114,51 @@ pub(crate) struct ShareApart<'s> {
 }
 
 impl ShareApart<'_> {
-    /// The share of parts `parts` at every point: each point's failure, and the values of the
-    /// share's entries point after point (zeros for a point that failed).
+    /// The share of parts `parts`, which writes `entries`, at every point: each point's
+    /// failure, and the values of the entries point after point (zeros for a point that
+    /// failed).
     pub(crate) fn evaluate(
         &self,
         parts: Range<usize>,
+        entries: &ShareEntries,
         points: &[&[f64]],
     ) -> (Vec<Option<ShareError>>, Vec<f64>) {
-        let (derived, cache) = self.shares.entries(parts.clone());
-        let width = derived.len() + cache.len();
-        let eval = |x: &&[f64]| {
-            // NaN where the share must not read: a share that did would spoil its values.
-            let (mut d, mut c) = (
-                vec![f64::NAN; self.nderived],
-                vec![f64::NAN; self.cache_len],
-            );
-            match self.shares.share(parts.clone(), x, &mut d, &mut c) {
-                Ok(()) => {
-                    let values = derived.iter().map(|&j| d[j]);
-                    let values = values.chain(cache.iter().map(|&j| c[j]));
-                    (None, values.collect())
+        let width = entries.len();
+        // A slot per point even for a share that writes nothing (more ranks than parts).
+        let stride = width.max(1);
+        let mut failures = vec![None; points.len()];
+        let mut values = vec![0.0; points.len() * stride];
+        let scratch = || (vec![0.0; self.nderived], vec![0.0; self.cache_len]);
+        let eval =
+            |(d, c): &mut (Vec<f64>, Vec<f64>),
+             ((x, failure), out): ((&&[f64], &mut Option<ShareError>), &mut [f64])| {
+                // NaN where the share must not read: a share that did would spoil its values.
+                d.fill(f64::NAN);
+                c.fill(f64::NAN);
+                match self.shares.share(parts.clone(), x, d, c) {
+                    Ok(()) => {
+                        let written = entries.derived.iter().map(|&j| d[j]);
+                        let written = written.chain(entries.cache.iter().map(|&j| c[j]));
+                        out.iter_mut().zip(written).for_each(|(o, v)| *o = v);
+                    }
+                    Err(e) => *failure = Some(e),
                 }
-                Err(e) => (Some(e), vec![0.0; width]),
-            }
-        };
-        let outcomes: Vec<(Option<ShareError>, Vec<f64>)> = if self.parallel {
-            points.par_iter().map(eval).collect()
+            };
+        if self.parallel {
+            points
+                .par_iter()
+                .zip(failures.par_iter_mut())
+                .zip(values.par_chunks_mut(stride))
+                .for_each_init(scratch, eval);
         } else {
-            points.iter().map(eval).collect()
-        };
-        let mut values = Vec::with_capacity(points.len() * width);
-        let failures = outcomes
-            .into_iter()
-            .map(|(e, v)| {
-                values.extend(v);
-                e
-            })
-            .collect();
+            let mut buffers = scratch();
+            points
+                .iter()
+                .zip(failures.iter_mut())
+                .zip(values.chunks_mut(stride))
+                .for_each(|item| eval(&mut buffers, item));
+        }
+        values.truncate(points.len() * width);
         (failures, values)
     }
 }
@@ -159,6 +167,9 @@ impl ShareApart<'_> {
 fn splitter(shares: Option<(&dyn Shares, usize)>) -> &dyn Shares {
     shares.expect("a batch split by part").0
 }
+
+/// One item of a batch in item order: its point, derived values, cache and outcome.
+type ItemMut<'w> = (&'w [f64], &'w mut [f64], &'w mut [f64], &'w mut Eval);
 
 /// One item of a batch: its point, derived values, cache and outcome.
 type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
@@ -303,50 +314,75 @@ impl Batch<'_> {
     /// When the batch does not split by part.
     pub fn evaluate_share_here(&mut self, parts: Range<usize>) -> Vec<Option<ShareError>> {
         let splitter = splitter(self.shares);
-        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
-        let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
-        let slots = self.slots;
-        let proposals = self.proposals;
-        let (derived, cache) = (&mut *self.derived, &mut *self.cache);
-        let mut items: Vec<(&[f64], &mut [f64], &mut [f64])> = Vec::with_capacity(slots.len());
-        let mut wanted = slots.iter().peekable();
-        for (s, (d, c)) in derived
-            .chunks_mut(dstride)
-            .zip(cache.chunks_mut(cstride))
-            .enumerate()
-        {
-            if wanted.peek() == Some(&&s) {
-                wanted.next();
-                let x = &proposals[s * ndim..(s + 1) * ndim];
-                items.push((x, &mut d[..nderived], &mut c[..cache_len]));
-            }
-        }
-        let eval = |(x, d, c): (&[f64], &mut [f64], &mut [f64])| {
-            splitter.share(parts.clone(), x, d, c).err()
-        };
-        if self.parallel {
+        let parallel = self.parallel;
+        let eval = |(x, d, c, _): ItemMut| splitter.share(parts.clone(), x, d, c).err();
+        let items = self.items_mut();
+        if parallel {
             items.into_par_iter().map(eval).collect()
         } else {
             items.into_iter().map(eval).collect()
         }
     }
 
-    /// Evaluates the share of parts `parts` of every item apart from the walkers' values, as
-    /// another process does with the points alone: each item's failure, and the values of the
-    /// share's entries ([`share_entries`](Self::share_entries)) item after item (zeros for an
-    /// item that failed).
+    /// Each item's point, derived values, cache and outcome, in item order.
+    fn items_mut(&mut self) -> Vec<ItemMut<'_>> {
+        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
+        let proposals = self.proposals;
+        let mut wanted = self.slots.iter().peekable();
+        let mut items = Vec::with_capacity(self.slots.len());
+        for (s, ((d, c), e)) in self
+            .derived
+            .chunks_mut(nderived.max(1))
+            .zip(self.cache.chunks_mut(cache_len.max(1)))
+            .zip(self.evals.iter_mut())
+            .enumerate()
+        {
+            if wanted.next_if_eq(&&s).is_some() {
+                let x = &proposals[s * ndim..(s + 1) * ndim];
+                items.push((x, &mut d[..nderived], &mut c[..cache_len], e));
+            }
+        }
+        items
+    }
+
+    /// Evaluates the share of parts `parts`, which writes `entries`
+    /// ([`share_entries`](Self::share_entries)), of every item apart from the walkers'
+    /// values, as another process does with the points alone: each item's failure, and the
+    /// values of the entries item after item (zeros for an item that failed).
     ///
     /// # Panics
     /// When the batch does not split by part.
-    pub fn evaluate_share_apart(&self, parts: Range<usize>) -> (Vec<Option<ShareError>>, Vec<f64>) {
-        let points = (0..self.len()).map(|k| self.point(k));
+    pub fn evaluate_share_apart(
+        &self,
+        parts: Range<usize>,
+        entries: &ShareEntries,
+    ) -> (Vec<Option<ShareError>>, Vec<f64>) {
+        let points: Vec<&[f64]> = (0..self.len()).map(|k| self.point(k)).collect();
         let apart = ShareApart {
             shares: splitter(self.shares),
             nderived: self.nderived,
             cache_len: self.cache_len,
             parallel: self.parallel,
         };
-        apart.evaluate(parts, &points.collect::<Vec<_>>())
+        apart.evaluate(parts, entries, &points)
+    }
+
+    /// Merges another share's outcome into every item: its `values` of `entries` where it
+    /// succeeded, and where it failed, its failure into `failures` if it comes before the
+    /// failure kept there (see [`ShareError::keep_first`]).
+    pub fn merge_share(
+        &mut self,
+        failures: &mut [Option<ShareError>],
+        entries: &ShareEntries,
+        (their_failures, values): (Vec<Option<ShareError>>, Vec<f64>),
+    ) {
+        let width = entries.len();
+        for (k, failure) in their_failures.into_iter().enumerate() {
+            match failure {
+                Some(f) => ShareError::keep_first(&mut failures[k], f),
+                None => self.store_share(k, entries, &values[k * width..(k + 1) * width]),
+            }
+        }
     }
 
     /// Stores into item `k` the `values` of another share's `entries`.
@@ -370,36 +406,19 @@ impl Batch<'_> {
     /// When the batch does not split by part.
     pub fn finish_shares(&mut self, failures: Vec<Option<ShareError>>) {
         let splitter = splitter(self.shares);
-        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
-        let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
-        let mut failures = failures.into_iter();
-        let mut items = Vec::with_capacity(self.slots.len());
-        let mut wanted = self.slots.iter().peekable();
-        for (s, ((d, c), e)) in self
-            .derived
-            .chunks_mut(dstride)
-            .zip(self.cache.chunks(cstride))
-            .zip(self.evals.iter_mut())
-            .enumerate()
-        {
-            if wanted.peek() == Some(&&s) {
-                wanted.next();
-                let failure = failures.next().expect("one failure slot per item");
-                let x = &self.proposals[s * ndim..(s + 1) * ndim];
-                items.push((x, &mut d[..nderived], &c[..cache_len], e, failure));
-            }
-        }
-        let finish =
-            |(x, d, c, e, failure): (&[f64], &mut [f64], &[f64], &mut Eval, Option<ShareError>)| {
-                *e = sort(match failure {
-                    Some(f) => Err(f.error),
-                    None => Ok(splitter.rest(x, d, c)),
-                });
-            };
-        if self.parallel {
-            items.into_par_iter().for_each(finish);
+        let parallel = self.parallel;
+        let finish = |((x, d, c, e), failure): (ItemMut, Option<ShareError>)| {
+            *e = sort(match failure {
+                Some(f) => Err(f.error),
+                None => Ok(splitter.rest(x, d, c)),
+            });
+        };
+        let items = self.items_mut();
+        assert_eq!(items.len(), failures.len(), "one failure slot per item");
+        if parallel {
+            items.into_par_iter().zip(failures).for_each(finish);
         } else {
-            items.into_iter().for_each(finish);
+            items.into_iter().zip(failures).for_each(finish);
         }
     }
 

@@ -218,7 +218,7 @@ pub(super) enum Changed<'b> {
 /// re-fitted runs and σ groups all have owners can be evaluated in shares of the independent
 /// blocks, each share fitting its own contacts' runs at the proposal (MPI's split of a
 /// material's update over the ranks that hold its contacts).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub(super) struct Owners {
     pub coord: Vec<Option<usize>>,
     pub run: Vec<Option<usize>>,

@@ -31,7 +31,6 @@ use super::super::offload::{Batch, Offload};
 use super::SamplerConfig;
 use super::{blocks_of, check_dims, fresh_carry_fits, slice_slots, EnsembleSampler};
 use crate::density::LogDensity;
-use crate::density::ShareError;
 use crate::sampler::share;
 
 /// The walkers' state as a run of independent blocks begins, for the other processes'
@@ -525,18 +524,9 @@ impl<D: LogDensity + ?Sized> Offload for ReplicaShares<'_, D> {
         self.split_batches += 1;
         let mut failures = batch.evaluate_share_here(share(parts, shares, 0));
         for r in 1..shares {
-            let (their_failures, values) = batch.evaluate_share_apart(share(parts, shares, r));
             let entries = batch.share_entries(share(parts, shares, r));
-            for (k, failure) in their_failures.into_iter().enumerate() {
-                match failure {
-                    Some(f) => ShareError::keep_first(&mut failures[k], f),
-                    None => batch.store_share(
-                        k,
-                        &entries,
-                        &values[k * entries.len()..(k + 1) * entries.len()],
-                    ),
-                }
-            }
+            let outcome = batch.evaluate_share_apart(share(parts, shares, r), &entries);
+            batch.merge_share(&mut failures, &entries, outcome);
         }
         batch.finish_shares(failures);
     }
