@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
 """Time per sweep of a campaign fit in one process and on MPI ranks (reports/mpi.md).
 
-Each configuration fits the campaign twice, for SHORT and LONG steps, with the same seed; the
+Each configuration fits the campaign twice, for SHORT and LONG steps (--steps), with the same seed; the
 time per sweep is the difference of the fits' sampling wall times (`summary.json`,
 sampler.wall_s) over the difference of steps, which removes the start and the summaries. On
 ranks, rank 0 prints the seconds it spent in MPI calls; the communication share is their
 difference over the difference of wall times. The configurations run interleaved, ROUNDS times,
 so that a change of the machine's load touches all of them alike.
 
-    python3 benches/mpi_sweep.py CAMPAIGN.toml OUT_DIR [--binary NAME=PATH ...] [--rounds 2]
+    python3 benches/mpi_sweep.py CAMPAIGN.toml OUT_DIR [--binary NAME=PATH ...] [--rounds 2] \
+        [--steps 20,80]
 
 CAMPAIGN.toml from `python3 data/make_campaign.py --contacts 50 --out DIR`. Each binary must
 be built with `--features mpi` (default: target/release/slipbayes, named "this"). Writes
@@ -24,7 +25,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-SHORT, LONG = 20, 80
+# Steps of the short and the long fit (--steps): the start's time varies from fit to fit, so a
+# campaign whose start is long next to 60 sweeps (one with pooling) needs a longer long fit.
+STEPS = "20,80"
 MPI_LINE = re.compile(
     r"rank 0 spent ([0-9.]+) s of its ([0-9.]+) s in MPI calls .*?, ([0-9]+) requests"
     r".*?, ([0-9.]+) MB"
@@ -70,7 +73,9 @@ def main():
     parser.add_argument("out", type=Path)
     parser.add_argument("--binary", action="append", default=[], help="NAME=PATH")
     parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--steps", default=STEPS, help="SHORT,LONG steps of the two fits")
     args = parser.parse_args()
+    short, long = (int(v) for v in args.steps.split(","))
     binaries = [b.split("=", 1) for b in args.binary] or [["this", "target/release/slipbayes"]]
     args.out.mkdir(parents=True, exist_ok=True)
     rows = {}
@@ -79,18 +84,18 @@ def main():
         for name, path in binaries:
             for label, prefix, env in configurations(str(Path(path).resolve())):
                 run = {}
-                for steps in (SHORT, LONG):
+                for steps in (short, long):
                     out = args.out / f"run-{len(rows)}-{steps}"
                     run[steps] = fit(prefix, env, args.model, out, steps)
-                (w0, m0, _), (w1, m1, summary) = run[SHORT], run[LONG]
+                (w0, m0, _), (w1, m1, summary) = run[short], run[long]
                 summaries.add((name, summary))
-                per_sweep = (w1 - w0) / (LONG - SHORT)
+                per_sweep = (w1 - w0) / (long - short)
                 share = None
                 if m0 and m1:
                     # MPI seconds over rank 0's whole wall time (its start included), both
                     # differenced between the long and the short fit.
                     share = (m1[0] - m0[0]) / (m1[1] - m0[1])
-                mb_per_sweep = (m1[3] - m0[3]) / (LONG - SHORT) if m0 and m1 else None
+                mb_per_sweep = (m1[3] - m0[3]) / (long - short) if m0 and m1 else None
                 rows.setdefault((name, label), []).append((per_sweep, share, mb_per_sweep))
                 print(
                     f"round {round_no}, {name}, {label}: {per_sweep:.4f} s per sweep"
@@ -111,7 +116,7 @@ def main():
     lines.append("")
     for name, one in same.items():
         lines.append(
-            f"- {name}: the {LONG}-step fits' summary.csv are "
+            f"- {name}: the {long}-step fits' summary.csv are "
             + ("byte-identical across configurations." if one else "NOT identical.")
         )
     table = "\n".join(lines) + "\n"

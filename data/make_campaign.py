@@ -8,6 +8,10 @@ table were measured on it.
 
     python3 data/make_campaign.py --contacts 10 --out /tmp/campaign-10
 
+--first-interval and --repeat-interval (s between points; 100 and 40 by default) make long
+records instead: `--first-interval 0.2` gives first slides of 100,001 points, which a fit
+reduces to sufficient statistics (reports/mpi.md measured memory per MPI rank on those).
+
 Deterministic: the same --contacts and --seed give the same files. α = 0.92 /µm and
 a/F_d = 0.62 as in the demo's PTFE; F_d ~ 10 mN × e^(0.15 N(0,1)), k ~ 1.2e4 N/m ×
 e^(0.2 N(0,1)), t0 ~ 15 s × e^(0.5 N(0,1)); σ = 0.1 mN.
@@ -28,13 +32,16 @@ def main():
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--binary", default="target/release/slipbayes")
+    ap.add_argument("--first-interval", default="100", help="s between a first slide's points")
+    ap.add_argument("--repeat-interval", default="40", help="s between a repeat slide's points")
     args = ap.parse_args()
     rng = random.Random(args.seed)
     out = args.out
     (out / "data").mkdir(parents=True, exist_ok=True)
     model = [
         f"# A simulated campaign of {args.contacts} PTFE-like contacts (data/make_campaign.py,",
-        f"# --contacts {args.contacts} --seed {args.seed}).",
+        f"# --contacts {args.contacts} --seed {args.seed} --first-interval {args.first_interval}"
+        f" --repeat-interval {args.repeat_interval}).",
         "",
         "[[material]]",
         'name = "M"',
@@ -51,8 +58,9 @@ def main():
         name = f"c{c:03}"
         model += ["", "[[contact]]", f'name = "{name}"', 'material = "M"']
         for scene, extra in [
-            ("first", ["--duration", "20000", "--interval", "100"]),
-            ("repeat", ["--after-first", "20000", "--duration", "2000", "--interval", "40"]),
+            ("first", ["--duration", "20000", "--interval", args.first_interval]),
+            ("repeat", ["--after-first", "20000", "--duration", "2000",
+                        "--interval", args.repeat_interval]),
         ]:
             csv = out / "data" / f"{name}-{scene}.csv"
             seed = str(args.seed * 100_000 + 10 * c + (scene == "repeat"))

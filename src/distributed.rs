@@ -19,11 +19,16 @@
 //!   density's order. Rank 0 merges them into the walkers' caches and finishes each proposal
 //!   from its cache, summing the per-contact terms in the one order a single process sums them
 //!   (not an MPI reduction, whose order of addition is not fixed).
-//! - **Every other update's proposals, by proposal.** The other half-steps' proposals (a
-//!   [`Batch`]: joint updates, blocks that do not split, exact draws) are split into contiguous
-//!   shares; rank 0 evaluates its own share and the other ranks, which hold the same posterior
-//!   and wait in [`Cluster::serve`], evaluate theirs and send the outcomes back. Each proposal
-//!   is evaluated by the same pure density from the same inputs wherever it runs.
+//! - **Every other update's proposals, on rank 0 or by proposal.** Before a fit's first
+//!   request rank 0 tells the other ranks which density to build ([`Offload::share_density`],
+//!   [`Cluster::receive_density`]): where every update that reads data is a contact's own or
+//!   splits by contact, each builds only its share (holding only its own contacts' data), and
+//!   rank 0 evaluates the other half-steps' proposals alone (a population's exact draws, which
+//!   read no data). Otherwise each builds the whole density, and the other half-steps'
+//!   proposals (a [`Batch`]: joint updates, blocks that do not split, exact draws) are split
+//!   into contiguous shares; rank 0 evaluates its own share and the other ranks, waiting in
+//!   [`Cluster::serve`], evaluate theirs and send the outcomes back. Each proposal is evaluated
+//!   by the same pure density from the same inputs wherever it runs.
 //!
 //! So the chains are the same bits for any number of ranks, including one process without MPI.
 //! A batch split by proposal is four collectives: a broadcast of its header, a scatter of the
@@ -118,6 +123,9 @@ const BLOCK_ALONE: u64 = 3;
 const PHASE: u64 = 4;
 /// A batch of a shared block's updates split by independent block ([`Batch::parts`]).
 const SHARES: u64 = 5;
+/// Which density the other ranks build, before a fit's first request
+/// ([`Offload::share_density`]).
+const DENSITY: u64 = 6;
 
 /// Tag of the messages of [`Cluster::send_to_root`] (the collectives use none).
 const RESULT_TAG: i32 = 7;
@@ -142,7 +150,22 @@ pub struct Cluster {
     /// sampler counts rejections under `&'static str` labels, of which a density has a few.
     labels: Vec<&'static str>,
     released: bool,
+    /// On rank 0: the other ranks hold only their share of the density
+    /// ([`Offload::share_density`]), so that only batches split by independent block go to them.
+    shared_density: bool,
     _universe: Universe,
+}
+
+/// What rank 0 tells the other ranks to build before a fit ([`Cluster::receive_density`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum DensityShare {
+    /// Rank 0 ended before its fit began (it failed, or ran no fit): build nothing.
+    Released,
+    /// The whole density, with all of the data.
+    Whole,
+    /// The share of the density that this rank's independent blocks read, from rank 0's
+    /// description of it.
+    Share(Vec<u64>),
 }
 
 // SAFETY: MPI is initialised at the `Serialized` thread level (checked in `init`): any thread
@@ -178,6 +201,7 @@ impl Cluster {
             stats: CommStats::default(),
             labels: Vec::new(),
             released: false,
+            shared_density: false,
             _universe: universe,
         })
     }
@@ -192,6 +216,12 @@ impl Cluster {
         self.world.size() as usize
     }
 
+    /// The positions of the independent blocks, of `parts`, that this rank updates and
+    /// evaluates (the contacts [r·C/R, (r+1)·C/R) of rank r).
+    pub fn own_parts(&self, parts: usize) -> std::ops::Range<usize> {
+        share(parts, self.size(), self.rank())
+    }
+
     /// Time and traffic of this rank's MPI calls so far.
     pub fn stats(&self) -> CommStats {
         self.stats
@@ -200,6 +230,38 @@ impl Cluster {
     /// Ends every rank of the job with `code` (after this rank has said why).
     pub fn abort(&self, code: i32) -> ! {
         self.world.abort(code)
+    }
+
+    /// On ranks other than 0, before a fit's [`serve`](Self::serve): which density to build,
+    /// as rank 0 tells with [`Offload::share_density`].
+    ///
+    /// # Errors
+    /// [`ClusterError::Replica`] when rank 0 sends a request first (it runs another command).
+    pub fn receive_density(&mut self) -> Result<DensityShare, ClusterError> {
+        let root = self.world.process_at_rank(0);
+        let mut header = [0u64; 6];
+        let started = Instant::now();
+        root.broadcast_into(&mut header[..]);
+        count(&mut self.stats, started, 48);
+        let [code, present, len, ..] = header;
+        match (code, present) {
+            (STOP, _) => Ok(DensityShare::Released),
+            (DENSITY, 0) => Ok(DensityShare::Whole),
+            (DENSITY, _) => {
+                let mut words = vec![0u64; len as usize];
+                let started = Instant::now();
+                root.broadcast_into(&mut words[..]);
+                count(&mut self.stats, started, 8 * words.len());
+                Ok(DensityShare::Share(words))
+            }
+            _ => Err(ClusterError::Replica {
+                rank: self.rank(),
+                message: format!(
+                    "rank 0 sent request {code} before saying which density to build; every \
+                     rank must run the same command"
+                ),
+            }),
+        }
     }
 
     /// On ranks other than 0: evaluates the shares of `density` that rank 0 sends until it
@@ -730,6 +792,25 @@ impl Cluster {
 }
 
 impl Offload for Cluster {
+    /// On rank 0: tells the other ranks, waiting in [`receive_density`](Cluster::receive_density),
+    /// which density to build.
+    fn share_density(&mut self, words: Option<&[u64]>) {
+        if self.size() == 1 {
+            return;
+        }
+        let root = self.world.process_at_rank(0);
+        let len = words.map_or(0, <[u64]>::len);
+        let mut header = [DENSITY, u64::from(words.is_some()), len as u64, 0, 0, 0];
+        let started = Instant::now();
+        root.broadcast_into(&mut header[..]);
+        if let Some(words) = words {
+            let mut words = words.to_vec();
+            root.broadcast_into(&mut words[..]);
+        }
+        count(&mut self.stats, started, 48 + 8 * len);
+        self.shared_density = words.is_some();
+    }
+
     /// Every rank updates a share of a run of independent blocks.
     fn phase_shares(&self) -> usize {
         self.size()
@@ -801,6 +882,11 @@ impl Offload for Cluster {
         }
         if batch.parts() > 0 {
             self.evaluate_by_part(batch);
+            return;
+        }
+        // The other ranks hold only their own contacts' data.
+        if self.shared_density {
+            batch.evaluate_here(0..batch.len());
             return;
         }
         let (kind, n) = (batch.kind(), batch.len());

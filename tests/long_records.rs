@@ -419,3 +419,102 @@ fn every_bins_remainder_is_within_its_estimate() {
         }
     }
 }
+
+/// Where each rank of an MPI job holds only its own contacts' data (`Posterior::share_of`),
+/// its long runs get the bins that the whole posterior chose, bit for bit, at the points rank 0
+/// hands it (they come from the whole posterior's start, which a share cannot compute), and
+/// its contacts' updates give the whole posterior's bits. Three contacts, each a first slide
+/// of 2 × 10⁴ points and a repeat slide of 10⁴, reduced above 5,000 points, cut 2 and 3 ways.
+#[test]
+fn a_share_of_the_data_reduces_its_long_runs_as_the_whole_posterior_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from("[[material]]\nname = \"m\"\n");
+    for c in 0..3 {
+        let slide = Slide {
+            f_d: PTFE.f_d * (1.0 + 0.1 * c as f64),
+            t0: PTFE.t0 * (1.0 + 0.3 * c as f64),
+            duration_s: 4_000.0,
+            ..PTFE
+        };
+        let (first, repeat) = slide.series();
+        first
+            .write_csv(&dir.path().join(format!("c{c}-first.csv")))
+            .unwrap();
+        repeat
+            .unwrap()
+            .write_csv(&dir.path().join(format!("c{c}-repeat.csv")))
+            .unwrap();
+        text += &format!("[[contact]]\nname = \"c{c}\"\nmaterial = \"m\"\n");
+        for scene in ["first", "repeat"] {
+            text += &format!(
+                "[[run]]\nname = \"c{c}-{scene}\"\ncontact = \"c{c}\"\ndata = \"c{c}-{scene}.csv\"\n\
+                 velocity_m_per_s = 1e-9\nscene = \"{scene}\"\n"
+            );
+        }
+    }
+    text += "[likelihood]\nexact_up_to = 5000\n[sampler]\nblocks = \"contact\"\n";
+    let path = dir.path().join("model.toml");
+    std::fs::write(&path, text).unwrap();
+    let spec = ModelSpec::load(&path).unwrap();
+    let whole = Posterior::new(&spec).unwrap();
+    let provenance = whole.data_provenance();
+    let binned = |p: &[slipbayes::data::Provenance]| -> Vec<bool> {
+        p.iter().map(|d| d.binning.is_some()).collect()
+    };
+    // Every slide is long (10⁴ points and more).
+    assert_eq!(binned(&provenance), [true; 6]);
+    let data_share = whole
+        .data_share()
+        .expect("by contact, each rank holds its contacts");
+
+    let independent = whole.independent_blocks();
+    let blocks = whole.blocks();
+    let x = whole.start().to_vec();
+    let (nd, nc) = (whole.derived_names().len(), whole.cache_len());
+    let (mut derived, mut cache) = (vec![0.0; nd], vec![0.0; nc]);
+    whole
+        .log_density_cached(&x, &mut derived, &mut cache)
+        .unwrap();
+    for shares in [2, 3] {
+        let mut held_by_some = vec![false; provenance.len()];
+        for r in 0..shares {
+            let own = |parts: usize| parts * r / shares..parts * (r + 1) / shares;
+            let share = Posterior::share_of(&spec, &data_share, own).unwrap();
+            let held: Vec<bool> = share
+                .data_provenance()
+                .iter()
+                .map(|d| d.points_read > 0)
+                .collect();
+            for (i, d) in share.data_provenance().iter().enumerate() {
+                if held[i] {
+                    assert_eq!(
+                        d.binning, provenance[i].binning,
+                        "run {i}, share {r}/{shares}"
+                    );
+                    held_by_some[i] = true;
+                }
+            }
+            for (k, &b) in independent.iter().enumerate() {
+                if !own(independent.len()).contains(&k) {
+                    continue;
+                }
+                let mut y = x.clone();
+                for &i in &blocks[b] {
+                    y[i] += 1e-3;
+                }
+                let (mut d_whole, mut c_whole) = (derived.clone(), cache.clone());
+                let lp_whole = whole.log_density_block(b, &y, &mut d_whole, &mut c_whole);
+                let (mut d, mut c) = (derived.clone(), cache.clone());
+                let lp = share.log_density_block(b, &y, &mut d, &mut c);
+                assert_eq!(
+                    lp.map(f64::to_bits),
+                    lp_whole.map(f64::to_bits),
+                    "block {b}, share {r}/{shares}"
+                );
+                let bits = |v: &[f64]| v.iter().map(|u| u.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&c), bits(&c_whole), "block {b}, share {r}/{shares}");
+            }
+        }
+        assert!(held_by_some.iter().all(|&h| h), "{shares} shares");
+    }
+}

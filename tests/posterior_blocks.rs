@@ -109,6 +109,7 @@ fn check_block_updates(label: &str, post: &Posterior) {
     }
     check_conditional_blocks(label, post, &x);
     check_split_updates(label, post, &x, &derived, &cache);
+    check_held_shares(label, post, &x, &derived, &cache);
     assert_eq!(
         post.log_density(&x, &mut derived).unwrap().to_bits(),
         lp.to_bits()
@@ -119,22 +120,24 @@ fn check_block_updates(label: &str, post: &Posterior) {
 /// ranks of an MPI job split it: the first share in place on the walker's derived values and
 /// cache, the others on buffers of NaN (a share must read nothing it does not compute) whose
 /// entries are then merged, and the rest finished from the merged cache.
+/// The other shares are evaluated by `apart` (share r by `apart[r - 1]`: the whole posterior,
+/// or the share of it that holds only share r's data).
 fn split_update(
     post: &Posterior,
+    apart: &[&Posterior],
     b: usize,
     y: &[f64],
     derived: &mut [f64],
     cache: &mut [f64],
-    shares: usize,
 ) -> Result<f64, LogDensityError> {
-    let parts = post.independent_blocks().len();
+    let (parts, shares) = (post.independent_blocks().len(), apart.len() + 1);
     let share = |r: usize| parts * r / shares..parts * (r + 1) / shares;
     let mut failure = post
         .log_density_block_share(b, share(0), y, derived, cache)
         .err();
     for r in 1..shares {
         let (mut d, mut c) = (vec![f64::NAN; derived.len()], vec![f64::NAN; cache.len()]);
-        match post.log_density_block_share(b, share(r), y, &mut d, &mut c) {
+        match apart[r - 1].log_density_block_share(b, share(r), y, &mut d, &mut c) {
             Ok(()) => {
                 let (d_entries, c_entries) = post.block_share_entries(b, share(r));
                 d_entries.iter().for_each(|&j| derived[j] = d[j]);
@@ -149,6 +152,70 @@ fn split_update(
     }
 }
 
+/// `post` cut `shares` ways as the ranks of an MPI job hold it: per share, the posterior that
+/// holds only the data of its independent blocks' runs; `None` when the model's updates need
+/// every run on every rank.
+fn data_shares(post: &Posterior, shares: usize) -> Option<Vec<Posterior>> {
+    let data_share = post.data_share()?;
+    let own = |r: usize| move |parts: usize| parts * r / shares..parts * (r + 1) / shares;
+    Some(
+        (0..shares)
+            .map(|r| Posterior::share_of(post.spec(), &data_share, own(r)).unwrap())
+            .collect(),
+    )
+}
+
+/// Where the model lets each rank hold only its contacts' data: the shares hold every run once
+/// between them, each fewer than all; a share updates its own independent blocks with the
+/// whole posterior's bits (log-density, derived values, cache) and refuses another's, naming
+/// the run it does not hold.
+fn check_held_shares(label: &str, post: &Posterior, x: &[f64], derived: &[f64], cache: &[f64]) {
+    let (blocks, links) = (post.blocks(), post.block_links());
+    let independent = post.independent_blocks();
+    let mut rng = ChaCha8Rng::seed_from_u64(13);
+    for shares in [2, 3] {
+        let Some(own) = data_shares(post, shares) else {
+            return;
+        };
+        let runs = post.held_runs().1;
+        let held: Vec<usize> = own.iter().map(|p| p.held_runs().0).collect();
+        assert_eq!(held.iter().sum::<usize>(), runs, "{label}: {held:?}");
+        assert!(held.iter().all(|&h| h < runs), "{label}: {held:?}");
+        let parts = independent.len();
+        for (r, share_post) in own.iter().enumerate() {
+            let mine = parts * r / shares..parts * (r + 1) / shares;
+            for (k, &b) in independent.iter().enumerate() {
+                let mut y = x.to_vec();
+                for &i in blocks[b].iter().chain(&links[b].followers) {
+                    y[i] += 0.01 * rng.random::<f64>() - 0.005;
+                }
+                let (mut d_whole, mut c_whole) = (derived.to_vec(), cache.to_vec());
+                let whole = post.log_density_block(b, &y, &mut d_whole, &mut c_whole);
+                let (mut d, mut c) = (derived.to_vec(), cache.to_vec());
+                let held = share_post.log_density_block(b, &y, &mut d, &mut c);
+                let at = format!("{label}: block {b}, share {r} of {shares}");
+                if !mine.contains(&k) {
+                    let Err(LogDensityError::Fatal { message }) = held else {
+                        panic!("{at}: {held:?}");
+                    };
+                    assert!(message.contains("held by another rank"), "{at}: {message}");
+                    continue;
+                }
+                let whole = whole.unwrap_or_else(|e| panic!("{at}: {e}"));
+                assert_eq!(held.map(f64::to_bits), Ok(whole.to_bits()), "{at}");
+                for (j, (u, v)) in d.iter().zip(&d_whole).enumerate() {
+                    assert!(
+                        same(*u, *v),
+                        "{at}: {}: {u} vs {v}",
+                        post.derived_names()[j]
+                    );
+                }
+                assert!(c.iter().zip(&c_whole).all(|(u, v)| same(*u, *v)), "{at}");
+            }
+        }
+    }
+}
+
 /// Every block whose update splits by independent block: split into 1, 2 and 3 shares, its
 /// update from `x` gives the log-density, derived values and cache of the whole update bit for
 /// bit, and where it fails (a coordinate moved far), the same failure.
@@ -156,6 +223,18 @@ fn check_split_updates(label: &str, post: &Posterior, x: &[f64], derived: &[f64]
     let blocks = post.blocks();
     let links = post.block_links();
     let mut rng = ChaCha8Rng::seed_from_u64(11);
+    // Every other share evaluated by the whole posterior, then by one that holds only that
+    // share's data (as the ranks of an MPI job hold them, where the model lets them).
+    let held: Vec<(usize, Vec<Posterior>)> = (2..=3)
+        .filter_map(|shares| Some((shares, data_shares(post, shares)?)))
+        .collect();
+    let mut tries: Vec<(usize, Vec<&Posterior>, &str)> = (1..=3)
+        .map(|shares| (shares, vec![post; shares - 1], "whole"))
+        .collect();
+    tries.extend(
+        held.iter()
+            .map(|(shares, own)| (*shares, own[1..].iter().collect(), "its own data")),
+    );
     for b in (0..blocks.len()).filter(|&b| post.block_splits(b)) {
         for far in [false, true] {
             let mut y = x.to_vec();
@@ -168,10 +247,11 @@ fn check_split_updates(label: &str, post: &Posterior, x: &[f64], derived: &[f64]
             let (mut d_whole, mut c_whole) = (derived.to_vec(), cache.to_vec());
             let whole = post.log_density_block(b, &y, &mut d_whole, &mut c_whole);
             assert_eq!(whole.is_err(), far, "{label}: block {b}: {whole:?}");
-            for shares in 1..=3 {
+            for (shares, apart, holding) in &tries {
+                let shares = *shares;
                 let (mut d, mut c) = (derived.to_vec(), cache.to_vec());
-                let split = split_update(post, b, &y, &mut d, &mut c, shares);
-                let at = format!("{label}: block {b} in {shares} shares, far {far}");
+                let split = split_update(post, apart, b, &y, &mut d, &mut c);
+                let at = format!("{label}: block {b} in {shares} shares ({holding}), far {far}");
                 match (&whole, &split) {
                     (Ok(w), Ok(s)) => {
                         assert_eq!(w.to_bits(), s.to_bits(), "{at}");
@@ -395,6 +475,8 @@ fn block_updates_equal_full_evaluations_in_every_variant() {
                 let splits = (0..post.blocks().len()).any(|b| post.block_splits(b));
                 let tied = post.independent_blocks().is_empty();
                 assert_eq!(splits, !tied, "{name} by {blocks}");
+                // And then each rank of an MPI job can hold only its contacts' data.
+                assert_eq!(post.data_share().is_some(), !tied, "{name} by {blocks}");
             }
         }
     }

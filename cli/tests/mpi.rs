@@ -110,7 +110,19 @@ fn chains_are_the_same_bits_on_one_process_and_on_1_2_and_3_ranks() {
         if ranks > 1 {
             // The requests really went to the other ranks.
             assert!(err.contains(&format!("MPI: {ranks} ranks")), "{err}");
-            assert!(err.contains("rank 1 served"), "{err}");
+            // Each rank other than 0 held the data of its own contacts' runs only: of 3
+            // contacts, 1 or 2 (2 or 4 of the 6 runs).
+            for rank in 1..ranks {
+                let at = format!("rank {rank} held the data of ");
+                let held = err
+                    .find(&at)
+                    .map(|i| &err[i + at.len()..])
+                    .and_then(|rest| rest.split(' ').next()?.parse::<usize>().ok());
+                assert!(
+                    matches!(held, Some(2 | 4)) && err.contains(" of 6 runs, served "),
+                    "rank {rank}: {err}"
+                );
+            }
             // The contacts' blocks were updated in shares on every rank, once per step: 150
             // runs, merged into the chains of one process.
             assert!(
@@ -145,6 +157,100 @@ fn chains_are_the_same_bits_on_one_process_and_on_1_2_and_3_ranks() {
         assert_eq!(
             std::fs::read_dir(run.join("chains")).unwrap().count(),
             std::fs::read_dir(alone.join("chains")).unwrap().count()
+        );
+    }
+}
+
+/// A campaign of long records: each rank other than 0 holds only its contacts' runs and
+/// reduces them to sufficient statistics at the reference points rank 0 sends it (which come
+/// from the whole posterior's start); the chains are one process's bits on 2 and 3 ranks.
+/// Three contacts, each a first slide of 2 × 10⁴ points and a repeat slide of 10⁴.
+#[test]
+fn long_records_held_by_their_ranks_give_the_chains_of_one_process() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut model = String::from("[[material]]\nname = \"M\"\n");
+    for c in 1..=3 {
+        let f_d = format!("{:e}", 1e-2 * (1.0 + 0.1 * c as f64));
+        let t0 = (10 * c).to_string();
+        model += &format!("[[contact]]\nname = \"c{c}\"\nmaterial = \"M\"\n");
+        for (scene, extra) in [
+            ("first", ["--duration", "4000"]),
+            ("repeat", ["--after-first", "4000"]),
+        ] {
+            let csv = dir.path().join(format!("c{c}-{scene}.csv"));
+            let seed = (10 * c + usize::from(scene == "repeat")).to_string();
+            let a = format!("{:e}", 0.62 * 1e-2 * (1.0 + 0.1 * c as f64));
+            let args = [
+                "simulate",
+                "--scene",
+                scene,
+                "--alpha",
+                "0.92e6",
+                "--a",
+                &a,
+                "--f-d",
+                &f_d,
+                "--t0",
+                &t0,
+                "--k",
+                "1.2e4",
+                "--velocity",
+                "1e-9",
+                "--sigma",
+                "1e-4",
+                "--interval",
+                "0.2",
+                "--seed",
+                &seed,
+            ];
+            let out = Command::new(slipbayes())
+                .args(args)
+                .args(extra)
+                .args(if scene == "repeat" {
+                    &["--duration", "2000"][..]
+                } else {
+                    &[]
+                })
+                .arg("--out")
+                .arg(&csv)
+                .output()
+                .unwrap();
+            check(out, "simulating a long record");
+            model += &format!(
+                "[[run]]\nname = \"c{c}-{scene}\"\ncontact = \"c{c}\"\ndata = \"c{c}-{scene}.csv\"\n\
+                 velocity_m_per_s = 1e-9\nscene = \"{scene}\"\n"
+            );
+        }
+    }
+    let path = dir.path().join("long.toml");
+    std::fs::write(&path, model).unwrap();
+    let args = |out: &Path| -> Vec<String> {
+        let mut args = fit_args(out, 30);
+        args[1] = path.display().to_string();
+        args
+    };
+    let alone = dir.path().join("alone");
+    check(
+        Command::new(slipbayes())
+            .args(args(&alone))
+            .output()
+            .unwrap(),
+        "the single-process fit of long records",
+    );
+    let summary = std::fs::read_to_string(alone.join("summary.json")).unwrap();
+    // Every run was reduced.
+    assert_eq!(summary.matches("\"binning\": {").count(), 6, "{summary}");
+    for ranks in ranks_to_try().into_iter().filter(|&r| r > 1) {
+        let run = dir.path().join(format!("long-{ranks}"));
+        let err = check(
+            mpirun(ranks).args(args(&run)).output().unwrap(),
+            &format!("the fit of long records on {ranks} ranks"),
+        );
+        assert!(err.contains("rank 1 held the data of "), "{err}");
+        assert!(!err.contains("rank 1 held the data of 6 of 6"), "{err}");
+        assert!(
+            chain_bits(&run) == chain_bits(&alone),
+            "{ranks} ranks: the chains of long records differ from one process's"
         );
     }
 }

@@ -237,6 +237,15 @@ pub fn fit_model_offloaded(
     let out = lock.dir();
     let dir = RunDir::new(out);
     let spec = posterior.spec();
+    // Joint updates never split by contact: a process holding a share of the data would idle.
+    let mut offload = offload;
+    if let Some(o) = offload.as_deref_mut() {
+        let share = match settings.updates {
+            Updates::Joint => None,
+            Updates::Blocked | Updates::Hierarchical => posterior.data_share(),
+        };
+        o.share_density(share.map(|s| s.to_words()).as_deref());
+    }
     let mut outcome = run_fit_offloaded(
         posterior,
         &summary_spec(posterior),

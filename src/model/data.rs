@@ -92,6 +92,37 @@ impl RunData {
         Self::prepare(imported, &path, &r.name, &r.data, selection, r.scene)
     }
 
+    /// A stand-in for run `run` of `spec` whose data another process holds (a rank of an MPI
+    /// job holds only its share of the contacts): no observations, only what the model reads
+    /// of them besides: their count `n_obs` (the likelihood of a sampled or integrated σ
+    /// reads it) and the mean recorded normal force (the static coefficient's column), as
+    /// its only value.
+    pub fn held_elsewhere(
+        spec: &ModelSpec,
+        run: usize,
+        n_obs: usize,
+        mean_normal_force: Option<f64>,
+    ) -> Self {
+        let r = &spec.file.runs[run];
+        Self {
+            model_times: Vec::new(),
+            force: Vec::new(),
+            n_obs,
+            normal_force: mean_normal_force.map(|f| vec![f]),
+            provenance: Provenance {
+                run: r.name.clone(),
+                file: r.data.display().to_string(),
+                format: String::new(),
+                points_read: 0,
+                points_used: n_obs,
+                dropped_invalid: 0,
+                window_s: r.window_s,
+                binning: None,
+                conversions: Vec::new(),
+            },
+        }
+    }
+
     /// The data of run `run` of `spec` from a series already in memory (the run's data file
     /// is not read): the run's window applies as it would to the file.
     ///

@@ -21,6 +21,7 @@ pub mod sufficient;
 
 pub use one_contact::OneContact;
 pub use posterior::{
-    Band, ModelLoo, PointwiseError, Posterior, PosteriorError, PriorDraw, PriorDrawError,
+    Band, DataShare, DataShareError, ModelLoo, PointwiseError, Posterior, PosteriorError,
+    PriorDraw, PriorDrawError,
 };
 pub use spec::{Blocking, LikelihoodSpec, ModelFile, ModelSpec, PopulationUpdates, SpecError};

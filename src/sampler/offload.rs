@@ -489,4 +489,15 @@ pub trait Offload: Send {
     fn gather_phase(&mut self) -> Vec<PhaseOutcome> {
         Vec::new()
     }
+
+    /// Before the first batch: tells the other processes which density to build. `Some(words)`
+    /// (a description that only the density's own code reads): each builds the share of it
+    /// that its own independent blocks read and holds only that share's data, so that it can
+    /// update only its share of a run of independent blocks and evaluate only its share of a
+    /// batch split by independent block ([`Batch::parts`]); every other batch must then be
+    /// evaluated in this process. `None`: each builds all of it. The default (no other
+    /// processes) does nothing.
+    fn share_density(&mut self, words: Option<&[u64]>) {
+        let _ = words;
+    }
 }

@@ -1,6 +1,7 @@
 //! The command line under `mpirun` (feature `mpi`): rank 0 runs the command as one process
-//! would, with its evaluations shared by every rank; the other ranks load the same model and
-//! serve evaluations until rank 0 releases them (see `slipbayes::distributed`).
+//! would, with its evaluations shared by every rank; the other ranks load the same model, and
+//! the data rank 0 tells them to (their own contacts', or all), and serve evaluations until
+//! rank 0 releases them (see `slipbayes::distributed`).
 //!
 //! `fit` and `demo` run on several ranks, and `mpi-latency` measures the collectives they use;
 //! `validate` deals its replications over the ranks instead (every rank fits its own, rank 0
@@ -13,8 +14,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 
-use slipbayes::distributed::Cluster;
-use slipbayes::model::Posterior;
+use slipbayes::distributed::{Cluster, DensityShare};
+use slipbayes::model::{DataShare, Posterior};
 use slipbayes::sampler::Offload;
 
 use super::{error_lines, exit_code, fit, validate, Cli, Command};
@@ -141,16 +142,26 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
             return Ok(());
         }
     };
-    let posterior =
-        Posterior::new(&spec).with_context(|| format!("rank {rank}: loading the model"))?;
     let started = std::time::Instant::now();
+    let loading = || format!("rank {rank}: loading the model");
+    // Rank 0 says whether this rank holds only its share of the contacts' data.
+    let posterior = match cluster.receive_density()? {
+        DensityShare::Released => return Ok(()),
+        DensityShare::Whole => Posterior::new(&spec).with_context(loading)?,
+        DensityShare::Share(words) => {
+            let data_share = DataShare::from_words(&words).with_context(loading)?;
+            let own = |parts| cluster.own_parts(parts);
+            Posterior::share_of(&spec, &data_share, own).with_context(loading)?
+        }
+    };
     cluster.serve(&posterior)?;
     let wall = started.elapsed().as_secs_f64();
     let stats = cluster.stats();
+    let (held, runs) = posterior.held_runs();
     say(format!(
-        "MPI: rank {rank} served {} requests ({} runs of contacts' blocks, {} batches of shared \
-         updates split by contact), {:.1} % of its {wall:.3} s in MPI calls (waiting for rank 0 \
-         included){}",
+        "MPI: rank {rank} held the data of {held} of {runs} runs, served {} requests ({} runs of \
+         contacts' blocks, {} batches of shared updates split by contact), {:.1} % of its \
+         {wall:.3} s in MPI calls (waiting for rank 0 included){}",
         stats.requests,
         stats.runs,
         stats.shared,

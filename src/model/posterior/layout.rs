@@ -393,6 +393,7 @@ impl<'a> Builder<'a> {
             follows: spec.run_follows[i],
             normal_force,
             reduction: None,
+            held: true,
         }
     }
 

@@ -71,6 +71,9 @@ pub(super) struct RunModel {
     /// A long run's observations as bins of sufficient statistics (`long_records`); `None`:
     /// every observation is evaluated.
     pub reduction: Option<Reduction>,
+    /// Whether this process holds the run's data (see `share`): a rank of an MPI job holds
+    /// only its share of the contacts', and fitting another's is a fault.
+    pub held: bool,
 }
 
 /// The fit of one run at a point: its sum of squared residuals and the model force at its last
@@ -342,6 +345,13 @@ impl Posterior {
         last: &mut [f64],
     ) -> Result<(), LogDensityError> {
         let r = &self.runs[i];
+        if !r.held {
+            return Err(LogDensityError::fatal(format!(
+                "run `{}`: its data are held by another rank of the MPI job; this rank holds \
+                 only its share of the contacts",
+                r.name
+            )));
+        }
         let fit = r
             .residuals(x, r.follows.map(|j| last[j]))
             .map_err(law_rejection)?;

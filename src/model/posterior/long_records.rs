@@ -60,22 +60,13 @@ impl Posterior {
     /// reduction. Leaves the rough start computed. A run whose bins cannot be
     /// chosen (no reference point where its model can be evaluated, no noise) stays exact.
     pub(super) fn reduce_long_runs(&mut self) {
-        let points: Vec<usize> = self.runs.iter().map(|r| r.data.n_obs).collect();
-        let long: Vec<(usize, f64)> = self
-            .spec
-            .reduction_tolerances(&points)
-            .into_iter()
-            .enumerate()
-            // A rate-and-state slide is an ODE solved over the whole record, whose cost does
-            // not fall with fewer evaluation times as a closed form's does: it stays exact.
-            .filter(|&(i, _)| self.runs[i].law.in_interface_time())
-            .filter_map(|(i, tolerance)| tolerance.map(|t| (i, t)))
-            .collect();
+        let long = self.long_runs();
         if long.is_empty() {
             return;
         }
         let start = self.heuristic_start();
         self.install_reductions(&long, std::slice::from_ref(&start.point));
+        self.reduced_at = vec![start.point.clone()];
         let dim = self.coords.len();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(REFERENCE_SEED);
         if let Ok(found) =
@@ -98,14 +89,29 @@ impl Posterior {
                 );
             }
             self.install_reductions(&long, &references);
+            self.reduced_at = references;
         }
         // The start depends on the data alone: the reduced posterior's is this one.
         let _ = self.start.set(start);
     }
 
+    /// The long runs, each with its tolerance: from the runs' observation counts alone.
+    pub(super) fn long_runs(&self) -> Vec<(usize, f64)> {
+        let points: Vec<usize> = self.runs.iter().map(|r| r.data.n_obs).collect();
+        self.spec
+            .reduction_tolerances(&points)
+            .into_iter()
+            .enumerate()
+            // A rate-and-state slide is an ODE solved over the whole record, whose cost does
+            // not fall with fewer evaluation times as a closed form's does: it stays exact.
+            .filter(|&(i, _)| self.runs[i].law.in_interface_time())
+            .filter_map(|(i, tolerance)| tolerance.map(|t| (i, t)))
+            .collect()
+    }
+
     /// Chooses the bins of each of the `long` runs (with its tolerance) at `references`, on
     /// every core, and installs them (or none).
-    fn install_reductions(&mut self, long: &[(usize, f64)], references: &[Vec<f64>]) {
+    pub(super) fn install_reductions(&mut self, long: &[(usize, f64)], references: &[Vec<f64>]) {
         let planned: Vec<Option<(Reduction, Binning)>> = long
             .par_iter()
             .map(|&(i, tolerance)| self.plan_run(i, tolerance, references))

@@ -27,6 +27,7 @@ mod long_records;
 mod pointwise;
 mod predictive;
 mod prior_predictive;
+mod share;
 mod sigma;
 mod start;
 
@@ -49,6 +50,7 @@ pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_RATE_STATE, REJE
 pub use pointwise::{ModelLoo, PointwiseError};
 pub use predictive::Band;
 pub use prior_predictive::{PriorDraw, PriorDrawError};
+pub use share::{DataShare, DataShareError};
 
 /// The posterior of a validated model with its data loaded.
 #[derive(Debug, Clone)]
@@ -77,6 +79,9 @@ pub struct Posterior {
     contact_fd: Vec<Option<usize>>,
     /// The optimiser's start, computed on first use (it fits every slide on its own).
     start: OnceLock<start::StartPoint>,
+    /// The parameter points the long runs' bins were chosen at (`long_records`; empty when
+    /// no run is long): a process that holds a share of the data chooses its runs' bins there.
+    reduced_at: Vec<Vec<f64>>,
 }
 
 /// Errors building a posterior.
@@ -116,6 +121,13 @@ impl Posterior {
     /// [`PosteriorError::Model`] when the number of data sets is not the number of runs, or
     /// the model has more than [`MAX_RUNS`] runs.
     pub fn from_data(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
+        let mut posterior = Self::unreduced(spec, data)?;
+        posterior.reduce_long_runs();
+        Ok(posterior)
+    }
+
+    /// The posterior of `spec` over `data` with every run exact (no long run reduced yet).
+    fn unreduced(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
         check_run_count(spec)?;
         if data.len() != spec.file.runs.len() {
             return Err(PosteriorError::Model {
@@ -152,7 +164,7 @@ impl Posterior {
             &layout.runs,
             &group_runs,
         );
-        let mut posterior = Self {
+        Ok(Self {
             spec: spec.clone(),
             coords: layout.coords,
             quantities: layout.quantities,
@@ -167,9 +179,8 @@ impl Posterior {
             materials: layout.materials,
             contact_fd: layout.contact_fd,
             start: OnceLock::new(),
-        };
-        posterior.reduce_long_runs();
-        Ok(posterior)
+            reduced_at: Vec::new(),
+        })
     }
 
     /// Whether block `b` holds populations (each a pooled parameter's μ and ln s in a material).
