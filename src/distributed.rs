@@ -236,7 +236,8 @@ impl Cluster {
     /// as rank 0 tells with [`Offload::share_density`].
     ///
     /// # Errors
-    /// [`ClusterError::Replica`] when rank 0 sends a request first (it runs another command).
+    /// [`ClusterError::Replica`] when rank 0 sends another request first (it runs another
+    /// command).
     pub fn receive_density(&mut self) -> Result<DensityShare, ClusterError> {
         let root = self.world.process_at_rank(0);
         let mut header = [0u64; 6];

@@ -7,8 +7,9 @@
 //! (the likelihood of a sampled or integrated σ reads it) and the normal force (whether the run
 //! reports a static coefficient). Rank 0 hands it, in a [`DataShare`], those and what it cannot
 //! compute from its share: the parameter points at which the long runs' bins were chosen
-//! (`long_records`), which come from the whole posterior's start. At those points its long runs get the same bins, bit for bit, as in the whole
-//! posterior, so that every term it evaluates is the whole posterior's.
+//! (`long_records`), which come from the whole posterior's start. At those points its long runs
+//! get the same bins, bit for bit, as in the whole posterior, so that every term it evaluates
+//! is the whole posterior's.
 
 use std::ops::Range;
 
