@@ -28,8 +28,9 @@ use super::super::ensemble::{Ensemble, EnsembleState, Fatal, UpdateBlock};
 use super::super::error::SamplerError;
 use super::super::moves::SLICE_MU0;
 use super::super::offload::{Batch, Offload};
+use super::plan::{blocks_of, check_dims, fresh_carry_fits, slice_slots};
+use super::EnsembleSampler;
 use super::SamplerConfig;
-use super::{blocks_of, check_dims, fresh_carry_fits, slice_slots, EnsembleSampler};
 use crate::density::LogDensity;
 use crate::sampler::share;
 
