@@ -17,9 +17,10 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use posteriordb_models::{
-    cases, compare, default_settings, eight_schools_centered, fit, Case, Check, Reference, K_MCSE,
+    cases, compare, default_settings, eight_schools_centered, fit, Case, CaseDensity, Check,
+    Reference, K_MCSE,
 };
-use slipbayes::density::LogDensity;
+use slipbayes::density::{BlockUpdate, PlannedBlock};
 use slipbayes::fit::{FitOutcome, FitSettings};
 use slipbayes::sampler::{Move, Steps, Updates, MOVE_NAMES};
 
@@ -81,18 +82,29 @@ fn moves_label(moves: &[(Move, f64)]) -> String {
         .join(", ")
 }
 
-fn updates_label(density: &dyn LogDensity, updates: Updates) -> String {
-    let blocks = density.blocks();
-    if blocks.len() <= 1 || updates == Updates::Joint {
+fn updates_label(density: &dyn CaseDensity, updates: Updates) -> String {
+    let Some(plan) = density.plan().filter(|p| p.blocks.len() > 1) else {
+        return "joint".into();
+    };
+    if updates == Updates::Joint {
         return "joint".into();
     }
-    let sizes: Vec<String> = blocks.iter().map(|b| b.len().to_string()).collect();
-    let exact = density.conditional_blocks();
+    let sizes: Vec<String> = plan
+        .blocks
+        .iter()
+        .map(|b| b.coords.len().to_string())
+        .collect();
     let mut label = format!("{} blocks of {}", updates.as_str(), sizes.join("+"));
-    if !exact.is_empty() {
+    let exact = |b: &PlannedBlock| matches!(b.update, BlockUpdate::Exact { .. });
+    if plan.blocks.iter().any(exact) {
         label.push_str(", population drawn exactly");
     }
-    if (0..blocks.len()).any(|b| density.carries_followers(b)) {
+    let carried = |b: &PlannedBlock| match &b.update {
+        BlockUpdate::Moves { carry } => carry.is_some(),
+        BlockUpdate::Exact { carry, .. } => carry.is_some(),
+        BlockUpdate::Independent { .. } => false,
+    };
+    if plan.blocks.iter().any(carried) {
         label.push_str(" and carried non-centred");
     }
     label
@@ -394,7 +406,7 @@ const NOTES: &str = "
   funnel's width changes by orders of magnitude along τ, and no single affine map of the
   walkers fits both its neck and its mouth, so the walkers rarely enter the neck. Declaring
   the population (μ, ln τ) as a block whose conditional is drawn exactly and whose moves carry
-  θ along the non-centred map (the density's `conditional_blocks` and `carry_followers`, as
+  θ along the non-centred map (the density's `ExactConditional` and `CarryFollowers`, as
   the friction model's pooled parameters do) converges in 1,500 steps, within 2.1 MCSE of the
   reference everywhere; the non-centred program needs no help (1,300 steps). (Its sd of τ equal
   to the reference's to five digits is a coincidence: 3.198480 against 3.198478.)

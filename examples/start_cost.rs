@@ -18,6 +18,7 @@ use std::time::Instant;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use slipbayes::data::ImportOptions;
+use slipbayes::density::Target;
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
@@ -76,11 +77,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let posterior = Posterior::from_data(&spec, data)?;
         let setup = started.elapsed().as_secs_f64();
         let started = Instant::now();
-        let start = posterior.start().to_vec();
+        let search = posterior.search_start();
         let rough = started.elapsed().as_secs_f64();
         let started = Instant::now();
         let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let walkers = initial_around_optimum(&posterior, &start, 16, 4, &mut rng)?;
+        let walkers = initial_around_optimum(Target::blocked(&posterior), search, 16, 4, &mut rng)?;
         let mode = started.elapsed().as_secs_f64();
         let evaluations = walkers.optimum.evaluations;
         println!(

@@ -58,7 +58,9 @@ use mpi::traits::*;
 use mpi::Count;
 use thiserror::Error;
 
-use crate::density::{Eval, LogDensity, LogDensityError, ShareError};
+use crate::density::{
+    BlockPlan, BlockUpdate, Eval, LogDensity, LogDensityError, ShareError, Target,
+};
 use crate::sampler::{
     share, Batch, BlockShares, EnsembleSampler, EvalKind, Offload, PhaseOutcome, PhaseRequest,
     SamplerConfig, ShareApart, ShareEntries,
@@ -118,7 +120,7 @@ pub struct CommStats {
 const STOP: u64 = 0;
 const FULL: u64 = 1;
 const BLOCK: u64 = 2;
-const BLOCK_ALONE: u64 = 3;
+const EXACT_DRAW: u64 = 3;
 /// A run of independent blocks to update in shares ([`Offload::send_phase`]).
 const PHASE: u64 = 4;
 /// A batch of a shared block's updates split by independent block ([`Batch::parts`]).
@@ -126,6 +128,10 @@ const SHARES: u64 = 5;
 /// Which density the other ranks build, before a fit's first request
 /// ([`Offload::share_density`]).
 const DENSITY: u64 = 6;
+/// A batch of updates of an independent block, each item carrying the block's own entries.
+const OWN: u64 = 7;
+/// A batch of whole evaluations that fill the walkers' state.
+const FULL_WITH_STATE: u64 = 8;
 
 /// Tag of the messages of [`Cluster::send_to_root`] (the collectives use none).
 const RESULT_TAG: i32 = 7;
@@ -271,13 +277,14 @@ impl Cluster {
     /// # Errors
     /// [`ClusterError::Mismatch`] when rank 0 samples another density (the caller must then
     /// [`abort`](Self::abort): rank 0 waits for this rank's share).
-    pub fn serve<D: LogDensity + ?Sized>(&mut self, density: &D) -> Result<(), ClusterError> {
-        let (ndim, nderived, cache_len) = (
-            density.dim(),
-            density.derived_names().len(),
-            density.cache_len(),
-        );
+    pub fn serve<D: LogDensity + ?Sized>(
+        &mut self,
+        target: Target<'_, D>,
+    ) -> Result<(), ClusterError> {
+        let density = target.density();
+        let ndim = density.dim();
         let rank = self.rank();
+        let plan = target.blocked_density().map(|b| b.block_plan());
         // The sampler replica that updates this rank's shares of runs of independent blocks,
         // built at the first (and rebuilt should the configuration change).
         let mut replica: Option<EnsembleSampler<'_, D>> = None;
@@ -292,11 +299,17 @@ impl Cluster {
                 STOP => return Ok(()),
                 // The replica checks the walkers' shape against this rank's posterior.
                 PHASE => {
-                    self.update_share(density, &mut replica, block as usize, items as usize)?;
+                    self.update_share(target, &mut replica, block as usize, items as usize)?;
+                    continue;
+                }
+                SHARES => {
+                    self.evaluate_share(target, plan.as_ref(), block as usize, items as usize)?;
                     continue;
                 }
                 _ => {}
             }
+            let (kind, (nderived, cache_len)) =
+                remote_kind(rank, code, block as usize, target, plan.as_ref())?;
             for (what, root, here) in [
                 ("coordinates", root_ndim, ndim),
                 ("derived values", root_nderived, nderived),
@@ -311,15 +324,6 @@ impl Cluster {
                     });
                 }
             }
-            let kind = match code {
-                FULL => EvalKind::Full,
-                BLOCK => EvalKind::Block(block as usize),
-                SHARES => {
-                    self.evaluate_share(density, block as usize, items as usize)?;
-                    continue;
-                }
-                _ => EvalKind::BlockAlone(block as usize),
-            };
             let share = share(items as usize, self.size(), rank);
             let mine = share.len();
             let input = input_len(kind, ndim, nderived, cache_len);
@@ -334,7 +338,7 @@ impl Cluster {
             let mut cache = vec![0.0; mine * cstride];
             for (k, item) in received.chunks_exact(input.max(1)).take(mine).enumerate() {
                 proposals[k * ndim..(k + 1) * ndim].copy_from_slice(&item[..ndim]);
-                if kind.reads_cache() {
+                if kind.reads_state() {
                     derived[k * dstride..k * dstride + nderived]
                         .copy_from_slice(&item[ndim..ndim + nderived]);
                     cache[k * cstride..k * cstride + cache_len]
@@ -351,6 +355,8 @@ impl Cluster {
                 ndim,
                 nderived,
                 cache_len,
+                derived_stride: dstride,
+                state_stride: cstride,
                 slots: &slots,
                 proposals: &proposals,
                 derived: &mut derived,
@@ -390,24 +396,33 @@ impl Cluster {
     /// share failed, the failure and its position).
     fn evaluate_share<D: LogDensity + ?Sized>(
         &mut self,
-        density: &D,
+        target: Target<'_, D>,
+        plan: Option<&BlockPlan>,
         block: usize,
         items: usize,
     ) -> Result<(), ClusterError> {
         let rank = self.rank();
-        if !density.block_splits(block) {
-            return Err(ClusterError::Replica {
+        let split = plan
+            .and_then(|p| p.blocks.get(block))
+            .and_then(|b| b.split)
+            .ok_or_else(|| ClusterError::Replica {
                 rank,
                 message: format!(
                     "rank 0 splits updates of block {block} by contact, which this rank's \
                      posterior does not; every rank must load the same model"
                 ),
-            });
-        }
+            })?;
+        let parts = plan.map_or(0, |p| {
+            p.blocks
+                .iter()
+                .filter(|b| matches!(b.update, BlockUpdate::Independent { .. }))
+                .count()
+        });
+        let density = target.density();
         let (ndim, nderived, cache_len) = (
             density.dim(),
             density.derived_names().len(),
-            density.cache_len(),
+            target.blocked_density().map_or(0, |b| b.state_len()),
         );
         let root = self.world.process_at_rank(0);
         let mut proposals = vec![0.0; items * ndim];
@@ -417,8 +432,7 @@ impl Cluster {
         }
         count(&mut self.stats, started, 8 * proposals.len());
 
-        let parts = density.independent_blocks().len();
-        let splitter = BlockShares { density, block };
+        let splitter = BlockShares { split, block };
         let apart = ShareApart {
             shares: &splitter,
             nderived,
@@ -426,8 +440,11 @@ impl Cluster {
             parallel: rayon::current_num_threads() > 1,
         };
         let mine = share(parts, self.size(), rank);
-        let (derived, cache) = density.block_share_entries(block, mine.clone());
-        let entries = ShareEntries { derived, cache };
+        let own = split.share_entries(block, mine.clone());
+        let entries = ShareEntries {
+            derived: own.derived,
+            cache: own.state,
+        };
         let points: Vec<&[f64]> = proposals.chunks_exact(ndim.max(1)).take(items).collect();
         let (failures, values) = apart.evaluate(mine, &entries, &points);
         let width = entries.len();
@@ -465,7 +482,7 @@ impl Cluster {
     /// `words` values), updates this rank's share on `replica` and sends rank 0 what changed.
     fn update_share<'d, D: LogDensity + ?Sized>(
         &mut self,
-        density: &'d D,
+        target: Target<'d, D>,
         replica: &mut Option<EnsembleSampler<'d, D>>,
         config_len: usize,
         words: usize,
@@ -484,7 +501,7 @@ impl Cluster {
                 message: format!("the sampler's configuration does not read: {e}"),
             })?;
         if replica.as_ref().is_none_or(|r| *r.config() != config) {
-            let built = EnsembleSampler::replica(density, config.clone()).map_err(|e| {
+            let built = EnsembleSampler::replica(target, config.clone()).map_err(|e| {
                 ClusterError::Replica {
                     rank,
                     message: e.to_string(),
@@ -680,7 +697,7 @@ fn partition(n: usize, ranks: usize, per_item: usize) -> (Vec<Count>, Vec<Count>
 /// Values sent per item: the point, and for a block update the walker's derived values and
 /// cache.
 fn input_len(kind: EvalKind, ndim: usize, nderived: usize, cache_len: usize) -> usize {
-    if kind.reads_cache() {
+    if kind.reads_state() {
         ndim + nderived + cache_len
     } else {
         ndim
@@ -715,7 +732,7 @@ impl Cluster {
     /// returns.
     fn evaluate_by_part(&mut self, batch: &mut Batch<'_>) {
         let (ranks, n, parts) = (self.size(), batch.len(), batch.parts());
-        let EvalKind::Block(block) = batch.kind() else {
+        let EvalKind::Block(block, _) = batch.kind() else {
             unreachable!("only block updates split by part")
         };
         self.broadcast_header(SHARES, block, batch);
@@ -894,8 +911,10 @@ impl Offload for Cluster {
         let (ndim, nderived, cache_len) = (batch.ndim(), batch.nderived(), batch.cache_len());
         let (code, block) = match kind {
             EvalKind::Full => (FULL, 0),
-            EvalKind::Block(b) => (BLOCK, b),
-            EvalKind::BlockAlone(b) => (BLOCK_ALONE, b),
+            EvalKind::FullWithState(_) => (FULL_WITH_STATE, 0),
+            EvalKind::Block(b, _) => (BLOCK, b),
+            EvalKind::ExactDraw(b, _) => (EXACT_DRAW, b),
+            EvalKind::Own(b, _) => (OWN, b),
         };
         self.broadcast_header(code, block, batch);
         let root = self.world.process_at_rank(0);
@@ -905,7 +924,7 @@ impl Offload for Cluster {
         let mut send = Vec::with_capacity(others.len() * input);
         for k in others.clone() {
             send.extend_from_slice(batch.point(k));
-            if kind.reads_cache() {
+            if kind.reads_state() {
                 send.extend_from_slice(batch.derived(k));
                 send.extend_from_slice(batch.cache(k));
             }
@@ -964,5 +983,50 @@ impl Offload for Cluster {
             let (derived, cache) = o[RECORD_HEAD..].split_at(nderived);
             batch.set_outcome(k, result, derived, cache);
         }
+    }
+}
+
+/// On ranks other than 0: the evaluation that request `code` asks for of `block` of this
+/// rank's density, with the derived values and entries of state each item carries.
+///
+/// # Errors
+/// [`ClusterError::Replica`] when this rank's density has no such block or capability
+/// (every rank must load the same model).
+fn remote_kind<'a, D: LogDensity + ?Sized>(
+    rank: usize,
+    code: u64,
+    block: usize,
+    target: Target<'a, D>,
+    plan: Option<&BlockPlan<'a>>,
+) -> Result<(EvalKind<'a>, (usize, usize)), ClusterError> {
+    let nderived = target.density().derived_names().len();
+    let missing = |what: &str| ClusterError::Replica {
+        rank,
+        message: format!(
+            "rank 0 asks for {what} of block {block}, which this rank's density does not have; \
+             every rank must load the same model"
+        ),
+    };
+    if code == FULL {
+        return Ok((EvalKind::Full, (nderived, 0)));
+    }
+    let blocked = target
+        .blocked_density()
+        .ok_or_else(|| missing("a blocked evaluation"))?;
+    let whole = (nderived, blocked.state_len());
+    let planned = plan.and_then(|p| p.blocks.get(block));
+    match (code, planned.map(|b| &b.update)) {
+        (FULL_WITH_STATE, _) => Ok((EvalKind::FullWithState(blocked), whole)),
+        (BLOCK, Some(_)) => Ok((EvalKind::Block(block, blocked), whole)),
+        (EXACT_DRAW, Some(BlockUpdate::Exact { conditional, .. })) => {
+            Ok((EvalKind::ExactDraw(block, *conditional), whole))
+        }
+        (OWN, Some(BlockUpdate::Independent { own, entries })) => Ok((
+            EvalKind::Own(block, *own),
+            (entries.derived.len(), entries.state.len()),
+        )),
+        (EXACT_DRAW, _) => Err(missing("an exact draw")),
+        (OWN, _) => Err(missing("an update on its own entries")),
+        _ => Err(missing(&format!("evaluation {code}"))),
     }
 }

@@ -10,7 +10,10 @@ use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sampler_util::{assert_within, mean_and_mcse};
-use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
+use slipbayes::density::{
+    BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, LogDensity, LogDensityError, PlannedBlock,
+    Target,
+};
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
     Batch, CarryFit, EnsembleSampler, MemorySink, Move, Offload, SamplerConfig, SamplerError,
@@ -116,35 +119,18 @@ impl LogDensity for Hierarchy {
     }
 
     fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
-        let mut cache = vec![0.0; self.cache_len()];
-        self.log_density_cached(x, derived, &mut cache)
+        let mut cache = vec![0.0; self.state_len()];
+        self.log_density_with_state(x, derived, &mut cache)
     }
+}
 
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        let mut blocks = vec![vec![0, 1]];
-        blocks.extend((0..self.groups()).map(|j| vec![2 + 2 * j, 3 + 2 * j]));
-        blocks
-    }
-
-    /// μ is given to every group; every θ_j follows μ.
-    fn block_links(&self) -> Vec<BlockLinks> {
-        let mu = vec![0, 1];
-        let mut links = vec![BlockLinks {
-            given: Vec::new(),
-            followers: (2..self.dim()).collect(),
-        }];
-        links.extend((0..self.groups()).map(|_| BlockLinks {
-            given: mu.clone(),
-            followers: Vec::new(),
-        }));
-        links
-    }
-
-    fn cache_len(&self) -> usize {
+/// Blocks μ, then each θ_j; μ is given to every group, and every θ_j follows μ.
+impl BlockedDensity for Hierarchy {
+    fn state_len(&self) -> usize {
         1 + self.groups()
     }
 
-    fn log_density_cached(
+    fn log_density_with_state(
         &self,
         x: &[f64],
         derived: &mut [f64],
@@ -160,7 +146,7 @@ impl LogDensity for Hierarchy {
         Ok(Self::total(cache))
     }
 
-    fn log_density_block(
+    fn log_density_after_block(
         &self,
         block: usize,
         x: &[f64],
@@ -186,6 +172,29 @@ impl LogDensity for Hierarchy {
         }
         Ok(Self::total(cache))
     }
+
+    fn block_plan(&self) -> BlockPlan<'_> {
+        let mu = vec![0, 1];
+        let mut blocks = vec![PlannedBlock {
+            coords: mu.clone(),
+            links: BlockLinks {
+                given: Vec::new(),
+                followers: (2..self.dim()).collect(),
+            },
+            update: BlockUpdate::Moves { carry: None },
+            split: None,
+        }];
+        blocks.extend((0..self.groups()).map(|j| PlannedBlock {
+            coords: vec![2 + 2 * j, 3 + 2 * j],
+            links: BlockLinks {
+                given: mu.clone(),
+                followers: Vec::new(),
+            },
+            update: BlockUpdate::Moves { carry: None },
+            split: None,
+        }));
+        BlockPlan { blocks }
+    }
 }
 
 fn blocked_sampler(
@@ -206,14 +215,21 @@ fn carried_sampler(
     (updates, carry): (Updates, CarryFit),
 ) -> EnsembleSampler<'_, Hierarchy> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let start = initial_around_optimum(h, &vec![0.3; h.dim()], walkers, 4, &mut rng).unwrap();
+    let start = initial_around_optimum(
+        Target::blocked(h),
+        &vec![0.3; h.dim()],
+        walkers,
+        4,
+        &mut rng,
+    )
+    .unwrap();
     let config = SamplerConfig::new(walkers, 4, seed)
         .unwrap()
         .with_moves(moves)
         .unwrap()
         .with_updates(updates)
         .with_carry(carry);
-    EnsembleSampler::new(h, config, start.walkers).unwrap()
+    EnsembleSampler::new(Target::blocked(h), config, start.walkers).unwrap()
 }
 
 /// A labelled sampler setting: its moves, updates and how the followers are carried.
@@ -424,14 +440,15 @@ fn blocked_state_check(updates: Updates, moves: Vec<(Move, f64)>) {
         .run(Steps::Fixed(25), &mut MemorySink::new(), &mut Silent)
         .unwrap();
     let config = first.config().clone();
-    let mut resumed = EnsembleSampler::from_state(&h, config.clone(), first.state()).unwrap();
+    let mut resumed =
+        EnsembleSampler::from_state(Target::blocked(&h), config.clone(), first.state()).unwrap();
     resumed
         .run(Steps::Fixed(35), &mut MemorySink::new(), &mut Silent)
         .unwrap();
     assert_eq!(resumed.state(), state);
 
     let joint = config.with_updates(Updates::Joint);
-    match EnsembleSampler::from_state(&h, joint, first.state()) {
+    match EnsembleSampler::from_state(Target::blocked(&h), joint, first.state()) {
         Err(SamplerError::StateMismatch { detail }) => {
             assert!(detail.contains(updates.as_str()), "{detail}")
         }
@@ -450,7 +467,7 @@ impl Offload for Elsewhere<'_> {
         batch.evaluate_here(0..here);
         for k in (here..batch.len()).rev() {
             let x = batch.point(k).to_vec();
-            let (mut derived, mut cache) = if batch.kind().reads_cache() {
+            let (mut derived, mut cache) = if batch.kind().reads_state() {
                 (batch.derived(k).to_vec(), batch.cache(k).to_vec())
             } else {
                 (vec![0.0; batch.nderived()], vec![0.0; batch.cache_len()])

@@ -10,10 +10,13 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use sampler_util::{assert_within, mean_and_mcse};
-use slipbayes::density::{BlockLinks, LogDensity, LogDensityError};
+use slipbayes::density::{
+    BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, CarriedMove, CarryFollowers,
+    ExactConditional, LogDensity, LogDensityError, PlannedBlock, Target,
+};
 use slipbayes::sampler::{
-    EnsembleSampler, MemorySink, Move, RunReport, SamplerConfig, SamplerError, Silent, Steps,
-    Updates, CARRY_TUNE_STEPS,
+    EnsembleSampler, MemorySink, Move, RunReport, SamplerConfig, Silent, Steps, Updates,
+    CARRY_TUNE_STEPS,
 };
 
 const Y: [f64; 8] = [28.0, 8.0, -3.0, 7.0, -1.0, 1.0, 18.0, 12.0];
@@ -60,46 +63,95 @@ impl LogDensity for EightSchools {
         let likelihood: f64 = (0..8).map(|j| ln_normal(Y[j], x[2 + j], SIGMA[j])).sum();
         Ok(Self::population(x) + likelihood)
     }
+}
 
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        vec![vec![0, 1], (2..10).collect()]
-    }
-
-    fn block_links(&self) -> Vec<BlockLinks> {
-        vec![
-            BlockLinks {
-                given: vec![],
-                followers: (2..10).collect(),
-            },
-            BlockLinks {
-                given: vec![0, 1],
-                followers: vec![],
-            },
-        ]
-    }
-
-    fn conditional_blocks(&self) -> Vec<usize> {
-        if self.exact {
-            vec![0]
+impl EightSchools {
+    /// The blocks: the population (μ, ln τ), drawn exactly when `exact`, and moved with the
+    /// schools' effects carried non-centred when `interweave` (optionally when `optional`);
+    /// then the schools' effects. `density` is the density the blocks belong to.
+    fn plan<'d, D: ExactConditional + CarryFollowers>(&self, density: &'d D) -> BlockPlan<'d> {
+        let carry = self.interweave.then_some(density as &dyn CarryFollowers);
+        let population = if self.exact {
+            BlockUpdate::Exact {
+                conditional: density,
+                carry: carry.map(|map| CarriedMove {
+                    map,
+                    optional: self.optional,
+                }),
+            }
         } else {
-            vec![]
+            BlockUpdate::Moves { carry }
+        };
+        BlockPlan {
+            blocks: vec![
+                PlannedBlock {
+                    coords: vec![0, 1],
+                    links: BlockLinks {
+                        given: vec![],
+                        followers: (2..10).collect(),
+                    },
+                    update: population,
+                    split: None,
+                },
+                PlannedBlock {
+                    coords: (2..10).collect(),
+                    links: BlockLinks {
+                        given: vec![0, 1],
+                        followers: vec![],
+                    },
+                    update: BlockUpdate::Moves { carry: None },
+                    split: None,
+                },
+            ],
         }
     }
+}
 
+/// Every update evaluates the whole density (it is cheap): no state.
+impl BlockedDensity for EightSchools {
+    fn state_len(&self) -> usize {
+        0
+    }
+    fn log_density_with_state(
+        &self,
+        x: &[f64],
+        d: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, d)
+    }
+    fn log_density_after_block(
+        &self,
+        _block: usize,
+        x: &[f64],
+        d: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, d)
+    }
+    fn block_plan(&self) -> BlockPlan<'_> {
+        self.plan(self)
+    }
+}
+
+impl ExactConditional for EightSchools {
     fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
         assert_eq!(block, 0);
         Self::population(x)
     }
-
-    fn carries_followers(&self, block: usize) -> bool {
-        self.interweave && block == 0
+    fn log_density_after_draw(
+        &self,
+        _block: usize,
+        x: &[f64],
+        d: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, d)
     }
+}
 
-    fn carried_move_optional(&self, block: usize) -> bool {
-        self.optional && block == 0
-    }
-
-    /// The non-centred map: each θ_j keeps (θ_j − μ)/τ.
+/// The non-centred map: each θ_j keeps (θ_j − μ)/τ.
+impl CarryFollowers for EightSchools {
     fn carry_followers(&self, _block: usize, from: &[f64], to: &mut [f64]) -> f64 {
         let scale = (to[1] - from[1]).exp();
         for j in 2..10 {
@@ -199,7 +251,7 @@ fn run_in(
         .with_moves(moves)
         .unwrap()
         .with_updates(Updates::Hierarchical);
-    let mut sampler = EnsembleSampler::new(density, config, start).unwrap();
+    let mut sampler = EnsembleSampler::new(Target::blocked(density), config, start).unwrap();
     let mut sink = MemorySink::new();
     let mut go = || sampler.run(Steps::Fixed(steps), &mut sink, &mut Silent);
     let report = match threads {
@@ -374,24 +426,47 @@ fn an_optional_carried_move_is_dropped_where_the_exact_draw_suffices_and_resumes
                 .sum();
             Ok(EightSchools::population(x) + likelihood)
         }
-        fn blocks(&self) -> Vec<Vec<usize>> {
-            self.0.blocks()
+    }
+    impl BlockedDensity for Pinned {
+        fn state_len(&self) -> usize {
+            0
         }
-        fn block_links(&self) -> Vec<BlockLinks> {
-            self.0.block_links()
+        fn log_density_with_state(
+            &self,
+            x: &[f64],
+            d: &mut [f64],
+            _state: &mut [f64],
+        ) -> Result<f64, LogDensityError> {
+            self.log_density(x, d)
         }
-        fn conditional_blocks(&self) -> Vec<usize> {
-            self.0.conditional_blocks()
+        fn log_density_after_block(
+            &self,
+            _block: usize,
+            x: &[f64],
+            d: &mut [f64],
+            _state: &mut [f64],
+        ) -> Result<f64, LogDensityError> {
+            self.log_density(x, d)
         }
+        fn block_plan(&self) -> BlockPlan<'_> {
+            self.0.plan(self)
+        }
+    }
+    impl ExactConditional for Pinned {
         fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
             self.0.conditional_log_density(block, x)
         }
-        fn carries_followers(&self, block: usize) -> bool {
-            self.0.carries_followers(block)
+        fn log_density_after_draw(
+            &self,
+            _block: usize,
+            x: &[f64],
+            d: &mut [f64],
+            _state: &mut [f64],
+        ) -> Result<f64, LogDensityError> {
+            self.log_density(x, d)
         }
-        fn carried_move_optional(&self, block: usize) -> bool {
-            self.0.carried_move_optional(block)
-        }
+    }
+    impl CarryFollowers for Pinned {
         fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
             self.0.carry_followers(block, from, to)
         }
@@ -430,7 +505,8 @@ fn an_optional_carried_move_is_dropped_where_the_exact_draw_suffices_and_resumes
         })
         .collect();
     let run = |d: &Pinned, steps: u64| {
-        let mut sampler = EnsembleSampler::new(d, config(), start.clone()).unwrap();
+        let mut sampler =
+            EnsembleSampler::new(Target::blocked(d), config(), start.clone()).unwrap();
         let mut sink = MemorySink::new();
         let report = sampler
             .run(Steps::Fixed(steps), &mut sink, &mut Silent)
@@ -455,7 +531,8 @@ fn an_optional_carried_move_is_dropped_where_the_exact_draw_suffices_and_resumes
     // The decision is part of the state: a run resumed during the tuning steps ends with the
     // same chains.
     let (_, first, state) = run(&optional, CARRY_TUNE_STEPS / 2);
-    let mut resumed = EnsembleSampler::from_state(&optional, config(), state).unwrap();
+    let mut resumed =
+        EnsembleSampler::from_state(Target::blocked(&optional), config(), state).unwrap();
     let mut rest = MemorySink::new();
     resumed
         .run(
@@ -480,34 +557,4 @@ fn an_optional_carried_move_is_dropped_where_the_exact_draw_suffices_and_resumes
         ..MemorySink::new()
     };
     assert!(same_chains(&whole, &joined));
-}
-
-/// A conditional block that does not exist is refused with the blocks named.
-#[test]
-fn a_conditional_block_out_of_range_is_refused() {
-    struct Bad;
-    impl LogDensity for Bad {
-        fn dim(&self) -> usize {
-            2
-        }
-        fn log_density(&self, x: &[f64], _d: &mut [f64]) -> Result<f64, LogDensityError> {
-            Ok(-0.5 * (x[0] * x[0] + x[1] * x[1]))
-        }
-        fn blocks(&self) -> Vec<Vec<usize>> {
-            vec![vec![0], vec![1]]
-        }
-        fn conditional_blocks(&self) -> Vec<usize> {
-            vec![2]
-        }
-    }
-    let config = SamplerConfig::new(8, 1, 1)
-        .unwrap()
-        .with_updates(Updates::Blocked);
-    let start: Vec<Vec<f64>> = (0..8)
-        .map(|w| vec![w as f64 * 0.1, 0.3 - w as f64 * 0.05])
-        .collect();
-    match EnsembleSampler::new(&Bad, config, vec![start]) {
-        Err(SamplerError::InvalidConfig { name, .. }) => assert_eq!(name, "conditional_blocks"),
-        other => panic!("expected InvalidConfig, got {other:?}"),
-    }
 }

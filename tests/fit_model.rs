@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use slipbayes::density::LogDensity;
+use slipbayes::density::{BlockedDensity, LogDensity};
 use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary, RunLock};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
@@ -446,9 +446,10 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     std::fs::write(&path, text).unwrap();
     let campaign = Posterior::new(&ModelSpec::load(&path).unwrap()).unwrap();
     let followers = campaign
-        .block_links()
+        .block_plan()
+        .blocks
         .iter()
-        .map(|l| l.followers.len())
+        .map(|b| b.links.followers.len())
         .max()
         .unwrap();
     assert_eq!(followers, 45);

@@ -9,7 +9,7 @@ use std::path::Path;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use slipbayes::data::Series;
-use slipbayes::density::LogDensity;
+use slipbayes::density::{BlockUpdate, BlockedDensity, LogDensity, Target};
 use slipbayes::law::{Elastic, Law, LawParams, ObservedSlide, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::sufficient::{
@@ -122,7 +122,8 @@ fn lp(p: &Posterior, x: &[f64]) -> f64 {
 /// three times as far from their mean.
 fn draws_around(p: &Posterior) -> Vec<Vec<f64>> {
     let mut rng = ChaCha8Rng::seed_from_u64(77);
-    let start = initial_around_optimum(p, p.start(), 24, 1, &mut rng).unwrap();
+    let start =
+        initial_around_optimum(Target::blocked(p), p.search_start(), 24, 1, &mut rng).unwrap();
     let draws = start.walkers.into_iter().next().unwrap();
     let dim = draws[0].len();
     let mean: Vec<f64> = (0..dim)
@@ -318,7 +319,14 @@ fn the_sigma_of_a_reduced_record_is_the_noise_of_one_point() {
     let column = position_of(&reduced.derived_names(), "sigma[first]");
     let mut derived = vec![0.0; reduced.derived_names().len()];
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let start = initial_around_optimum(&reduced, reduced.start(), 16, 1, &mut rng).unwrap();
+    let start = initial_around_optimum(
+        Target::blocked(&reduced),
+        reduced.search_start(),
+        16,
+        1,
+        &mut rng,
+    )
+    .unwrap();
     reduced.log_density(&start.optimum.x, &mut derived).unwrap();
     // One draw from 10⁵ points: relative sd 1/√(2·10⁵) ≈ 0.2 %.
     let sigma = derived[column];
@@ -467,13 +475,16 @@ fn a_share_of_the_data_reduces_its_long_runs_as_the_whole_posterior_does() {
         .data_share()
         .expect("by contact, each rank holds its contacts");
 
-    let independent = whole.independent_blocks();
-    let blocks = whole.blocks();
+    let plan = whole.block_plan();
+    let independent: Vec<usize> = (0..plan.blocks.len())
+        .filter(|&b| matches!(plan.blocks[b].update, BlockUpdate::Independent { .. }))
+        .collect();
+    let blocks = plan.coords();
     let x = whole.start().to_vec();
-    let (nd, nc) = (whole.derived_names().len(), whole.cache_len());
+    let (nd, nc) = (whole.derived_names().len(), whole.state_len());
     let (mut derived, mut cache) = (vec![0.0; nd], vec![0.0; nc]);
     whole
-        .log_density_cached(&x, &mut derived, &mut cache)
+        .log_density_with_state(&x, &mut derived, &mut cache)
         .unwrap();
     for shares in [2, 3] {
         let mut held_by_some = vec![false; provenance.len()];
@@ -503,9 +514,9 @@ fn a_share_of_the_data_reduces_its_long_runs_as_the_whole_posterior_does() {
                     y[i] += 1e-3;
                 }
                 let (mut d_whole, mut c_whole) = (derived.clone(), cache.clone());
-                let lp_whole = whole.log_density_block(b, &y, &mut d_whole, &mut c_whole);
+                let lp_whole = whole.log_density_after_block(b, &y, &mut d_whole, &mut c_whole);
                 let (mut d, mut c) = (derived.clone(), cache.clone());
-                let lp = share.log_density_block(b, &y, &mut d, &mut c);
+                let lp = share.log_density_after_block(b, &y, &mut d, &mut c);
                 assert_eq!(
                     lp.map(f64::to_bits),
                     lp_whole.map(f64::to_bits),

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use slipbayes::density::LogDensity;
+use slipbayes::density::{LogDensity, Target};
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::optimize::find_mode;
@@ -87,7 +87,7 @@ fn log_density(post: &Posterior, x: &[f64]) -> f64 {
 fn check(label: &str, d: &Draw) {
     let dir = tempfile::tempdir().unwrap();
     let (post, truth) = at_truth(dir.path(), label, d);
-    let mode = find_mode(&post, post.start()).unwrap();
+    let mode = find_mode(Target::blocked(&post), post.start()).unwrap();
     assert!(
         mode.log_density >= truth,
         "{label}: the search from the start ends at log-density {} below the truth's {truth}",

@@ -21,7 +21,7 @@ use std::ops::Range;
 use super::model::{summary_spec, LOO_DRAWS};
 use super::run_dir::{KFoldPoint, KFoldSummary, RunKFold};
 use super::{draws_from, run_fit, FitError, FitSettings, RunDir};
-use crate::density::LogDensity;
+use crate::density::{LogDensity, Target};
 use crate::model::Posterior;
 use crate::sampler::Observer;
 
@@ -202,9 +202,9 @@ fn fit_fold(
         ..settings.clone()
     };
     let outcome = run_fit(
-        posterior,
+        Target::blocked(posterior),
         &summary_spec(posterior),
-        posterior.start(),
+        posterior.search_start(),
         &settings,
         dir,
         continues,

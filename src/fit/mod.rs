@@ -41,8 +41,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::data::Provenance;
-use crate::density::{ColumnUnit, LogDensity, Quantity};
-use crate::optimize::initial_around_optimum;
+use crate::density::{ColumnUnit, LogDensity, Quantity, Target};
+use crate::optimize::{initial_around_optimum, SearchStart};
 use crate::sampler::{
     CarryFit, EnsembleSampler, Move, Observer, Offload, RunReport, SamplerConfig, SamplerError,
     SamplerState, Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
@@ -127,30 +127,32 @@ pub fn default_updates() -> Updates {
 /// shared block, so τ grew as f over the walkers (10 contacts, 30 followers: τ 25 at 32
 /// walkers, 11 at 64). Under the default ([`CarryFit::Auto`]) a block with that many
 /// followers is carried by a tuned regression instead, which needs no more walkers.
-pub fn default_walkers<D: LogDensity + ?Sized>(
-    density: &D,
+pub fn default_walkers<'d, D: LogDensity + ?Sized + 'd>(
+    target: impl Into<Target<'d, D>>,
     updates: Updates,
     carry: CarryFit,
 ) -> usize {
-    let blocks = match updates {
-        Updates::Joint => Vec::new(),
-        Updates::Blocked | Updates::Hierarchical => density.blocks(),
+    let target = target.into();
+    let plan = match (updates, target.blocked_density()) {
+        (Updates::Blocked | Updates::Hierarchical, Some(blocked)) => Some(blocked.block_plan()),
+        _ => None,
     };
+    let blocks = plan.as_ref().map_or(&[][..], |p| &p.blocks[..]);
     // One block (or none) is the whole space: the sampler updates jointly.
     let (span, followers) = if blocks.len() <= 1 {
-        (density.dim(), 0)
+        (target.density().dim(), 0)
     } else {
         let followers = match updates {
             // A tuned regression is precise whatever the number of followers.
-            Updates::Hierarchical if carry == CarryFit::Complement => density
-                .block_links()
+            Updates::Hierarchical if carry == CarryFit::Complement => blocks
                 .iter()
-                .map(|l| l.followers.len())
+                .map(|b| b.links.followers.len())
                 .max()
                 .unwrap_or(0),
             Updates::Joint | Updates::Blocked | Updates::Hierarchical => 0,
         };
-        (blocks.iter().map(Vec::len).max().unwrap_or(0), followers)
+        let span = blocks.iter().map(|b| b.coords.len()).max().unwrap_or(0);
+        (span, followers)
     };
     (4 * span + 4).max(2 * followers + 4).max(DEFAULT_WALKERS)
 }
@@ -397,16 +399,16 @@ pub fn kept_rows(
 /// [`FitError::TooFewDraws`], [`FitError::Diagnostics`] when the chains are too short to
 /// summarise; [`FitError::RunDir`] when the chains cannot be read back or a summary cannot be
 /// written.
-pub fn run_fit<D: LogDensity + ?Sized>(
-    density: &D,
+pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
+    target: impl Into<Target<'a, D>>,
     spec: &SummarySpec,
-    start: &[f64],
+    start: impl Into<SearchStart<'a>>,
     settings: &FitSettings,
     dir: &RunDir,
     resume: bool,
     observer: &mut impl Observer,
 ) -> Result<FitOutcome, FitError> {
-    run_fit_offloaded(density, spec, start, settings, dir, resume, observer, None)
+    run_fit_offloaded(target, spec, start, settings, dir, resume, observer, None)
 }
 
 /// [`run_fit`] with the sampler's evaluations handed to `offload` (other processes, e.g. the
@@ -415,16 +417,18 @@ pub fn run_fit<D: LogDensity + ?Sized>(
 /// # Errors
 /// As [`run_fit`].
 #[allow(clippy::too_many_arguments)]
-pub fn run_fit_offloaded<D: LogDensity + ?Sized>(
-    density: &D,
+pub fn run_fit_offloaded<'a, D: LogDensity + ?Sized + 'a>(
+    target: impl Into<Target<'a, D>>,
     spec: &SummarySpec,
-    start: &[f64],
+    start: impl Into<SearchStart<'a>>,
     settings: &FitSettings,
     dir: &RunDir,
     resume: bool,
     observer: &mut impl Observer,
     offload: Option<&mut dyn Offload>,
 ) -> Result<FitOutcome, FitError> {
+    let (target, start) = (target.into(), start.into());
+    let density = target.density();
     let started = Instant::now();
     settings.validate(resume)?;
     let param_names = density.param_names();
@@ -482,7 +486,7 @@ pub fn run_fit_offloaded<D: LogDensity + ?Sized>(
             Steps::Fixed(total) => Steps::Fixed(total - state.step),
             rule @ Steps::UntilConverged(_) => rule,
         };
-        let sampler = EnsembleSampler::from_state(density, config, state).map_err(|source| {
+        let sampler = EnsembleSampler::from_state(target, config, state).map_err(|source| {
             FitError::Sampler {
                 context: format!("resuming the sampler from {shown}"),
                 source,
@@ -501,18 +505,18 @@ pub fn run_fit_offloaded<D: LogDensity + ?Sized>(
         let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
         rng.set_stream(INIT_STREAM);
         let initial = initial_around_optimum(
-            density,
+            target,
             start,
             settings.walkers,
             settings.ensembles,
             &mut rng,
         )
         .map_err(|optimizer| FitError::Start {
-            start: start.to_vec(),
-            why: density.explain(start),
+            start: start.point.to_vec(),
+            why: density.explain(start.point),
             optimizer,
         })?;
-        let sampler = EnsembleSampler::new(density, config, initial.walkers).map_err(|source| {
+        let sampler = EnsembleSampler::new(target, config, initial.walkers).map_err(|source| {
             FitError::Sampler {
                 context: format!("starting the sampler for {shown}"),
                 source,
@@ -650,12 +654,20 @@ fn chain_description<D: LogDensity + ?Sized>(
             })
             .unwrap_or_default()
     };
+    // A column whose unit the density leaves undeclared gets the unit of the quantity reported
+    // from it, if any.
     let declared = density.param_units();
     let param_units = density
         .param_names()
         .iter()
         .enumerate()
-        .map(|(i, name)| declared.get(i).cloned().unwrap_or_else(|| reported(name)))
+        .map(|(i, name)| {
+            declared
+                .get(i)
+                .filter(|u| !u.unit.is_empty() || u.log)
+                .cloned()
+                .unwrap_or_else(|| reported(name))
+        })
         .collect();
     ChainDescription {
         seed: settings.seed,

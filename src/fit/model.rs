@@ -6,7 +6,7 @@ use super::{
     default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit_offloaded,
     Aggregate, ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
 };
-use crate::density::LogDensity;
+use crate::density::{LogDensity, Target};
 use crate::law::Scene;
 use crate::model::{PointwiseError, Posterior};
 use crate::sampler::{CarryFit, Move, Observer, Offload, Steps, Updates};
@@ -58,7 +58,7 @@ impl FitSettings {
         let walkers = overrides
             .walkers
             .or(s.walkers)
-            .unwrap_or_else(|| default_walkers(posterior, updates, carry));
+            .unwrap_or_else(|| default_walkers(Target::blocked(posterior), updates, carry));
         let max_steps = overrides.max_steps.unwrap_or(s.max_steps);
         let steps = match overrides.steps.or(s.steps) {
             Some(n) => Steps::Fixed(n),
@@ -247,9 +247,9 @@ pub fn fit_model_offloaded(
         o.share_density(share.map(|s| s.to_words()).as_deref());
     }
     let mut outcome = run_fit_offloaded(
-        posterior,
+        Target::blocked(posterior),
         &summary_spec(posterior),
-        posterior.start(),
+        posterior.search_start(),
         settings,
         &dir,
         resume,

@@ -14,7 +14,7 @@ use super::lbfgs::{lbfgs, LbfgsOptions, Objective};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::probe::Probe;
 use super::OptimizeError;
-use crate::density::{LogDensity, LogDensityError, SearchMap};
+use crate::density::{BlockedDensity, LogDensity, LogDensityError, Target};
 use crate::diagnostics::{blockwise_condition_number, WALKER_CONDITION_LIMIT};
 
 /// Covariance of the Laplace approximation at `mode` of the log-density `log_f`, from a
@@ -198,18 +198,19 @@ const MODE_ROUND_GAIN: f64 = 1e-3;
 /// [`OptimizeError::Shape`] for a start of the wrong length, [`OptimizeError::StartNotFinite`]
 /// when `start` is not inside the support, [`OptimizeError::NoFiniteMode`] when the search
 /// ends where the density is not finite.
-pub fn find_mode<D: LogDensity + ?Sized>(
-    density: &D,
+pub fn find_mode<'d, D: LogDensity + ?Sized + 'd>(
+    target: impl Into<Target<'d, D>>,
     start: &[f64],
 ) -> Result<Optimum, OptimizeError> {
-    let n = density.dim();
+    let target = target.into();
+    let n = target.density().dim();
     if start.len() != n {
         return Err(OptimizeError::Shape {
             expected: n,
             got: start.len(),
         });
     }
-    let probe = Probe::new(density);
+    let probe = Probe::new(target);
     if !probe.value(start).is_finite() {
         return Err(OptimizeError::StartNotFinite {
             start: start.to_vec(),
@@ -263,28 +264,50 @@ pub fn find_mode<D: LogDensity + ?Sized>(
 /// # Errors
 /// [`OptimizeError::NoWalkerInSupport`] when a walker cannot be drawn inside the support,
 /// [`OptimizeError::DegenerateWalkers`] when an ensemble's walkers do not span the space.
-pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
+pub fn laplace_walkers<'d, D: LogDensity + ?Sized + 'd, R: Rng>(
+    target: impl Into<Target<'d, D>>,
+    optimum: &Optimum,
+    walkers: usize,
+    ensembles: usize,
+    rng: &mut R,
+) -> Result<Vec<Vec<Vec<f64>>>, OptimizeError> {
+    let target = target.into();
+    let span = span_blocks(target.blocked_density(), walkers, optimum.x.len());
+    walkers_around(target.density(), optimum, &span, walkers, ensembles, rng)
+}
+
+/// The blocks whose subspaces the walkers must span: too few walkers to span the whole space
+/// is fine for a sampler updating the density's blocks one at a time, which then needs each
+/// block's subspace spanned. None (the whole space) otherwise.
+fn span_blocks(
+    blocked: Option<&dyn BlockedDensity>,
+    walkers: usize,
+    dim: usize,
+) -> Vec<Vec<usize>> {
+    match blocked {
+        Some(blocked) if walkers <= dim => blocked.block_plan().coords(),
+        _ => Vec::new(),
+    }
+}
+
+/// [`laplace_walkers`] of `density`, each ensemble spanning the subspace of each of `span`
+/// (the whole space when empty).
+fn walkers_around<D: LogDensity + ?Sized, R: Rng>(
     density: &D,
     optimum: &Optimum,
+    span: &[Vec<usize>],
     walkers: usize,
     ensembles: usize,
     rng: &mut R,
 ) -> Result<Vec<Vec<Vec<f64>>>, OptimizeError> {
     let mode = &optimum.x;
     let n = mode.len();
-    let probe = Probe::new(density);
+    let probe = Probe::new(Target::joint(density));
     let eig = SymmetricEigen::new(DMatrix::from_row_slice(n, n, &optimum.covariance));
     // Σ = V Λ Vᵀ, so x = mode + V Λ^{1/2} z with z standard normal.
     let root =
         &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
     let mut z = DVector::<f64>::zeros(n);
-    // Too few walkers to span the whole space is fine for a sampler updating the density's
-    // blocks one at a time: then each block's subspace must be spanned.
-    let span = if walkers > n {
-        Vec::new()
-    } else {
-        density.blocks()
-    };
     let mut all = Vec::with_capacity(ensembles);
     for e in 0..ensembles {
         let mut ens = Vec::with_capacity(walkers);
@@ -314,7 +337,7 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
             ens.push(x);
         }
         let flat: Vec<f64> = ens.iter().flatten().copied().collect();
-        let condition = blockwise_condition_number(&flat, n, &span);
+        let condition = blockwise_condition_number(&flat, n, span);
         if condition.is_nan() || condition > WALKER_CONDITION_LIMIT {
             return Err(OptimizeError::DegenerateWalkers {
                 mode: mode.clone(),
@@ -326,30 +349,75 @@ pub fn laplace_walkers<D: LogDensity + ?Sized, R: Rng>(
     Ok(all)
 }
 
-/// Finds the mode of `density` from `start` ([`find_mode`]) and draws `ensembles × walkers`
-/// walkers from the Laplace approximation there ([`laplace_walkers`]). When the density names
-/// a [`search_map`](LogDensity::search_map), both happen in its coordinates (the optimum and
-/// its covariance are reported there) and the walkers are mapped back.
+/// Where to search for the mode that the first walkers are drawn around: a starting point,
+/// and for a density that has no mode in its own coordinates, the coordinates to search in.
+#[derive(Clone, Copy)]
+pub struct SearchStart<'a> {
+    /// Where the search starts, in the density's coordinates.
+    pub point: &'a [f64],
+    /// Coordinates in which to search for the mode and draw the walkers around it: a centred
+    /// hierarchical model is unbounded where a population's spread vanishes with its members
+    /// at its mean, and has a mode in the non-centred coordinates. `None`: the density's own.
+    pub map: Option<&'a dyn SearchMap>,
+}
+
+impl<'a> From<&'a [f64]> for SearchStart<'a> {
+    fn from(point: &'a [f64]) -> Self {
+        Self { point, map: None }
+    }
+}
+
+impl<'a> From<&'a Vec<f64>> for SearchStart<'a> {
+    fn from(point: &'a Vec<f64>) -> Self {
+        Self { point, map: None }
+    }
+}
+
+impl<'a, const N: usize> From<&'a [f64; N]> for SearchStart<'a> {
+    fn from(point: &'a [f64; N]) -> Self {
+        Self { point, map: None }
+    }
+}
+
+/// A bijection between a density's coordinates x and the coordinates y in which the
+/// optimiser searches for a mode ([`SearchStart::map`]). The density of y is
+/// p(x(y)) |det ∂x/∂y|.
+pub trait SearchMap: Sync {
+    /// y of `x`, written into `y`.
+    fn search_point(&self, x: &[f64], y: &mut [f64]);
+    /// x of `y`, written into `x`; returns ln |det ∂x/∂y| at `y`.
+    fn density_point(&self, y: &[f64], x: &mut [f64]) -> f64;
+}
+
+/// Finds the mode of the density of `target` from `start` ([`find_mode`]) and draws
+/// `ensembles × walkers` walkers from the Laplace approximation there ([`laplace_walkers`]).
+/// When the start names a [`map`](SearchStart::map), both happen in its coordinates (the
+/// optimum and its covariance are reported there) and the walkers are mapped back.
 ///
 /// # Errors
 /// As [`find_mode`] and [`laplace_walkers`].
-pub fn initial_around_optimum<D: LogDensity + ?Sized, R: Rng>(
-    density: &D,
-    start: &[f64],
+pub fn initial_around_optimum<'d, D: LogDensity + ?Sized + 'd, R: Rng>(
+    target: impl Into<Target<'d, D>>,
+    start: impl Into<SearchStart<'d>>,
     walkers: usize,
     ensembles: usize,
     rng: &mut R,
 ) -> Result<Start, OptimizeError> {
-    let Some(map) = density.search_map() else {
-        let optimum = find_mode(density, start)?;
-        let walkers = laplace_walkers(density, &optimum, walkers, ensembles, rng)?;
+    let (target, start) = (target.into(), start.into());
+    let Some(map) = start.map else {
+        let optimum = find_mode(target, start.point)?;
+        let walkers = laplace_walkers(target, &optimum, walkers, ensembles, rng)?;
         return Ok(Start { walkers, optimum });
     };
-    let searched = Searched { density, map };
-    let mut y = vec![0.0; start.len()];
-    map.search_point(start, &mut y);
+    let searched = Searched {
+        density: target.density(),
+        map,
+    };
+    let mut y = vec![0.0; start.point.len()];
+    map.search_point(start.point, &mut y);
     let optimum = find_mode(&searched, &y)?;
-    let mut walkers = laplace_walkers(&searched, &optimum, walkers, ensembles, rng)?;
+    let span = span_blocks(target.blocked_density(), walkers, y.len());
+    let mut walkers = walkers_around(&searched, &optimum, &span, walkers, ensembles, rng)?;
     for w in walkers.iter_mut().flatten() {
         y.copy_from_slice(w);
         map.density_point(&y, w);
@@ -382,9 +450,5 @@ impl<D: LogDensity + ?Sized> LogDensity for Searched<'_, D> {
         let mut x = vec![0.0; y.len()];
         self.map.density_point(y, &mut x);
         self.density.explain(&x)
-    }
-
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        self.density.blocks()
     }
 }

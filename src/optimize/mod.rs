@@ -16,8 +16,8 @@ pub mod nelder_mead;
 mod probe;
 
 pub use laplace::{
-    find_mode, initial_around_optimum, laplace_covariance, laplace_walkers, Optimum, Start,
-    FALLBACK_SPREAD, MAX_DRAW_ATTEMPTS,
+    find_mode, initial_around_optimum, laplace_covariance, laplace_walkers, Optimum, SearchMap,
+    SearchStart, Start, FALLBACK_SPREAD, MAX_DRAW_ATTEMPTS,
 };
 pub use lbfgs::{lbfgs, LbfgsOptions, Objective};
 pub use nelder_mead::{nelder_mead, NelderMeadOptions};

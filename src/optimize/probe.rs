@@ -1,7 +1,7 @@
 //! A log-density evaluated at points that differ from a base point in one or two coordinates,
 //! as finite-difference gradients and Hessians need: each such point re-evaluates only the
-//! block of the coordinate moved, from the base point's cache, which by the contract of
-//! [`LogDensity::log_density_block`] gives the same bits as a full evaluation; and the points
+//! block of the coordinate moved, from the base point's state, which by the contract of
+//! [`BlockedDensity`] gives the same bits as a full evaluation; and the points
 //! are evaluated in parallel, each into its own buffers, so the values do not depend on the
 //! number of threads. For a model of many groups (a campaign of 50 contacts has 150 group
 //! coordinates and 2 shared ones) a coordinate of one group costs the evaluation of that
@@ -11,16 +11,16 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use crate::density::{sort, Eval, LogDensity};
+use crate::density::{sort, BlockedDensity, Eval, LogDensity, Target};
 
 /// A density seen through one- and two-coordinate moves from a base point.
 pub(crate) struct Probe<'d, D: ?Sized> {
     density: &'d D,
-    /// The block of every coordinate; `None` when the density has fewer than two blocks (every
-    /// point is then evaluated in full).
-    block_of: Option<Vec<usize>>,
+    /// The density's blocks with the block of every coordinate; `None` when it is not seen
+    /// through its blocks or has fewer than two (every point is then evaluated in full).
+    blocked: Option<(&'d dyn BlockedDensity, Vec<usize>)>,
     nderived: usize,
-    cache_len: usize,
+    state_len: usize,
     evaluations: AtomicUsize,
 }
 
@@ -40,22 +40,25 @@ fn finite_or_minus_infinity(e: Eval) -> f64 {
 }
 
 impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
-    pub fn new(density: &'d D) -> Self {
-        let blocks = density.blocks();
-        let block_of = (blocks.len() >= 2).then(|| {
-            let mut of = vec![0; density.dim()];
-            for (b, coords) in blocks.iter().enumerate() {
-                for &i in coords {
-                    of[i] = b;
+    pub fn new(target: Target<'d, D>) -> Self {
+        let density = target.density();
+        let blocked = target.blocked_density().and_then(|blocked| {
+            let blocks = blocked.block_plan().coords();
+            (blocks.len() >= 2).then(|| {
+                let mut of = vec![0; density.dim()];
+                for (b, coords) in blocks.iter().enumerate() {
+                    for &i in coords {
+                        of[i] = b;
+                    }
                 }
-            }
-            of
+                (blocked, of)
+            })
         });
         Self {
             density,
-            block_of,
             nderived: density.derived_names().len(),
-            cache_len: density.cache_len(),
+            state_len: blocked.as_ref().map_or(0, |(b, _)| b.state_len()),
+            blocked,
             evaluations: AtomicUsize::new(0),
         }
     }
@@ -74,18 +77,15 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
 
     /// `x` evaluated in full with its cache, when finite there and the density has blocks.
     fn cached(&self, x: &[f64]) -> Option<Cached> {
-        self.block_of.as_ref()?;
+        let (blocked, _) = self.blocked.as_ref()?;
         self.evaluations.fetch_add(1, Ordering::Relaxed);
         let mut c = Cached {
             log_density: f64::NEG_INFINITY,
             x: x.to_vec(),
             derived: vec![0.0; self.nderived],
-            cache: vec![0.0; self.cache_len],
+            cache: vec![0.0; self.state_len],
         };
-        match sort(
-            self.density
-                .log_density_cached(x, &mut c.derived, &mut c.cache),
-        ) {
+        match sort(blocked.log_density_with_state(x, &mut c.derived, &mut c.cache)) {
             Eval::Finite(v) => {
                 c.log_density = v;
                 Some(c)
@@ -97,7 +97,7 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
     /// `base` with coordinate `i` moved by `d`, evaluated by the block of `i` from the base's
     /// cache (in full without one); with its buffers when `keep` and the value is finite.
     fn moved(&self, base: Option<&Cached>, x: &[f64], i: usize, d: f64) -> (f64, Option<Cached>) {
-        let (Some(base), Some(block_of)) = (base, self.block_of.as_ref()) else {
+        let (Some(base), Some((blocked, block_of))) = (base, self.blocked.as_ref()) else {
             let mut y = x.to_vec();
             y[i] += d;
             return (self.value(&y), None);
@@ -111,10 +111,7 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
         };
         c.x[i] += d;
         let e =
-            sort(
-                self.density
-                    .log_density_block(block_of[i], &c.x, &mut c.derived, &mut c.cache),
-            );
+            sort(blocked.log_density_after_block(block_of[i], &c.x, &mut c.derived, &mut c.cache));
         match e {
             Eval::Finite(v) => {
                 c.log_density = v;
@@ -189,6 +186,7 @@ pub(crate) struct SecondDifferences {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::density::BlockedDensity;
     use crate::model::{ModelSpec, Posterior};
 
     /// The demo's posterior (17 coordinates in six blocks, with a cache): every point the probe
@@ -198,10 +196,10 @@ mod tests {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
         let spec = ModelSpec::load(&root.join("models/demo.toml")).unwrap();
         let posterior = Posterior::new(&spec).unwrap();
-        assert!(posterior.blocks().len() >= 2 && posterior.cache_len() > 0);
+        assert!(posterior.block_plan().blocks.len() >= 2 && posterior.state_len() > 0);
         let x = posterior.start().to_vec();
         let h: Vec<f64> = x.iter().map(|v| 1e-3 * v.abs().max(1.0)).collect();
-        let probe = Probe::new(&posterior);
+        let probe = Probe::new(Target::blocked(&posterior));
         let full = |moves: &[(usize, f64)]| {
             let mut y = x.clone();
             for &(i, d) in moves {

@@ -116,14 +116,15 @@ pub enum Updates {
     /// Every coordinate at once, each proposal a full evaluation of the density.
     #[default]
     Joint,
-    /// One block of [`LogDensity::blocks`](crate::density::LogDensity::blocks) after the
+    /// One block of a [`BlockedDensity`](crate::density::BlockedDensity)'s plan after the
     /// other (a Metropolis-within-Gibbs sweep), each by the ensemble move in the block's own
-    /// subspace and evaluated by
-    /// [`log_density_block`](crate::density::LogDensity::log_density_block). A density
-    /// without blocks is updated jointly.
+    /// subspace (or as its plan says: drawn exactly, or on its own state), and evaluated by
+    /// [`log_density_after_block`](crate::density::BlockedDensity::log_density_after_block).
+    /// A density seen without its blocks is updated jointly.
     Blocked,
-    /// Blocked updates that follow the density's
-    /// [`block_links`](crate::density::LogDensity::block_links): a block that others depend
+    /// Blocked updates that follow the blocks' [`links`](crate::density::BlockLinks), and
+    /// move a block with its followers carried along the density's map where it has one
+    /// ([`CarryFollowers`](crate::density::CarryFollowers)): a block that others depend
     /// on carries them along by regression when it moves, and a block that
     /// depends on others draws its independence proposals from its conditional given them.
     /// For hierarchical models, where the shared parameters and each group's own are strongly

@@ -60,6 +60,7 @@
 mod config;
 mod ensemble;
 mod error;
+mod evaluator;
 mod history;
 mod memory;
 mod moves;

@@ -12,45 +12,9 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+pub use super::evaluator::EvalKind;
 use super::run::{PhaseOutcome, PhaseRequest};
-use crate::density::{sort, Eval, LogDensity, LogDensityError, ShareError};
-
-/// Which evaluation a batch asks for (the same for all its items).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EvalKind {
-    /// [`LogDensity::log_density_cached`]: the whole density, filling the cache.
-    Full,
-    /// [`LogDensity::log_density_block`] of this block, from the walker's cache.
-    Block(usize),
-    /// [`LogDensity::log_density_block_alone`] of this block (an exact conditional draw).
-    BlockAlone(usize),
-}
-
-impl EvalKind {
-    /// Whether the evaluation reads the walker's derived values and cache (a block update
-    /// changes only their parts of the block): they must travel with the point.
-    pub fn reads_cache(self) -> bool {
-        !matches!(self, Self::Full)
-    }
-
-    /// Evaluates `density` at `x` this way, writing `derived` and `cache`.
-    ///
-    /// # Errors
-    /// As the density's method.
-    pub fn evaluate<D: LogDensity + ?Sized>(
-        self,
-        density: &D,
-        x: &[f64],
-        derived: &mut [f64],
-        cache: &mut [f64],
-    ) -> Result<f64, LogDensityError> {
-        match self {
-            Self::Full => density.log_density_cached(x, derived, cache),
-            Self::Block(b) => density.log_density_block(b, x, derived, cache),
-            Self::BlockAlone(b) => density.log_density_block_alone(b, x, derived, cache),
-        }
-    }
-}
+use crate::density::{sort, Eval, LogDensityError, ShareError, SplitByPart};
 
 /// Items `[r·n/R, (r+1)·n/R)` of `n` go to share `r` of `parts`: contiguous, balanced, and
 /// fixed by `n` and the number of parts alone (a batch's proposals over ranks, a run of
@@ -60,11 +24,11 @@ pub(crate) fn share(n: usize, parts: usize, r: usize) -> Range<usize> {
 }
 
 /// A batch's evaluations split by independent block instead of by item (see
-/// [`LogDensity::block_splits`]): the density's methods for the batch's block.
+/// [`SplitByPart`]): the density's methods for the batch's block.
 pub(crate) trait Shares: Sync {
     /// The entries (derived values, cache) that the share of parts `parts` writes.
     fn entries(&self, parts: Range<usize>) -> (Vec<usize>, Vec<usize>);
-    /// [`LogDensity::log_density_block_share`].
+    /// [`SplitByPart::evaluate_share`].
     fn share(
         &self,
         parts: Range<usize>,
@@ -72,19 +36,20 @@ pub(crate) trait Shares: Sync {
         derived: &mut [f64],
         cache: &mut [f64],
     ) -> Result<(), ShareError>;
-    /// [`LogDensity::log_density_block_rest`].
+    /// [`SplitByPart::log_density_from_shares`].
     fn rest(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> f64;
 }
 
-/// [`Shares`] of `density`'s updates of `block`.
-pub(crate) struct BlockShares<'d, D: ?Sized> {
-    pub(crate) density: &'d D,
+/// [`Shares`] of a density's updates of `block`.
+pub(crate) struct BlockShares<'d> {
+    pub(crate) split: &'d dyn SplitByPart,
     pub(crate) block: usize,
 }
 
-impl<D: LogDensity + ?Sized> Shares for BlockShares<'_, D> {
+impl Shares for BlockShares<'_> {
     fn entries(&self, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
-        self.density.block_share_entries(self.block, parts)
+        let entries = self.split.share_entries(self.block, parts);
+        (entries.derived, entries.state)
     }
 
     fn share(
@@ -94,13 +59,13 @@ impl<D: LogDensity + ?Sized> Shares for BlockShares<'_, D> {
         derived: &mut [f64],
         cache: &mut [f64],
     ) -> Result<(), ShareError> {
-        self.density
-            .log_density_block_share(self.block, parts, x, derived, cache)
+        self.split
+            .evaluate_share(self.block, parts, x, derived, cache)
     }
 
     fn rest(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> f64 {
-        self.density
-            .log_density_block_rest(self.block, x, derived, cache)
+        self.split
+            .log_density_from_shares(self.block, x, derived, cache)
     }
 }
 
@@ -175,23 +140,26 @@ type ItemMut<'w> = (&'w [f64], &'w mut [f64], &'w mut [f64], &'w mut Eval);
 type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
 
 /// The evaluation of one item in this process: the sampler's density behind the batch's kind.
-type LocalEval<'b> =
-    dyn Fn(EvalKind, &[f64], &mut [f64], &mut [f64]) -> Result<f64, LogDensityError> + Sync + 'b;
+type LocalEval<'b> = dyn Fn(EvalKind<'b>, &[f64], &mut [f64], &mut [f64]) -> Result<f64, LogDensityError>
+    + Sync
+    + 'b;
 
 /// The proposals of one half-step to evaluate: `len()` items, each a point of `ndim()`
-/// coordinates with buffers for its derived values and cache (inputs as well for a block
-/// update, see [`EvalKind::reads_cache`]) and a slot for its outcome.
+/// coordinates with buffers for the derived values and state it carries (inputs as well for
+/// a block update, see [`EvalKind::reads_state`]) and a slot for its outcome.
 pub struct Batch<'b> {
-    pub(crate) kind: EvalKind,
+    pub(crate) kind: EvalKind<'b>,
     pub(crate) ndim: usize,
+    /// Derived values and entries of state each item carries.
     pub(crate) nderived: usize,
     pub(crate) cache_len: usize,
+    /// Their strides in the buffers below (at least 1).
+    pub(crate) derived_stride: usize,
+    pub(crate) state_stride: usize,
     /// Positions of the items in the buffers below (which hold skipped slots too).
     pub(crate) slots: &'b [usize],
     pub(crate) proposals: &'b [f64],
-    /// Stride `max(nderived, 1)`.
     pub(crate) derived: &'b mut [f64],
-    /// Stride `max(cache_len, 1)`.
     pub(crate) cache: &'b mut [f64],
     pub(crate) evals: &'b mut [Eval],
     pub(crate) local: &'b LocalEval<'b>,
@@ -226,7 +194,7 @@ impl ShareEntries {
 
 impl Batch<'_> {
     /// The evaluation asked for.
-    pub fn kind(&self) -> EvalKind {
+    pub fn kind(&self) -> EvalKind<'_> {
         self.kind
     }
 
@@ -245,12 +213,12 @@ impl Batch<'_> {
         self.ndim
     }
 
-    /// Derived values per point.
+    /// Derived values each point carries.
     pub fn nderived(&self) -> usize {
         self.nderived
     }
 
-    /// Cache length per point.
+    /// Entries of state each point carries.
     pub fn cache_len(&self) -> usize {
         self.cache_len
     }
@@ -263,13 +231,13 @@ impl Batch<'_> {
 
     /// The derived values of item `k` (the walker's before, the point's after evaluation).
     pub fn derived(&self, k: usize) -> &[f64] {
-        let (s, stride) = (self.slots[k], self.nderived.max(1));
+        let (s, stride) = (self.slots[k], self.derived_stride);
         &self.derived[s * stride..s * stride + self.nderived]
     }
 
     /// The cache of item `k` (the walker's before, the point's after evaluation).
     pub fn cache(&self, k: usize) -> &[f64] {
-        let (s, stride) = (self.slots[k], self.cache_len.max(1));
+        let (s, stride) = (self.slots[k], self.state_stride);
         &self.cache[s * stride..s * stride + self.cache_len]
     }
 
@@ -283,7 +251,7 @@ impl Batch<'_> {
         cache: &[f64],
     ) {
         let s = self.slots[k];
-        let (d, c) = (self.nderived.max(1), self.cache_len.max(1));
+        let (d, c) = (self.derived_stride, self.state_stride);
         self.derived[s * d..s * d + self.nderived].copy_from_slice(derived);
         self.cache[s * c..s * c + self.cache_len].copy_from_slice(cache);
         self.evals[s] = sort(result);
@@ -332,8 +300,8 @@ impl Batch<'_> {
         let mut items = Vec::with_capacity(self.slots.len());
         for (s, ((d, c), e)) in self
             .derived
-            .chunks_mut(nderived.max(1))
-            .zip(self.cache.chunks_mut(cache_len.max(1)))
+            .chunks_mut(self.derived_stride)
+            .zip(self.cache.chunks_mut(self.state_stride))
             .zip(self.evals.iter_mut())
             .enumerate()
         {
@@ -388,7 +356,7 @@ impl Batch<'_> {
     /// Stores into item `k` the `values` of another share's `entries`.
     pub fn store_share(&mut self, k: usize, entries: &ShareEntries, values: &[f64]) {
         let s = self.slots[k];
-        let (d, c) = (self.nderived.max(1), self.cache_len.max(1));
+        let (d, c) = (self.derived_stride, self.state_stride);
         let (from_derived, from_cache) = values.split_at(entries.derived.len());
         for (&j, &v) in entries.derived.iter().zip(from_derived) {
             self.derived[s * d + j] = v;
@@ -437,7 +405,7 @@ impl Batch<'_> {
                 *e = sort(local(kind, x, &mut d[..nderived], &mut c[..cache_len]));
             }
         };
-        let (dstride, cstride) = (nderived.max(1), cache_len.max(1));
+        let (dstride, cstride) = (self.derived_stride, self.state_stride);
         if self.parallel {
             self.proposals
                 .par_chunks(ndim)

@@ -1,6 +1,6 @@
 //! Univariate slice sampling (Neal 2003, "Slice sampling", Ann. Statist. 31: stepping out
 //! and shrinkage), the exact update of a block whose conditional density is cheap (see
-//! [`LogDensity::conditional_blocks`](crate::density::LogDensity::conditional_blocks)).
+//! [`ExactConditional`](crate::density::ExactConditional)).
 //!
 //! One update of coordinate `i` leaves the conditional density of `x_i` given the other
 //! coordinates invariant, for any initial width `w` that does not depend on `x_i` itself:

@@ -13,12 +13,13 @@ pub mod ode;
 use std::path::PathBuf;
 
 use serde_json::Value;
-use slipbayes::density::{LogDensity, Quantity, QuantityKind};
+use slipbayes::density::{BlockPlan, BlockedDensity, LogDensity, Quantity, QuantityKind, Target};
 use slipbayes::diagnostics::mcse_mean;
 use slipbayes::fit::{
     default_updates, default_walkers, run_fit, FitError, FitOutcome, FitSettings, RunDir,
     SummarySpec,
 };
+use slipbayes::optimize::SearchStart;
 use slipbayes::sampler::{CarryFit, Silent};
 
 use models::{
@@ -150,7 +151,7 @@ pub struct Case {
     pub name: &'static str,
     /// posteriordb's reference posterior name.
     pub reference: &'static str,
-    pub density: Box<dyn LogDensity>,
+    pub density: Box<dyn CaseDensity>,
     /// Start of the mode search, in the density's (unconstrained) coordinates: a modeller's
     /// guess (prior medians, or zeros on the unconstrained scale), not the answer.
     pub start: Vec<f64>,
@@ -239,11 +240,90 @@ pub fn cases() -> Vec<Case> {
     ]
 }
 
+/// A reference posterior's density as a fit samples it: jointly, from a mode searched in its
+/// own coordinates, unless it says otherwise.
+pub trait CaseDensity: LogDensity {
+    /// Fits it with `settings` into `dir`, the mode search starting at `start`.
+    ///
+    /// # Errors
+    /// As [`run_fit`].
+    fn fit(
+        &self,
+        spec: &SummarySpec,
+        start: &[f64],
+        settings: &FitSettings,
+        dir: &RunDir,
+    ) -> Result<FitOutcome, FitError> {
+        run_fit(
+            Target::joint(self),
+            spec,
+            start,
+            settings,
+            dir,
+            false,
+            &mut Silent,
+        )
+    }
+
+    /// The default walkers of a fit of it.
+    fn walkers(&self) -> usize {
+        default_walkers(Target::joint(self), default_updates(), CarryFit::default())
+    }
+
+    /// Its blocks, when a fit updates them one at a time.
+    fn plan(&self) -> Option<BlockPlan<'_>> {
+        None
+    }
+}
+
+impl CaseDensity for EightSchoolsNoncentered {}
+impl CaseDensity for ArK {}
+impl CaseDensity for Garch11 {}
+impl CaseDensity for GaussMix {}
+impl CaseDensity for LotkaVolterra {}
+impl CaseDensity for OneComp {}
+
+/// Sampled by its blocks with the population block; either way its mode is searched, and its
+/// first walkers drawn, in the non-centred coordinates (the centred density has no mode).
+impl CaseDensity for EightSchoolsCentered {
+    fn fit(
+        &self,
+        spec: &SummarySpec,
+        start: &[f64],
+        settings: &FitSettings,
+        dir: &RunDir,
+    ) -> Result<FitOutcome, FitError> {
+        let start = SearchStart {
+            point: start,
+            map: Some(self),
+        };
+        let target = if self.population_block {
+            Target::blocked(self)
+        } else {
+            Target::joint(self)
+        };
+        run_fit(target, spec, start, settings, dir, false, &mut Silent)
+    }
+
+    fn walkers(&self) -> usize {
+        let target = if self.population_block {
+            Target::blocked(self)
+        } else {
+            Target::joint(self)
+        };
+        default_walkers(target, default_updates(), CarryFit::default())
+    }
+
+    fn plan(&self) -> Option<BlockPlan<'_>> {
+        self.population_block.then(|| self.block_plan())
+    }
+}
+
 /// The fit's defaults for `density`: default moves, updates, stopping rule (converged by the
 /// strict standard) and seed, 4 ensembles, the default walker rule; quiet.
-pub fn default_settings(density: &dyn LogDensity) -> FitSettings {
+pub fn default_settings(density: &dyn CaseDensity) -> FitSettings {
     FitSettings {
-        walkers: default_walkers(density, default_updates(), CarryFit::default()),
+        walkers: density.walkers(),
         quiet: true,
         overwrite: true,
         ..FitSettings::default()
@@ -251,7 +331,7 @@ pub fn default_settings(density: &dyn LogDensity) -> FitSettings {
 }
 
 /// Every constrained parameter as a reported quantity.
-pub fn spec(density: &dyn LogDensity) -> SummarySpec {
+pub fn spec(density: &dyn CaseDensity) -> SummarySpec {
     SummarySpec::of(
         density
             .derived_names()
@@ -276,14 +356,11 @@ pub fn fit(
     settings: &FitSettings,
     dir: &std::path::Path,
 ) -> Result<FitOutcome, FitError> {
-    run_fit(
-        case.density.as_ref(),
+    case.density.fit(
         &spec(case.density.as_ref()),
         &case.start,
         settings,
         &RunDir::new(dir),
-        false,
-        &mut Silent,
     )
 }
 

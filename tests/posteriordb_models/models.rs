@@ -15,7 +15,11 @@
 //! reference draws; the sampled (unconstrained) coordinates are named `u_<name>`.
 
 use serde_json::Value;
-use slipbayes::density::{BlockLinks, LogDensity, LogDensityError, SearchMap};
+use slipbayes::density::{
+    BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, CarriedMove, CarryFollowers,
+    ExactConditional, LogDensity, LogDensityError, PlannedBlock,
+};
+use slipbayes::optimize::SearchMap;
 
 use super::ode::{integrate, OdeError, Tolerances};
 
@@ -213,52 +217,88 @@ impl LogDensity for EightSchoolsCentered {
         derived[j + 1] = x[1].exp();
         Ok(self.population(x) + likelihood)
     }
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        if self.population_block {
-            vec![vec![0, 1], self.members().collect()]
-        } else {
-            Vec::new()
+}
+
+/// With the population block, the population (μ, ln τ) is drawn exactly and carries θ; the
+/// state is empty (every update evaluates the whole density, which is cheap).
+impl BlockedDensity for EightSchoolsCentered {
+    fn state_len(&self) -> usize {
+        0
+    }
+    fn log_density_with_state(
+        &self,
+        x: &[f64],
+        derived: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, derived)
+    }
+    fn log_density_after_block(
+        &self,
+        _block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, derived)
+    }
+    fn block_plan(&self) -> BlockPlan<'_> {
+        let members: Vec<usize> = self.members().collect();
+        BlockPlan {
+            blocks: vec![
+                PlannedBlock {
+                    coords: vec![0, 1],
+                    links: BlockLinks {
+                        given: vec![],
+                        followers: members.clone(),
+                    },
+                    update: BlockUpdate::Exact {
+                        conditional: self,
+                        carry: Some(CarriedMove {
+                            map: self,
+                            optional: false,
+                        }),
+                    },
+                    split: None,
+                },
+                PlannedBlock {
+                    coords: members,
+                    links: BlockLinks {
+                        given: vec![0, 1],
+                        followers: vec![],
+                    },
+                    update: BlockUpdate::Moves { carry: None },
+                    split: None,
+                },
+            ],
         }
     }
-    fn block_links(&self) -> Vec<BlockLinks> {
-        if !self.population_block {
-            return Vec::new();
-        }
-        vec![
-            BlockLinks {
-                given: vec![],
-                followers: self.members().collect(),
-            },
-            BlockLinks {
-                given: vec![0, 1],
-                followers: vec![],
-            },
-        ]
-    }
-    fn conditional_blocks(&self) -> Vec<usize> {
-        if self.population_block {
-            vec![0]
-        } else {
-            Vec::new()
-        }
-    }
+}
+
+impl ExactConditional for EightSchoolsCentered {
     fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
         assert_eq!(block, 0, "only the population block is conditional");
         self.population(x)
     }
-    fn carries_followers(&self, block: usize) -> bool {
-        self.population_block && block == 0
+    fn log_density_after_draw(
+        &self,
+        _block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, derived)
     }
-    /// The non-centred map: each θ_j keeps (θ_j − μ)/τ; ln |det J| = J·Δ ln τ.
+}
+
+/// The non-centred map: each θ_j keeps (θ_j − μ)/τ; ln |det J| = J·Δ ln τ.
+impl CarryFollowers for EightSchoolsCentered {
     fn carry_followers(&self, _block: usize, from: &[f64], to: &mut [f64]) -> f64 {
         let scale = (to[1] - from[1]).exp();
         for i in self.members() {
             to[i] = scale.mul_add(from[i] - from[0], to[0]);
         }
         self.schools.y.len() as f64 * (to[1] - from[1])
-    }
-    fn search_map(&self) -> Option<&dyn SearchMap> {
-        Some(self)
     }
 }
 

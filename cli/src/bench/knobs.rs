@@ -13,6 +13,7 @@ use super::cost::{read_series, read_truth, Truth};
 use super::{load_posterior, BenchError, BenchSettings, BENCH_SEED};
 use slipbayes::data::{write_atomically, Series};
 use slipbayes::density::LogDensity;
+use slipbayes::density::Target;
 use slipbayes::fit::{run_fit, FitSettings, FitSummary, QuantitySummary, RunDir, SummarySpec};
 use slipbayes::sampler::{Silent, Steps, StopRule};
 
@@ -173,9 +174,9 @@ pub(crate) fn fit_keeping(
     let outcome = pool
         .install(|| {
             run_fit(
-                &posterior,
+                Target::blocked(&posterior),
                 &SummarySpec::of(posterior.quantities().to_vec()),
-                posterior.start(),
+                posterior.search_start(),
                 &settings,
                 &RunDir::new(out),
                 false,

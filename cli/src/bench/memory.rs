@@ -81,8 +81,8 @@ fn sample_streamed(model: &Path, steps: u64, out: &Path) -> Result<(), BenchErro
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(BENCH_SEED);
     rng.set_stream(slipbayes::fit::INIT_STREAM);
     let start = slipbayes::optimize::initial_around_optimum(
-        &posterior,
-        posterior.start(),
+        slipbayes::density::Target::blocked(&posterior),
+        posterior.search_start(),
         walkers,
         DEFAULT_ENSEMBLES,
         &mut rng,

@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::chains::{min_ess, CoordStats, Draws};
 use super::{BenchError, BENCH_SEED};
-use slipbayes::density::LogDensity;
+use slipbayes::density::{LogDensity, Target};
 use slipbayes::fit::INIT_STREAM;
 use slipbayes::model::Posterior;
 use slipbayes::optimize::initial_around_optimum;
@@ -120,9 +120,14 @@ pub fn sample(
     pool.install(|| {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(INIT_STREAM);
-        let start =
-            initial_around_optimum(posterior, posterior.start(), walkers, ensembles, &mut rng)
-                .map_err(|e| fail(e.to_string()))?;
+        let start = initial_around_optimum(
+            Target::blocked(posterior),
+            posterior.search_start(),
+            walkers,
+            ensembles,
+            &mut rng,
+        )
+        .map_err(|e| fail(e.to_string()))?;
         let initial = start.walkers.clone();
         let config = SamplerConfig::new(walkers, ensembles, seed)
             .and_then(|c| c.with_checkpoint_every(None))

@@ -14,6 +14,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 
+use slipbayes::density::Target;
 use slipbayes::distributed::{Cluster, DensityShare};
 use slipbayes::model::{DataShare, Posterior};
 use slipbayes::sampler::Offload;
@@ -127,18 +128,18 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
         Command::MpiLatency(args) => {
             latency(args, cluster)?;
             // Then wait for rank 0's release, as after a fit.
-            cluster.serve(&NoDensity)?;
+            cluster.serve(Target::joint(&NoDensity))?;
             return Ok(());
         }
         Command::Validate(args) => {
             validate::run_rank(args, cluster)?;
             // Then wait for rank 0's release, once it has written the report.
-            cluster.serve(&NoDensity)?;
+            cluster.serve(Target::joint(&NoDensity))?;
             return Ok(());
         }
         // Rank 0 refuses the command and releases this rank at once.
         _ => {
-            cluster.serve(&NoDensity)?;
+            cluster.serve(Target::joint(&NoDensity))?;
             return Ok(());
         }
     };
@@ -154,7 +155,7 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
             Posterior::share_of(&spec, &data_share, own).with_context(loading)?
         }
     };
-    cluster.serve(&posterior)?;
+    cluster.serve(Target::blocked(&posterior))?;
     let wall = started.elapsed().as_secs_f64();
     let stats = cluster.stats();
     let (held, runs) = posterior.held_runs();

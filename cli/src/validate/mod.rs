@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use slipbayes::data::write_atomically;
-use slipbayes::density::QuantityKind;
+use slipbayes::density::{QuantityKind, Target};
 use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT};
 use slipbayes::fit::{run_fit, FitSettings};
 use slipbayes::fit::{RunDir, SummarySpec};
@@ -486,9 +486,9 @@ pub(crate) fn quiet_fit(
         ..defaults
     };
     run_fit(
-        posterior,
+        Target::blocked(posterior),
         &SummarySpec::of(posterior.quantities().to_vec()),
-        posterior.start(),
+        posterior.search_start(),
         &settings,
         dir,
         false,

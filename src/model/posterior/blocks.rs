@@ -17,7 +17,7 @@ use std::collections::BTreeSet;
 use std::ops::Range;
 
 use super::layout::{Coord, CoordPrior, Population, SigmaSource};
-use super::likelihood::{RunModel, LN_SQRT_2PI, MAX_RUNS, REJECT_PRIOR};
+use super::likelihood::{RunModel, LN_SQRT_2PI, REJECT_PRIOR};
 use super::Posterior;
 use crate::density::{BlockLinks, LogDensityError, ShareError};
 
@@ -65,7 +65,7 @@ impl RunModel {
 ///
 /// A run depends on the population of a pooled t0 through that t0's prior, so the population
 /// is read by the groups of its members' runs; it forms a block of its own (its conditional
-/// is cheap, see [`Posterior::conditional_blocks`](crate::density::LogDensity)).
+/// is cheap, see [`ExactConditional`](crate::density::ExactConditional)).
 pub(super) fn blocks(
     coords: &[Coord],
     runs: &[RunModel],
@@ -350,28 +350,6 @@ fn independent(blocks: &[Block], population: impl Fn(&Block) -> bool) -> Vec<boo
 }
 
 impl Posterior {
-    /// The terms of the log-density that read block `b`'s coordinates, from a walker's
-    /// `cache` at `x`: the priors its update re-evaluates, the Gaussian terms of the runs it
-    /// re-fits and the likelihoods of their σ groups (for an independent block, see
-    /// [`independent`]).
-    pub(super) fn block_terms(&self, b: usize, x: &[f64], cache: &[f64]) -> f64 {
-        let block = &self.blocks[b];
-        let (prior, rest) = cache.split_at(self.blocks.len());
-        let (ssr, rest) = rest.split_at(self.runs.len());
-        let group = &rest[self.runs.len()..];
-        let mut lp = 0.0;
-        for &p in &block.priors {
-            lp += prior[p];
-        }
-        for &i in &block.runs {
-            lp += self.runs[i].gaussian_term(x, ssr[i]);
-        }
-        for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
-            lp += group[g];
-        }
-        lp
-    }
-
     /// Length of a walker's cache.
     pub(super) fn cache_size(&self) -> usize {
         self.blocks.len() + 2 * self.runs.len() + self.sigma_groups.len()
@@ -401,7 +379,7 @@ impl Posterior {
 
     /// The log-density at `x` evaluated in full, filling `cache` and `derived`. Without a
     /// cache (the optimiser's and the predictive's evaluations) the per-run and per-group
-    /// parts live on the stack: nothing is allocated.
+    /// parts go to a scratch buffer, and the block priors are only summed.
     pub(super) fn evaluate_full(
         &self,
         x: &[f64],
@@ -409,8 +387,10 @@ impl Posterior {
         cache: Option<Cache>,
     ) -> Result<f64, LogDensityError> {
         let Some(cache) = cache else {
-            let mut stack = [[0.0; MAX_RUNS]; 3];
-            let [ssr, last, group] = &mut stack;
+            let runs = self.runs.len();
+            let mut scratch = vec![0.0; 2 * runs + self.sigma_groups.len()];
+            let (ssr, rest) = scratch.split_at_mut(runs);
+            let (last, group) = rest.split_at_mut(runs);
             let cache = Cache {
                 prior: &mut [],
                 ssr,
@@ -432,7 +412,7 @@ impl Posterior {
             self.fit_run(i, x, cache.ssr, cache.last)?;
         }
         for g in 0..self.sigma_groups.len() {
-            cache.group[g] = self.group_term(g, cache.ssr)?;
+            cache.group[g] = self.group_term(g, |i| cache.ssr[i])?;
         }
         Ok(self.finish(x, derived, lp, cache.ssr, cache.group, Changed::All))
     }
@@ -453,7 +433,7 @@ impl Posterior {
             self.fit_run(i, x, cache.ssr, cache.last)?;
         }
         for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
-            cache.group[g] = self.group_term(g, cache.ssr)?;
+            cache.group[g] = self.group_term(g, |i| cache.ssr[i])?;
         }
         Ok(self.finish(
             x,
@@ -499,7 +479,7 @@ impl Posterior {
     }
 
     /// The log-density at `x` from its cache alone (see
-    /// [`LogDensity::log_density_from_cache`](crate::density::LogDensity::log_density_from_cache)):
+    /// [`IndependentBlocks::log_density_from_state`](crate::density::IndependentBlocks::log_density_from_state)):
     /// the sum of the cached priors, as [`refresh_priors`](Self::refresh_priors) and a full
     /// evaluation add them, and the cached likelihood parts, rewriting the derived values that
     /// are no one contact's.
@@ -532,7 +512,7 @@ impl Posterior {
     /// then the runs and σ groups of the independent blocks at positions `parts`, and their
     /// derived values. A failure carries its position in `evaluate_block`'s order: the
     /// priors, the re-fitted runs, then the σ groups by index.
-    pub(super) fn evaluate_share(
+    pub(super) fn evaluate_share_of(
         &self,
         b: usize,
         parts: Range<usize>,
@@ -556,7 +536,9 @@ impl Posterior {
         let groups_at = runs_at + block.runs.len();
         for (g, _) in block.groups.iter().enumerate().filter(|(_, &t)| t) {
             if mine(self.owners.group[g]) {
-                cache.group[g] = self.group_term(g, cache.ssr).map_err(at(groups_at + g))?;
+                cache.group[g] = self
+                    .group_term(g, |i| cache.ssr[i])
+                    .map_err(at(groups_at + g))?;
             }
         }
         if !derived.is_empty() {
@@ -566,10 +548,14 @@ impl Posterior {
         Ok(())
     }
 
-    /// The entries of the derived values and of the cache that [`evaluate_share`]
-    /// (Self::evaluate_share) writes for the independent blocks at positions `parts` and that
+    /// The entries of the derived values and of the cache that [`evaluate_share_of`]
+    /// (Self::evaluate_share_of) writes for the independent blocks at positions `parts` and that
     /// the rest of the update does not: what a share hands back.
-    pub(super) fn share_entries(&self, b: usize, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
+    pub(super) fn share_entries_of(
+        &self,
+        b: usize,
+        parts: Range<usize>,
+    ) -> (Vec<usize>, Vec<usize>) {
         let block = &self.blocks[b];
         let mine = |owner: Option<usize>| Owners::within(owner, parts.start, parts.end);
         let changed = Changed::Share(block, &self.owners, parts.start, parts.end);

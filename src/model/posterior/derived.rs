@@ -25,49 +25,55 @@ impl Posterior {
         derived: &mut [f64],
         changed: Changed,
     ) {
-        // Peaks are computed once per run and read by several columns.
-        let mut peak_cache: Option<(usize, Option<Peak>, Option<f64>)> = None;
+        let mut peaks = PeakCache::default();
         for (out, source) in derived.iter_mut().zip(&self.sources) {
             // A block update leaves the values of the coordinates it does not move as they
             // were: recomputing them would cost every contact's values per contact update.
-            if !self.rewrites(source, changed) {
-                continue;
+            if self.rewrites(source, changed) {
+                *out = self.column_value(*source, x, &|i| ssr[i], &mut peaks);
             }
-            *out = match *source {
-                Source::Coord(i) => x[i].exp(),
-                Source::Sigma(g) => self.sigma_draw(g, ssr),
-                Source::AContact { ratio, f_d } => x[ratio].exp() * x[f_d].exp(),
-                Source::AMaterial(m) => self.materials[m]
-                    .aging
-                    .map_or(f64::NAN, |a| x[a.coord].exp() * self.mean_fd(x, m)),
-                Source::Peak { run, field } => {
-                    let (_, peak, kv) = match peak_cache {
-                        Some(c) if c.0 == run => c,
-                        _ => {
-                            let r = &self.runs[run];
-                            let peak = r.law(x).ok().and_then(|law| law.peak().interior());
-                            let kv = match r.elastic(x) {
-                                Ok(Elastic::Spring { kv }) => Some(kv),
-                                _ => None,
-                            };
-                            let c = (run, peak, kv);
-                            peak_cache = Some(c);
-                            c
-                        }
-                    };
+        }
+    }
+
+    /// The value at `x` of the column computed from `source`, each run's weighted sum of
+    /// squared residuals from `ssr_of`; `peaks` keeps the last run's peak, which several
+    /// columns read.
+    pub(super) fn column_value(
+        &self,
+        source: Source,
+        x: &[f64],
+        ssr_of: &dyn Fn(usize) -> f64,
+        peaks: &mut PeakCache,
+    ) -> f64 {
+        match source {
+            Source::Coord(i) => x[i].exp(),
+            Source::Sigma(g) => self.sigma_draw(g, ssr_of),
+            Source::AContact { ratio, f_d } => x[ratio].exp() * x[f_d].exp(),
+            Source::AMaterial(m) => self.materials[m]
+                .aging
+                .map_or(f64::NAN, |a| x[a.coord].exp() * self.mean_fd(x, m)),
+            Source::Peak { run, field } => {
+                let (peak, kv) = peaks.of(run, || {
                     let r = &self.runs[run];
-                    peak.map_or(f64::NAN, |p| match field {
-                        PeakField::Force => p.force_n,
-                        PeakField::InterfaceTime => p.tau_s,
-                        PeakField::SlipDistance => p.slip_m(r.velocity),
-                        PeakField::ObservedTime => p.observed_time_s(kv),
-                        PeakField::StaticCoefficient => {
-                            r.normal_force.map_or(f64::NAN, |f_n| p.force_n / f_n)
-                        }
-                    })
-                }
-                Source::PeakNew(m) => self.new_contact_peak(x, m),
-            };
+                    let peak = r.law(x).ok().and_then(|law| law.peak().interior());
+                    let kv = match r.elastic(x) {
+                        Ok(Elastic::Spring { kv }) => Some(kv),
+                        _ => None,
+                    };
+                    (peak, kv)
+                });
+                let r = &self.runs[run];
+                peak.map_or(f64::NAN, |p| match field {
+                    PeakField::Force => p.force_n,
+                    PeakField::InterfaceTime => p.tau_s,
+                    PeakField::SlipDistance => p.slip_m(r.velocity),
+                    PeakField::ObservedTime => p.observed_time_s(kv),
+                    PeakField::StaticCoefficient => {
+                        r.normal_force.map_or(f64::NAN, |f_n| p.force_n / f_n)
+                    }
+                })
+            }
+            Source::PeakNew(m) => self.new_contact_peak(x, m),
         }
     }
 
@@ -81,13 +87,7 @@ impl Posterior {
             Source::Sigma(g) => b.groups[g],
             Source::AMaterial(_) | Source::PeakNew(_) => true,
         };
-        let owner = |owners: &Owners| match *source {
-            Source::Coord(i) => owners.coord[i],
-            Source::AContact { ratio, f_d } => owners.coord[ratio].or(owners.coord[f_d]),
-            Source::Peak { run, .. } => owners.run[run],
-            Source::Sigma(g) => owners.group[g],
-            Source::AMaterial(_) | Source::PeakNew(_) => None,
-        };
+        let owner = |owners: &Owners| owner_in(owners, source);
         match changed {
             Changed::All => true,
             Changed::Block(b) => by_block(b),
@@ -100,11 +100,17 @@ impl Posterior {
         }
     }
 
+    /// The independent block (its position among them) whose update writes the column
+    /// computed from `source`, if one does.
+    pub(super) fn owner_of(&self, source: &Source) -> Option<usize> {
+        owner_in(&self.owners, source)
+    }
+
     /// The reported σ of marginalised group `g`: a draw from its conditional posterior given
     /// the runs' sums of squared residuals `ssr`. Seeded by the group's own residuals, not by
     /// all of `x`: the draw then changes exactly when a block update changes the group.
-    pub(super) fn sigma_draw(&self, g: usize, ssr: &[f64]) -> f64 {
-        let (fit, n) = self.group_fit(g, ssr);
+    pub(super) fn sigma_draw(&self, g: usize, ssr_of: impl Fn(usize) -> f64) -> f64 {
+        let (fit, n) = self.group_fit(g, ssr_of);
         let group = &self.sigma_groups[g];
         group.conditional_draw(hash_bits(&[fit], group.salt), fit, n)
     }
@@ -169,6 +175,43 @@ impl Posterior {
             }
         }
         sum / n
+    }
+}
+
+/// The independent block (its position among them) in `owners` that owns what the column
+/// computed from `source` is computed from.
+fn owner_in(owners: &Owners, source: &Source) -> Option<usize> {
+    match *source {
+        Source::Coord(i) => owners.coord[i],
+        Source::AContact { ratio, f_d } => owners.coord[ratio].or(owners.coord[f_d]),
+        Source::Peak { run, .. } => owners.run[run],
+        Source::Sigma(g) => owners.group[g],
+        Source::AMaterial(_) | Source::PeakNew(_) => None,
+    }
+}
+
+/// The peak of the run last asked for, with the machine's stiffness times the velocity:
+/// the columns of one run's peak follow one another.
+#[derive(Default)]
+pub(super) struct PeakCache {
+    last: Option<(usize, Option<Peak>, Option<f64>)>,
+}
+
+impl PeakCache {
+    /// The peak and kv of `run`, computed by `compute` unless it is the run last asked for.
+    fn of(
+        &mut self,
+        run: usize,
+        compute: impl FnOnce() -> (Option<Peak>, Option<f64>),
+    ) -> (Option<Peak>, Option<f64>) {
+        match self.last {
+            Some((r, peak, kv)) if r == run => (peak, kv),
+            _ => {
+                let (peak, kv) = compute();
+                self.last = Some((run, peak, kv));
+                (peak, kv)
+            }
+        }
     }
 }
 

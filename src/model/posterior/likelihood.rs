@@ -25,9 +25,6 @@ use crate::model::sufficient::Reduction;
 /// Log of √(2π).
 pub(super) const LN_SQRT_2PI: f64 = 0.918_938_533_204_672_8;
 
-/// Most runs a model may have (the likelihood keeps per-run scratch on the stack).
-pub const MAX_RUNS: usize = 256;
-
 /// Rejection label: the law has no quasi-static solution (stick-slip).
 pub const REJECT_STICK_SLIP: &str = "stick_slip";
 /// Rejection label: a parameter outside its prior's support.
@@ -344,6 +341,20 @@ impl Posterior {
         ssr: &mut [f64],
         last: &mut [f64],
     ) -> Result<(), LogDensityError> {
+        let fit = self.run_residuals(i, x, self.runs[i].follows.map(|j| last[j]))?;
+        ssr[i] = fit.ssr;
+        last[i] = fit.last_force;
+        Ok(())
+    }
+
+    /// The fit of run `i` at `x`, a repeat slide loading up to `f_end` (the F_end of the slide
+    /// it follows).
+    pub(super) fn run_residuals(
+        &self,
+        i: usize,
+        x: &[f64],
+        f_end: Option<f64>,
+    ) -> Result<RunResiduals, LogDensityError> {
         let r = &self.runs[i];
         if !r.held {
             return Err(LogDensityError::fatal(format!(
@@ -352,12 +363,7 @@ impl Posterior {
                 r.name
             )));
         }
-        let fit = r
-            .residuals(x, r.follows.map(|j| last[j]))
-            .map_err(law_rejection)?;
-        ssr[i] = fit.ssr;
-        last[i] = fit.last_force;
-        Ok(())
+        r.residuals(x, f_end).map_err(law_rejection)
     }
 
     /// The likelihood's terms that need no σ integrated out, given every run's sum of squared
@@ -371,20 +377,25 @@ impl Posterior {
         ll
     }
 
-    /// (sum of squared residuals, observations) of marginalised σ group `g`, over
-    /// its runs in run order.
-    pub(super) fn group_fit(&self, g: usize, ssr: &[f64]) -> (f64, usize) {
+    /// (sum of squared residuals, observations) of marginalised σ group `g`, over its runs in
+    /// run order, each run's sum of squared residuals from `ssr_of`.
+    pub(super) fn group_fit(&self, g: usize, ssr_of: impl Fn(usize) -> f64) -> (f64, usize) {
         let mut fit = (0.0, 0);
         for &i in &self.sigma_groups[g].runs {
-            fit.0 += ssr[i];
+            fit.0 += ssr_of(i);
             fit.1 += self.runs[i].data.n_obs;
         }
         fit
     }
 
-    /// The log-likelihood of σ group `g`'s runs with σ integrated out over its prior.
-    pub(super) fn group_term(&self, g: usize, ssr: &[f64]) -> Result<f64, LogDensityError> {
-        let (fit, n) = self.group_fit(g, ssr);
+    /// The log-likelihood of σ group `g`'s runs with σ integrated out over its prior, each
+    /// run's sum of squared residuals from `ssr_of`.
+    pub(super) fn group_term(
+        &self,
+        g: usize,
+        ssr_of: impl Fn(usize) -> f64,
+    ) -> Result<f64, LogDensityError> {
+        let (fit, n) = self.group_fit(g, ssr_of);
         let group = &self.sigma_groups[g];
         marginal_sigma_log_likelihood(fit, n, group.low, group.high)
             .ok_or(LogDensityError::rejected(REJECT_PRIOR))

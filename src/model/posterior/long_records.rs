@@ -17,11 +17,12 @@ use rayon::prelude::*;
 use super::layout::SigmaSource;
 use super::Posterior;
 use crate::data::import::Binning;
+use crate::density::Target;
 use crate::law::{LawError, ObservedSlide, Scene};
 use crate::model::sufficient::{
     log_likelihood_bound, max_error_for, plan_bins, PlanSettings, Reduction, ReferenceModel,
 };
-use crate::optimize::initial_around_optimum;
+use crate::optimize::{initial_around_optimum, SearchStart};
 
 /// Degree of the polynomial that stands in for the model within a bin. Measured on the
 /// PTFE slide of docs/model.md §7 sampled 50 times a second (`examples/bin_degree.rs`): the
@@ -69,9 +70,16 @@ impl Posterior {
         self.reduced_at = vec![start.point.clone()];
         let dim = self.coords.len();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(REFERENCE_SEED);
-        if let Ok(found) =
-            initial_around_optimum(&*self, &start.point, REFERENCE_DRAWS, 1, &mut rng)
-        {
+        if let Ok(found) = initial_around_optimum(
+            Target::blocked(&*self),
+            SearchStart {
+                point: &start.point,
+                map: self.search_map(),
+            },
+            REFERENCE_DRAWS,
+            1,
+            &mut rng,
+        ) {
             // The posterior's region only: the rough start may lie far from it, and a kink
             // there (a repeat slide's plateau, seconds off) would keep many points exact.
             let draws = &found.walkers[0];

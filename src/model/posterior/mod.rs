@@ -21,6 +21,7 @@
 mod blocks;
 mod derived;
 mod explain;
+mod independent;
 mod layout;
 mod likelihood;
 mod long_records;
@@ -42,11 +43,14 @@ use likelihood::RunModel;
 use super::data::RunData;
 use super::spec::{Blocking, ModelSpec, PopulationUpdates};
 use crate::density::{
-    BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap, ShareError,
+    BlockPlan, BlockUpdate, BlockedDensity, CarriedMove, CarryFollowers, ColumnUnit,
+    ExactConditional, LogDensity, LogDensityError, OwnEntries, PlannedBlock, Quantity, ShareError,
+    SplitByPart,
 };
 use crate::law::Scene;
+use crate::optimize::{SearchMap, SearchStart};
 
-pub use likelihood::{MAX_RUNS, REJECT_LAW, REJECT_PRIOR, REJECT_RATE_STATE, REJECT_STICK_SLIP};
+pub use likelihood::{REJECT_LAW, REJECT_PRIOR, REJECT_RATE_STATE, REJECT_STICK_SLIP};
 pub use pointwise::{ModelLoo, PointwiseError};
 pub use predictive::Band;
 pub use prior_predictive::{PriorDraw, PriorDrawError};
@@ -72,6 +76,8 @@ pub struct Posterior {
     first_independent: usize,
     /// Which independent block owns each coordinate, run and σ group.
     owners: blocks::Owners,
+    /// Where each independent block's update finds its entries of a walker's state.
+    own: Vec<independent::OwnLayout>,
     sigma_groups: Vec<SigmaGroup>,
     populations: Vec<Population>,
     materials: Vec<MaterialModel>,
@@ -107,7 +113,6 @@ impl Posterior {
     /// # Errors
     /// [`PosteriorError`] naming the file, line or key at fault.
     pub fn new(spec: &ModelSpec) -> Result<Self, PosteriorError> {
-        check_run_count(spec)?;
         let data = (0..spec.file.runs.len())
             .map(|i| RunData::for_run(spec, i))
             .collect::<Result<Vec<_>, _>>()?;
@@ -118,8 +123,7 @@ impl Posterior {
     /// model in its order (the runs' data paths are not read).
     ///
     /// # Errors
-    /// [`PosteriorError::Model`] when the number of data sets is not the number of runs, or
-    /// the model has more than [`MAX_RUNS`] runs.
+    /// [`PosteriorError::Model`] when the number of data sets is not the number of runs.
     pub fn from_data(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
         let mut posterior = Self::unreduced(spec, data)?;
         posterior.reduce_long_runs();
@@ -128,7 +132,6 @@ impl Posterior {
 
     /// The posterior of `spec` over `data` with every run exact (no long run reduced yet).
     fn unreduced(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
-        check_run_count(spec)?;
         if data.len() != spec.file.runs.len() {
             return Err(PosteriorError::Model {
                 source_file: spec.source.clone(),
@@ -164,7 +167,7 @@ impl Posterior {
             &layout.runs,
             &group_runs,
         );
-        Ok(Self {
+        let mut posterior = Self {
             spec: spec.clone(),
             coords: layout.coords,
             quantities: layout.quantities,
@@ -174,13 +177,16 @@ impl Posterior {
             blocks,
             first_independent,
             owners,
+            own: Vec::new(),
             sigma_groups: layout.sigma_groups,
             populations: layout.populations,
             materials: layout.materials,
             contact_fd: layout.contact_fd,
             start: OnceLock::new(),
             reduced_at: Vec::new(),
-        })
+        };
+        posterior.own = independent::own_layouts(&posterior);
+        Ok(posterior)
     }
 
     /// Whether block `b` holds populations (each a pooled parameter's μ and ln s in a material).
@@ -248,18 +254,45 @@ impl Posterior {
     pub fn start(&self) -> &[f64] {
         &self.start.get_or_init(|| self.heuristic_start()).point
     }
-}
 
-/// A model may have at most [`MAX_RUNS`] runs.
-fn check_run_count(spec: &ModelSpec) -> Result<(), PosteriorError> {
-    let n_runs = spec.file.runs.len();
-    if n_runs > MAX_RUNS {
-        return Err(PosteriorError::Model {
-            source_file: spec.source.clone(),
-            message: format!("{n_runs} runs; a model may have at most {MAX_RUNS}: split it"),
-        });
+    /// Where the optimiser searches for the mode that the first walkers are drawn around:
+    /// from [`start`](Self::start), in the non-centred coordinates when parameters are pooled
+    /// (the centred posterior has no mode).
+    pub fn search_start(&self) -> SearchStart<'_> {
+        SearchStart {
+            point: self.start(),
+            map: self.search_map(),
+        }
     }
-    Ok(())
+
+    /// With pooling, the non-centred coordinates ([`SearchMap`]); none without.
+    pub fn search_map(&self) -> Option<&dyn SearchMap> {
+        (!self.populations.is_empty()).then_some(self as &dyn SearchMap)
+    }
+
+    /// How the populations are updated: the one setting of the run file the posterior's
+    /// blocks read.
+    fn population_updates(&self) -> PopulationUpdates {
+        self.spec.file.sampler.populations
+    }
+
+    /// Whether block `b` is a population drawn exactly from its conditional (which reads no
+    /// data) given its members.
+    fn drawn_exactly(&self, b: usize) -> bool {
+        self.population_updates() != PopulationUpdates::Carried && self.is_population(b)
+    }
+
+    /// Whether block `b` is a population that carries its members along when it moves (they
+    /// follow it: one block per contact).
+    fn carries_members(&self, b: usize) -> bool {
+        self.population_updates() != PopulationUpdates::Exact
+            && self.is_population(b)
+            && self.blocks[b]
+                .links
+                .followers
+                .iter()
+                .any(|&i| matches!(self.coords[i].prior, CoordPrior::Population { .. }))
+    }
 }
 
 /// Runs that are followed (first and fast slides) before the repeat slides that follow them.
@@ -275,8 +308,16 @@ impl LogDensity for Posterior {
         self.coords.len()
     }
 
+    fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
+        self.evaluate_full(x, derived, None)
+    }
+
     fn param_names(&self) -> Vec<String> {
         self.coords.iter().map(|c| c.name.clone()).collect()
+    }
+
+    fn derived_names(&self) -> Vec<String> {
+        self.quantities.iter().map(|q| q.column.clone()).collect()
     }
 
     /// Every coordinate is u = ln θ of the quantity reported from it.
@@ -293,44 +334,84 @@ impl LogDensity for Posterior {
         units
     }
 
-    fn derived_names(&self) -> Vec<String> {
-        self.quantities.iter().map(|q| q.column.clone()).collect()
-    }
-
-    fn log_density(&self, x: &[f64], derived: &mut [f64]) -> Result<f64, LogDensityError> {
-        self.evaluate_full(x, derived, None)
-    }
-
     fn explain(&self, x: &[f64]) -> Option<String> {
         self.failures_at(x)
     }
+}
 
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        self.blocks.iter().map(|b| b.coords.clone()).collect()
+/// The state of a walker is the cache of `blocks`: each block's prior, each run's fit and
+/// each marginalised σ group's likelihood.
+impl BlockedDensity for Posterior {
+    fn state_len(&self) -> usize {
+        self.cache_size()
     }
 
-    fn block_links(&self) -> Vec<BlockLinks> {
-        self.blocks.iter().map(|b| b.links.clone()).collect()
+    fn log_density_with_state(
+        &self,
+        x: &[f64],
+        derived: &mut [f64],
+        state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let cache = Cache::split(state, self.blocks.len(), self.runs.len());
+        self.evaluate_full(x, derived, Some(cache))
     }
 
-    /// With pooling, the non-centred coordinates: the centred posterior has no mode.
-    fn search_map(&self) -> Option<&dyn SearchMap> {
-        (!self.populations.is_empty()).then_some(self as &dyn SearchMap)
+    fn log_density_after_block(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let cache = Cache::split(state, self.blocks.len(), self.runs.len());
+        self.evaluate_block(block, x, derived, cache)
     }
 
-    /// The populations: given its members' ln θ, a population's (μ, ln s) has a conditional
-    /// that reads no data.
-    fn conditional_blocks(&self) -> Vec<usize> {
-        if self.spec.file.sampler.populations == PopulationUpdates::Carried {
-            return Vec::new();
-        }
-        (0..self.blocks.len())
-            .filter(|&b| self.is_population(b))
-            .collect()
+    /// The shared parameters and populations first, then every contact's own block (see
+    /// `blocks::independent_last`). A population is drawn exactly and carries its members
+    /// as `populations` in the run file says; a shared block's update splits by contact when
+    /// every run and σ group it re-fits belongs to a contact (`blocks::Owners`).
+    fn block_plan(&self) -> BlockPlan<'_> {
+        let blocks = self
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(b, block)| {
+                let carry = self
+                    .carries_members(b)
+                    .then_some(self as &dyn CarryFollowers);
+                let update = if b >= self.first_independent {
+                    BlockUpdate::Independent {
+                        own: self,
+                        entries: self.own_layout(b).entries.clone(),
+                    }
+                } else if self.drawn_exactly(b) {
+                    BlockUpdate::Exact {
+                        conditional: self,
+                        carry: carry.map(|map| CarriedMove {
+                            map,
+                            optional: self.population_updates() == PopulationUpdates::Auto,
+                        }),
+                    }
+                } else {
+                    BlockUpdate::Moves { carry }
+                };
+                let splits = b < self.first_independent && self.owners.splits[b];
+                PlannedBlock {
+                    coords: block.coords.clone(),
+                    links: block.links.clone(),
+                    update,
+                    split: splits.then_some(self as &dyn SplitByPart),
+                }
+            })
+            .collect();
+        BlockPlan { blocks }
     }
+}
 
-    /// The population's prior and its members' normal priors (the priors of the block and of
-    /// its followers: the rest of the density does not depend on it).
+/// A population's conditional: its prior and its members' normal priors (the priors of the
+/// block and of its followers: the rest of the density does not depend on it).
+impl ExactConditional for Posterior {
     fn conditional_log_density(&self, block: usize, x: &[f64]) -> f64 {
         let mut lp = 0.0;
         for &p in &self.blocks[block].priors {
@@ -342,24 +423,25 @@ impl LogDensity for Posterior {
         lp
     }
 
-    /// A population carries its members when they follow it (one block per contact).
-    fn carries_followers(&self, block: usize) -> bool {
-        self.spec.file.sampler.populations != PopulationUpdates::Exact
-            && self.is_population(block)
-            && self.blocks[block]
-                .links
-                .followers
-                .iter()
-                .any(|&i| matches!(self.coords[i].prior, CoordPrior::Population { .. }))
+    fn log_density_after_draw(
+        &self,
+        block: usize,
+        x: &[f64],
+        derived: &mut [f64],
+        state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        let cache = Cache::split(state, self.blocks.len(), self.runs.len());
+        if self.is_population(block) {
+            self.evaluate_block_alone(block, x, derived, cache)
+        } else {
+            self.evaluate_block(block, x, derived, cache)
+        }
     }
+}
 
-    /// Under `populations = "auto"` the sampler measures whether the carried move is needed.
-    fn carried_move_optional(&self, block: usize) -> bool {
-        self.spec.file.sampler.populations == PopulationUpdates::Auto && self.is_population(block)
-    }
-
-    /// The non-centred map of the block's populations: each member's ln θ keeps its
-    /// standardised offset (ln θ − μ)/s; the other followers stay. Jacobian s'/s per member.
+/// The non-centred map of a block's populations: each member's ln θ keeps its standardised
+/// offset (ln θ − μ)/s; the other followers stay. Jacobian s'/s per member.
+impl CarryFollowers for Posterior {
     fn carry_followers(&self, block: usize, from: &[f64], to: &mut [f64]) -> f64 {
         let mut ln_jacobian = 0.0;
         for &i in &self.blocks[block].links.followers {
@@ -374,91 +456,36 @@ impl LogDensity for Posterior {
         }
         ln_jacobian
     }
+}
 
-    /// The contacts' own blocks: given the shared parameters, one contact's runs and priors
-    /// are independent of another's (unless a σ shared between contacts ties them).
-    fn independent_blocks(&self) -> Vec<usize> {
-        (self.first_independent..self.blocks.len()).collect()
+/// A shared block's update split by contact (see `blocks::Owners`): what the ranks of an MPI
+/// job that hold a share of the contacts evaluate.
+impl SplitByPart for Posterior {
+    fn share_entries(&self, block: usize, parts: Range<usize>) -> OwnEntries {
+        let (derived, state) = self.share_entries_of(block, parts);
+        OwnEntries { state, derived }
     }
 
-    fn block_log_density(&self, block: usize, x: &[f64], cache: &[f64]) -> f64 {
-        self.block_terms(block, x, cache)
-    }
-
-    fn log_density_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> Option<f64> {
-        Some(self.evaluate_from_cache(x, derived, cache))
-    }
-
-    /// A shared block's update whose runs and σ groups all belong to contacts (see
-    /// `blocks::Owners`).
-    fn block_splits(&self, block: usize) -> bool {
-        self.owners.splits.get(block).copied().unwrap_or(false)
-    }
-
-    fn block_share_entries(&self, block: usize, parts: Range<usize>) -> (Vec<usize>, Vec<usize>) {
-        self.share_entries(block, parts)
-    }
-
-    fn log_density_block_share(
+    fn evaluate_share(
         &self,
         block: usize,
         parts: Range<usize>,
         x: &[f64],
         derived: &mut [f64],
-        cache: &mut [f64],
+        state: &mut [f64],
     ) -> Result<(), ShareError> {
-        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
-        self.evaluate_share(block, parts, x, derived, cache)
+        let cache = Cache::split(state, self.blocks.len(), self.runs.len());
+        self.evaluate_share_of(block, parts, x, derived, cache)
     }
 
-    fn log_density_block_rest(
+    fn log_density_from_shares(
         &self,
         block: usize,
         x: &[f64],
         derived: &mut [f64],
-        cache: &[f64],
+        state: &[f64],
     ) -> f64 {
-        self.evaluate_rest(block, x, derived, cache)
-    }
-
-    fn cache_len(&self) -> usize {
-        self.cache_size()
-    }
-
-    fn log_density_cached(
-        &self,
-        x: &[f64],
-        derived: &mut [f64],
-        cache: &mut [f64],
-    ) -> Result<f64, LogDensityError> {
-        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
-        self.evaluate_full(x, derived, Some(cache))
-    }
-
-    fn log_density_block(
-        &self,
-        block: usize,
-        x: &[f64],
-        derived: &mut [f64],
-        cache: &mut [f64],
-    ) -> Result<f64, LogDensityError> {
-        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
-        self.evaluate_block(block, x, derived, cache)
-    }
-
-    fn log_density_block_alone(
-        &self,
-        block: usize,
-        x: &[f64],
-        derived: &mut [f64],
-        cache: &mut [f64],
-    ) -> Result<f64, LogDensityError> {
-        let cache = Cache::split(cache, self.blocks.len(), self.runs.len());
-        if self.is_population(block) {
-            self.evaluate_block_alone(block, x, derived, cache)
-        } else {
-            self.evaluate_block(block, x, derived, cache)
-        }
+        self.evaluate_rest(block, x, derived, state)
     }
 }
 

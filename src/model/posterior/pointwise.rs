@@ -262,7 +262,7 @@ impl Posterior {
             .iter()
             .map(|r| match r.sigma {
                 SigmaSource::Coord(s) => x[s].exp(),
-                SigmaSource::Marginal(g) => self.sigma_draw(g, &ssr),
+                SigmaSource::Marginal(g) => self.sigma_draw(g, |i| ssr[i]),
             })
             .collect();
         let f_end = self

@@ -5,20 +5,27 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::super::ensemble::{ProposalBuffers, SliceContext, SliceTask, UpdateBlock, Work};
-use super::super::offload::{Batch, BlockShares, EvalKind, Shares};
+use super::super::ensemble::{SliceContext, SliceTask, UpdateBlock, Work};
+use super::super::offload::{Batch, BlockShares, Shares};
+use super::step::HalfStepPlan;
 use super::EnsembleSampler;
 use crate::density::LogDensity;
 
-impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
+impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// Evaluates the proposals in [`Work`] (in full, or as updates of `block`): on the rayon
     /// pool when parallel evaluation is allowed and the half-step's estimated serial cost
     /// exceeds [`PARALLEL_MIN_WORK_NS`] (below it the synchronisation costs more than it
     /// saves), serially otherwise. The results are the same either way, so the choice (which
     /// depends on timing) cannot change the chains.
-    pub(super) fn evaluate(&mut self, block: Option<usize>, exact: bool) {
+    pub(super) fn evaluate(
+        &mut self,
+        block: Option<usize>,
+        exact: bool,
+        plan: &HalfStepPlan<'_, 'a>,
+    ) {
         let density = self.density;
-        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
+        let ndim = self.ndim;
+        let (nderived, cache_len) = plan.carried;
         let half = self.config.walkers() / 2;
         // The ensembles whose half-step is a slice update have their points already.
         let skip: Vec<bool> = self
@@ -31,6 +38,8 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
             derived,
             cache,
             evals,
+            derived_stride,
+            state_stride,
         } = &mut self.work;
         let n = half * skip.iter().filter(|&&s| !s).count();
         let threads = rayon::current_num_threads();
@@ -44,32 +53,28 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         self.half_steps += 1;
         let timed = parallel || cost.is_none() || self.half_steps % RETIME_EVERY == 0;
         let started = timed.then(Instant::now);
-        let kind = match block {
-            None => EvalKind::Full,
-            Some(b) if exact => EvalKind::BlockAlone(b),
-            Some(b) => EvalKind::Block(b),
-        };
+        let kind = plan.kind;
         let slots: Vec<usize> = (0..evals.len()).filter(|&k| !skip[k / half]).collect();
-        let local = |kind: EvalKind, x: &[f64], d: &mut [f64], c: &mut [f64]| {
-            kind.evaluate(density, x, d, c)
-        };
+        let local = |kind: super::super::evaluator::EvalKind<'_>,
+                     x: &[f64],
+                     d: &mut [f64],
+                     c: &mut [f64]| kind.evaluate(density, x, d, c);
         // With another process to share with, a shared block's update may be split by
         // independent block (the contacts' terms where the contacts are).
-        let splitter = match kind {
-            EvalKind::Block(b) if self.offload.is_some() && density.block_splits(b) => {
-                Some(BlockShares { density, block: b })
+        let splitter = match (block, plan.split) {
+            (Some(b), Some(split)) if self.offload.is_some() && !exact => {
+                Some(BlockShares { split, block: b })
             }
             _ => None,
         };
-        let parts = match splitter {
-            Some(_) => density.independent_blocks().len(),
-            None => 0,
-        };
+        let parts = self.independent_parts;
         let mut batch = Batch {
             kind,
             ndim,
             nderived,
             cache_len,
+            derived_stride: *derived_stride,
+            state_stride: *state_stride,
             slots: &slots,
             proposals,
             derived,
@@ -117,9 +122,13 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
     /// [`Work`]; the outcomes are taken in walker order. So the chains do not depend on the
     /// number of threads or on the (timing-based) choice to run in parallel. The new points
     /// are then accepted as they are by [`Ensemble::accept`].
-    pub(super) fn slice_half_step(&mut self, h: usize, block: Option<(usize, &UpdateBlock)>) {
+    pub(super) fn slice_half_step(
+        &mut self,
+        h: usize,
+        block: Option<(usize, &UpdateBlock<'a>)>,
+        plan: &HalfStepPlan<'_, 'a>,
+    ) {
         let half = self.config.walkers() / 2;
-        let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
         let slot = block.map_or(0, |b| b.0);
         let contexts: Vec<Option<SliceContext>> = self
             .ensembles
@@ -131,32 +140,20 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
                     .then(|| ens.slice_context(h, mv, slot, block.map(|b| b.1)))
             })
             .collect();
-        let Work {
-            proposals,
-            derived,
-            cache,
-            evals,
-        } = &mut self.work;
         let mut tasks = Vec::new();
-        for (((((ens, context), props), der), cac), ev) in self
+        for ((ens, context), (out, ev)) in self
             .ensembles
             .iter_mut()
             .zip(&contexts)
-            .zip(proposals.chunks_exact_mut(half * ndim))
-            .zip(derived.chunks_exact_mut(half * stride))
-            .zip(cache.chunks_exact_mut(half * cstride))
-            .zip(evals.chunks_exact_mut(half))
+            .zip(self.work.per_ensemble(half, self.ndim))
         {
             if let Some(context) = context {
-                let out = ProposalBuffers {
-                    proposals: props,
-                    derived: der,
-                    cache: cac,
-                };
-                tasks.extend(ens.slice_tasks(h, context, out, ev));
+                tasks.extend(ens.slice_tasks(h, context, out, ev, plan.carried));
             }
         }
         let density = self.density;
+        let kind = plan.kind;
+        let evaluate = |x: &[f64], d: &mut [f64], c: &mut [f64]| kind.evaluate(density, x, d, c);
         let threads = rayon::current_num_threads();
         // A slice update costs a few evaluations; until one has been timed, assume it is worth
         // spreading (the choice cannot change the chains).
@@ -167,7 +164,7 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
                 c * (SLICE_EVALS_GUESS * tasks.len()) as f64 >= PARALLEL_MIN_WORK_NS
             });
         let started = Instant::now();
-        let run = |t: &mut SliceTask| t.run(density, block);
+        let run = |t: &mut SliceTask| t.run(&evaluate, block);
         let outcomes: Vec<_> = if parallel {
             tasks.par_iter_mut().map(run).collect()
         } else {
@@ -198,8 +195,6 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
     }
 }
 
-/// One proposal's buffers as the evaluation loop zips them: position, derived values, cache,
-/// outcome.
 /// Serial cost (ns) of a half-step's evaluations above which they are spread over the rayon
 /// pool. One parallel loop costs a few to tens of µs of synchronisation on a busy
 /// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only

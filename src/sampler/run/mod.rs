@@ -39,15 +39,22 @@ pub use step::{CARRY_FIT_STEPS, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS};
 const SHOWN_R_HAT_EVERY: std::time::Duration = std::time::Duration::from_secs(20);
 
 /// Affine-invariant ensemble sampler over a [`LogDensity`], running several independent
-/// ensembles side by side.
+/// ensembles side by side. Built from `&density` it updates every coordinate at once; built
+/// from [`Target::blocked`](crate::density::Target::blocked) it updates a
+/// [`BlockedDensity`]'s blocks one after the other when its configuration asks for blocked
+/// updates.
 pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     density: &'a D,
     config: SamplerConfig,
     ndim: usize,
     nderived: usize,
-    cache_len: usize,
+    /// Values of state each walker keeps for the updates of its blocks (0 for joint updates).
+    state_len: usize,
     /// The blocks updated one after the other in a step; empty for joint updates.
-    blocks: Vec<UpdateBlock>,
+    blocks: Vec<UpdateBlock<'a>>,
+    /// How many of them are independent of one another (the parts a shared block's update
+    /// may be split into).
+    independent_parts: usize,
     ensembles: Vec<Ensemble>,
     /// Move of the current step per ensemble.
     step_moves: Vec<Move>,
@@ -85,9 +92,6 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     history_released: bool,
     /// Where the proposals are evaluated when not in this process alone.
     offload: Option<&'a mut dyn Offload>,
-    /// Whether the density merges updates of its independent blocks made apart
-    /// ([`LogDensity::log_density_from_cache`]); `None` until asked.
-    merges: Option<bool>,
 }
 
 impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {

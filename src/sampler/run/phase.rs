@@ -11,10 +11,10 @@
 //! [`PhaseOutcome`]): the entries of the positions, derived values, caches and slice scales
 //! whose bits differ, and the counters' increments. This process updates its own share
 //! meanwhile, applies the others' outcomes, and recomputes each walker's log-density and the
-//! derived values that belong to no one block from the merged cache
-//! ([`LogDensity::log_density_from_cache`]). A copy's other blocks keep their earlier values,
-//! which no block's update reads (that is what independence promises), so the merged state
-//! is the bits of updates made one after another.
+//! derived values that belong to no one block from the merged state, as after any run of
+//! independent blocks. A copy's other blocks keep their earlier values, which no block's
+//! update reads (that is what independence promises), so the merged state is the bits of
+//! updates made one after another.
 //!
 //! Both messages are flat vectors of `u64` (an `f64` as its bits) and bytes (rejection labels
 //! and a fatal message), for any transport.
@@ -22,16 +22,15 @@
 use std::collections::BTreeMap;
 use std::ops::Range;
 
-use rayon::prelude::*;
-
 use super::super::ensemble::{Ensemble, EnsembleState, Fatal, UpdateBlock};
 use super::super::error::SamplerError;
 use super::super::moves::SLICE_MU0;
 use super::super::offload::{Batch, Offload};
-use super::plan::{blocks_of, check_dims, fresh_carry_fits, slice_slots};
+use super::construct::Layout;
+use super::plan::{fresh_carry_fits, slice_slots};
 use super::EnsembleSampler;
 use super::SamplerConfig;
-use crate::density::LogDensity;
+use crate::density::{LogDensity, Target};
 use crate::sampler::share;
 
 /// The walkers' state as a run of independent blocks begins, for the other processes'
@@ -142,14 +141,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ///
     /// # Errors
     /// As [`new`](Self::new), for an invalid configuration.
-    pub fn replica(density: &'a D, config: SamplerConfig) -> Result<Self, SamplerError> {
-        let (ndim, nderived, cache_len) = (
-            density.dim(),
-            density.derived_names().len(),
-            density.cache_len(),
-        );
-        let blocks = blocks_of(density, &config)?;
-        check_dims(ndim, &blocks, &config)?;
+    pub fn replica(
+        target: impl Into<Target<'a, D>>,
+        config: SamplerConfig,
+    ) -> Result<Self, SamplerError> {
+        let target = target.into();
+        let layout = Layout::new(target, &config)?;
+        let (ndim, nderived, state_len) = (layout.ndim, layout.nderived, layout.state_len);
         let walkers = config.walkers();
         let states = (0..config.ensembles())
             .map(|e| {
@@ -163,45 +161,29 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     accepted: vec![0; walkers],
                     rejections: BTreeMap::new(),
                     evaluations: 0,
-                    slice_scales: vec![SLICE_MU0; slice_slots(&config, &blocks)],
+                    slice_scales: vec![SLICE_MU0; slice_slots(&config, &layout.blocks)],
                     slice_updates: 0,
-                    carry_fits: fresh_carry_fits(&blocks),
+                    carry_fits: fresh_carry_fits(&layout.blocks),
                 }
             })
             .collect();
-        let caches = vec![vec![0.0; walkers * cache_len]; config.ensembles()];
+        let caches = vec![vec![0.0; walkers * state_len]; config.ensembles()];
         // A replica keeps no chains: one row of history.
         Ok(Self::at_first_step(
-            density, config, blocks, states, caches, 1,
+            target.density(),
+            layout,
+            config,
+            states,
+            caches,
+            1,
         ))
     }
 
-    /// The run of independent blocks that starts at block `b` and is to be split over
-    /// processes: when an offload splits runs, the density can merge them, and the run holds
-    /// at least two blocks.
-    pub(super) fn split_run(&mut self, blocks: &[UpdateBlock], b: usize) -> Option<Range<usize>> {
-        if self
-            .offload
+    /// Whether an offload splits runs of independent blocks over its processes.
+    pub(super) fn splits_runs(&self) -> bool {
+        self.offload
             .as_deref()
-            .is_none_or(|offload| offload.phase_shares() < 2)
-            || !blocks[b].independent
-        {
-            return None;
-        }
-        let end = b + blocks[b..]
-            .iter()
-            .take_while(|block| block.independent)
-            .count();
-        let merges = *self.merges.get_or_insert_with(|| {
-            let ens = &self.ensembles[0];
-            let mut derived = ens.s.derived[..self.nderived].to_vec();
-            let x = &ens.s.positions[..self.ndim];
-            let cache = &ens.cache[..self.cache_len];
-            self.density
-                .log_density_from_cache(x, &mut derived, cache)
-                .is_some()
-        });
-        (merges && end - b >= 2).then_some(b..end)
+            .is_some_and(|offload| offload.phase_shares() >= 2)
     }
 
     /// Updates the independent blocks `run` in shares: the offload's other processes update
@@ -209,7 +191,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// Returns the first fatal evaluation in block order.
     pub(super) fn update_run(
         &mut self,
-        blocks: &[UpdateBlock],
+        blocks: &[UpdateBlock<'a>],
         run: Range<usize>,
     ) -> Result<(), (usize, Fatal)> {
         let offload = self
@@ -239,10 +221,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
         match fatal {
             Some((_, e, f)) => Err((e, f)),
-            None => {
-                self.refresh_merged();
-                Ok(())
-            }
+            None => Ok(()),
         }
     }
 
@@ -267,7 +246,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// checkpoint and one started afresh size differently.
     fn fits(&mut self, request: &PhaseRequest) -> bool {
         let words = &request.words;
-        let (walkers, cache_len) = (self.config.walkers(), self.cache_len);
+        let (walkers, cache_len) = (self.config.walkers(), self.state_len);
         let mut at = REQUEST_HEAD;
         let blocks = request.blocks();
         if words.len() < REQUEST_HEAD || blocks.end > self.blocks.len() {
@@ -312,7 +291,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     self.config.walkers(),
                     self.ndim,
                     self.nderived,
-                    self.cache_len
+                    self.state_len
                 ),
             });
         }
@@ -444,41 +423,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             )
         })
     }
-
-    /// Each walker's log-density, and the derived values that belong to no one block, from
-    /// its merged cache.
-    fn refresh_merged(&mut self) {
-        let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
-        let density = self.density;
-        for ens in &mut self.ensembles {
-            let Ensemble { s, cache, .. } = ens;
-            let refreshed: Vec<(f64, Vec<f64>)> = (0..s.log_density.len())
-                .into_par_iter()
-                .map(|w| {
-                    let mut derived = s.derived[w * nderived..(w + 1) * nderived].to_vec();
-                    let lp = density
-                        .log_density_from_cache(
-                            &s.positions[w * ndim..(w + 1) * ndim],
-                            &mut derived,
-                            &cache[w * cache_len..(w + 1) * cache_len],
-                        )
-                        .expect("the density merges its independent blocks");
-                    (lp, derived)
-                })
-                .collect();
-            for (w, (lp, derived)) in refreshed.into_iter().enumerate() {
-                s.log_density[w] = lp;
-                s.derived[w * nderived..(w + 1) * nderived].copy_from_slice(&derived);
-            }
-        }
-    }
 }
 
 /// An [`Offload`] that splits each run of independent blocks into `shares` and updates all
 /// but the first on replicas of the sampler in this process, one after another: what the
-/// ranks of an MPI job do at the same time, in one process. It saves no time; it checks a
-/// density's [`log_density_from_cache`](LogDensity::log_density_from_cache), since the chains
-/// it gives must be the bits of a sampler without it.
+/// ranks of an MPI job do at the same time, in one process. It saves no time; it checks that
+/// updates of independent blocks made apart and merged give the chains of a sampler without
+/// it, bit for bit.
 pub struct ReplicaShares<'a, D: LogDensity + ?Sized> {
     replicas: Vec<EnsembleSampler<'a, D>>,
     request: Option<PhaseRequest>,
@@ -492,12 +443,13 @@ impl<'a, D: LogDensity + ?Sized> ReplicaShares<'a, D> {
     /// # Errors
     /// As [`EnsembleSampler::replica`].
     pub fn new(
-        density: &'a D,
+        target: impl Into<Target<'a, D>>,
         config: &SamplerConfig,
         shares: usize,
     ) -> Result<Self, SamplerError> {
+        let target = target.into();
         let replicas = (1..shares.max(1))
-            .map(|_| EnsembleSampler::replica(density, config.clone()))
+            .map(|_| EnsembleSampler::replica(target, config.clone()))
             .collect::<Result<_, _>>()?;
         Ok(Self {
             replicas,

@@ -2,120 +2,172 @@
 //! the per-block state the ensembles keep for them.
 
 use super::super::config::{SamplerConfig, Updates};
-use super::super::ensemble::UpdateBlock;
+use super::super::ensemble::{BlockKind, UpdateBlock};
 use super::super::error::SamplerError;
 use super::super::moves::CarryTuning;
-use crate::density::LogDensity;
+use crate::density::{
+    BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, LogDensity, PlannedBlock, Target,
+};
 
-/// The blocks a step updates in turn: the density's, validated, when the configuration asks
-/// for blocked updates and the density has two or more, with their links when it asks for
-/// hierarchical ones; none (joint updates) otherwise.
-pub(super) fn blocks_of<D: LogDensity + ?Sized>(
-    density: &D,
+/// The blocks a step updates in turn: the density's plan, validated, when the target offers
+/// blocks, the configuration asks for blocked updates and the plan has two or more, with
+/// their links and the density's carried moves when it asks for hierarchical ones; none
+/// (joint updates) otherwise.
+pub(super) fn blocks_of<'a, D: LogDensity + ?Sized>(
+    target: Target<'a, D>,
     config: &SamplerConfig,
-) -> Result<Vec<UpdateBlock>, SamplerError> {
-    let blocks = match config.updates() {
-        Updates::Joint => return Ok(Vec::new()),
-        Updates::Blocked | Updates::Hierarchical => density.blocks(),
+) -> Result<Vec<UpdateBlock<'a>>, SamplerError> {
+    let Some(blocked) = target.blocked_density() else {
+        return Ok(Vec::new());
     };
-    // One block (or none) is the whole space: joint updates.
-    if blocks.len() <= 1 {
+    if config.updates() == Updates::Joint {
         return Ok(Vec::new());
     }
-    let ndim = density.dim();
+    let plan = blocked.block_plan();
+    // One block (or none) is the whole space: joint updates.
+    if plan.blocks.len() <= 1 {
+        return Ok(Vec::new());
+    }
+    let density = target.density();
+    check_cover(&plan, density.dim())?;
+    let hierarchical = config.updates() == Updates::Hierarchical;
+    if hierarchical {
+        check_links(&plan, density.dim())?;
+    }
+    let sizes = (density.derived_names().len(), blocked.state_len());
+    check_independent(&plan, hierarchical, sizes)?;
+    Ok(plan
+        .blocks
+        .into_iter()
+        .map(|block| update_block(blocked, block, hierarchical, config))
+        .collect())
+}
+
+/// The sampler's view of a block of the plan under `config` (`hierarchical`: its updates).
+fn update_block<'a>(
+    density: &'a dyn BlockedDensity,
+    block: PlannedBlock<'a>,
+    hierarchical: bool,
+    config: &SamplerConfig,
+) -> UpdateBlock<'a> {
+    let PlannedBlock {
+        coords,
+        links,
+        update,
+        split,
+    } = block;
+    // Links and the density's carried moves are what hierarchical updates add.
+    let links = if hierarchical {
+        links
+    } else {
+        BlockLinks::default()
+    };
+    let (kind, carry_measured) = match update {
+        BlockUpdate::Moves { carry } => (
+            BlockKind::Moves {
+                carry: carry.filter(|_| hierarchical),
+            },
+            false,
+        ),
+        BlockUpdate::Exact { conditional, carry } => {
+            let carry = carry.filter(|_| hierarchical);
+            (
+                BlockKind::Exact {
+                    conditional,
+                    carry: carry.map(|c| c.map),
+                },
+                carry.is_some_and(|c| c.optional),
+            )
+        }
+        BlockUpdate::Independent { own, entries } => {
+            (BlockKind::Independent { own, entries }, false)
+        }
+    };
+    let mut block = UpdateBlock {
+        density,
+        coords,
+        links,
+        kind,
+        carry_measured,
+        tuned_carry: false,
+        split,
+    };
+    block.tuned_carry = hierarchical
+        && block.carry().is_none()
+        && config
+            .carry()
+            .tunes(block.links.followers.len(), config.walkers());
+    block
+}
+
+/// The plan's blocks must be non-empty, disjoint and cover all `ndim` coordinates.
+fn check_cover(plan: &BlockPlan, ndim: usize) -> Result<(), SamplerError> {
     let mut seen = vec![false; ndim];
-    let disjoint = blocks
+    let disjoint = plan
+        .blocks
         .iter()
-        .flatten()
+        .flat_map(|b| &b.coords)
         .all(|&i| i < ndim && !std::mem::replace(&mut seen[i], true));
-    if !disjoint || blocks.iter().any(Vec::is_empty) || seen.contains(&false) {
+    if !disjoint || plan.blocks.iter().any(|b| b.coords.is_empty()) || seen.contains(&false) {
         return Err(SamplerError::InvalidConfig {
             name: "blocks",
-            value: format!("{blocks:?}"),
+            value: format!("{:?}", plan.coords()),
             requirement: format!(
                 "the density's blocks must be non-empty, disjoint and cover all {ndim} coordinates"
             ),
         });
     }
-    let hierarchical = config.updates() == Updates::Hierarchical;
-    let links = if hierarchical {
-        density.block_links()
-    } else {
-        Vec::new()
-    };
-    if !links.is_empty() {
-        let in_range = links
+    Ok(())
+}
+
+/// Every block's links must name coordinates below `ndim` outside the block.
+fn check_links(plan: &BlockPlan, ndim: usize) -> Result<(), SamplerError> {
+    let valid = plan.blocks.iter().all(|b| {
+        b.links
+            .given
             .iter()
-            .flat_map(|l| l.given.iter().chain(&l.followers))
-            .all(|&i| i < ndim);
-        let outside = links
-            .iter()
-            .zip(&blocks)
-            .all(|(l, b)| !l.given.iter().chain(&l.followers).any(|i| b.contains(i)));
-        if links.len() != blocks.len() || !in_range || !outside {
+            .chain(&b.links.followers)
+            .all(|i| *i < ndim && !b.coords.contains(i))
+    });
+    if valid {
+        return Ok(());
+    }
+    let links: Vec<&BlockLinks> = plan.blocks.iter().map(|b| &b.links).collect();
+    Err(SamplerError::InvalidConfig {
+        name: "block_links",
+        value: format!("{links:?}"),
+        requirement: format!("each block's links name coordinates below {ndim} outside the block"),
+    })
+}
+
+/// An independent block must have no followers (under hierarchical updates, which carry
+/// them), nor a split update, and its entries must lie within the derived values and the
+/// state (`sizes`).
+fn check_independent(
+    plan: &BlockPlan,
+    hierarchical: bool,
+    (nderived, state_len): (usize, usize),
+) -> Result<(), SamplerError> {
+    for (b, block) in plan.blocks.iter().enumerate() {
+        let BlockUpdate::Independent { entries, .. } = &block.update else {
+            continue;
+        };
+        let refused = (hierarchical && !block.links.followers.is_empty())
+            || block.split.is_some()
+            || entries.derived.iter().any(|&j| j >= nderived)
+            || entries.state.iter().any(|&j| j >= state_len);
+        if refused {
             return Err(SamplerError::InvalidConfig {
-                name: "block_links",
-                value: format!("{links:?}"),
+                name: "independent_blocks",
+                value: format!("block {b} ({:?})", block.coords),
                 requirement: format!(
-                    "one entry per block ({}), each naming coordinates below {ndim} outside its block",
-                    blocks.len()
+                    "an independent block has no followers and no split update, and its \
+                     entries lie below {nderived} derived values and {state_len} of state"
                 ),
             });
         }
     }
-    let conditional = density.conditional_blocks();
-    if let Some(&b) = conditional.iter().find(|&&b| b >= blocks.len()) {
-        return Err(SamplerError::InvalidConfig {
-            name: "conditional_blocks",
-            value: format!("{conditional:?}"),
-            requirement: format!(
-                "block {b} does not exist: name blocks below {}",
-                blocks.len()
-            ),
-        });
-    }
-    let independent = density.independent_blocks();
-    if let Some(&b) = independent.iter().find(|&&b| {
-        b >= blocks.len()
-            || conditional.contains(&b)
-            || (hierarchical && density.carries_followers(b))
-            || links.get(b).is_some_and(|l| !l.followers.is_empty())
-    }) {
-        return Err(SamplerError::InvalidConfig {
-            name: "independent_blocks",
-            value: format!("{independent:?}"),
-            requirement: format!(
-                "block {b} cannot be updated independently: name existing blocks (below {}) \
-                 that are not drawn exactly and have no followers",
-                blocks.len()
-            ),
-        });
-    }
-    let mut links = links.into_iter();
-    Ok(blocks
-        .into_iter()
-        .enumerate()
-        .map(|(b, coords)| UpdateBlock {
-            coords,
-            links: links.next().unwrap_or_default(),
-            conditional: conditional.contains(&b),
-            density_carries: hierarchical && density.carries_followers(b),
-            carry_measured: hierarchical
-                && conditional.contains(&b)
-                && density.carries_followers(b)
-                && density.carried_move_optional(b),
-            tuned_carry: false,
-            independent: independent.contains(&b),
-        })
-        .map(|mut b| {
-            b.tuned_carry = hierarchical
-                && !b.density_carries
-                && config
-                    .carry()
-                    .tunes(b.links.followers.len(), config.walkers());
-            b
-        })
-        .collect())
+    Ok(())
 }
 
 /// A fresh tuning for every block whose followers are carried by a tuned regression; none

@@ -21,7 +21,7 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
     pub(super) fn updates_per_step(&self) -> u64 {
         self.blocks
             .iter()
-            .filter(|b| !b.conditional || b.density_carries)
+            .filter(|b| !b.exact() || b.carry().is_some())
             .count()
             .max(1) as u64
     }

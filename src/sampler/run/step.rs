@@ -1,14 +1,39 @@
 //! One step: every walker of every ensemble updated once, jointly or block after block (a
 //! block drawn exactly, moved with its followers, or independent of the others and drawing
 //! from its own streams).
+//!
+//! A run of independent blocks is updated block after block, each on its own entries of the
+//! walkers' state, and the walkers' log-densities (and the derived values that belong to no
+//! block) are brought up to date once after the run, from the state: the bits of whole
+//! updates made one after another, at a cost that does not grow with the number of blocks.
 
-use super::super::ensemble::{BlockTerms, Fatal, ProposalBuffers, UpdateBlock, Work};
+use std::ops::Range;
+
+use rayon::prelude::*;
+
+use super::super::ensemble::{BlockKind, Ensemble, Fatal, Settle, UpdateBlock};
 use super::super::error::SamplerError;
+use super::super::evaluator::EvalKind;
 use super::super::moves::{Move, SLICE_ADAPT_STEPS};
 use super::EnsembleSampler;
-use crate::density::LogDensity;
+use crate::density::{IndependentBlocks, LogDensity, SplitByPart};
 
-impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
+/// How the proposals of a half-step are evaluated and settle, and what they carry of their
+/// walkers' derived values and state.
+#[derive(Clone, Copy)]
+pub(super) struct HalfStepPlan<'s, 'a> {
+    pub kind: EvalKind<'a>,
+    pub settle: Settle<'s>,
+    /// Derived values and entries of state each proposal carries.
+    pub carried: (usize, usize),
+    /// Whether a proposal carries its walker's whole derived values and state as input.
+    pub whole: bool,
+    /// The evaluation of a move of a block that every independent block depends on, split by
+    /// independent block for other processes.
+    pub split: Option<&'a dyn SplitByPart>,
+}
+
+impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// One step of every ensemble: one update of every walker (joint), or one update of
     /// every walker in each block in turn (blocked). All randomness is drawn serially,
     /// ensemble by ensemble; per half-step the proposals of all ensembles are evaluated in one
@@ -40,18 +65,26 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
     }
 
     /// One update of every walker in each of `blocks` in turn. A run of independent blocks
-    /// goes to the offload's processes in shares when it splits them (see
-    /// [`update_run`](Self::update_run)).
+    /// is updated block after block on the blocks' own state, or in shares by the offload's
+    /// processes when it splits them (see [`update_run`](Self::update_run)), and then brought
+    /// together.
     pub(super) fn update_blocks(
         &mut self,
-        blocks: &[UpdateBlock],
+        blocks: &[UpdateBlock<'a>],
         step_no: u64,
     ) -> Result<(), (usize, Fatal)> {
         let mut b = 0;
         while b < blocks.len() {
-            if let Some(run) = self.split_run(blocks, b) {
+            if let Some((run, own)) = independent_run(blocks, b) {
                 b = run.end;
-                self.update_run(blocks, run)?;
+                if self.splits_runs() && run.len() >= 2 {
+                    self.update_run(blocks, run)?;
+                } else {
+                    for i in run {
+                        self.update(Some((i, &blocks[i])), false)?;
+                    }
+                }
+                self.refresh_from_state(own);
                 continue;
             }
             let block = &blocks[b];
@@ -61,12 +94,12 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
             // draw mixes where the data pin the members, the carried move where they do not.
             let tuning = block.carry_measured && step_no < CARRY_TUNE_STEPS;
             let before = tuning.then(|| self.block_positions(block));
-            if block.conditional {
+            if block.exact() {
                 self.update(Some((b, block)), true)?;
             }
             let drawn = tuning.then(|| self.block_positions(block));
-            if !block.conditional
-                || (block.density_carries && self.keeps_carried_move(b, block, step_no))
+            if !block.exact()
+                || (block.carry().is_some() && self.keeps_carried_move(b, block, step_no))
             {
                 self.update(Some((b, block)), false)?;
             }
@@ -80,18 +113,41 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         Ok(())
     }
 
+    /// Each walker's log-density, and the derived values that belong to no one block, from
+    /// its state after a run of independent blocks (`own`) updated on their own entries.
+    pub(super) fn refresh_from_state(&mut self, own: &dyn IndependentBlocks) {
+        let (ndim, nderived, state_len) = (self.ndim, self.nderived, self.state_len);
+        for ens in &mut self.ensembles {
+            let Ensemble { s, cache, .. } = ens;
+            let walkers = s.log_density.len();
+            let mut derived: Vec<&mut [f64]> = match nderived {
+                0 => (0..walkers).map(|_| &mut [][..]).collect(),
+                n => s.derived.chunks_exact_mut(n).collect(),
+            };
+            s.log_density
+                .par_iter_mut()
+                .zip(&mut derived)
+                .enumerate()
+                .for_each(|(w, (lp, derived))| {
+                    let x = &s.positions[w * ndim..(w + 1) * ndim];
+                    let state = &cache[w * state_len..(w + 1) * state_len];
+                    *lp = own.log_density_from_state(x, derived, state);
+                });
+        }
+    }
+
     /// Updates every walker of every ensemble once: all coordinates, or those of `block`
     /// (its index and coordinates), by the moves or, when `exact`, by an exact draw from the
     /// block's conditional. Returns the first fatal evaluation.
     pub(super) fn update(
         &mut self,
-        block: Option<(usize, &UpdateBlock)>,
+        block: Option<(usize, &UpdateBlock<'a>)>,
         exact: bool,
     ) -> Result<(), (usize, Fatal)> {
         // An independent block draws from its own streams (keyed by its first coordinate, a
         // name that does not depend on the blocks' order), the ensembles' own streams waiting.
         let keyed = block
-            .filter(|(_, ub)| ub.independent)
+            .filter(|(_, ub)| ub.independent())
             .map(|(_, ub)| ub.coords[0]);
         if let Some(key) = keyed {
             let (seed, step, walkers) = (self.config.seed(), self.step, self.config.walkers());
@@ -114,87 +170,77 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         result
     }
 
+    /// How the proposals of an update of `block` (all coordinates when `None`; an exact draw
+    /// when `exact`) are evaluated and settle.
+    fn half_step_plan<'s>(
+        &self,
+        block: Option<(usize, &'s UpdateBlock<'a>)>,
+        exact: bool,
+    ) -> HalfStepPlan<'s, 'a> {
+        let whole = (self.nderived, self.state_len);
+        let (kind, settle, split) = match block {
+            None => (EvalKind::Full, Settle::Whole, None),
+            Some((b, ub)) => match &ub.kind {
+                BlockKind::Exact { conditional, .. } if exact => {
+                    (EvalKind::ExactDraw(b, *conditional), Settle::Whole, None)
+                }
+                BlockKind::Independent { own, entries } => {
+                    let settle = Settle::Own {
+                        block: b,
+                        coords: &ub.coords,
+                        own: *own,
+                        entries,
+                    };
+                    let carried = (entries.derived.len(), entries.state.len());
+                    return HalfStepPlan {
+                        kind: EvalKind::Own(b, *own),
+                        settle,
+                        carried,
+                        whole: false,
+                        split: None,
+                    };
+                }
+                _ => (EvalKind::Block(b, ub.density), Settle::Whole, ub.split),
+            },
+        };
+        HalfStepPlan {
+            kind,
+            settle,
+            carried: whole,
+            whole: block.is_some(),
+            split,
+        }
+    }
+
     /// [`update`](Self::update) with the ensembles' streams in place.
     pub(super) fn update_walkers(
         &mut self,
-        block: Option<(usize, &UpdateBlock)>,
+        block: Option<(usize, &UpdateBlock<'a>)>,
         exact: bool,
     ) -> Result<(), (usize, Fatal)> {
         let moves = self.config.moves();
-        let half = self.config.walkers() / 2;
-        let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
         for (ens, mv) in self.ensembles.iter_mut().zip(self.step_moves.iter_mut()) {
             *mv = ens.start_step(moves);
         }
+        let plan = self.half_step_plan(block, exact);
+        self.work.carry(plan.carried.0, plan.carried.1);
         for h in 0..2 {
-            let Work {
-                proposals,
-                derived,
-                cache,
-                ..
-            } = &mut self.work;
-            let density = self.density;
-            for (((((ens, mv), p), props), der), cac) in self
-                .ensembles
-                .iter_mut()
-                .zip(&self.step_moves)
-                .zip(self.pending.iter_mut())
-                .zip(proposals.chunks_exact_mut(half * ndim))
-                .zip(derived.chunks_exact_mut(half * stride))
-                .zip(cache.chunks_exact_mut(half * cstride))
-            {
-                // An ensemble whose first half failed fatally does not go on (as before); a
-                // slice half-step runs below, walker by walker.
-                if p.is_none() && (exact || !mv.is_slice()) {
-                    let out = ProposalBuffers {
-                        proposals: props,
-                        derived: der,
-                        cache: cac,
-                    };
-                    match block {
-                        Some((b, ub)) if exact => {
-                            let ln_conditional = |x: &[f64]| density.conditional_log_density(b, x);
-                            *p = ens.draw_conditional(h, ub, &ln_conditional, out).err();
-                        }
-                        Some((b, ub)) if ub.density_carries => {
-                            let carry =
-                                |from: &[f64], to: &mut [f64]| density.carry_followers(b, from, to);
-                            ens.draw(mv, h, Some((b, ub, Some(&carry))), out);
-                        }
-                        _ => ens.draw(mv, h, block.map(|(b, ub)| (b, ub, None)), out),
-                    }
-                }
-            }
+            self.draw_half_step(h, block, exact, &plan);
             if !exact && self.step_moves.iter().any(Move::is_slice) {
-                self.slice_half_step(h, block);
+                self.slice_half_step(h, block, &plan);
             }
             if exact || !self.step_moves.iter().all(Move::is_slice) {
-                self.evaluate(block.map(|b| b.0), exact);
+                self.evaluate(block.map(|b| b.0), exact, &plan);
             }
-            let Work {
-                proposals,
-                derived,
-                cache,
-                evals,
-            } = &self.work;
-            // An independent block's move is accepted on the change of its own terms, which
-            // the other independent blocks' updates leave alone.
-            let density = self.density;
-            let local = block
-                .filter(|(_, ub)| ub.independent)
-                .map(|(b, _)| move |x: &[f64], c: &[f64]| density.block_log_density(b, x, c));
-            for (((((ens, p), props), der), cac), ev) in self
+            let half = self.config.walkers() / 2;
+            for ((ens, p), (out, evals)) in self
                 .ensembles
                 .iter_mut()
                 .zip(self.pending.iter_mut())
-                .zip(proposals.chunks_exact(half * ndim))
-                .zip(derived.chunks_exact(half * stride))
-                .zip(cache.chunks_exact(half * cstride))
-                .zip(evals.chunks_exact(half))
+                .zip(self.work.per_ensemble(half, self.ndim))
             {
                 if p.is_none() {
-                    let local = local.as_ref().map(|f| f as &BlockTerms);
-                    *p = ens.accept(h, props, der, cac, ev, local).err();
+                    *p = ens.accept(h, &out, evals, plan.settle).err();
                 }
             }
         }
@@ -220,6 +266,46 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         {
             Some(fatal) => Err(fatal),
             None => Ok(()),
+        }
+    }
+
+    /// Draws the proposals of half `h` of every ensemble still running (but those whose move
+    /// this step is the slice move, which draw as they go), each carrying what `plan` says of
+    /// its walker's state.
+    fn draw_half_step(
+        &mut self,
+        h: usize,
+        block: Option<(usize, &UpdateBlock<'a>)>,
+        exact: bool,
+        plan: &HalfStepPlan,
+    ) {
+        let half = self.config.walkers() / 2;
+        for (((ens, mv), p), (mut out, _)) in self
+            .ensembles
+            .iter_mut()
+            .zip(&self.step_moves)
+            .zip(self.pending.iter_mut())
+            .zip(self.work.per_ensemble(half, self.ndim))
+        {
+            // An ensemble whose first half failed fatally does not go on (as before).
+            if p.is_some() {
+                continue;
+            }
+            ens.gather_state(h, plan.settle, plan.whole, &mut out);
+            // A slice half-step runs walker by walker (see `slice_half_step`).
+            if !exact && mv.is_slice() {
+                continue;
+            }
+            match block {
+                Some((b, ub)) if exact => {
+                    if let BlockKind::Exact { conditional, .. } = ub.kind {
+                        let ln_conditional = |x: &[f64]| conditional.conditional_log_density(b, x);
+                        *p = ens.draw_conditional(h, ub, &ln_conditional, out).err();
+                    }
+                }
+                Some((b, ub)) => ens.draw(mv, h, Some((b, ub, ub.carry().map(|c| (b, c)))), out),
+                None => ens.draw(mv, h, None, out),
+            }
         }
     }
 
@@ -254,7 +340,7 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
 
 /// Steps during which a block both drawn exactly and carried by the moves gets both updates
 /// before the sampler decides whether the carried move is worth its evaluations (when the
-/// density makes it optional, [`LogDensity::carried_move_optional`]).
+/// density makes it optional, [`CarriedMove::optional`](crate::density::CarriedMove::optional)).
 pub const CARRY_TUNE_STEPS: u64 = 50;
 
 /// Steps over which a regression carrying a block's followers is tuned (where it is, see
@@ -270,4 +356,18 @@ pub const CARRY_MIN_JUMP_RATIO: f64 = 0.1;
 
 fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
+}
+
+/// The run of independent blocks that starts at block `b` (the blocks' indices) with the
+/// density's independent blocks, if block `b` is one.
+fn independent_run<'a>(
+    blocks: &[UpdateBlock<'a>],
+    b: usize,
+) -> Option<(Range<usize>, &'a dyn IndependentBlocks)> {
+    let (own, _) = blocks[b].own()?;
+    let end = b + blocks[b..]
+        .iter()
+        .take_while(|block| block.independent())
+        .count();
+    Some((b..end, own))
 }

@@ -1,6 +1,9 @@
 use super::plan::blocks_of;
 use super::*;
-use crate::density::{BlockLinks, LogDensityError};
+use crate::density::{
+    BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, IndependentBlocks, LogDensityError,
+    OwnEntries, PlannedBlock, Target,
+};
 use crate::sampler::{MemorySink, Move, NullSink, Silent};
 use crate::sampler::{ReplicaShares, SamplerConfig, SamplerError, SamplerState, Steps, Updates};
 
@@ -15,8 +18,9 @@ impl LogDensity for Normal3 {
     }
 }
 
-/// Normal3 in two blocks with links as given.
-struct Linked(Vec<BlockLinks>);
+/// Normal3 in two blocks with links as given, each updated by the moves, or as independent
+/// blocks when `independent`.
+struct Linked(Vec<BlockLinks>, bool);
 impl LogDensity for Linked {
     fn dim(&self) -> usize {
         3
@@ -24,11 +28,65 @@ impl LogDensity for Linked {
     fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
         Normal3.log_density(x, d)
     }
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        vec![vec![0], vec![1, 2]]
+}
+impl BlockedDensity for Linked {
+    fn state_len(&self) -> usize {
+        0
     }
-    fn block_links(&self) -> Vec<BlockLinks> {
-        self.0.clone()
+    fn log_density_with_state(
+        &self,
+        x: &[f64],
+        d: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, d)
+    }
+    fn log_density_after_block(
+        &self,
+        _block: usize,
+        x: &[f64],
+        d: &mut [f64],
+        _state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        self.log_density(x, d)
+    }
+    fn block_plan(&self) -> BlockPlan<'_> {
+        let blocks = [vec![0], vec![1, 2]]
+            .into_iter()
+            .zip(&self.0)
+            .map(|(coords, links)| PlannedBlock {
+                coords,
+                links: links.clone(),
+                update: if self.1 {
+                    BlockUpdate::Independent {
+                        own: self,
+                        entries: OwnEntries::default(),
+                    }
+                } else {
+                    BlockUpdate::Moves { carry: None }
+                },
+                split: None,
+            })
+            .collect();
+        BlockPlan { blocks }
+    }
+}
+impl IndependentBlocks for Linked {
+    fn block_terms(&self, block: usize, x: &[f64], _state: &[f64]) -> f64 {
+        let coords: &[usize] = if block == 0 { &[0] } else { &[1, 2] };
+        coords.iter().map(|&i| -0.5 * x[i] * x[i]).sum()
+    }
+    fn update_block_state(
+        &self,
+        block: usize,
+        x: &[f64],
+        _d: &mut [f64],
+        state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        Ok(self.block_terms(block, x, state))
+    }
+    fn log_density_from_state(&self, x: &[f64], d: &mut [f64], _state: &[f64]) -> f64 {
+        Normal3.log_density(x, d).unwrap_or(f64::NAN)
     }
 }
 
@@ -36,19 +94,22 @@ impl LogDensity for Linked {
 fn hierarchical_updates_take_the_links_and_refuse_bad_ones() {
     let link = |given: Vec<usize>, followers: Vec<usize>| BlockLinks { given, followers };
     let config = |u| SamplerConfig::new(8, 1, 5).unwrap().with_updates(u);
-    let good = Linked(vec![link(vec![], vec![1, 2]), link(vec![0], vec![])]);
-    let blocks = blocks_of(&good, &config(Updates::Hierarchical)).unwrap();
+    let good = Linked(vec![link(vec![], vec![1, 2]), link(vec![0], vec![])], false);
+    let blocks = blocks_of(Target::blocked(&good), &config(Updates::Hierarchical)).unwrap();
     assert_eq!(blocks[0].links.followers, [1, 2]);
     assert_eq!(blocks[1].links.given, [0]);
     // Plain blocked updates ignore them.
-    let blocks = blocks_of(&good, &config(Updates::Blocked)).unwrap();
+    let blocks = blocks_of(Target::blocked(&good), &config(Updates::Blocked)).unwrap();
     assert!(blocks.iter().all(|b| b.links == BlockLinks::default()));
+    // (A plan holds one entry of links per block: it cannot give another number of them.)
     for bad in [
-        vec![link(vec![], vec![1, 2])],
         vec![link(vec![], vec![0]), link(vec![0], vec![])],
         vec![link(vec![], vec![3]), link(vec![0], vec![])],
     ] {
-        match blocks_of(&Linked(bad), &config(Updates::Hierarchical)) {
+        match blocks_of(
+            Target::blocked(&Linked(bad, false)),
+            &config(Updates::Hierarchical),
+        ) {
             Err(SamplerError::InvalidConfig { name, .. }) => assert_eq!(name, "block_links"),
             other => panic!("expected bad block_links, got {other:?}"),
         }
@@ -135,26 +196,14 @@ impl LogDensity for Members {
     }
     fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
         let mut cache = vec![0.0; self.y.len()];
-        self.log_density_cached(x, d, &mut cache)
+        self.log_density_with_state(x, d, &mut cache)
     }
-    fn blocks(&self) -> Vec<Vec<usize>> {
-        self.order.iter().map(|&b| vec![b]).collect()
-    }
-    fn independent_blocks(&self) -> Vec<usize> {
-        (0..self.order.len())
-            .filter(|&b| self.order[b] != 0)
-            .collect()
-    }
-    fn block_log_density(&self, block: usize, _x: &[f64], cache: &[f64]) -> f64 {
-        cache[self.order[block] - 1]
-    }
-    fn log_density_from_cache(&self, x: &[f64], derived: &mut [f64], cache: &[f64]) -> Option<f64> {
-        Some(self.total(x, cache, derived))
-    }
-    fn cache_len(&self) -> usize {
+}
+impl BlockedDensity for Members {
+    fn state_len(&self) -> usize {
         self.y.len()
     }
-    fn log_density_cached(
+    fn log_density_with_state(
         &self,
         x: &[f64],
         d: &mut [f64],
@@ -165,7 +214,7 @@ impl LogDensity for Members {
         }
         Ok(self.total(x, cache, d))
     }
-    fn log_density_block(
+    fn log_density_after_block(
         &self,
         block: usize,
         x: &[f64],
@@ -173,12 +222,52 @@ impl LogDensity for Members {
         cache: &mut [f64],
     ) -> Result<f64, LogDensityError> {
         match self.order[block] {
-            0 => self.log_density_cached(x, d, cache),
+            0 => self.log_density_with_state(x, d, cache),
             c => {
                 cache[c - 1] = self.member(c - 1, x);
                 Ok(self.total(x, cache, d))
             }
         }
+    }
+    fn block_plan(&self) -> BlockPlan<'_> {
+        let blocks = self
+            .order
+            .iter()
+            .map(|&c| PlannedBlock {
+                coords: vec![c],
+                links: BlockLinks::default(),
+                update: match c {
+                    0 => BlockUpdate::Moves { carry: None },
+                    c => BlockUpdate::Independent {
+                        own: self,
+                        entries: OwnEntries {
+                            state: vec![c - 1],
+                            derived: Vec::new(),
+                        },
+                    },
+                },
+                split: None,
+            })
+            .collect();
+        BlockPlan { blocks }
+    }
+}
+impl IndependentBlocks for Members {
+    fn block_terms(&self, _block: usize, _x: &[f64], state: &[f64]) -> f64 {
+        state[0]
+    }
+    fn update_block_state(
+        &self,
+        block: usize,
+        x: &[f64],
+        _d: &mut [f64],
+        state: &mut [f64],
+    ) -> Result<f64, LogDensityError> {
+        state[0] = self.member(self.order[block] - 1, x);
+        Ok(state[0])
+    }
+    fn log_density_from_state(&self, x: &[f64], d: &mut [f64], cache: &[f64]) -> f64 {
+        self.total(x, cache, d)
     }
 }
 
@@ -210,13 +299,13 @@ fn independent_blocks_give_the_same_chains_in_any_order() {
             .with_updates(Updates::Blocked)
             .with_moves(moves)
             .unwrap();
-        let mut replicas = ReplicaShares::new(&density, &config, shares).unwrap();
-        let mut s = EnsembleSampler::new(&density, config, init.clone()).unwrap();
+        let mut replicas = ReplicaShares::new(Target::blocked(&density), &config, shares).unwrap();
+        let mut s = EnsembleSampler::new(Target::blocked(&density), config, init.clone()).unwrap();
         if shares > 1 {
             s.set_offload(&mut replicas);
         }
         s.run(Steps::Fixed(40), &mut NullSink, &mut Silent).unwrap();
-        let blocks = s.blocks.iter().filter(|b| b.independent).count();
+        let blocks = s.blocks.iter().filter(|b| b.independent()).count();
         assert_eq!(blocks, 4);
         s.ensembles
             .iter()
@@ -278,32 +367,11 @@ fn independent_blocks_give_the_same_chains_in_any_order() {
 #[test]
 fn independent_blocks_with_followers_are_refused() {
     let link = |given: Vec<usize>, followers: Vec<usize>| BlockLinks { given, followers };
-    struct Claims(Linked);
-    impl LogDensity for Claims {
-        fn dim(&self) -> usize {
-            3
-        }
-        fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
-            self.0.log_density(x, d)
-        }
-        fn blocks(&self) -> Vec<Vec<usize>> {
-            self.0.blocks()
-        }
-        fn block_links(&self) -> Vec<BlockLinks> {
-            self.0.block_links()
-        }
-        fn independent_blocks(&self) -> Vec<usize> {
-            vec![0, 1]
-        }
-    }
-    let density = Claims(Linked(vec![
-        link(vec![], vec![1, 2]),
-        link(vec![0], vec![]),
-    ]));
+    let density = Linked(vec![link(vec![], vec![1, 2]), link(vec![0], vec![])], true);
     let config = SamplerConfig::new(8, 1, 5)
         .unwrap()
         .with_updates(Updates::Hierarchical);
-    match blocks_of(&density, &config) {
+    match blocks_of(Target::blocked(&density), &config) {
         Err(SamplerError::InvalidConfig { name, .. }) => assert_eq!(name, "independent_blocks"),
         other => panic!("expected refused independent_blocks, got {other:?}"),
     }
