@@ -27,8 +27,9 @@
 //! - [`plot`]: the one plotting layer (SVG written by the crate) of reports, `bench` and
 //!   `validate`: figures, charts, axes and ticks, lines, markers, bands, bars, legends, one
 //!   palette.
-//! - `distributed`: a fit over the ranks of an MPI job, every rank evaluating a share of
-//!   each half-step's proposals (feature `mpi`).
+//! - [`distributed`]: fits over several processes behind the sampler's one seam for
+//!   parallelism: the ranks of an MPI job (feature `mpi`), every rank updating a share of the
+//!   contacts and evaluating a share of each half-step's proposals.
 //! - [`report`]: `report.html` and `report.md` with SVG figures, built from a finished run
 //!   directory (feature `report`).
 //!
@@ -41,7 +42,6 @@
 pub mod data;
 pub mod density;
 pub mod diagnostics;
-#[cfg(feature = "mpi")]
 pub mod distributed;
 #[cfg(feature = "parquet")]
 pub mod fit;

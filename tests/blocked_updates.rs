@@ -16,8 +16,8 @@ use slipbayes::density::{
 };
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
-    Batch, CarryFit, EnsembleSampler, MemorySink, Move, Offload, SamplerConfig, SamplerError,
-    Silent, Steps, Updates, CARRY_FIT_STEPS,
+    CarryFit, EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, Silent, Steps,
+    Updates, CARRY_FIT_STEPS,
 };
 
 /// Allowed distance from the truth in Monte-Carlo standard errors.
@@ -453,47 +453,5 @@ fn blocked_state_check(updates: Updates, moves: Vec<(Move, f64)>) {
             assert!(detail.contains(updates.as_str()), "{detail}")
         }
         other => panic!("expected a state mismatch, got {other:?}"),
-    }
-}
-
-/// Evaluates a batch as another process would: each item from copies of its inputs (the
-/// point, and for a block update the walker's derived values and cache), stored back through
-/// `set_outcome`, the later items in reverse order; the first third stays here.
-struct Elsewhere<'h>(&'h Hierarchy);
-
-impl Offload for Elsewhere<'_> {
-    fn evaluate(&mut self, batch: &mut Batch<'_>) {
-        let here = batch.len() / 3;
-        batch.evaluate_here(0..here);
-        for k in (here..batch.len()).rev() {
-            let x = batch.point(k).to_vec();
-            let (mut derived, mut cache) = if batch.kind().reads_state() {
-                (batch.derived(k).to_vec(), batch.cache(k).to_vec())
-            } else {
-                (vec![0.0; batch.nderived()], vec![0.0; batch.cache_len()])
-            };
-            let result = batch.kind().evaluate(self.0, &x, &mut derived, &mut cache);
-            batch.set_outcome(k, result, &derived, &cache);
-        }
-    }
-}
-
-/// A sampler whose evaluations go elsewhere (an MPI job's ranks) gives the same chains, bit
-/// for bit, under joint, blocked and hierarchical updates.
-#[test]
-fn evaluations_offloaded_elsewhere_give_the_same_chains() {
-    let h = Hierarchy::new(4);
-    for updates in [Updates::Joint, Updates::Blocked, Updates::Hierarchical] {
-        let mut alone = blocked_sampler(&h, vec![(Move::stretch(), 1.0)], 24, 5, updates);
-        alone
-            .run(Steps::Fixed(40), &mut MemorySink::new(), &mut Silent)
-            .unwrap();
-        let mut elsewhere = Elsewhere(&h);
-        let mut offloaded = blocked_sampler(&h, vec![(Move::stretch(), 1.0)], 24, 5, updates);
-        offloaded.set_offload(&mut elsewhere);
-        offloaded
-            .run(Steps::Fixed(40), &mut MemorySink::new(), &mut Silent)
-            .unwrap();
-        assert!(offloaded.state() == alone.state(), "{}", updates.as_str());
     }
 }

@@ -16,7 +16,8 @@ use slipbayes::fit::{
     run_fit, ComparisonSpec, FitError, FitOutcome, FitSettings, RunDir, SummarySpec,
 };
 use slipbayes::sampler::{
-    CarryFit, Move, Observer, Progress, SamplerError, Silent, Steps, StopReason, StopRule, Updates,
+    CarryFit, Move, Observer, Parallelism, Progress, SamplerError, Silent, Steps, StopReason,
+    StopRule, Updates,
 };
 use statrs::function::erf::erfc;
 
@@ -188,6 +189,7 @@ fn fit_toy(s: &FitSettings, dir: &Path) -> FitOutcome {
         &RunDir::new(dir),
         false,
         &mut Silent,
+        Parallelism::default(),
     )
     .expect("fit runs")
 }
@@ -458,6 +460,7 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
             &RunDir::new(dir),
             resume,
             &mut Silent,
+            Parallelism::default(),
         )
     };
     let reference = run(&whole, false).expect("uninterrupted fit");
@@ -475,6 +478,7 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
             at: 450,
             flag: &flag,
         },
+        Parallelism::default(),
     )
     .expect_err("the crash stops the fit");
     assert!(
@@ -509,6 +513,7 @@ fn resumed_fit_equals_an_uninterrupted_one_bit_for_bit() {
             &RunDir::new(&crashed),
             true,
             &mut Silent,
+            Parallelism::default(),
         )
         .expect_err("a resume with other settings")
     };
@@ -618,6 +623,7 @@ fn bimodal_target_is_reported_unconverged_with_reasons() {
         &RunDir::new(tmp.path()),
         false,
         &mut Silent,
+        Parallelism::default(),
     )
     .expect("fit runs");
     let sampler = &outcome.summary.sampler;
@@ -661,6 +667,7 @@ fn bad_requests_fail_before_any_work() {
             &RunDir::new(&dir),
             resume,
             &mut Silent,
+            Parallelism::default(),
         )
         .expect_err("refused")
     };
@@ -785,6 +792,7 @@ fn a_time_budget_stops_the_fit_and_says_so() {
         &RunDir::new(tmp.path()),
         false,
         &mut Silent,
+        Parallelism::default(),
     )
     .expect("fit runs");
     let sampler = &outcome.summary.sampler;

@@ -10,7 +10,7 @@ use slipbayes::density::{BlockedDensity, LogDensity};
 use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary, RunLock};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::{ModelSpec, Posterior};
-use slipbayes::sampler::{Silent, Steps};
+use slipbayes::sampler::{Parallelism, Silent, Steps};
 use slipbayes::storage::ColumnKind;
 
 const TRUTH: (f64, f64, f64, f64, f64) = (0.92e6, 0.62, 10e-3, 14.8, 1.2e4);
@@ -46,6 +46,7 @@ fn fit_full(
         false,
         vec![],
         &mut Silent,
+        Parallelism::default(),
     )
     .unwrap();
     (outcome.summary.clone(), outcome, post)

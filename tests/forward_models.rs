@@ -260,6 +260,7 @@ mod fits {
     /// Fits `model` in `dir` for `steps` steps and returns the summary.
     fn fit(dir: &Path, spec: &ModelSpec, steps: u64) -> slipbayes::fit::FitSummary {
         use slipbayes::fit::{fit_model, FitSettings, RunLock};
+        use slipbayes::sampler::Parallelism;
         use slipbayes::sampler::{Silent, Steps};
         let post = Posterior::new(spec).unwrap();
         let settings = FitSettings {
@@ -277,6 +278,7 @@ mod fits {
             false,
             vec![],
             &mut Silent,
+            Parallelism::default(),
         )
         .unwrap()
         .summary

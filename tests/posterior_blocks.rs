@@ -13,9 +13,10 @@ use slipbayes::density::{
     ExactConditional, IndependentBlocks, LogDensity, LogDensityError, OwnEntries, PlannedBlock,
     ShareError, SplitByPart, Target,
 };
+use slipbayes::distributed::ReplicaShares;
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::{
-    EnsembleSampler, MemorySink, Move, ReplicaShares, SamplerConfig, Silent, Steps, Updates,
+    EnsembleSampler, MemorySink, Move, Parallelism, SamplerConfig, Silent, Steps, Updates,
 };
 
 /// The coordinates of each block of the posterior's plan.
@@ -820,7 +821,7 @@ fn campaign_chains<D: BlockedDensity>(
     let mut replicas = ReplicaShares::new(Target::blocked(density), &config, shares).unwrap();
     let mut s = EnsembleSampler::new(Target::blocked(density), config, init.to_vec()).unwrap();
     if shares > 1 {
-        s.set_offload(&mut replicas);
+        s.set_parallelism(Parallelism::from(&mut replicas));
     }
     let mut sink = MemorySink::new();
     s.run(Steps::Fixed(30), &mut sink, &mut Silent).unwrap();

@@ -362,6 +362,7 @@ fn an_unsolvable_slide_is_a_labelled_rejection() {
 #[test]
 fn a_short_fit_of_slip_law_data_covers_the_truth() {
     use slipbayes::fit::{fit_model, FitSettings, RunLock};
+    use slipbayes::sampler::Parallelism;
     use slipbayes::sampler::{Silent, Steps};
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -382,6 +383,7 @@ fn a_short_fit_of_slip_law_data_covers_the_truth() {
         false,
         vec![],
         &mut Silent,
+        Parallelism::default(),
     )
     .unwrap()
     .summary;

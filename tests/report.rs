@@ -12,7 +12,7 @@ use slipbayes::fit::{fit_model, FitSettings, RunDir, RunLock, SettingOverrides};
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
 use slipbayes::plot::check::{check_svg, elements, Element};
 use slipbayes::report::{rebuild_report, write_report};
-use slipbayes::sampler::Silent;
+use slipbayes::sampler::{Parallelism, Silent};
 
 fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
@@ -48,7 +48,16 @@ fn quick_fit() -> &'static Path {
         let command = ["slipbayes", "fit", "--quick-path-test"]
             .map(String::from)
             .to_vec();
-        let outcome = fit_model(&posterior, &settings, &lock, false, command, &mut Silent).unwrap();
+        let outcome = fit_model(
+            &posterior,
+            &settings,
+            &lock,
+            false,
+            command,
+            &mut Silent,
+            Parallelism::default(),
+        )
+        .unwrap();
         write_report(&outcome.dir, &posterior).unwrap();
         dir
     })

@@ -22,7 +22,7 @@ use slipbayes::fit::{
 use slipbayes::law::{Elastic, Law, LawParams};
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelFile, ModelSpec, Posterior, SpecError};
-use slipbayes::sampler::{Observer, Progress};
+use slipbayes::sampler::{Observer, Parallelism, Progress};
 use slipbayes::simulate::{simulate as simulate_run, SimulationSpec};
 
 create_exception!(
@@ -395,8 +395,15 @@ fn fit(
     let result = std::thread::scope(|scope| -> PyResult<_> {
         let worker = scope.spawn(|| {
             pool.install(|| {
-                let outcome =
-                    fit_model(&posterior, &settings, lock, resume, command, &mut observer)?;
+                let outcome = fit_model(
+                    &posterior,
+                    &settings,
+                    lock,
+                    resume,
+                    command,
+                    &mut observer,
+                    Parallelism::default(),
+                )?;
                 if report {
                     slipbayes::report::write_report(&outcome.dir, &posterior)
                         .map_err(|e| ReportFailed(message(&e)))?;

@@ -18,6 +18,120 @@
 //!   so that its cost does not grow with the number of blocks. The walker's log-density, and
 //!   the derived values that belong to no block, are brought up to date once after a run of
 //!   such blocks ([`IndependentBlocks::log_density_from_state`]).
+//!
+//! # Example
+//! A hierarchical normal, y_j ~ N(θ_j, 1), θ_j ~ N(μ, 1), μ ~ N(0, 10²): μ is a block moved by
+//! the ensemble moves, each θ_j a block independent of the others given μ, whose update reads
+//! and writes only its own entry of the walker's state (its group's terms).
+//! ```
+//! use slipbayes::density::{
+//!     BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, IndependentBlocks, LogDensity,
+//!     LogDensityError, OwnEntries, PlannedBlock, Target,
+//! };
+//! use slipbayes::sampler::{EnsembleSampler, NullSink, SamplerConfig, Silent, Steps, Updates};
+//!
+//! struct Groups(Vec<f64>);
+//!
+//! impl Groups {
+//!     /// Group j's terms: θ_j's prior given μ and y_j's likelihood (coordinates μ, θ_1, ...).
+//!     fn group(&self, j: usize, x: &[f64]) -> f64 {
+//!         let (t, r) = (x[j + 1] - x[0], self.0[j] - x[j + 1]);
+//!         -0.5 * (t * t + r * r)
+//!     }
+//!     fn total(&self, x: &[f64], state: &[f64]) -> f64 {
+//!         state.iter().fold(-0.5 * x[0] * x[0] / 100.0, |lp, s| lp + s)
+//!     }
+//! }
+//!
+//! impl LogDensity for Groups {
+//!     fn dim(&self) -> usize {
+//!         self.0.len() + 1
+//!     }
+//!     fn log_density(&self, x: &[f64], d: &mut [f64]) -> Result<f64, LogDensityError> {
+//!         let mut state = vec![0.0; self.0.len()];
+//!         self.log_density_with_state(x, d, &mut state)
+//!     }
+//! }
+//!
+//! impl BlockedDensity for Groups {
+//!     fn state_len(&self) -> usize {
+//!         self.0.len()
+//!     }
+//!     fn log_density_with_state(
+//!         &self,
+//!         x: &[f64],
+//!         _d: &mut [f64],
+//!         state: &mut [f64],
+//!     ) -> Result<f64, LogDensityError> {
+//!         for (j, s) in state.iter_mut().enumerate() {
+//!             *s = self.group(j, x);
+//!         }
+//!         Ok(self.total(x, state))
+//!     }
+//!     fn log_density_after_block(
+//!         &self,
+//!         block: usize,
+//!         x: &[f64],
+//!         d: &mut [f64],
+//!         state: &mut [f64],
+//!     ) -> Result<f64, LogDensityError> {
+//!         if block == 0 {
+//!             return self.log_density_with_state(x, d, state);
+//!         }
+//!         state[block - 1] = self.group(block - 1, x);
+//!         Ok(self.total(x, state))
+//!     }
+//!     fn block_plan(&self) -> BlockPlan<'_> {
+//!         let mu = PlannedBlock {
+//!             coords: vec![0],
+//!             links: BlockLinks::default(),
+//!             update: BlockUpdate::Moves { carry: None },
+//!             split: None,
+//!         };
+//!         let groups = (0..self.0.len()).map(|j| PlannedBlock {
+//!             coords: vec![j + 1],
+//!             links: BlockLinks::default(),
+//!             update: BlockUpdate::Independent {
+//!                 own: self,
+//!                 entries: OwnEntries { state: vec![j], derived: Vec::new() },
+//!             },
+//!             split: None,
+//!         });
+//!         BlockPlan { blocks: std::iter::once(mu).chain(groups).collect() }
+//!     }
+//! }
+//!
+//! impl IndependentBlocks for Groups {
+//!     fn block_terms(&self, _block: usize, _x: &[f64], state: &[f64]) -> f64 {
+//!         state[0]
+//!     }
+//!     fn update_block_state(
+//!         &self,
+//!         block: usize,
+//!         x: &[f64],
+//!         _d: &mut [f64],
+//!         state: &mut [f64],
+//!     ) -> Result<f64, LogDensityError> {
+//!         state[0] = self.group(block - 1, x);
+//!         Ok(state[0])
+//!     }
+//!     fn log_density_from_state(&self, x: &[f64], _d: &mut [f64], state: &[f64]) -> f64 {
+//!         self.total(x, state)
+//!     }
+//! }
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let density = Groups(vec![0.5, -1.0, 2.0]);
+//! let config = SamplerConfig::new(8, 2, 7)?.with_updates(Updates::Blocked);
+//! let start: Vec<Vec<Vec<f64>>> = (0..2)
+//!     .map(|e| (0..8).map(|w| (0..4).map(|i| 0.1 * ((w + 3 * i + e) % 7) as f64).collect()).collect())
+//!     .collect();
+//! let mut sampler = EnsembleSampler::new(Target::blocked(&density), config, start)?;
+//! let report = sampler.run(Steps::Fixed(100), &mut NullSink, &mut Silent)?;
+//! assert_eq!(report.total_steps, 100);
+//! # Ok(())
+//! # }
+//! ```
 
 use std::ops::Range;
 

@@ -78,8 +78,8 @@ pub const REJECT_NEG_INFINITY: &str = "neg_infinity";
 /// caller owns the buffer so that the hot loop allocates nothing.
 ///
 /// A density whose coordinates fall into blocks that are cheaper to update one at a time
-/// says so by implementing [`BlockedDensity`] as well, and is sampled by
-/// [`EnsembleSampler::new_blocked`](crate::sampler::EnsembleSampler::new_blocked).
+/// says so by implementing [`BlockedDensity`] as well, and is handed to the sampler as
+/// [`Target::blocked`].
 pub trait LogDensity: Sync {
     /// Number of sampled parameters.
     fn dim(&self) -> usize;

@@ -23,7 +23,7 @@ use super::run_dir::{KFoldPoint, KFoldSummary, RunKFold};
 use super::{draws_from, run_fit, FitError, FitSettings, RunDir};
 use crate::density::{LogDensity, Target};
 use crate::model::Posterior;
-use crate::sampler::Observer;
+use crate::sampler::{Observer, Parallelism};
 
 /// Folds by default: ten, as is usual for K-fold cross-validation; the cost is ten fits.
 pub const DEFAULT_FOLDS: usize = 10;
@@ -209,6 +209,7 @@ fn fit_fold(
         dir,
         continues,
         observer,
+        Parallelism::default(),
     )?;
     Ok(outcome.summary)
 }

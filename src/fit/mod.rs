@@ -44,13 +44,13 @@ use crate::data::Provenance;
 use crate::density::{ColumnUnit, LogDensity, Quantity, Target};
 use crate::optimize::{initial_around_optimum, SearchStart};
 use crate::sampler::{
-    CarryFit, EnsembleSampler, Move, Observer, Offload, RunReport, SamplerConfig, SamplerError,
+    CarryFit, EnsembleSampler, Move, Observer, Parallelism, RunReport, SamplerConfig, SamplerError,
     SamplerState, Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
 use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 
 pub use error::FitError;
-pub use model::{fit_model, fit_model_offloaded, peak_notes, summary_spec, SettingOverrides};
+pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{
     AggregateSummary, Comparison, FitSummary, ForwardModelRecord, LockError, QuantitySummary,
     RunDir, RunDirError, RunLock, RunRecord, SamplerSummary,
@@ -386,9 +386,11 @@ pub fn kept_rows(
     (first..chains.rows()).step_by(every).collect()
 }
 
-/// Runs (or resumes) a fit of `density` into `dir` and writes its summaries; see the
-/// [module documentation](self). `start` is where the optimiser starts (ignored when
-/// resuming). `observer` receives the sampler's progress unless `settings.quiet`.
+/// Runs (or resumes) a fit of `target`'s density into `dir` and writes its summaries; see
+/// the [module documentation](self). `start` is where the optimiser starts (ignored when
+/// resuming). `observer` receives the sampler's progress unless `settings.quiet`. The
+/// sampler evaluates as `parallelism` says (in this process by default); the chains and every
+/// file are the same either way.
 ///
 /// # Errors
 /// [`FitError::InvalidSetting`], [`FitError::InvalidSpec`], [`FitError::Config`] before any
@@ -399,6 +401,7 @@ pub fn kept_rows(
 /// [`FitError::TooFewDraws`], [`FitError::Diagnostics`] when the chains are too short to
 /// summarise; [`FitError::RunDir`] when the chains cannot be read back or a summary cannot be
 /// written.
+#[allow(clippy::too_many_arguments)]
 pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
     target: impl Into<Target<'a, D>>,
     spec: &SummarySpec,
@@ -407,25 +410,7 @@ pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
     dir: &RunDir,
     resume: bool,
     observer: &mut impl Observer,
-) -> Result<FitOutcome, FitError> {
-    run_fit_offloaded(target, spec, start, settings, dir, resume, observer, None)
-}
-
-/// [`run_fit`] with the sampler's evaluations handed to `offload` (other processes, e.g. the
-/// ranks of an MPI job); the chains and every file are the same as [`run_fit`]'s.
-///
-/// # Errors
-/// As [`run_fit`].
-#[allow(clippy::too_many_arguments)]
-pub fn run_fit_offloaded<'a, D: LogDensity + ?Sized + 'a>(
-    target: impl Into<Target<'a, D>>,
-    spec: &SummarySpec,
-    start: impl Into<SearchStart<'a>>,
-    settings: &FitSettings,
-    dir: &RunDir,
-    resume: bool,
-    observer: &mut impl Observer,
-    offload: Option<&mut dyn Offload>,
+    parallelism: Parallelism<'a>,
 ) -> Result<FitOutcome, FitError> {
     let (target, start) = (target.into(), start.into());
     let density = target.density();
@@ -434,100 +419,12 @@ pub fn run_fit_offloaded<'a, D: LogDensity + ?Sized + 'a>(
     let param_names = density.param_names();
     let derived_names = density.derived_names();
     let plan = summarise::Plan::new(&param_names, &derived_names, spec)?;
-    let config = settings.sampler_config()?;
-    let shown = dir.path().display();
-    let files = dir.chain_files();
-    let storage = |context: String| move |source| FitError::Storage { context, source };
-
     let (mut sampler, mut sink, steps) = if resume {
-        let (sink, state): (ParquetSink, SamplerState) =
-            ParquetSink::resume(&files).map_err(storage(format!("resuming from {shown}")))?;
-        sink.check_columns(&param_names, &derived_names)
-            .map_err(storage(format!("resuming from {shown}")))?;
-        let mismatch = |problem: String| FitError::ResumeMismatch {
-            dir: dir.path().to_path_buf(),
-            problem,
-        };
-        if state.seed != settings.seed {
-            return Err(mismatch(format!(
-                "the run was started with seed {} but seed {} was given; resume with the original seed",
-                state.seed, settings.seed
-            )));
-        }
-        if state.step != sink.steps() {
-            return Err(FitError::Inconsistent {
-                dir: dir.path().to_path_buf(),
-                problem: format!(
-                    "the checkpoint's sampler state is at step {} but its chains end at step {}",
-                    state.step,
-                    sink.steps()
-                ),
-            });
-        }
-        // The checkpoint leaves out the sampler's thinned history; the chains hold it.
-        let mut state = state;
-        let chains = ChainReader::open(&files.chains)
-            .map_err(storage(format!("reading the chains of {shown}")))?;
-        let step = state.step;
-        state
-            .rebuild_history_rows(&config, kept_rows_of(&chains, &param_names, step))
-            .map_err(|source| FitError::Sampler {
-                context: format!("restoring the sampler's history from the chains of {shown}"),
-                source,
-            })?;
-        drop(chains);
-        let steps = match settings.steps {
-            Steps::Fixed(total) if total < state.step => {
-                return Err(mismatch(format!(
-                    "the chains already hold {} steps, more than the {total} steps asked for",
-                    state.step
-                )))
-            }
-            Steps::Fixed(total) => Steps::Fixed(total - state.step),
-            rule @ Steps::UntilConverged(_) => rule,
-        };
-        let sampler = EnsembleSampler::from_state(target, config, state).map_err(|source| {
-            FitError::Sampler {
-                context: format!("resuming the sampler from {shown}"),
-                source,
-            }
-        })?;
-        (sampler, sink, steps)
+        resumed_sampler(target, settings, dir)?
     } else {
-        // The directory is claimed first: refusing an occupied one costs nothing, the
-        // optimisation may cost a lot.
-        let options = SinkOptions {
-            overwrite: settings.overwrite,
-            ..SinkOptions::default()
-        };
-        let sink = ParquetSink::create(&files, &param_names, &derived_names, options)
-            .map_err(storage(format!("starting a run in {shown}")))?;
-        let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
-        rng.set_stream(INIT_STREAM);
-        let initial = initial_around_optimum(
-            target,
-            start,
-            settings.walkers,
-            settings.ensembles,
-            &mut rng,
-        )
-        .map_err(|optimizer| FitError::Start {
-            start: start.point.to_vec(),
-            why: density.explain(start.point),
-            optimizer,
-        })?;
-        let sampler = EnsembleSampler::new(target, config, initial.walkers).map_err(|source| {
-            FitError::Sampler {
-                context: format!("starting the sampler for {shown}"),
-                source,
-            }
-        })?;
-        (sampler, sink, settings.steps)
+        fresh_sampler(target, start, settings, dir)?
     };
-
-    if let Some(offload) = offload {
-        sampler.set_offload(offload);
-    }
+    sampler.set_parallelism(parallelism);
     sink.describe(chain_description(density, spec, settings));
     dir.remove_summaries()?;
     // Quiet hides progress, but a request to stop must still reach the sampler.
@@ -543,72 +440,25 @@ pub fn run_fit_offloaded<'a, D: LogDensity + ?Sized + 'a>(
             .map(|t| started + std::time::Duration::from_secs_f64(t)),
     );
     let first_step = sampler.step();
-    let sampling = |source| FitError::Sampler {
-        context: format!("sampling into {shown}"),
-        source,
+    let mut fit = Sampling {
+        sampler,
+        sink,
+        plan,
+        settings,
+        dir,
+        started,
+        param_names: &param_names,
     };
-    // Every run ends with a checkpoint, which makes all its chains durable and readable.
-    let interrupted = |report: &RunReport| FitError::Interrupted {
-        dir: dir.path().to_path_buf(),
-        step: report.total_steps,
-    };
-    let mut report = sampler.run(steps, &mut sink, observer).map_err(sampling)?;
-    if report.stopped_by == StopReason::Interrupted {
-        return Err(interrupted(&report));
-    }
-    // The summaries read every recorded draw; the stopping rule's history (in the chains
-    // too) makes room for them, and comes back only if the run goes on. The sink writes in
-    // the background: the last checkpoint's part must be on disk before it is read.
-    sampler.release_history();
-    sink.written()
-        .map_err(storage(format!("writing the chains in {shown}")))?;
-    let mut summary =
-        plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
-
-    // The sampler's own rule sees only the parameters' thinned history; the summary judges
-    // every reported quantity on every post-burn-in draw. Until it agrees, and while the
-    // budget lasts, the run goes on by half its length again.
-    if let Steps::UntilConverged(rule) = steps {
-        while !summary.sampler.converged
-            && report.stopped_by != StopReason::TimeCap
-            && sampler.step() < rule.max_steps
-        {
-            let now = sampler.step();
-            let more = (now / 2).max(rule.check_every).min(rule.max_steps - now);
-            let chains = dir.chain_reader()?;
-            sampler
-                .restore_history(kept_rows_of(&chains, &param_names, now))
-                .map_err(|source| FitError::Sampler {
-                    context: format!("restoring the sampler's history from {shown}"),
-                    source,
-                })?;
-            drop(chains);
-            report = sampler
-                .run(Steps::Fixed(more), &mut sink, observer)
-                .map_err(sampling)?;
-            if report.stopped_by == StopReason::Interrupted {
-                return Err(interrupted(&report));
-            }
-            sampler.release_history();
-            sink.written()
-                .map_err(storage(format!("writing the chains in {shown}")))?;
-            summary =
-                plan.summarise(&dir.chain_reader()?, &report, settings, dir.path(), started)?;
-        }
-        report.stopped_by = if summary.sampler.converged {
-            StopReason::Converged
-        } else if report.stopped_by == StopReason::TimeCap {
-            StopReason::TimeCap
-        } else {
-            StopReason::StepCap
-        };
-    }
-    report.steps_run = sampler.step() - first_step;
+    let (mut report, mut summary) = fit.run(steps, observer)?;
+    report.steps_run = fit.sampler.step() - first_step;
     summary.sampler.steps_run = report.steps_run;
     summary.sampler.stopped_by = report.stopped_by;
+    let shown = dir.path().display();
+    let storage = |context: String| move |source| FitError::Storage { context, source };
     // The parts' footers get the burn-in the summary used, now that it is final.
-    sink.set_burn_in(summary.sampler.burn_in);
-    sink.finish()
+    fit.sink.set_burn_in(summary.sampler.burn_in);
+    fit.sink
+        .finish()
         .map_err(storage(format!("finishing the chains in {shown}")))?;
     dir.write_summary(&summary)?;
     Ok(FitOutcome {
@@ -616,6 +466,221 @@ pub fn run_fit_offloaded<'a, D: LogDensity + ?Sized + 'a>(
         summary,
         dir: dir.clone(),
     })
+}
+
+/// A sampler, its sink and the steps to run, resumed from the checkpoint in `dir`.
+fn resumed_sampler<'a, D: LogDensity + ?Sized>(
+    target: Target<'a, D>,
+    settings: &FitSettings,
+    dir: &RunDir,
+) -> Result<(EnsembleSampler<'a, D>, ParquetSink, Steps), FitError> {
+    let config = settings.sampler_config()?;
+    let param_names = target.density().param_names();
+    let derived_names = target.density().derived_names();
+    let shown = dir.path().display();
+    let files = dir.chain_files();
+    let storage = |context: String| move |source| FitError::Storage { context, source };
+    let (sink, state): (ParquetSink, SamplerState) =
+        ParquetSink::resume(&files).map_err(storage(format!("resuming from {shown}")))?;
+    sink.check_columns(&param_names, &derived_names)
+        .map_err(storage(format!("resuming from {shown}")))?;
+    let mismatch = |problem: String| FitError::ResumeMismatch {
+        dir: dir.path().to_path_buf(),
+        problem,
+    };
+    if state.seed != settings.seed {
+        return Err(mismatch(format!(
+            "the run was started with seed {} but seed {} was given; resume with the original seed",
+            state.seed, settings.seed
+        )));
+    }
+    if state.step != sink.steps() {
+        return Err(FitError::Inconsistent {
+            dir: dir.path().to_path_buf(),
+            problem: format!(
+                "the checkpoint's sampler state is at step {} but its chains end at step {}",
+                state.step,
+                sink.steps()
+            ),
+        });
+    }
+    // The checkpoint leaves out the sampler's thinned history; the chains hold it.
+    let mut state = state;
+    let chains = ChainReader::open(&files.chains)
+        .map_err(storage(format!("reading the chains of {shown}")))?;
+    let step = state.step;
+    state
+        .rebuild_history_rows(&config, kept_rows_of(&chains, &param_names, step))
+        .map_err(|source| FitError::Sampler {
+            context: format!("restoring the sampler's history from the chains of {shown}"),
+            source,
+        })?;
+    drop(chains);
+    let steps = match settings.steps {
+        Steps::Fixed(total) if total < state.step => {
+            return Err(mismatch(format!(
+                "the chains already hold {} steps, more than the {total} steps asked for",
+                state.step
+            )))
+        }
+        Steps::Fixed(total) => Steps::Fixed(total - state.step),
+        rule @ Steps::UntilConverged(_) => rule,
+    };
+    let sampler =
+        EnsembleSampler::from_state(target, config, state).map_err(|source| FitError::Sampler {
+            context: format!("resuming the sampler from {shown}"),
+            source,
+        })?;
+    Ok((sampler, sink, steps))
+}
+
+/// A sampler started around the mode found from `start`, with a fresh sink in `dir`, and the
+/// steps to run.
+fn fresh_sampler<'a, D: LogDensity + ?Sized>(
+    target: Target<'a, D>,
+    start: SearchStart<'a>,
+    settings: &FitSettings,
+    dir: &RunDir,
+) -> Result<(EnsembleSampler<'a, D>, ParquetSink, Steps), FitError> {
+    let config = settings.sampler_config()?;
+    let density = target.density();
+    let shown = dir.path().display();
+    let storage = |context: String| move |source| FitError::Storage { context, source };
+    // The directory is claimed first: refusing an occupied one costs nothing, the
+    // optimisation may cost a lot.
+    let options = SinkOptions {
+        overwrite: settings.overwrite,
+        ..SinkOptions::default()
+    };
+    let sink = ParquetSink::create(
+        &dir.chain_files(),
+        &density.param_names(),
+        &density.derived_names(),
+        options,
+    )
+    .map_err(storage(format!("starting a run in {shown}")))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+    rng.set_stream(INIT_STREAM);
+    let initial = initial_around_optimum(
+        target,
+        start,
+        settings.walkers,
+        settings.ensembles,
+        &mut rng,
+    )
+    .map_err(|optimizer| FitError::Start {
+        start: start.point.to_vec(),
+        why: density.explain(start.point),
+        optimizer,
+    })?;
+    let sampler = EnsembleSampler::new(target, config, initial.walkers).map_err(|source| {
+        FitError::Sampler {
+            context: format!("starting the sampler for {shown}"),
+            source,
+        }
+    })?;
+    Ok((sampler, sink, settings.steps))
+}
+
+/// A fit's sampling: the sampler, its sink, and what the summaries need.
+struct Sampling<'f, 's, D: LogDensity + ?Sized> {
+    sampler: EnsembleSampler<'s, D>,
+    sink: ParquetSink,
+    plan: summarise::Plan,
+    settings: &'f FitSettings,
+    dir: &'f RunDir,
+    started: Instant,
+    param_names: &'f [String],
+}
+
+impl<D: LogDensity + ?Sized> Sampling<'_, '_, D> {
+    /// Samples `steps` and summarises; under a stopping rule, samples on until the summary
+    /// agrees that the chains converged (or the budget ends). Returns the last run's report
+    /// and the summary.
+    fn run(
+        &mut self,
+        steps: Steps,
+        observer: &mut dyn Observer,
+    ) -> Result<(RunReport, FitSummary), FitError> {
+        let mut report = self.run_steps(steps, observer)?;
+        let mut summary = self.summarise(&report)?;
+        // The sampler's own rule sees only the parameters' thinned history; the summary judges
+        // every reported quantity on every post-burn-in draw. Until it agrees, and while the
+        // budget lasts, the run goes on by half its length again.
+        if let Steps::UntilConverged(rule) = steps {
+            while !summary.sampler.converged
+                && report.stopped_by != StopReason::TimeCap
+                && self.sampler.step() < rule.max_steps
+            {
+                let now = self.sampler.step();
+                let more = (now / 2).max(rule.check_every).min(rule.max_steps - now);
+                let chains = self.dir.chain_reader()?;
+                self.sampler
+                    .restore_history(kept_rows_of(&chains, self.param_names, now))
+                    .map_err(|source| FitError::Sampler {
+                        context: format!(
+                            "restoring the sampler's history from {}",
+                            self.dir.path().display()
+                        ),
+                        source,
+                    })?;
+                drop(chains);
+                report = self.run_steps(Steps::Fixed(more), observer)?;
+                summary = self.summarise(&report)?;
+            }
+            report.stopped_by = if summary.sampler.converged {
+                StopReason::Converged
+            } else if report.stopped_by == StopReason::TimeCap {
+                StopReason::TimeCap
+            } else {
+                StopReason::StepCap
+            };
+        }
+        Ok((report, summary))
+    }
+
+    /// Runs `steps` into the sink; the summaries read every recorded draw, so the stopping
+    /// rule's history (in the chains too) makes room for them, and comes back only if the
+    /// run goes on. The sink writes in the background: the last checkpoint's part must be on
+    /// disk before it is read.
+    fn run_steps(
+        &mut self,
+        steps: Steps,
+        observer: &mut dyn Observer,
+    ) -> Result<RunReport, FitError> {
+        let shown = self.dir.path().display();
+        let report = self
+            .sampler
+            .run(steps, &mut self.sink, observer)
+            .map_err(|source| FitError::Sampler {
+                context: format!("sampling into {shown}"),
+                source,
+            })?;
+        // Every run ends with a checkpoint, which makes all its chains durable and readable.
+        if report.stopped_by == StopReason::Interrupted {
+            return Err(FitError::Interrupted {
+                dir: self.dir.path().to_path_buf(),
+                step: report.total_steps,
+            });
+        }
+        self.sampler.release_history();
+        self.sink.written().map_err(|source| FitError::Storage {
+            context: format!("writing the chains in {shown}"),
+            source,
+        })?;
+        Ok(report)
+    }
+
+    /// The summary of the chains so far.
+    fn summarise(&self, report: &RunReport) -> Result<FitSummary, FitError> {
+        self.plan.summarise(
+            &self.dir.chain_reader()?,
+            report,
+            self.settings,
+            self.dir.path(),
+            self.started,
+        )
+    }
 }
 
 /// The recorded values of parameter `p` (named by `param_names`) at the given rows of

@@ -3,13 +3,13 @@
 
 use super::run_dir::{relative_path, ForwardModelRecord, LooPoint, LooSummary, RunLock, RunRecord};
 use super::{
-    default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit_offloaded,
-    Aggregate, ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
+    default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit, Aggregate,
+    ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
 };
 use crate::density::{LogDensity, Target};
 use crate::law::Scene;
 use crate::model::{PointwiseError, Posterior};
-use crate::sampler::{CarryFit, Move, Observer, Offload, Steps, Updates};
+use crate::sampler::{CarryFit, Move, Observer, Parallelism, Steps, Updates};
 
 /// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
 /// to cost seconds.
@@ -204,49 +204,26 @@ pub fn peak_notes(posterior: &Posterior, summary: &FitSummary) -> Vec<String> {
 /// Fits `posterior` into the run directory that `lock` holds and writes all of it: the chains
 /// and checkpoint, `summary.json` and `summary.csv` ([`run_fit`](super::run_fit) with [`summary_spec`]), then
 /// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`. Taking the lock
-/// rather than a path, it cannot write a directory another fit is writing.
+/// rather than a path, it cannot write a directory another fit is writing. The sampler
+/// evaluates as `parallelism` says: with the ranks of an MPI job, tell them first which
+/// density to build (`Cluster::share_density` with [`Posterior::data_share`]).
 ///
 /// # Errors
 /// As [`run_fit`](super::run_fit); [`FitError::RunDir`] when a file cannot be written;
 /// [`FitError::Predictive`] when a posterior draw has no valid law.
-pub fn fit_model(
-    posterior: &Posterior,
+pub fn fit_model<'p>(
+    posterior: &'p Posterior,
     settings: &FitSettings,
     lock: &RunLock,
     resume: bool,
     command: Vec<String>,
     observer: &mut impl Observer,
-) -> Result<FitOutcome, FitError> {
-    fit_model_offloaded(posterior, settings, lock, resume, command, observer, None)
-}
-
-/// [`fit_model`] with the sampler's evaluations handed to `offload` (other processes, e.g. the
-/// ranks of an MPI job): the same chains and files.
-///
-/// # Errors
-/// As [`fit_model`].
-pub fn fit_model_offloaded(
-    posterior: &Posterior,
-    settings: &FitSettings,
-    lock: &RunLock,
-    resume: bool,
-    command: Vec<String>,
-    observer: &mut impl Observer,
-    offload: Option<&mut dyn Offload>,
+    parallelism: Parallelism<'p>,
 ) -> Result<FitOutcome, FitError> {
     let out = lock.dir();
     let dir = RunDir::new(out);
     let spec = posterior.spec();
-    // Joint updates never split by contact: a process holding a share of the data would idle.
-    let mut offload = offload;
-    if let Some(o) = offload.as_deref_mut() {
-        let share = match settings.updates {
-            Updates::Joint => None,
-            Updates::Blocked | Updates::Hierarchical => posterior.data_share(),
-        };
-        o.share_density(share.map(|s| s.to_words()).as_deref());
-    }
-    let mut outcome = run_fit_offloaded(
+    let mut outcome = run_fit(
         Target::blocked(posterior),
         &summary_spec(posterior),
         posterior.search_start(),
@@ -254,7 +231,7 @@ pub fn fit_model_offloaded(
         &dir,
         resume,
         observer,
-        offload,
+        parallelism,
     )?;
     outcome.summary.notes = peak_notes(posterior, &outcome.summary);
     if !outcome.summary.notes.is_empty() {

@@ -7,7 +7,7 @@ use crate::density::{
 /// Which evaluation a half-step's proposals need (the same for all of them), with the
 /// density's capability that computes it.
 #[derive(Clone, Copy)]
-pub enum EvalKind<'a> {
+pub(crate) enum EvalKind<'a> {
     /// [`LogDensity::log_density`]: the whole density (joint updates).
     Full,
     /// [`BlockedDensity::log_density_with_state`]: the whole density, filling the walker's
@@ -36,6 +36,7 @@ impl std::fmt::Debug for EvalKind<'_> {
 }
 
 impl EvalKind<'_> {
+    #[cfg(any(test, feature = "mpi"))]
     /// Whether the evaluation reads what the proposal carries of its walker's derived values
     /// and state (a block update changes only their parts of the block): they must travel
     /// with the point.

@@ -7,9 +7,13 @@
 //! - Moves ([`Move`]): stretch, differential evolution, walk, independence, KDE, DE-snooker
 //!   and ensemble slice sampling, mixable with weights; the red-blue update splits each
 //!   ensemble randomly in two halves every step and updates one from the other.
-//! - Blocked updates ([`Updates`]): one block of the density's coordinates after the other;
-//!   a block whose conditional density is cheap (the population level of a hierarchical
-//!   model) is drawn exactly by slice sampling instead of by ensemble moves.
+//! - Blocked updates ([`Updates`]) of a density that offers blocks
+//!   ([`BlockedDensity`](crate::density::BlockedDensity), handed over as
+//!   [`Target::blocked`](crate::density::Target::blocked)): one block of its coordinates after
+//!   the other, each as the density's plan says: by the moves, drawn exactly from a cheap
+//!   conditional (the population level of a hierarchical model) by slice sampling, or, for
+//!   blocks independent of one another (a campaign's contacts), on the block's own state
+//!   alone, so that a block's update costs the same however many blocks there are.
 //! - Several independent ensembles (default 4) run side by side; R̂ between them detects
 //!   ensembles stuck in different modes.
 //! - Determinism: every walker draws from its own ChaCha8 stream (`seed`, stream id), all
@@ -23,8 +27,9 @@
 //! - Draws go to a [`ChainSink`] (contract in [`sink`]); the complete [`SamplerState`] is
 //!   checkpointed through it, and [`EnsembleSampler::from_state`] resumes bit-identically.
 //! - Progress goes to an [`Observer`]; the library never prints.
-//! - Other processes: an [`Offload`] ([`EnsembleSampler::set_offload`]) evaluates each
-//!   half-step's proposals, split over the ranks of an MPI job; the chains stay the same bits.
+//! - Parallelism: the proposals of a half-step are evaluated in this process (rayon), or
+//!   through a parallel engine ([`Parallelism`], [`EnsembleSampler::set_parallelism`]) such as
+//!   the ranks of an MPI job (`crate::distributed`); the chains stay the same bits.
 //!
 //! # Quick start
 //! ```
@@ -34,8 +39,8 @@
 //! use rand::SeedableRng;
 //!
 //! /// A standard normal in two dimensions, restricted to x0 > -5.
-//! struct Target;
-//! impl LogDensity for Target {
+//! struct Normal;
+//! impl LogDensity for Normal {
 //!     fn dim(&self) -> usize { 2 }
 //!     fn log_density(&self, x: &[f64], _derived: &mut [f64]) -> Result<f64, LogDensityError> {
 //!         if x[0] <= -5.0 {
@@ -48,8 +53,8 @@
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let config = SamplerConfig::new(8, 2, 42)?;
 //! let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-//! let start = initial_around_optimum(&Target, &[1.0, 1.0], 8, 2, &mut rng)?;
-//! let mut sampler = EnsembleSampler::new(&Target, config, start.walkers)?;
+//! let start = initial_around_optimum(&Normal, &[1.0, 1.0], 8, 2, &mut rng)?;
+//! let mut sampler = EnsembleSampler::new(&Normal, config, start.walkers)?;
 //! let mut sink = MemorySink::new();
 //! let report = sampler.run(Steps::Fixed(200), &mut sink, &mut Silent)?;
 //! assert_eq!(report.total_steps, 200);
@@ -61,11 +66,11 @@ mod config;
 mod ensemble;
 mod error;
 mod evaluator;
+mod executor;
 mod history;
 mod memory;
 mod moves;
 mod observer;
-mod offload;
 mod report;
 mod run;
 pub mod sink;
@@ -78,19 +83,22 @@ pub use config::{
 };
 pub use ensemble::EnsembleState;
 pub use error::SamplerError;
+#[cfg(feature = "mpi")]
+pub(crate) use evaluator::EvalKind;
+pub use executor::Parallelism;
+pub(crate) use executor::{share, Batch, Executor};
+#[cfg(feature = "mpi")]
+pub(crate) use executor::{BlockShares, ShareApart, ShareEntries};
 pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::{
     CarryTuning, Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0,
 };
 pub use observer::{Observer, Progress, RunStart, Silent};
-pub(crate) use offload::share;
-pub use offload::{Batch, EvalKind, Offload, ShareEntries};
-#[cfg(feature = "mpi")]
-pub(crate) use offload::{BlockShares, ShareApart};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};
 pub use run::{
-    EnsembleSampler, PhaseOutcome, PhaseRequest, ReplicaShares, SamplerState, CARRY_FIT_STEPS,
-    CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS, RESUME_RTOL, STATE_VERSION,
+    EnsembleSampler, SamplerState, CARRY_FIT_STEPS, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS,
+    RESUME_RTOL, STATE_VERSION,
 };
+pub(crate) use run::{RunOutcome, RunRequest};
 pub use sink::{ChainSink, StepView};

@@ -20,7 +20,7 @@ use slipbayes::fit::{
     SummarySpec,
 };
 use slipbayes::optimize::SearchStart;
-use slipbayes::sampler::{CarryFit, Silent};
+use slipbayes::sampler::{CarryFit, Parallelism, Silent};
 
 use models::{
     ArK, EightSchoolsCentered, EightSchoolsNoncentered, Garch11, GaussMix, LotkaVolterra, OneComp,
@@ -262,6 +262,7 @@ pub trait CaseDensity: LogDensity {
             dir,
             false,
             &mut Silent,
+            Parallelism::default(),
         )
     }
 
@@ -302,7 +303,16 @@ impl CaseDensity for EightSchoolsCentered {
         } else {
             Target::joint(self)
         };
-        run_fit(target, spec, start, settings, dir, false, &mut Silent)
+        run_fit(
+            target,
+            spec,
+            start,
+            settings,
+            dir,
+            false,
+            &mut Silent,
+            Parallelism::default(),
+        )
     }
 
     fn walkers(&self) -> usize {

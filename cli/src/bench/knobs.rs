@@ -15,7 +15,7 @@ use slipbayes::data::{write_atomically, Series};
 use slipbayes::density::LogDensity;
 use slipbayes::density::Target;
 use slipbayes::fit::{run_fit, FitSettings, FitSummary, QuantitySummary, RunDir, SummarySpec};
-use slipbayes::sampler::{Silent, Steps, StopRule};
+use slipbayes::sampler::{Parallelism, Silent, Steps, StopRule};
 
 /// Which knob a run turns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -181,6 +181,7 @@ pub(crate) fn fit_keeping(
                 &RunDir::new(out),
                 false,
                 &mut Silent,
+                Parallelism::default(),
             )
         })
         .map_err(|e| BenchError::run(format!("fit of {}", model.display()))(e.to_string()))?;

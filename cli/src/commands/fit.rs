@@ -9,13 +9,11 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use slipbayes::diagnostics::problem_lines;
-use slipbayes::fit::{
-    fit_model_offloaded, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides,
-};
+use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides};
 use slipbayes::law::LawKind;
 use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
-use slipbayes::sampler::{CarryFit, Mixture, Offload, Updates};
+use slipbayes::sampler::{CarryFit, Mixture, Parallelism, Updates};
 
 use super::import::ImportArgs;
 use super::{law_name, non_negative, positive, EXIT_NOT_CONVERGED};
@@ -173,9 +171,49 @@ pub(super) struct DemoArgs {
     run: RunArgs,
 }
 
-/// `fit`, its evaluations handed to `offload` when given (the ranks of an MPI job).
-pub(super) fn run(args: &FitArgs, offload: Option<&mut dyn Offload>) -> anyhow::Result<ExitCode> {
-    fit_and_report(&fit_spec(args)?, &args.out, &args.run, false, offload)
+/// The ranks of an MPI job that share a fit's evaluations (`None`: this process alone).
+#[cfg(feature = "mpi")]
+pub(super) type Ranks<'c> = Option<&'c mut slipbayes::distributed::Cluster>;
+/// Without MPI there are no ranks to share with.
+#[cfg(not(feature = "mpi"))]
+pub(super) type Ranks<'c> = Option<&'c mut std::convert::Infallible>;
+
+/// Where a fit of `posterior` with `updates` evaluates: on `ranks`, told first which density to
+/// build (where every update that reads data is a contact's own or splits by contact, each
+/// holds only its own contacts' data; joint updates never split by contact, so that a rank
+/// holding a share would idle), or in this process.
+#[cfg(feature = "mpi")]
+fn parallelism<'p>(
+    ranks: &'p mut Ranks<'_>,
+    posterior: &Posterior,
+    updates: Updates,
+) -> Parallelism<'p> {
+    match ranks {
+        Some(cluster) => {
+            let share = match updates {
+                Updates::Joint => None,
+                Updates::Blocked | Updates::Hierarchical => posterior.data_share(),
+            };
+            cluster.share_density(share.as_ref());
+            Parallelism::from(&mut **cluster)
+        }
+        None => Parallelism::default(),
+    }
+}
+
+/// Without MPI, every fit evaluates in this process.
+#[cfg(not(feature = "mpi"))]
+fn parallelism<'p>(
+    _ranks: &'p mut Ranks<'_>,
+    _posterior: &Posterior,
+    _updates: Updates,
+) -> Parallelism<'p> {
+    Parallelism::default()
+}
+
+/// `fit`, its evaluations shared by `ranks` when given (the ranks of an MPI job).
+pub(super) fn run(args: &FitArgs, ranks: Ranks<'_>) -> anyhow::Result<ExitCode> {
+    fit_and_report(&fit_spec(args)?, &args.out, &args.run, false, ranks)
 }
 
 /// The model `fit` fits: the model file, or the quick path's one-contact model.
@@ -190,11 +228,11 @@ pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<ModelSpec> {
     })
 }
 
-/// `demo`, its evaluations handed to `offload` when given.
-pub(super) fn demo(args: &DemoArgs, offload: Option<&mut dyn Offload>) -> anyhow::Result<ExitCode> {
+/// `demo`, its evaluations shared by `ranks` when given.
+pub(super) fn demo(args: &DemoArgs, ranks: Ranks<'_>) -> anyhow::Result<ExitCode> {
     let spec = demo_spec(args)?;
     // The main job is re-run as it is: it replaces its earlier results unless resuming.
-    fit_and_report(&spec, &args.out, &args.run, !args.run.resume, offload)
+    fit_and_report(&spec, &args.out, &args.run, !args.run.resume, ranks)
 }
 
 /// The model `demo` fits.
@@ -269,7 +307,7 @@ fn fit_and_report(
     out: &Path,
     run: &RunArgs,
     replace_earlier: bool,
-    offload: Option<&mut dyn Offload>,
+    mut ranks: Ranks<'_>,
 ) -> anyhow::Result<ExitCode> {
     let posterior = Posterior::new(spec)?;
     let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
@@ -280,14 +318,14 @@ fn fit_and_report(
         ProgressBarObserver::new(run.quiet, Duration::from_secs_f64(run.progress_every))
             .stop_when(&interrupt::INTERRUPTED);
     let command: Vec<String> = std::env::args().collect();
-    let outcome = match fit_model_offloaded(
+    let outcome = match fit_model(
         &posterior,
         &settings,
         &lock,
         run.resume,
         command.clone(),
         &mut observer,
-        offload,
+        parallelism(&mut ranks, &posterior, settings.updates),
     ) {
         Err(FitError::Interrupted { dir, step }) => {
             eprintln!(

@@ -17,7 +17,6 @@ use clap::Args;
 use slipbayes::density::Target;
 use slipbayes::distributed::{Cluster, DensityShare};
 use slipbayes::model::{DataShare, Posterior};
-use slipbayes::sampler::Offload;
 
 use super::{error_lines, exit_code, fit, validate, Cli, Command};
 use crate::bench::memory::peak_rss_kb;
@@ -74,8 +73,8 @@ pub(super) fn main(cli: Cli) -> ExitCode {
 fn root(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<ExitCode> {
     let started = std::time::Instant::now();
     let outcome = match cli.command {
-        Command::Fit(args) => fit::run(&args, Some(&mut *cluster as &mut dyn Offload)),
-        Command::Demo(args) => fit::demo(&args, Some(&mut *cluster as &mut dyn Offload)),
+        Command::Fit(args) => fit::run(&args, Some(&mut *cluster)),
+        Command::Demo(args) => fit::demo(&args, Some(&mut *cluster)),
         Command::MpiLatency(args) => latency(&args, cluster),
         Command::Validate(args) => validate::run_root(&args, cluster),
         _ => anyhow::bail!(

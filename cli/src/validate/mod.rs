@@ -41,7 +41,7 @@ use slipbayes::law::Scene;
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelSpec, Posterior};
 use slipbayes::sampler::Move;
-use slipbayes::sampler::{Silent, Steps};
+use slipbayes::sampler::{Parallelism, Silent, Steps};
 use slipbayes::simulate::sample_times;
 
 pub use stats::{Coverage, Uniformity};
@@ -493,6 +493,7 @@ pub(crate) fn quiet_fit(
         dir,
         false,
         &mut Silent,
+        Parallelism::default(),
     )
     .map_err(|e| error_chain(&e))
 }

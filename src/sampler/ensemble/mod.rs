@@ -183,6 +183,9 @@ impl<'a> UpdateBlock<'a> {
     }
 }
 
+/// The density's map carrying the followers of a block (its index), when it has one.
+pub(crate) type CarryMap<'c> = (usize, &'c dyn CarryFollowers);
+
 /// Serialisable state of one ensemble.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EnsembleState {
@@ -381,7 +384,7 @@ impl Ensemble {
         &mut self,
         mv: &Move,
         h: usize,
-        block: Option<(usize, &UpdateBlock, Option<(usize, &dyn CarryFollowers)>)>,
+        block: Option<(usize, &UpdateBlock, Option<CarryMap>)>,
         out: ProposalBuffers,
     ) {
         let followers = match block {

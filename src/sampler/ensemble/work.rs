@@ -214,8 +214,8 @@ impl Ensemble {
                 ),
             });
         }
-        for k in 0..active.len() {
-            match evals[k] {
+        for (k, eval) in evals.iter().enumerate().take(active.len()) {
+            match *eval {
                 Eval::Finite(lp) => {
                     let w = Self::halves(&self.perm, h).0[k];
                     if exact || self.accepts(k, w, lp, settle) {

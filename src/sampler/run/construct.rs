@@ -8,6 +8,7 @@ use super::super::config::SamplerConfig;
 use super::super::ensemble::{Ensemble, EnsembleState, Streams, UpdateBlock, Work};
 use super::super::error::SamplerError;
 use super::super::evaluator::EvalKind;
+use super::super::executor::Parallelism;
 use super::super::history::RowHistory;
 use super::super::moves::SLICE_MU0;
 use super::super::report::TAU_WINDOWS;
@@ -124,8 +125,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                     limit: WALKER_CONDITION_LIMIT,
                 });
             }
-            let (log_density, derived, cache) =
-                evaluate_start(target.density(), &layout, e, &positions)?;
+            let Evaluated {
+                log_density,
+                derived,
+                state: cache,
+            } = evaluate_start(target.density(), &layout, e, &positions)?;
             let (ensemble_rng, walker_rngs) = Ensemble::fresh_rngs(config.seed(), e, walkers);
             states.push(EnsembleState {
                 positions,
@@ -177,7 +181,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         )
     }
 
-    /// A sampler continuing from `state` (as passed to [`ChainSink::checkpoint`]). The
+    /// A sampler continuing from `state` (as passed to
+    /// [`ChainSink::checkpoint`](crate::sampler::ChainSink::checkpoint)). The
     /// stored log-densities are re-evaluated to make sure the density is the same one.
     ///
     /// # Errors
@@ -318,13 +323,20 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             shown_r_hat_at: None,
             poisoned: false,
             history_released: false,
-            offload: None,
+            parallelism: Parallelism::default(),
         }
     }
 }
 
-/// The log-densities, derived values and states (`walkers × state_len`, at least one value
-/// per walker) of ensemble `e`'s starting walkers at `positions`, evaluated in parallel.
+/// Starting walkers evaluated: each one's log-density, derived values (`walkers × nderived`)
+/// and state (`walkers × state_len`, at least one value per walker).
+struct Evaluated {
+    log_density: Vec<f64>,
+    derived: Vec<f64>,
+    state: Vec<f64>,
+}
+
+/// Ensemble `e`'s starting walkers at `positions`, evaluated in parallel.
 ///
 /// # Errors
 /// [`SamplerError::BadInitialWalker`] naming the first walker the density refuses.
@@ -333,7 +345,7 @@ fn evaluate_start<D: LogDensity + ?Sized>(
     layout: &Layout,
     e: usize,
     positions: &[f64],
-) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>), SamplerError> {
+) -> Result<Evaluated, SamplerError> {
     let (ndim, nderived, state_len) = (layout.ndim, layout.nderived, layout.state_len);
     let walkers = positions.len() / ndim;
     let kind = layout.full();
@@ -369,7 +381,11 @@ fn evaluate_start<D: LogDensity + ?Sized>(
             reason,
         });
     }
-    Ok((log_density, derived, cache))
+    Ok(Evaluated {
+        log_density,
+        derived,
+        state: cache,
+    })
 }
 
 /// Re-evaluates the walkers of a resumed ensemble `e` (`s`): each stored log-density must be

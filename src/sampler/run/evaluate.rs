@@ -6,7 +6,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::super::ensemble::{SliceContext, SliceTask, UpdateBlock, Work};
-use super::super::offload::{Batch, BlockShares, Shares};
+use super::super::executor::{Batch, BlockShares, Executor, InProcess, Shares};
 use super::step::HalfStepPlan;
 use super::EnsembleSampler;
 use crate::density::LogDensity;
@@ -62,7 +62,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         // With another process to share with, a shared block's update may be split by
         // independent block (the contacts' terms where the contacts are).
         let splitter = match (block, plan.split) {
-            (Some(b), Some(split)) if self.offload.is_some() && !exact => {
+            (Some(b), Some(split)) if !self.parallelism.is_in_process() && !exact => {
                 Some(BlockShares { split, block: b })
             }
             _ => None,
@@ -83,19 +83,19 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             local: &local,
             // Another process's share costs far more than a parallel loop: this process's
             // share always goes to the pool.
-            parallel: if self.offload.is_some() {
+            parallel: if !self.parallelism.is_in_process() {
                 self.config.parallel() && threads > 1
             } else {
                 parallel
             },
             shares: splitter.as_ref().map(|s| (s as &dyn Shares, parts)),
         };
-        match self.offload.as_deref_mut() {
-            Some(offload) => {
-                offload.evaluate(&mut batch);
+        match self.parallelism.executor() {
+            Some(executor) => {
+                executor.evaluate(&mut batch);
                 return;
             }
-            None => batch.evaluate_here(0..n),
+            None => InProcess.evaluate(&mut batch),
         }
         if let Some(t) = started {
             let ns = t.elapsed().as_secs_f64() * 1e9;

@@ -11,19 +11,19 @@ use std::time::Instant;
 use super::config::{SamplerConfig, Steps};
 use super::ensemble::{Ensemble, Fatal, Streams, UpdateBlock, Work};
 use super::error::SamplerError;
+use super::executor::Parallelism;
 use super::history::RowHistory;
 use super::moves::Move;
 use super::observer::{Observer, RunStart};
-use super::offload::Offload;
 use super::report::{RunReport, StopReason};
 use super::sink::{ChainSink, StepView};
 use crate::density::LogDensity;
 
 mod construct;
 mod evaluate;
-mod phase;
 mod plan;
 mod progress;
+mod replica;
 mod state;
 mod step;
 mod stop;
@@ -31,7 +31,7 @@ mod stop;
 mod tests;
 
 pub use construct::RESUME_RTOL;
-pub use phase::{PhaseOutcome, PhaseRequest, ReplicaShares};
+pub(crate) use replica::{RunOutcome, RunRequest};
 pub use state::{SamplerState, STATE_VERSION};
 pub use step::{CARRY_FIT_STEPS, CARRY_MIN_JUMP_RATIO, CARRY_TUNE_STEPS};
 
@@ -41,7 +41,7 @@ const SHOWN_R_HAT_EVERY: std::time::Duration = std::time::Duration::from_secs(20
 /// Affine-invariant ensemble sampler over a [`LogDensity`], running several independent
 /// ensembles side by side. Built from `&density` it updates every coordinate at once; built
 /// from [`Target::blocked`](crate::density::Target::blocked) it updates a
-/// [`BlockedDensity`]'s blocks one after the other when its configuration asks for blocked
+/// [`BlockedDensity`](crate::density::BlockedDensity)'s blocks one after the other when its configuration asks for blocked
 /// updates.
 pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     density: &'a D,
@@ -90,8 +90,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// The history was released ([`release_history`](Self::release_history)) and must be
     /// restored before the next run.
     history_released: bool,
-    /// Where the proposals are evaluated when not in this process alone.
-    offload: Option<&'a mut dyn Offload>,
+    /// Where the proposals are evaluated: in this process, or through a parallel engine.
+    parallelism: Parallelism<'a>,
 }
 
 impl<D: LogDensity + ?Sized> std::fmt::Debug for EnsembleSampler<'_, D> {
@@ -110,11 +110,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.deadline = deadline;
     }
 
-    /// Evaluates the proposals of every half-step through `offload` (other processes), except
-    /// the slice move's updates, which run here. The chains stay the same bits (see
-    /// [`Offload`]).
-    pub fn set_offload(&mut self, offload: &'a mut dyn Offload) {
-        self.offload = Some(offload);
+    /// Evaluates the proposals of every half-step through `parallelism` (a parallel engine
+    /// such as the ranks of an MPI job), except the slice move's updates, which run here. The
+    /// chains stay the same bits.
+    pub fn set_parallelism(&mut self, parallelism: Parallelism<'a>) {
+        self.parallelism = parallelism;
     }
 
     /// Steps completed so far.

@@ -65,7 +65,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 
     /// One update of every walker in each of `blocks` in turn. A run of independent blocks
-    /// is updated block after block on the blocks' own state, or in shares by the offload's
+    /// is updated block after block on the blocks' own state, or in shares by the executor's
     /// processes when it splits them (see [`update_run`](Self::update_run)), and then brought
     /// together.
     pub(super) fn update_blocks(
@@ -344,7 +344,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 pub const CARRY_TUNE_STEPS: u64 = 50;
 
 /// Steps over which a regression carrying a block's followers is tuned (where it is, see
-/// [`CarryFit`](super::CarryFit)): fitted to the ensemble's draws of the first half of them
+/// [`CarryFit`](crate::sampler::CarryFit)): fitted to the ensemble's draws of the first half of them
 /// (while the complement's regression carries the followers), then refitted to those of
 /// the second half (carried by the first fit), then fixed. The suggested burn-in covers them.
 pub const CARRY_FIT_STEPS: u64 = 100;

@@ -4,8 +4,9 @@ use crate::density::{
     BlockLinks, BlockPlan, BlockUpdate, BlockedDensity, IndependentBlocks, LogDensityError,
     OwnEntries, PlannedBlock, Target,
 };
+use crate::distributed::ReplicaShares;
 use crate::sampler::{MemorySink, Move, NullSink, Silent};
-use crate::sampler::{ReplicaShares, SamplerConfig, SamplerError, SamplerState, Steps, Updates};
+use crate::sampler::{Parallelism, SamplerConfig, SamplerError, SamplerState, Steps, Updates};
 
 /// A 3-D standard normal without derived values.
 struct Normal3;
@@ -302,7 +303,7 @@ fn independent_blocks_give_the_same_chains_in_any_order() {
         let mut replicas = ReplicaShares::new(Target::blocked(&density), &config, shares).unwrap();
         let mut s = EnsembleSampler::new(Target::blocked(&density), config, init.clone()).unwrap();
         if shares > 1 {
-            s.set_offload(&mut replicas);
+            s.set_parallelism(Parallelism::from(&mut replicas));
         }
         s.run(Steps::Fixed(40), &mut NullSink, &mut Silent).unwrap();
         let blocks = s.blocks.iter().filter(|b| b.independent()).count();
@@ -396,4 +397,78 @@ fn checkpoint_view_serialises_like_the_state() {
         .rebuild_history::<SamplerError>(&s.config, |p| Ok(sink.position_column(p)))
         .unwrap();
     assert_eq!(restored.history, history);
+}
+
+/// Evaluates a batch as another process would: each item from copies of its inputs (the
+/// point, and for a block update what it carries of its walker's state), stored back through
+/// `set_outcome`, the later items in reverse order; the first third stays here.
+struct Elsewhere<'d, D: ?Sized>(&'d D);
+
+impl<D: LogDensity + ?Sized> crate::sampler::Executor for Elsewhere<'_, D> {
+    fn evaluate(&mut self, batch: &mut crate::sampler::Batch<'_>) {
+        let here = batch.len() / 3;
+        batch.evaluate_here(0..here);
+        for k in (here..batch.len()).rev() {
+            let x = batch.point(k).to_vec();
+            let (mut derived, mut state) = if batch.kind().reads_state() {
+                (batch.derived(k).to_vec(), batch.cache(k).to_vec())
+            } else {
+                (vec![0.0; batch.nderived()], vec![0.0; batch.cache_len()])
+            };
+            let result = batch.kind().evaluate(self.0, &x, &mut derived, &mut state);
+            batch.set_outcome(k, result, &derived, &state);
+        }
+    }
+
+    fn run_shares(&self) -> usize {
+        1
+    }
+
+    fn send_run(&mut self, _request: &super::RunRequest) {}
+
+    fn gather_run(&mut self) -> Vec<super::RunOutcome> {
+        Vec::new()
+    }
+}
+
+/// A sampler whose evaluations go elsewhere (an MPI job's ranks) gives the same chains, bit
+/// for bit, under joint, blocked and hierarchical updates, the members' blocks updated on
+/// their own state.
+#[test]
+fn evaluations_made_elsewhere_give_the_same_chains() {
+    let density = Members {
+        y: vec![0.3, -1.2, 2.0, 0.7],
+        order: vec![0, 1, 2, 3, 4],
+    };
+    let init: Vec<Vec<Vec<f64>>> = (0..2)
+        .map(|e| {
+            (0..12)
+                .map(|w| {
+                    (0..5)
+                        .map(|i| 0.1 * ((w * 7 + i * 3 + e) % 11) as f64 - 0.5)
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    for updates in [Updates::Joint, Updates::Blocked, Updates::Hierarchical] {
+        let config = SamplerConfig::new(12, 2, 5)
+            .unwrap()
+            .with_updates(updates)
+            .with_moves(vec![(Move::stretch(), 1.0), (Move::walk(), 1.0)])
+            .unwrap();
+        let mut alone =
+            EnsembleSampler::new(Target::blocked(&density), config.clone(), init.clone()).unwrap();
+        alone
+            .run(Steps::Fixed(40), &mut NullSink, &mut Silent)
+            .unwrap();
+        let mut elsewhere = Elsewhere(&density);
+        let mut there =
+            EnsembleSampler::new(Target::blocked(&density), config, init.clone()).unwrap();
+        there.set_parallelism(Parallelism::through(&mut elsewhere));
+        there
+            .run(Steps::Fixed(40), &mut NullSink, &mut Silent)
+            .unwrap();
+        assert!(there.state() == alone.state(), "{}", updates.as_str());
+    }
 }

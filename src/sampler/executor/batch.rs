@@ -1,19 +1,13 @@
-//! Evaluating a half-step's proposals in other processes ([`Offload`]), e.g. on the ranks of
-//! an MPI job (`crate::distributed`, feature `mpi`).
-//!
-//! The sampler draws every random number itself, serially, and then evaluates the proposals of
-//! a half-step, which are independent pure computations. An [`Offload`] receives them as one
-//! [`Batch`] and may hand any share to other processes, as long as each item is evaluated by
-//! the same density with the same inputs (the point and, for a block update, the walker's
-//! derived values and cache): the outcome is then the same bits wherever it was computed, and
-//! the chains do not depend on how the batch was split.
+//! A half-step's proposals as an [`Executor`](super::Executor) evaluates them ([`Batch`]):
+//! by item, here or elsewhere, or, for an update of a block every independent block depends
+//! on, by independent block (each share evaluating its own blocks' terms at every proposal,
+//! merged and finished here).
 
 use std::ops::Range;
 
 use rayon::prelude::*;
 
-pub use super::evaluator::EvalKind;
-use super::run::{PhaseOutcome, PhaseRequest};
+use super::super::evaluator::EvalKind;
 use crate::density::{sort, Eval, LogDensityError, ShareError, SplitByPart};
 
 /// Items `[r·n/R, (r+1)·n/R)` of `n` go to share `r` of `parts`: contiguous, balanced, and
@@ -147,7 +141,7 @@ type LocalEval<'b> = dyn Fn(EvalKind<'b>, &[f64], &mut [f64], &mut [f64]) -> Res
 /// The proposals of one half-step to evaluate: `len()` items, each a point of `ndim()`
 /// coordinates with buffers for the derived values and state it carries (inputs as well for
 /// a block update, see [`EvalKind::reads_state`]) and a slot for its outcome.
-pub struct Batch<'b> {
+pub(crate) struct Batch<'b> {
     pub(crate) kind: EvalKind<'b>,
     pub(crate) ndim: usize,
     /// Derived values and entries of state each item carries.
@@ -173,7 +167,7 @@ pub struct Batch<'b> {
 /// The entries of one share of a batch split by independent block (see [`Batch::parts`]): the
 /// indices of the derived values and of the cache entries it writes.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ShareEntries {
+pub(crate) struct ShareEntries {
     /// Derived values.
     pub derived: Vec<usize>,
     /// Cache entries.
@@ -185,14 +179,10 @@ impl ShareEntries {
     pub fn len(&self) -> usize {
         self.derived.len() + self.cache.len()
     }
-
-    /// Whether the share writes nothing.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
 }
 
 impl Batch<'_> {
+    #[cfg(any(test, feature = "mpi"))]
     /// The evaluation asked for.
     pub fn kind(&self) -> EvalKind<'_> {
         self.kind
@@ -203,21 +193,25 @@ impl Batch<'_> {
         self.slots.len()
     }
 
+    #[cfg(feature = "mpi")]
     /// Whether there is nothing to evaluate.
     pub fn is_empty(&self) -> bool {
         self.slots.is_empty()
     }
 
+    #[cfg(feature = "mpi")]
     /// Coordinates per point.
     pub fn ndim(&self) -> usize {
         self.ndim
     }
 
+    #[cfg(any(test, feature = "mpi"))]
     /// Derived values each point carries.
     pub fn nderived(&self) -> usize {
         self.nderived
     }
 
+    #[cfg(any(test, feature = "mpi"))]
     /// Entries of state each point carries.
     pub fn cache_len(&self) -> usize {
         self.cache_len
@@ -229,18 +223,21 @@ impl Batch<'_> {
         &self.proposals[s * self.ndim..(s + 1) * self.ndim]
     }
 
+    #[cfg(any(test, feature = "mpi"))]
     /// The derived values of item `k` (the walker's before, the point's after evaluation).
     pub fn derived(&self, k: usize) -> &[f64] {
         let (s, stride) = (self.slots[k], self.derived_stride);
         &self.derived[s * stride..s * stride + self.nderived]
     }
 
+    #[cfg(any(test, feature = "mpi"))]
     /// The cache of item `k` (the walker's before, the point's after evaluation).
     pub fn cache(&self, k: usize) -> &[f64] {
         let (s, stride) = (self.slots[k], self.state_stride);
         &self.cache[s * stride..s * stride + self.cache_len]
     }
 
+    #[cfg(any(test, feature = "mpi"))]
     /// Stores the outcome of item `k` evaluated elsewhere: its value and the derived values
     /// and cache it left.
     pub fn set_outcome(
@@ -423,49 +420,5 @@ impl Batch<'_> {
                 .enumerate()
                 .for_each(eval);
         }
-    }
-}
-
-/// Evaluates the sampler's batches, in this process and others (`Send`: a sampler may be
-/// moved into a thread pool). Set on a sampler with
-/// [`EnsembleSampler::set_offload`](super::EnsembleSampler::set_offload).
-pub trait Offload: Send {
-    /// Evaluates every item of `batch`: items this process keeps through
-    /// [`Batch::evaluate_here`], the others by storing what other processes computed through
-    /// [`Batch::set_outcome`]. Each item must be evaluated by the sampler's density with the
-    /// batch's inputs, so that the chains are the same bits as in one process.
-    fn evaluate(&mut self, batch: &mut Batch<'_>);
-
-    /// Into how many shares the sampler may split a run of independent blocks (the
-    /// contacts' blocks of a campaign): this process updates the first, and share `r` goes
-    /// to the `r`-th other process through [`send_phase`](Self::send_phase), each updating it
-    /// with [`EnsembleSampler::update_share`](super::EnsembleSampler::update_share) on a
-    /// replica of the sampler. 1 (the default): runs are not split, and their proposals
-    /// come to [`evaluate`](Self::evaluate) like any others.
-    fn phase_shares(&self) -> usize {
-        1
-    }
-
-    /// Hands the walkers' state as a run of independent blocks begins to the other
-    /// processes, each of which updates its share from it.
-    fn send_phase(&mut self, request: &PhaseRequest) {
-        let _ = request;
-    }
-
-    /// What the other processes' shares changed, in share order (shares 1, 2, ...), once
-    /// each has updated its share of the run last sent.
-    fn gather_phase(&mut self) -> Vec<PhaseOutcome> {
-        Vec::new()
-    }
-
-    /// Before the first batch: tells the other processes which density to build. `Some(words)`
-    /// (a description that only the density's own code reads): each builds the share of it
-    /// that its own independent blocks read and holds only that share's data, so that it can
-    /// update only its share of a run of independent blocks and evaluate only its share of a
-    /// batch split by independent block ([`Batch::parts`]); every other batch must then be
-    /// evaluated in this process. `None`: each builds all of it. The default (no other
-    /// processes) does nothing.
-    fn share_density(&mut self, words: Option<&[u64]>) {
-        let _ = words;
     }
 }

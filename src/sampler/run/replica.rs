@@ -1,14 +1,14 @@
-//! Updating a run of independent blocks in shares, some in other processes (an [`Offload`]
-//! that [`splits`](Offload::phase_shares) them, such as the ranks of an MPI job).
+//! Updating a run of independent blocks in shares, some in other processes (an
+//! executor that splits them, such as the ranks of an MPI job).
 //!
 //! The independent blocks of a density (one per contact in the friction posterior) may be
 //! updated in any order with the same chains: each draws from streams keyed by the block and
 //! accepts on its own terms. So they may also be updated at the same time, each share of them
 //! by another process on its own copy of the walkers, as long as what each share changed is
 //! merged back. This process sends the walkers' state as the run of blocks begins (a
-//! [`PhaseRequest`]); a replica of the sampler in each other process
+//! [`RunRequest`]); a replica of the sampler in each other process
 //! ([`EnsembleSampler::replica`]) updates its share from it and answers with what changed (a
-//! [`PhaseOutcome`]): the entries of the positions, derived values, caches and slice scales
+//! [`RunOutcome`]): the entries of the positions, derived values, caches and slice scales
 //! whose bits differ, and the counters' increments. This process updates its own share
 //! meanwhile, applies the others' outcomes, and recomputes each walker's log-density and the
 //! derived values that belong to no one block from the merged state, as after any run of
@@ -24,20 +24,19 @@ use std::ops::Range;
 
 use super::super::ensemble::{Ensemble, EnsembleState, Fatal, UpdateBlock};
 use super::super::error::SamplerError;
+use super::super::executor::share;
 use super::super::moves::SLICE_MU0;
-use super::super::offload::{Batch, Offload};
 use super::construct::Layout;
 use super::plan::{fresh_carry_fits, slice_slots};
 use super::EnsembleSampler;
 use super::SamplerConfig;
 use crate::density::{LogDensity, Target};
-use crate::sampler::share;
 
 /// The walkers' state as a run of independent blocks begins, for the other processes'
 /// replicas: the step, the run of blocks (indices into the sampler's blocks), and per
 /// ensemble the positions, log-densities, derived values, caches and slice scales, as bits.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PhaseRequest {
+pub(crate) struct RunRequest {
     config: SamplerConfig,
     words: Vec<u64>,
 }
@@ -46,7 +45,7 @@ pub struct PhaseRequest {
 /// positions, derived values, caches and slice scales whose bits differ from the request's, the
 /// counters' increments, and the first fatal evaluation, if any.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct PhaseOutcome {
+pub(crate) struct RunOutcome {
     words: Vec<u64>,
     text: Vec<u8>,
 }
@@ -55,42 +54,47 @@ pub struct PhaseOutcome {
 /// block.
 const REQUEST_HEAD: usize = 3;
 
-impl PhaseRequest {
+impl RunRequest {
+    #[cfg(feature = "mpi")]
     /// The request as one vector (to send).
-    pub fn words(&self) -> &[u64] {
+    pub(crate) fn words(&self) -> &[u64] {
         &self.words
     }
 
+    #[cfg(feature = "mpi")]
     /// The configuration of the sampler that sent it, for its replicas
     /// ([`EnsembleSampler::replica`]).
-    pub fn config(&self) -> &SamplerConfig {
+    pub(crate) fn config(&self) -> &SamplerConfig {
         &self.config
     }
 
+    #[cfg(feature = "mpi")]
     /// A request received as [`words`](Self::words), from a sampler with `config`.
-    pub fn from_words(config: SamplerConfig, words: Vec<u64>) -> Self {
+    pub(crate) fn from_words(config: SamplerConfig, words: Vec<u64>) -> Self {
         Self { config, words }
     }
 
     /// The step at which the run is updated.
-    pub fn step(&self) -> u64 {
+    pub(crate) fn step(&self) -> u64 {
         self.words[0]
     }
 
     /// The run of blocks, indices into the sampler's blocks.
-    pub fn blocks(&self) -> Range<usize> {
+    pub(crate) fn blocks(&self) -> Range<usize> {
         self.words[1] as usize..self.words[2] as usize
     }
 }
 
-impl PhaseOutcome {
+impl RunOutcome {
+    #[cfg(feature = "mpi")]
     /// The outcome as numbers and bytes (to send).
-    pub fn parts(&self) -> (&[u64], &[u8]) {
+    pub(crate) fn parts(&self) -> (&[u64], &[u8]) {
         (&self.words, &self.text)
     }
 
+    #[cfg(feature = "mpi")]
     /// An outcome received as [`parts`](Self::parts).
-    pub fn from_parts(words: Vec<u64>, text: Vec<u8>) -> Self {
+    pub(crate) fn from_parts(words: Vec<u64>, text: Vec<u8>) -> Self {
         Self { words, text }
     }
 }
@@ -110,7 +114,7 @@ fn changeable(ens: &mut Ensemble) -> [&mut Vec<f64>; 4] {
 
 /// A fatal evaluation of a share: the block (index into the sampler's blocks), the ensemble
 /// and what failed.
-pub(crate) type PhaseFatal = (usize, usize, Fatal);
+pub(crate) type RunFatal = (usize, usize, Fatal);
 
 /// Reads an outcome's words in order.
 struct Reader<'o> {
@@ -141,7 +145,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ///
     /// # Errors
     /// As [`new`](Self::new), for an invalid configuration.
-    pub fn replica(
+    pub(crate) fn replica(
         target: impl Into<Target<'a, D>>,
         config: SamplerConfig,
     ) -> Result<Self, SamplerError> {
@@ -179,14 +183,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         ))
     }
 
-    /// Whether an offload splits runs of independent blocks over its processes.
-    pub(super) fn splits_runs(&self) -> bool {
-        self.offload
-            .as_deref()
-            .is_some_and(|offload| offload.phase_shares() >= 2)
+    /// Whether the executor splits runs of independent blocks over its processes.
+    pub(super) fn splits_runs(&mut self) -> bool {
+        self.parallelism
+            .executor()
+            .is_some_and(|executor| executor.run_shares() >= 2)
     }
 
-    /// Updates the independent blocks `run` in shares: the offload's other processes update
+    /// Updates the independent blocks `run` in shares: the executor's other processes update
     /// theirs while this one updates the first share; then their outcomes are merged in.
     /// Returns the first fatal evaluation in block order.
     pub(super) fn update_run(
@@ -194,24 +198,28 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         blocks: &[UpdateBlock<'a>],
         run: Range<usize>,
     ) -> Result<(), (usize, Fatal)> {
-        let offload = self
-            .offload
-            .take()
-            .expect("a run is split only with an offload");
-        let shares = offload.phase_shares();
-        let request = self.phase_request(&run);
-        offload.send_phase(&request);
-        // The first share is updated by this process with the offload out of the way: its
+        // The first share is updated by this process with the executor out of the way: its
         // evaluations stay here.
-        let mut fatal: Option<PhaseFatal> = None;
+        let mut parallelism = std::mem::take(&mut self.parallelism);
+        let request = self.run_request(&run);
+        let shares = match parallelism.executor() {
+            Some(executor) => {
+                executor.send_run(&request);
+                executor.run_shares()
+            }
+            None => 1,
+        };
+        let mut fatal: Option<RunFatal> = None;
         for b in blocks_of_share(&run, shares, 0) {
             if let Err((e, f)) = self.update(Some((b, &blocks[b])), false) {
                 fatal = Some((b, e, f));
                 break;
             }
         }
-        let outcomes = offload.gather_phase();
-        self.offload = Some(offload);
+        let outcomes = parallelism
+            .executor()
+            .map_or_else(Vec::new, |executor| executor.gather_run());
+        self.parallelism = parallelism;
         for outcome in &outcomes {
             if let Some(f) = self.apply_outcome(outcome) {
                 if fatal.as_ref().is_none_or(|g| f.0 < g.0) {
@@ -226,7 +234,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 
     /// The walkers' state for the replicas, as the run `run` begins.
-    fn phase_request(&mut self, run: &Range<usize>) -> PhaseRequest {
+    fn run_request(&mut self, run: &Range<usize>) -> RunRequest {
         let mut words = vec![self.step, run.start as u64, run.end as u64];
         for ens in &mut self.ensembles {
             words.extend(ens.s.log_density.iter().map(|v| v.to_bits()));
@@ -235,7 +243,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 words.extend(array.iter().map(|v| v.to_bits()));
             }
         }
-        PhaseRequest {
+        RunRequest {
             config: self.config.clone(),
             words,
         }
@@ -244,7 +252,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// Whether `request` holds walkers of this sampler's shape: each array's length (sent
     /// before it) as this sampler's, but for an empty cache, which a sampler resumed from a
     /// checkpoint and one started afresh size differently.
-    fn fits(&mut self, request: &PhaseRequest) -> bool {
+    fn fits(&mut self, request: &RunRequest) -> bool {
         let words = &request.words;
         let (walkers, cache_len) = (self.config.walkers(), self.state_len);
         let mut at = REQUEST_HEAD;
@@ -274,12 +282,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// # Errors
     /// [`SamplerError::StateMismatch`] when the request's walkers do not have this sampler's
     /// shape (another density or configuration sent it).
-    pub fn update_share(
+    pub(crate) fn update_share(
         &mut self,
-        request: &PhaseRequest,
+        request: &RunRequest,
         shares: usize,
         r: usize,
-    ) -> Result<PhaseOutcome, SamplerError> {
+    ) -> Result<RunOutcome, SamplerError> {
         if !self.fits(request) {
             return Err(SamplerError::StateMismatch {
                 detail: format!(
@@ -369,12 +377,12 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 text.extend_from_slice(f.message.as_bytes());
             }
         }
-        Ok(PhaseOutcome { words, text })
+        Ok(RunOutcome { words, text })
     }
 
     /// Applies another process's outcome of its share: the changed entries, and the counters'
     /// increments. Returns its fatal evaluation, if any.
-    fn apply_outcome(&mut self, outcome: &PhaseOutcome) -> Option<PhaseFatal> {
+    fn apply_outcome(&mut self, outcome: &RunOutcome) -> Option<RunFatal> {
         let mut read = Reader {
             words: &outcome.words,
             text: &outcome.text,
@@ -422,90 +430,5 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 },
             )
         })
-    }
-}
-
-/// An [`Offload`] that splits each run of independent blocks into `shares` and updates all
-/// but the first on replicas of the sampler in this process, one after another: what the
-/// ranks of an MPI job do at the same time, in one process. It saves no time; it checks that
-/// updates of independent blocks made apart and merged give the chains of a sampler without
-/// it, bit for bit.
-pub struct ReplicaShares<'a, D: LogDensity + ?Sized> {
-    replicas: Vec<EnsembleSampler<'a, D>>,
-    request: Option<PhaseRequest>,
-    /// Batches split by independent block so far.
-    split_batches: usize,
-}
-
-impl<'a, D: LogDensity + ?Sized> ReplicaShares<'a, D> {
-    /// Shares for a sampler of `density` with `config`, cut `shares` ways (at least 1).
-    ///
-    /// # Errors
-    /// As [`EnsembleSampler::replica`].
-    pub fn new(
-        target: impl Into<Target<'a, D>>,
-        config: &SamplerConfig,
-        shares: usize,
-    ) -> Result<Self, SamplerError> {
-        let target = target.into();
-        let replicas = (1..shares.max(1))
-            .map(|_| EnsembleSampler::replica(target, config.clone()))
-            .collect::<Result<_, _>>()?;
-        Ok(Self {
-            replicas,
-            request: None,
-            split_batches: 0,
-        })
-    }
-
-    /// How many batches were split by independent block (the rest by item).
-    pub fn split_batches(&self) -> usize {
-        self.split_batches
-    }
-}
-
-impl<D: LogDensity + ?Sized> Offload for ReplicaShares<'_, D> {
-    /// A batch that splits by independent block is split as the MPI offload splits it: the
-    /// first share in place, the others apart from the walkers' values (as another process
-    /// evaluates them, from the points alone), then merged.
-    fn evaluate(&mut self, batch: &mut Batch<'_>) {
-        let (parts, shares) = (batch.parts(), self.phase_shares());
-        if parts == 0 || shares == 1 {
-            batch.evaluate_here(0..batch.len());
-            return;
-        }
-        self.split_batches += 1;
-        let mut failures = batch.evaluate_share_here(share(parts, shares, 0));
-        for r in 1..shares {
-            let entries = batch.share_entries(share(parts, shares, r));
-            let outcome = batch.evaluate_share_apart(share(parts, shares, r), &entries);
-            batch.merge_share(&mut failures, &entries, outcome);
-        }
-        batch.finish_shares(failures);
-    }
-
-    fn phase_shares(&self) -> usize {
-        self.replicas.len() + 1
-    }
-
-    fn send_phase(&mut self, request: &PhaseRequest) {
-        self.request = Some(request.clone());
-    }
-
-    fn gather_phase(&mut self) -> Vec<PhaseOutcome> {
-        let request = self
-            .request
-            .take()
-            .expect("a run is sent before it is gathered");
-        let shares = self.phase_shares();
-        self.replicas
-            .iter_mut()
-            .enumerate()
-            .map(|(r, replica)| {
-                replica
-                    .update_share(&request, shares, r + 1)
-                    .expect("a replica of the same density and configuration")
-            })
-            .collect()
     }
 }
