@@ -196,9 +196,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 }
 
 /// Serial cost (ns) of a half-step's evaluations above which they are spread over the rayon
-/// pool. One parallel loop costs a few to tens of µs of synchronisation on a busy
-/// two-core machine (measured by `cargo bench --bench sampler`), so parallelism pays only
-/// well above that.
+/// pool. One parallel loop costs a few to tens of µs of synchronisation (`cargo bench --bench
+/// sampler` shows it), so parallelism pays only well above that.
 const PARALLEL_MIN_WORK_NS: f64 = 100_000.0;
 
 /// Evaluations a slice update is assumed to cost when deciding whether to run a half-step's

@@ -318,8 +318,9 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     /// and the carried move, which re-evaluates every run the block's followers touch, is
     /// mostly rejected (the pooled friction posteriors: at most 3 % of the exact draws'
     /// squared jump); where the data say little, the carried move goes further than the exact
-    /// draw (the centred eight schools: 2.2–2.8 times). The choice depends only on the chains, so it is the same on
-    /// any number of threads, and it is made before the suggested burn-in ends.
+    /// draw (the centred eight schools: 2.2–2.8 times). The choice depends only on the chains,
+    /// so it is the same on any number of threads, and it is made before the suggested
+    /// burn-in ends.
     pub(super) fn keeps_carried_move(&self, b: usize, block: &UpdateBlock, step: u64) -> bool {
         if !block.carry_measured || step < CARRY_TUNE_STEPS {
             return true;

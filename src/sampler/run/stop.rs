@@ -80,10 +80,9 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
             return met;
         };
         self.shown_tau = Some(tmax);
-        // R̂ for display alone is a pass over the whole history (done at every check it took
-        // 7 of the demo's 50 s, measured under load): only for an observer that shows it, and
-        // at most every `SHOWN_R_HAT_EVERY`; in between the progress shows the last R̂
-        // computed.
+        // R̂ for display alone is a pass over the whole history (done at every check, a large
+        // share of a short fit's time): only for an observer that shows it, and at most every
+        // `SHOWN_R_HAT_EVERY`; in between the progress shows the last R̂ computed.
         let due = self
             .shown_r_hat_at
             .is_none_or(|t| t.elapsed() >= SHOWN_R_HAT_EVERY);
