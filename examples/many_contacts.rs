@@ -60,17 +60,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         let config = SamplerConfig::new(walkers, 4, 1)?.with_updates(Updates::Hierarchical);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
+        // Around the rough start, each walker redrawn until the density takes it (a contact
+        // near stick-slip refuses some).
+        let mut derived = vec![0.0; posterior.derived_names().len()];
+        let mut walker = || loop {
+            let x: Vec<f64> = start
+                .iter()
+                .map(|v| v + 1e-3 * rng.sample::<f64, _>(StandardNormal))
+                .collect();
+            if posterior
+                .log_density(&x, &mut derived)
+                .is_ok_and(f64::is_finite)
+            {
+                break x;
+            }
+        };
         let initial: Vec<Vec<Vec<f64>>> = (0..4)
-            .map(|_| {
-                (0..walkers)
-                    .map(|_| {
-                        start
-                            .iter()
-                            .map(|v| v + 1e-3 * rng.sample::<f64, _>(StandardNormal))
-                            .collect()
-                    })
-                    .collect()
-            })
+            .map(|_| (0..walkers).map(|_| walker()).collect())
             .collect();
         let started = Instant::now();
         let mut sampler = EnsembleSampler::new(Target::blocked(&posterior), config, initial)?;
