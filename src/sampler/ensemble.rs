@@ -12,7 +12,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::moves::{
-    CarryTuning, Followers, HalfStepFit, Move, SliceDirections, SLICE_MAX_STEPS_OUT,
+    ActiveHalf, BlockView, CarryTuning, Complement, DirectionDraw, Followers, Move,
+    OwnedComplement, ProposalMove, SliceDirection, SLICE_MAX_STEPS_OUT,
 };
 use super::slice::{update_along_line, update_coordinate, LineError, SliceError};
 use crate::density::{sort, BlockLinks, Eval, LogDensity};
@@ -176,7 +177,11 @@ enum HalfStep {
 /// complement and read by every walker of the active half.
 #[derive(Debug)]
 pub(crate) struct SliceContext {
-    directions: SliceDirections,
+    /// The coordinates the move acts on (the block's, or all).
+    coords: Vec<usize>,
+    /// The complement at those coordinates, and the directions fitted to it.
+    complement: OwnedComplement,
+    directions: Box<dyn DirectionDraw>,
     /// The regression that carries the block's followers, under hierarchical updates when the
     /// density does not carry them itself.
     followers: Option<Followers>,
@@ -193,9 +198,6 @@ pub(crate) struct SliceTask<'a> {
     lp: f64,
     derived0: &'a [f64],
     cache0: &'a [f64],
-    /// All walkers' positions (only the complement's are read for the direction).
-    positions: &'a [f64],
-    complement: &'a [usize],
     context: &'a SliceContext,
     rng: &'a mut ChaCha8Rng,
     out: &'a mut [f64],
@@ -238,18 +240,11 @@ impl SliceTask<'_> {
         density: &D,
         block: Option<(usize, &UpdateBlock)>,
     ) -> Result<SliceOutcome, Fatal> {
-        let ndim = self.x.len();
-        let dirs = &self.context.directions;
-        let (mut eta, mut z) = (vec![0.0; dirs.dim()], vec![0.0; dirs.dim()]);
-        dirs.draw(
-            self.context.mu,
-            (self.positions, ndim),
-            self.complement,
-            self.rng,
-            &mut z,
-            &mut eta,
-        );
-        let coords = dirs.coords();
+        let context = self.context;
+        let coords = &context.coords[..];
+        let mut eta = vec![0.0; coords.len()];
+        let complement = context.complement.view();
+        (context.directions).draw(complement, context.mu, self.rng, &mut eta);
         let followers = self.context.followers.as_ref();
         let mut rejections = Vec::new();
         let (x, derived0, cache0) = (self.x, self.derived0, self.cache0);
@@ -395,11 +390,9 @@ pub(crate) struct Ensemble {
     log_factor: Vec<f64>,
     /// Acceptance uniform of each proposal.
     accept_u: Vec<f64>,
-    scratch_idx: Vec<usize>,
-    scratch_z: Vec<f64>,
     /// The walkers' coordinates in the current block, `walkers × block dim`.
     sub: Vec<f64>,
-    /// One proposal in the current block.
+    /// The proposals in the current block, `half × block dim`.
     sub_out: Vec<f64>,
     /// What the current half-step is.
     kind: HalfStep,
@@ -438,8 +431,6 @@ impl Ensemble {
             factor: vec![1.0; half],
             log_factor: vec![0.0; half],
             accept_u: vec![0.0; half],
-            scratch_idx: vec![0; half],
-            scratch_z: vec![0.0; half],
             sub: Vec::new(),
             sub_out: Vec::new(),
             kind: HalfStep::Moves,
@@ -455,9 +446,9 @@ impl Ensemble {
         std::mem::swap(&mut self.s.walker_rngs, &mut streams.walkers);
     }
 
-    /// Starts a step: the random split into halves and the move of this step, both from the
-    /// ensemble's stream.
-    pub fn start_step(&mut self, moves: &[(Move, f64)]) -> Move {
+    /// Starts a step: the random split into halves and the move of this step (its index in
+    /// `moves`), both from the ensemble's stream.
+    pub fn start_step(&mut self, moves: &[(Move, f64)]) -> usize {
         let walkers = self.perm.len();
         let half = walkers / 2;
         // Partial Fisher–Yates from the identity: the first half becomes a uniformly random
@@ -472,12 +463,12 @@ impl Ensemble {
             self.perm.swap(i, j);
         }
         if moves.len() == 1 {
-            moves[0].0
+            0
         } else {
             let total: f64 = moves.iter().map(|m| m.1).sum();
             let mut u = self.s.ensemble_rng.random::<f64>() * total;
-            let mut chosen = moves[moves.len() - 1].0;
-            for &(m, w) in moves {
+            let mut chosen = moves.len() - 1;
+            for (m, &(_, w)) in moves.iter().enumerate() {
                 if u < w {
                     chosen = m;
                     break;
@@ -508,7 +499,7 @@ impl Ensemble {
     /// the block update to bring up to date.
     pub fn draw(
         &mut self,
-        mv: &Move,
+        mv: &dyn ProposalMove,
         h: usize,
         block: Option<(usize, &UpdateBlock, Option<CarryMap>)>,
         out: ProposalBuffers,
@@ -529,8 +520,6 @@ impl Ensemble {
             factor,
             log_factor,
             accept_u,
-            scratch_idx,
-            scratch_z,
             sub,
             sub_out,
             nderived,
@@ -540,73 +529,72 @@ impl Ensemble {
         } = self;
         *kind = HalfStep::Moves;
         let (active, complement) = Self::halves(perm, h);
-        // The move sees the walkers' coordinates in the block (all of them when joint).
-        let (moved, dim): (&[f64], usize) = match block {
-            None => (&s.positions, ndim),
+        let EnsembleState {
+            positions,
+            derived,
+            walker_rngs,
+            ..
+        } = s;
+        // The move sees the walkers' coordinates in the block (all of them when joint), and
+        // proposes straight into the proposals when joint, into the block's scratch when not.
+        let (moved, dim, proposals): (&[f64], usize, &mut [f64]) = match block {
+            None => (positions, ndim, &mut *out.proposals),
             Some(b) => {
                 sub.clear();
-                for x in s.positions.chunks_exact(ndim) {
+                for x in positions.chunks_exact(ndim) {
                     sub.extend(b.coords.iter().map(|&i| x[i]));
                 }
-                sub_out.resize(b.coords.len(), 0.0);
-                (sub, b.coords.len())
+                sub_out.resize(active.len() * b.coords.len(), 0.0);
+                (sub, b.coords.len(), &mut sub_out[..])
             }
         };
-        let links = block.map(|b| &b.links);
-        let given = links.map_or(&[][..], |l| &l.given[..]);
-        let mut fit = HalfStepFit::new(
-            mv,
-            (&s.positions, ndim),
-            (moved, dim),
-            complement,
-            block.map(|b| (&b.coords[..], given)),
-        );
+        let given = block.map_or(&[][..], |b| &b.links.given[..]);
+        let _ = mv.propose(ActiveHalf {
+            complement: Complement {
+                rows: moved,
+                dim,
+                walkers: complement,
+            },
+            active,
+            positions,
+            ndim,
+            block: block.map(|b| BlockView {
+                coords: &b.coords,
+                given,
+            }),
+            rngs: walker_rngs,
+            proposals,
+            factor,
+            log_factor,
+        });
         let (nd, nc) = (*nderived, *cache_len);
         let (sd, sc) = (nd.max(1), nc.max(1));
         for (k, &w) in active.iter().enumerate() {
-            let rng = &mut s.walker_rngs[w];
-            let x = &s.positions[w * ndim..(w + 1) * ndim];
+            // After the move's draws, from the same stream.
+            accept_u[k] = walker_rngs[w].random();
+            let Some(b) = block else { continue };
+            let x = &positions[w * ndim..(w + 1) * ndim];
             let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
-            // Joint: straight into the proposal; blocked: into the block's scratch.
-            let target = if block.is_some() {
-                &mut sub_out[..]
-            } else {
-                &mut *o
-            };
-            let c = mv.propose(
-                &moved[w * dim..(w + 1) * dim],
-                moved,
-                complement,
-                fit.for_walker(x, given),
-                rng,
-                target,
-                scratch_idx,
-                scratch_z,
-            );
-            (factor[k], log_factor[k]) = (c.factor, c.log_factor);
-            accept_u[k] = rng.random();
-            if let Some(b) = block {
-                o.copy_from_slice(x);
-                for (&i, &y) in b.coords.iter().zip(sub_out.iter()) {
-                    o[i] = y;
-                }
-                if let Some(f) = &followers {
-                    f.carry(x, &b.coords, &b.links.followers, o);
-                }
-                if let Some(map) = carry {
-                    // The followers' Jacobian joins the proposal's density ratio.
-                    let ln_jacobian = map(x, o);
-                    let ln_factor = if factor[k].is_normal() {
-                        factor[k].ln()
-                    } else {
-                        log_factor[k]
-                    };
-                    log_factor[k] = ln_factor + ln_jacobian;
-                    factor[k] = log_factor[k].exp();
-                }
-                out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
-                out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
+            o.copy_from_slice(x);
+            for (&i, &y) in b.coords.iter().zip(&sub_out[k * dim..(k + 1) * dim]) {
+                o[i] = y;
             }
+            if let Some(f) = &followers {
+                f.carry(x, &b.coords, &b.links.followers, o);
+            }
+            if let Some(map) = carry {
+                // The followers' Jacobian joins the proposal's density ratio.
+                let ln_jacobian = map(x, o);
+                let ln_factor = if factor[k].is_normal() {
+                    factor[k].ln()
+                } else {
+                    log_factor[k]
+                };
+                log_factor[k] = ln_factor + ln_jacobian;
+                factor[k] = log_factor[k].exp();
+            }
+            out.derived[k * sd..k * sd + nd].copy_from_slice(&derived[w * nd..(w + 1) * nd]);
+            out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
         }
     }
 
@@ -692,13 +680,13 @@ impl Ensemble {
         Ok(())
     }
 
-    /// What the slice move `mv` of half `h` works with in update slot `slot`: the directions
-    /// from the complement, the followers' regression (under hierarchical updates, when the
-    /// density does not carry them), and the ensemble's μ of the slot.
+    /// What the slice move along `directions` of half `h` works with in update slot `slot`:
+    /// the directions fitted to the complement, the followers' regression (under hierarchical
+    /// updates, when the density does not carry them), and the ensemble's μ of the slot.
     pub fn slice_context(
         &self,
         h: usize,
-        mv: &Move,
+        directions: &dyn SliceDirection,
         slot: usize,
         block: Option<&UpdateBlock>,
     ) -> SliceContext {
@@ -712,10 +700,11 @@ impl Ensemble {
                 &all[..]
             }
         };
-        let gaussian = matches!(mv, Move::Slice { gaussian: true });
-        let positions = &self.s.positions;
+        let complement = OwnedComplement::new(&self.s.positions, ndim, complement, coords);
         SliceContext {
-            directions: SliceDirections::new(gaussian, positions, ndim, complement, coords),
+            coords: coords.to_vec(),
+            directions: directions.fit(complement.view()),
+            complement,
             followers: block.and_then(|b| self.followers(h, slot, b)),
             mu: self.s.slice_scales[slot],
         }
@@ -778,7 +767,7 @@ impl Ensemble {
         let (sd, sc) = (nd.max(1), nc.max(1));
         self.kind = HalfStep::Slice { evaluations: 0 };
         let Self { s, cache, perm, .. } = self;
-        let (active, complement) = Self::halves(perm, h);
+        let (active, _) = Self::halves(perm, h);
         let EnsembleState {
             positions,
             log_density,
@@ -801,8 +790,6 @@ impl Ensemble {
                 lp: log_density[w],
                 derived0: &derived[w * nd..(w + 1) * nd],
                 cache0: &cache[w * nc..(w + 1) * nc],
-                positions,
-                complement,
                 context,
                 rng: rngs[w].take().expect("each active walker once"),
                 out: o,

@@ -4,9 +4,10 @@
 //! over `&[f64]` with a fallible result. Points the density refuses (out of support, NaN, −∞) are rejected
 //! proposals counted per reason; only fatal faults (and +∞) stop a run.
 //!
-//! - Moves ([`Move`]): stretch, differential evolution, walk, independence, KDE, DE-snooker
-//!   and ensemble slice sampling, mixable with weights; the red-blue update splits each
-//!   ensemble randomly in two halves every step and updates one from the other.
+//! - Moves ([`moves`]): stretch, differential evolution, walk, independence, KDE, DE-snooker
+//!   and ensemble slice sampling, mixable with weights, and moves of one's own
+//!   ([`ProposalMove`]); the red-blue update splits each ensemble randomly in two halves every
+//!   step and updates one from the other.
 //! - Blocked updates ([`Updates`]): one block of the density's coordinates after the other;
 //!   a block whose conditional density is cheap (the population level of a hierarchical
 //!   model) is drawn exactly by slice sampling instead of by ensemble moves.
@@ -62,7 +63,7 @@ mod ensemble;
 mod error;
 mod history;
 mod memory;
-mod moves;
+pub mod moves;
 mod observer;
 mod offload;
 mod report;
@@ -80,7 +81,8 @@ pub use error::SamplerError;
 pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::{
-    CarryTuning, Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0,
+    CarryTuning, Mixture, Move, MoveSpec, ProposalMove, MOVE_NAMES, SLICE_ADAPT_STEPS,
+    SLICE_MAX_STEPS_OUT, SLICE_MU0,
 };
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub(crate) use offload::share;

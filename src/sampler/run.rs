@@ -12,7 +12,7 @@ use super::ensemble::{
 };
 use super::error::SamplerError;
 use super::history::{rebuild, History, RowHistory};
-use super::moves::{CarryTuning, Move, SLICE_ADAPT_STEPS, SLICE_MU0};
+use super::moves::{CarryTuning, Move, MoveSpec, SLICE_ADAPT_STEPS, SLICE_MU0};
 use super::observer::{Observer, Progress, RunStart};
 use super::offload::{Batch, BlockShares, EvalKind, Offload, Shares};
 use super::report::{
@@ -46,11 +46,11 @@ pub struct SamplerState {
     pub nderived: usize,
     /// Walkers per ensemble.
     pub walkers: usize,
-    /// The moves and weights the chains were drawn with; a resumed run must use the same to
-    /// continue the same chains (states written before moves were selectable used the
-    /// stretch move alone).
+    /// The moves (their specs) and weights the chains were drawn with; a resumed run must use
+    /// the same to continue the same chains (states written before moves were selectable used
+    /// the stretch move alone).
     #[serde(default = "stretch_alone")]
-    pub moves: Vec<(Move, f64)>,
+    pub moves: Vec<(MoveSpec, f64)>,
     /// Joint or blocked updates (states written before blocked updates existed were joint).
     #[serde(default)]
     pub updates: Updates,
@@ -124,8 +124,19 @@ impl SamplerState {
     }
 }
 
-fn stretch_alone() -> Vec<(Move, f64)> {
-    vec![(Move::stretch(), 1.0)]
+fn stretch_alone() -> Vec<(MoveSpec, f64)> {
+    vec![(Move::stretch().spec(), 1.0)]
+}
+
+/// The specs and weights of `moves`.
+fn specs(moves: &[(Move, f64)]) -> Vec<(MoveSpec, f64)> {
+    moves.iter().map(|(m, w)| (m.spec(), *w)).collect()
+}
+
+/// A mixture's specs and weights as a list, `stretch(a=2)=0.5, ...`.
+fn written(moves: &[(MoveSpec, f64)]) -> String {
+    let parts: Vec<String> = moves.iter().map(|(m, w)| format!("{m}={w}")).collect();
+    parts.join(", ")
 }
 
 /// Least wall time between two R̂ computed for progress display alone.
@@ -142,8 +153,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// The blocks updated one after the other in a step; empty for joint updates.
     blocks: Vec<UpdateBlock>,
     ensembles: Vec<Ensemble>,
-    /// Move of the current step per ensemble.
-    step_moves: Vec<Move>,
+    /// Move of the current step per ensemble (its index in the configuration's moves).
+    step_moves: Vec<usize>,
     /// Proposals of all ensembles' active halves, evaluated in one loop.
     work: Work,
     /// Per ensemble, the generators of an independent block's update, re-keyed in place for
@@ -380,11 +391,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 config.ensembles()
             ));
         }
-        if state.moves.as_slice() != config.moves() {
+        if state.moves != specs(config.moves()) {
             return mismatch(format!(
-                "the chains were drawn with the moves {:?}, the configuration has {:?}; resume with the original moves",
-                state.moves,
-                config.moves()
+                "the chains were drawn with the moves {}, the configuration has {}; resume with the original moves",
+                written(&state.moves),
+                written(&specs(config.moves()))
             ));
         }
         let mut state = state;
@@ -494,7 +505,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         Self {
             carry_jumps,
             pending: (0..ensembles.len()).map(|_| None).collect(),
-            step_moves: vec![config.moves()[0].0; ensembles.len()],
+            step_moves: vec![0; ensembles.len()],
             work: Work::new(ensembles.len(), half, ndim, nderived, cache_len),
             block_streams: (0..ensembles.len()).map(|_| Streams::new()).collect(),
             eval_ns: vec![None; 2 * blocks.len().max(1)],
@@ -528,7 +539,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             ndim: self.ndim,
             nderived: self.nderived,
             walkers: self.config.walkers(),
-            moves: self.config.moves().to_vec(),
+            moves: specs(self.config.moves()),
             updates: self.config.updates(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),
@@ -934,13 +945,13 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         block: Option<(usize, &UpdateBlock)>,
         exact: bool,
     ) -> Result<(), (usize, Fatal)> {
-        let moves = self.config.moves();
         let half = self.config.walkers() / 2;
         let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
         for (ens, mv) in self.ensembles.iter_mut().zip(self.step_moves.iter_mut()) {
-            *mv = ens.start_step(moves);
+            *mv = ens.start_step(self.config.moves());
         }
         for h in 0..2 {
+            let moves = self.config.moves();
             let Work {
                 proposals,
                 derived,
@@ -957,32 +968,42 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 .zip(derived.chunks_exact_mut(half * stride))
                 .zip(cache.chunks_exact_mut(half * cstride))
             {
-                // An ensemble whose first half failed fatally does not go on (as before); a
-                // slice half-step runs below, walker by walker.
-                if p.is_none() && (exact || !mv.is_slice()) {
-                    let out = ProposalBuffers {
-                        proposals: props,
-                        derived: der,
-                        cache: cac,
-                    };
-                    match block {
-                        Some((b, ub)) if exact => {
-                            let ln_conditional = |x: &[f64]| density.conditional_log_density(b, x);
-                            *p = ens.draw_conditional(h, ub, &ln_conditional, out).err();
-                        }
-                        Some((b, ub)) if ub.density_carries => {
-                            let carry =
-                                |from: &[f64], to: &mut [f64]| density.carry_followers(b, from, to);
-                            ens.draw(mv, h, Some((b, ub, Some(&carry))), out);
-                        }
-                        _ => ens.draw(mv, h, block.map(|(b, ub)| (b, ub, None)), out),
+                // An ensemble whose first half failed fatally does not go on (as before).
+                if p.is_some() {
+                    continue;
+                }
+                let out = ProposalBuffers {
+                    proposals: props,
+                    derived: der,
+                    cache: cac,
+                };
+                match (block, &moves[*mv].0) {
+                    (Some((b, ub)), _) if exact => {
+                        let ln_conditional = |x: &[f64]| density.conditional_log_density(b, x);
+                        *p = ens.draw_conditional(h, ub, &ln_conditional, out).err();
+                    }
+                    // A slice half-step runs below, walker by walker.
+                    (_, Move::Slice(_)) => {}
+                    (Some((b, ub)), Move::Proposal(mv)) if ub.density_carries => {
+                        let carry =
+                            |from: &[f64], to: &mut [f64]| density.carry_followers(b, from, to);
+                        ens.draw(mv.as_ref(), h, Some((b, ub, Some(&carry))), out);
+                    }
+                    (_, Move::Proposal(mv)) => {
+                        ens.draw(mv.as_ref(), h, block.map(|(b, ub)| (b, ub, None)), out)
                     }
                 }
             }
-            if !exact && self.step_moves.iter().any(Move::is_slice) {
+            let moves = self.config.moves();
+            let is_slice = |&m: &usize| moves[m].0.is_slice();
+            let (any_slice, all_slice) = (
+                self.step_moves.iter().any(is_slice),
+                self.step_moves.iter().all(is_slice),
+            );
+            if !exact && any_slice {
                 self.slice_half_step(h, block);
             }
-            if exact || !self.step_moves.iter().all(Move::is_slice) {
+            if exact || !all_slice {
                 self.evaluate(block.map(|b| b.0), exact);
             }
             let Work {
@@ -1015,13 +1036,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         if !exact {
             let slot = block.map_or(0, |b| b.0);
             let adapt = self.step < SLICE_ADAPT_STEPS;
+            let moves = self.config.moves();
             for ((ens, mv), p) in self
                 .ensembles
                 .iter_mut()
                 .zip(&self.step_moves)
                 .zip(&self.pending)
             {
-                if mv.is_slice() && p.is_none() {
+                if moves[*mv].0.is_slice() && p.is_none() {
                     ens.finish_slice_update(slot, adapt);
                 }
             }
@@ -1047,10 +1069,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let (ndim, nderived, cache_len) = (self.ndim, self.nderived, self.cache_len);
         let half = self.config.walkers() / 2;
         // The ensembles whose half-step is a slice update have their points already.
+        let moves = self.config.moves();
         let skip: Vec<bool> = self
             .step_moves
             .iter()
-            .map(|m| !exact && m.is_slice())
+            .map(|&m| !exact && moves[m].0.is_slice())
             .collect();
         let Work {
             proposals,
@@ -1147,14 +1170,17 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let half = self.config.walkers() / 2;
         let (ndim, stride, cstride) = (self.ndim, self.nderived.max(1), self.cache_len.max(1));
         let slot = block.map_or(0, |b| b.0);
+        let moves = self.config.moves();
         let contexts: Vec<Option<SliceContext>> = self
             .ensembles
             .iter()
             .zip(&self.step_moves)
             .zip(&self.pending)
-            .map(|((ens, mv), p)| {
-                (mv.is_slice() && p.is_none())
-                    .then(|| ens.slice_context(h, mv, slot, block.map(|b| b.1)))
+            .map(|((ens, &m), p)| match &moves[m].0 {
+                Move::Slice(directions) if p.is_none() => {
+                    Some(ens.slice_context(h, directions.as_ref(), slot, block.map(|b| b.1)))
+                }
+                _ => None,
             })
             .collect();
         let Work {
