@@ -529,26 +529,21 @@ impl Ensemble {
         } = self;
         *kind = HalfStep::Moves;
         let (active, complement) = Self::halves(perm, h);
-        let EnsembleState {
-            positions,
-            derived,
-            walker_rngs,
-            ..
-        } = s;
         // The move sees the walkers' coordinates in the block (all of them when joint), and
         // proposes straight into the proposals when joint, into the block's scratch when not.
         let (moved, dim, proposals): (&[f64], usize, &mut [f64]) = match block {
-            None => (positions, ndim, &mut *out.proposals),
+            None => (&s.positions, ndim, &mut *out.proposals),
             Some(b) => {
                 sub.clear();
-                for x in positions.chunks_exact(ndim) {
+                for x in s.positions.chunks_exact(ndim) {
                     sub.extend(b.coords.iter().map(|&i| x[i]));
                 }
                 sub_out.resize(active.len() * b.coords.len(), 0.0);
                 (sub, b.coords.len(), &mut sub_out[..])
             }
         };
-        let given = block.map_or(&[][..], |b| &b.links.given[..]);
+        let links = block.map(|b| &b.links);
+        let given = links.map_or(&[][..], |l| &l.given[..]);
         let _ = mv.propose(ActiveHalf {
             complement: Complement {
                 rows: moved,
@@ -556,13 +551,13 @@ impl Ensemble {
                 walkers: complement,
             },
             active,
-            positions,
+            positions: &s.positions,
             ndim,
             block: block.map(|b| BlockView {
                 coords: &b.coords,
                 given,
             }),
-            rngs: walker_rngs,
+            rngs: &mut s.walker_rngs,
             proposals,
             factor,
             log_factor,
@@ -570,31 +565,33 @@ impl Ensemble {
         let (nd, nc) = (*nderived, *cache_len);
         let (sd, sc) = (nd.max(1), nc.max(1));
         for (k, &w) in active.iter().enumerate() {
-            // After the move's draws, from the same stream.
-            accept_u[k] = walker_rngs[w].random();
-            let Some(b) = block else { continue };
-            let x = &positions[w * ndim..(w + 1) * ndim];
+            let rng = &mut s.walker_rngs[w];
+            let x = &s.positions[w * ndim..(w + 1) * ndim];
             let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
-            o.copy_from_slice(x);
-            for (&i, &y) in b.coords.iter().zip(&sub_out[k * dim..(k + 1) * dim]) {
-                o[i] = y;
+            // After the move's draws, from the same stream.
+            accept_u[k] = rng.random();
+            if let Some(b) = block {
+                o.copy_from_slice(x);
+                for (&i, &y) in b.coords.iter().zip(&sub_out[k * dim..(k + 1) * dim]) {
+                    o[i] = y;
+                }
+                if let Some(f) = &followers {
+                    f.carry(x, &b.coords, &b.links.followers, o);
+                }
+                if let Some(map) = carry {
+                    // The followers' Jacobian joins the proposal's density ratio.
+                    let ln_jacobian = map(x, o);
+                    let ln_factor = if factor[k].is_normal() {
+                        factor[k].ln()
+                    } else {
+                        log_factor[k]
+                    };
+                    log_factor[k] = ln_factor + ln_jacobian;
+                    factor[k] = log_factor[k].exp();
+                }
+                out.derived[k * sd..k * sd + nd].copy_from_slice(&s.derived[w * nd..(w + 1) * nd]);
+                out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
             }
-            if let Some(f) = &followers {
-                f.carry(x, &b.coords, &b.links.followers, o);
-            }
-            if let Some(map) = carry {
-                // The followers' Jacobian joins the proposal's density ratio.
-                let ln_jacobian = map(x, o);
-                let ln_factor = if factor[k].is_normal() {
-                    factor[k].ln()
-                } else {
-                    log_factor[k]
-                };
-                log_factor[k] = ln_factor + ln_jacobian;
-                factor[k] = log_factor[k].exp();
-            }
-            out.derived[k * sd..k * sd + nd].copy_from_slice(&derived[w * nd..(w + 1) * nd]);
-            out.cache[k * sc..k * sc + nc].copy_from_slice(&cache[w * nc..(w + 1) * nc]);
         }
     }
 

@@ -12,8 +12,9 @@ use super::{
 };
 use crate::sampler::SamplerError;
 
-/// A move of the sampler's mixture (see [`SamplerConfig::with_moves`]
-/// (crate::sampler::SamplerConfig::with_moves)): one is drawn per step and ensemble.
+/// A move of the sampler's mixture (see
+/// [`SamplerConfig::with_moves`](crate::sampler::SamplerConfig::with_moves)): one is drawn
+/// per step and ensemble.
 ///
 /// Moves compare, serialise and show as their [`MoveSpec`]; a serialised built-in move reads
 /// back, a move of one's own does not.
@@ -187,8 +188,11 @@ pub fn built_in(spec: &MoveSpec) -> Result<Move, SamplerError> {
     })
 }
 
+/// A name of a written mixture and the move it stands for.
+type Named = (&'static str, fn() -> Move);
+
 /// The moves a written mixture may name, each with its default parameters.
-const NAMED: [(&str, fn() -> Move); 9] = [
+const NAMED: [Named; 9] = [
     ("stretch", Move::stretch),
     ("de", Move::differential_evolution),
     ("walk", Move::walk),
