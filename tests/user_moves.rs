@@ -1,7 +1,8 @@
 //! A move written outside the crate, mixed with the built-in ones: the sampler still targets
 //! the right distribution (seeded runs, tolerances from the Monte-Carlo error), the move's
 //! proposals are really drawn, and the checkpoint records it, so that a resume with other
-//! moves is refused while one with the same moves continues the same chains.
+//! moves is refused while one with the same moves continues the same chains. Likewise the
+//! slice move along directions of one's own.
 
 mod sampler_util;
 
@@ -14,7 +15,10 @@ use rand_distr::StandardNormal;
 use sampler_util::{assert_within, mean_and_mcse, Gaussian};
 use slipbayes::density::LogDensity;
 use slipbayes::optimize::initial_around_optimum;
-use slipbayes::sampler::moves::{ActiveHalf, Correction, MoveSpec, ProposalMove, Proposed};
+use slipbayes::sampler::moves::{
+    ActiveHalf, Complement, Correction, DirectionDraw, MoveSpec, ProposalMove, Proposed,
+    SliceDirection, WalkerRng,
+};
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, SamplerState, Silent, Steps,
 };
@@ -59,6 +63,41 @@ impl ProposalMove for RandomWalk {
             }
             Correction::SYMMETRIC
         })
+    }
+}
+
+/// Slice directions along one coordinate axis at a time: axis `i` drawn uniformly, the
+/// direction the difference of two complement walkers in coordinate `i` alone. Counts the
+/// half-steps it was fitted for.
+#[derive(Debug)]
+struct AxisDirections {
+    fits: Arc<AtomicU64>,
+}
+
+#[derive(Debug)]
+struct AxisDraw;
+
+impl SliceDirection for AxisDirections {
+    fn spec(&self) -> MoveSpec {
+        MoveSpec::new("slice_axes")
+    }
+
+    fn min_complement(&self, _dim: usize) -> usize {
+        2
+    }
+
+    fn fit(&self, _complement: Complement<'_>) -> Box<dyn DirectionDraw> {
+        self.fits.fetch_add(1, Ordering::Relaxed);
+        Box::new(AxisDraw)
+    }
+}
+
+impl DirectionDraw for AxisDraw {
+    fn draw(&self, complement: Complement<'_>, mu: f64, rng: &mut WalkerRng, out: &mut [f64]) {
+        let i = rng.random_range(0..out.len());
+        let (a, b) = complement.pick_two(rng);
+        out.fill(0.0);
+        out[i] = mu * (a[i] - b[i]);
     }
 }
 
@@ -120,6 +159,53 @@ fn a_move_of_ones_own_mixed_with_the_stretch_move_samples_a_correlated_gaussian(
     assert!(
         (draws - 0.5 * trials).abs() < 5.0 * sd,
         "the random walk was drawn {draws} times in {trials} (ensemble, step) pairs"
+    );
+}
+
+/// The slice move along axis directions of one's own, mixed with differential evolution,
+/// keeps the moments of a correlated Gaussian within the Monte-Carlo error, and is fitted in
+/// about half the (ensemble, step, half) triples.
+#[test]
+fn slice_directions_of_ones_own_mixed_with_de_sample_a_correlated_gaussian() {
+    let g = Gaussian::correlated(3, 0.9);
+    let (walkers, ensembles, steps) = (12, 4, 3000_u64);
+    let fits = Arc::new(AtomicU64::new(0));
+    let axes = AxisDirections {
+        fits: Arc::clone(&fits),
+    };
+    let config = SamplerConfig::new(walkers, ensembles, 17)
+        .unwrap()
+        .with_moves(vec![
+            (Move::slice_along(axes), 0.5),
+            (Move::differential_evolution(), 0.5),
+        ])
+        .unwrap();
+    let mut sampler = EnsembleSampler::new(&g, config, start(&g, walkers, ensembles, 17)).unwrap();
+    let mut sink = MemorySink::new();
+    let report = sampler
+        .run(Steps::Fixed(steps), &mut sink, &mut Silent)
+        .unwrap();
+    let burn = report.tau.clone().expect("tau").burn_in as usize;
+    for p in 0..g.dim() {
+        assert_within(
+            &format!("variance of x{p}"),
+            mean_and_mcse(&sink.chains, burn, |x| x[p] * x[p]),
+            g.cov[(p, p)],
+            K_MCSE,
+        );
+    }
+    assert_within(
+        "covariance of x0 and x1",
+        mean_and_mcse(&sink.chains, burn, |x| x[0] * x[1]),
+        g.cov[(0, 1)],
+        K_MCSE,
+    );
+    // Fitted once per half, in each (ensemble, step) that drew the slice move.
+    let draws = (fits.load(Ordering::Relaxed) / 2) as f64;
+    let trials = (ensembles as u64 * steps) as f64;
+    assert!(
+        (draws - 0.5 * trials).abs() < 5.0 * (trials * 0.25).sqrt(),
+        "the axis slice move was drawn {draws} times in {trials} (ensemble, step) pairs"
     );
 }
 
