@@ -98,6 +98,33 @@ impl Move {
         Self::slice_along(GaussianDirection)
     }
 
+    /// The built-in move a spec records, as a sampler configuration or a fit's settings read
+    /// back.
+    ///
+    /// # Errors
+    /// [`SamplerError::InvalidMove`] for a kind that is not built in (a move of one's own is
+    /// recorded, not read back) or parameters the move refuses.
+    pub fn built_in(spec: &MoveSpec) -> Result<Self, SamplerError> {
+        Ok(match spec.kind() {
+            "stretch" => Self::proposal(Stretch::from_spec(spec)?),
+            "differential_evolution" => Self::proposal(DifferentialEvolution::from_spec(spec)?),
+            "walk" => Self::proposal(Walk::from_spec(spec)?),
+            "independence" => Self::proposal(Independence::from_spec(spec)?),
+            "snooker" => Self::proposal(Snooker::from_spec(spec)?),
+            "kde" => Self::proposal(Kde::from_spec(spec)?),
+            "slice" => Self::Slice(directions::from_spec(spec)?),
+            other => {
+                return Err(SamplerError::InvalidMove {
+                    detail: format!(
+                        "`{other}` is not a built-in move (stretch, differential_evolution, walk, \
+                         independence, snooker, kde, slice); a move of one's own is recorded but \
+                         not read back: build the configuration in the program that defines it"
+                    ),
+                })
+            }
+        })
+    }
+
     /// How the move is recorded: its kind and parameters.
     pub fn spec(&self) -> MoveSpec {
         match self {
@@ -157,35 +184,8 @@ impl Serialize for Move {
 impl<'de> Deserialize<'de> for Move {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let spec = MoveSpec::deserialize(d)?;
-        built_in(&spec).map_err(serde::de::Error::custom)
+        Self::built_in(&spec).map_err(serde::de::Error::custom)
     }
-}
-
-/// The built-in move a spec records, as a sampler configuration or a fit's settings read
-/// back.
-///
-/// # Errors
-/// [`SamplerError::InvalidMove`] for a kind that is not built in (a move of one's own is
-/// recorded, not read back) or parameters the move refuses.
-pub fn built_in(spec: &MoveSpec) -> Result<Move, SamplerError> {
-    Ok(match spec.kind() {
-        "stretch" => Move::proposal(Stretch::from_spec(spec)?),
-        "differential_evolution" => Move::proposal(DifferentialEvolution::from_spec(spec)?),
-        "walk" => Move::proposal(Walk::from_spec(spec)?),
-        "independence" => Move::proposal(Independence::from_spec(spec)?),
-        "snooker" => Move::proposal(Snooker::from_spec(spec)?),
-        "kde" => Move::proposal(Kde::from_spec(spec)?),
-        "slice" => Move::Slice(directions::from_spec(spec)?),
-        other => {
-            return Err(SamplerError::InvalidMove {
-                detail: format!(
-                    "`{other}` is not a built-in move (stretch, differential_evolution, walk, \
-                     independence, snooker, kde, slice); a move of one's own is recorded with \
-                     the chains but cannot be read back: give it to the sampler again"
-                ),
-            })
-        }
-    })
 }
 
 /// A name of a written mixture and the move it stands for.

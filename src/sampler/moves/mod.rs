@@ -111,7 +111,7 @@ pub use followers::CarryTuning;
 pub(crate) use followers::Followers;
 pub use independence::Independence;
 pub use kde::Kde;
-pub use mixture::{built_in, Mixture, Move, MOVE_NAMES};
+pub use mixture::{Mixture, Move, MOVE_NAMES};
 #[cfg(test)]
 pub(crate) use proposal::propose_one;
 pub(crate) use proposal::BlockView;
