@@ -9,6 +9,7 @@ use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::optimize::{
     initial_around_optimum, laplace_covariance, nelder_mead, NelderMeadOptions,
 };
+use slipbayes::sampler::moves::{Stretch, Walk};
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, SamplerConfig, SamplerError, SamplerState, Silent, Steps,
     StopRule, SLICE_ADAPT_STEPS, SLICE_MU0,
@@ -58,7 +59,7 @@ fn mixed_moves() -> Vec<(Move, f64)> {
     vec![
         (Move::stretch(), 1.0),
         (Move::differential_evolution(), 1.0),
-        (Move::Walk { subset: Some(3) }, 0.5),
+        (Move::proposal(Walk::new(Some(3)).unwrap()), 0.5),
     ]
 }
 
@@ -75,7 +76,7 @@ fn slice_moves() -> Vec<(Move, f64)> {
     vec![
         (Move::differential_evolution(), 1.0),
         (Move::slice(), 1.0),
-        (Move::Slice { gaussian: true }, 0.5),
+        (Move::slice_gaussian(), 0.5),
     ]
 }
 
@@ -465,13 +466,10 @@ fn bad_starts_are_refused_with_clear_errors() {
 
     assert!(SamplerConfig::new(5, 1, 0).is_err());
     assert!(SamplerConfig::new(8, 0, 0).is_err());
-    assert!(SamplerConfig::new(8, 1, 0)
-        .unwrap()
-        .with_moves(vec![(Move::Stretch { a: 0.5 }, 1.0)])
-        .is_err());
+    assert!(Stretch::new(0.5).is_err());
     assert!(SamplerConfig::new(4, 1, 0)
         .unwrap()
-        .with_moves(vec![(Move::Walk { subset: Some(3) }, 1.0)])
+        .with_moves(vec![(Move::proposal(Walk::new(Some(3)).unwrap()), 1.0)])
         .is_err());
     assert!(SamplerConfig::new(8, 1, 0)
         .unwrap()

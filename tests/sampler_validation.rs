@@ -10,6 +10,7 @@ use sampler_util::{assert_within, mean_and_mcse, Gaussian};
 use slipbayes::density::{LogDensity, LogDensityError};
 use slipbayes::diagnostics::Problem;
 use slipbayes::optimize::initial_around_optimum;
+use slipbayes::sampler::moves::{Stretch, Walk};
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, SamplerConfig, Silent, Steps, StopReason, StopRule,
 };
@@ -79,25 +80,25 @@ fn every_move_samples_a_correlated_gaussian() {
     let g = Gaussian::correlated(3, 0.95);
     let cases: Vec<(&str, Vec<(Move, f64)>)> = vec![
         ("stretch", vec![(Move::stretch(), 1.0)]),
-        ("stretch a=3", vec![(Move::Stretch { a: 3.0 }, 1.0)]),
+        (
+            "stretch a=3",
+            vec![(Move::proposal(Stretch::new(3.0).unwrap()), 1.0)],
+        ),
         (
             "differential evolution",
             vec![(Move::differential_evolution(), 1.0)],
         ),
         ("walk", vec![(Move::walk(), 1.0)]),
-        ("walk subset 4", vec![(Move::Walk { subset: Some(4) }, 1.0)]),
         (
-            "gaussian independence",
-            vec![(Move::Independence { dof: None }, 1.0)],
+            "walk subset 4",
+            vec![(Move::proposal(Walk::new(Some(4)).unwrap()), 1.0)],
         ),
+        ("gaussian independence", vec![(Move::gaussian(), 1.0)]),
         ("student-t independence", vec![(Move::student_t(), 1.0)]),
         ("snooker", vec![(Move::snooker(), 1.0)]),
-        ("kde", vec![(Move::Kde { bandwidth: None }, 1.0)]),
+        ("kde", vec![(Move::kde(), 1.0)]),
         ("slice", vec![(Move::slice(), 1.0)]),
-        (
-            "slice gaussian",
-            vec![(Move::Slice { gaussian: true }, 1.0)],
-        ),
+        ("slice gaussian", vec![(Move::slice_gaussian(), 1.0)]),
         (
             "slice in the default mixture",
             vec![
@@ -170,7 +171,7 @@ fn rosenbrock_banana_with_an_independence_mixture() {
 #[test]
 fn rosenbrock_banana_with_snooker_and_kde() {
     check_banana(
-        vec![(Move::Kde { bandwidth: None }, 0.5), (Move::snooker(), 0.5)],
+        vec![(Move::kde(), 0.5), (Move::snooker(), 0.5)],
         "kde + snooker",
     );
 }

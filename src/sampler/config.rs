@@ -231,10 +231,12 @@ impl SamplerConfig {
         self
     }
 
-    /// A weighted mixture of moves; one move is drawn per step with probability ∝ weight.
+    /// A weighted mixture of moves, built in or one's own; one move is drawn per step with
+    /// probability ∝ weight.
     ///
     /// # Errors
-    /// When the list is empty, a weight is not finite and positive, or a move is invalid.
+    /// When the list is empty, a weight is not finite and positive, or half the walkers are
+    /// too few for a move.
     pub fn with_moves(mut self, moves: Vec<(Move, f64)>) -> Result<Self, SamplerError> {
         if moves.is_empty() {
             return Err(invalid("moves", "[]", "give at least one move"));
@@ -243,11 +245,10 @@ impl SamplerConfig {
             if !(w.is_finite() && *w > 0.0) {
                 return Err(invalid(
                     "moves",
-                    format!("{m:?} with weight {w}"),
+                    format!("{m} with weight {w}"),
                     "weights must be finite and > 0",
                 ));
             }
-            m.validate()?;
             // The dimension is checked against the density when the sampler starts.
             m.validate_complement(self.walkers / 2, 0)?;
         }

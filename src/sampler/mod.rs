@@ -4,9 +4,10 @@
 //! over `&[f64]` with a fallible result. Points the density refuses (out of support, NaN, −∞) are rejected
 //! proposals counted per reason; only fatal faults (and +∞) stop a run.
 //!
-//! - Moves ([`Move`]): stretch, differential evolution, walk, independence, KDE, DE-snooker
-//!   and ensemble slice sampling, mixable with weights; the red-blue update splits each
-//!   ensemble randomly in two halves every step and updates one from the other.
+//! - Moves ([`moves`]): stretch, differential evolution, walk, independence, KDE, DE-snooker
+//!   and ensemble slice sampling, mixable with weights, and moves of one's own
+//!   ([`ProposalMove`]); the red-blue update splits each ensemble randomly in two halves every
+//!   step and updates one from the other.
 //! - Blocked updates ([`Updates`]) of a density that offers blocks
 //!   ([`BlockedDensity`](crate::density::BlockedDensity), handed over as
 //!   [`Target::blocked`](crate::density::Target::blocked)): one block of its coordinates after
@@ -69,7 +70,7 @@ mod evaluator;
 mod executor;
 mod history;
 mod memory;
-mod moves;
+pub mod moves;
 mod observer;
 mod report;
 mod run;
@@ -92,7 +93,8 @@ pub(crate) use executor::{BlockShares, ShareApart, ShareEntries};
 pub use history::History;
 pub use memory::{MemoryChain, MemorySink, NullSink};
 pub use moves::{
-    CarryTuning, Mixture, Move, MOVE_NAMES, SLICE_ADAPT_STEPS, SLICE_MAX_STEPS_OUT, SLICE_MU0,
+    CarryTuning, Mixture, Move, MoveSpec, ProposalMove, MOVE_NAMES, SLICE_ADAPT_STEPS,
+    SLICE_MAX_STEPS_OUT, SLICE_MU0,
 };
 pub use observer::{Observer, Progress, RunStart, Silent};
 pub use report::{EnsembleReport, RunReport, StopReason, TauReport};

@@ -16,7 +16,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::moves::{CarryTuning, Followers, HalfStepFit, Move};
+use super::moves::{ActiveHalf, BlockView, CarryTuning, Complement, Followers, Move, ProposalMove};
 use super::slice::{update_coordinate, SliceError};
 use crate::density::{
     BlockLinks, BlockedDensity, CarryFollowers, ExactConditional, IndependentBlocks, OwnEntries,
@@ -266,11 +266,9 @@ pub(crate) struct Ensemble {
     log_factor: Vec<f64>,
     /// Acceptance uniform of each proposal.
     accept_u: Vec<f64>,
-    scratch_idx: Vec<usize>,
-    scratch_z: Vec<f64>,
     /// The walkers' coordinates in the current block, `walkers × block dim`.
     sub: Vec<f64>,
-    /// One proposal in the current block.
+    /// The proposals in the current block, `half × block dim`.
     sub_out: Vec<f64>,
     /// An independent block's own terms at each active walker, before its proposal.
     old_terms: Vec<f64>,
@@ -311,8 +309,6 @@ impl Ensemble {
             factor: vec![1.0; half],
             log_factor: vec![0.0; half],
             accept_u: vec![0.0; half],
-            scratch_idx: vec![0; half],
-            scratch_z: vec![0.0; half],
             sub: Vec::new(),
             sub_out: Vec::new(),
             old_terms: vec![0.0; half],
@@ -329,9 +325,9 @@ impl Ensemble {
         std::mem::swap(&mut self.s.walker_rngs, &mut streams.walkers);
     }
 
-    /// Starts a step: the random split into halves and the move of this step, both from the
-    /// ensemble's stream.
-    pub fn start_step(&mut self, moves: &[(Move, f64)]) -> Move {
+    /// Starts a step: the random split into halves and the move of this step (its index in
+    /// `moves`), both from the ensemble's stream.
+    pub fn start_step(&mut self, moves: &[(Move, f64)]) -> usize {
         let walkers = self.perm.len();
         let half = walkers / 2;
         // Partial Fisher–Yates from the identity: the first half becomes a uniformly random
@@ -346,12 +342,12 @@ impl Ensemble {
             self.perm.swap(i, j);
         }
         if moves.len() == 1 {
-            moves[0].0
+            0
         } else {
             let total: f64 = moves.iter().map(|m| m.1).sum();
             let mut u = self.s.ensemble_rng.random::<f64>() * total;
-            let mut chosen = moves[moves.len() - 1].0;
-            for &(m, w) in moves {
+            let mut chosen = moves.len() - 1;
+            for (m, &(_, w)) in moves.iter().enumerate() {
                 if u < w {
                     chosen = m;
                     break;
@@ -382,7 +378,7 @@ impl Ensemble {
     /// ([`gather_state`](Self::gather_state)).
     pub fn draw(
         &mut self,
-        mv: &Move,
+        mv: &dyn ProposalMove,
         h: usize,
         block: Option<(usize, &UpdateBlock, Option<CarryMap>)>,
         out: ProposalBuffers,
@@ -402,8 +398,6 @@ impl Ensemble {
             factor,
             log_factor,
             accept_u,
-            scratch_idx,
-            scratch_z,
             sub,
             sub_out,
             kind,
@@ -411,52 +405,48 @@ impl Ensemble {
         } = self;
         *kind = HalfStep::Moves;
         let (active, complement) = Self::halves(perm, h);
-        // The move sees the walkers' coordinates in the block (all of them when joint).
-        let (moved, dim): (&[f64], usize) = match block {
-            None => (&s.positions, ndim),
+        // The move sees the walkers' coordinates in the block (all of them when joint), and
+        // proposes straight into the proposals when joint, into the block's scratch when not.
+        let (moved, dim, proposals): (&[f64], usize, &mut [f64]) = match block {
+            None => (&s.positions, ndim, &mut *out.proposals),
             Some(b) => {
                 sub.clear();
                 for x in s.positions.chunks_exact(ndim) {
                     sub.extend(b.coords.iter().map(|&i| x[i]));
                 }
-                sub_out.resize(b.coords.len(), 0.0);
-                (sub, b.coords.len())
+                sub_out.resize(active.len() * b.coords.len(), 0.0);
+                (sub, b.coords.len(), &mut sub_out[..])
             }
         };
         let links = block.map(|b| &b.links);
         let given = links.map_or(&[][..], |l| &l.given[..]);
-        let mut fit = HalfStepFit::new(
-            mv,
-            (&s.positions, ndim),
-            (moved, dim),
-            complement,
-            block.map(|b| (&b.coords[..], given)),
-        );
+        let _ = mv.propose(ActiveHalf {
+            complement: Complement {
+                rows: moved,
+                dim,
+                walkers: complement,
+            },
+            active,
+            positions: &s.positions,
+            ndim,
+            block: block.map(|b| BlockView {
+                coords: &b.coords,
+                given,
+            }),
+            rngs: &mut s.walker_rngs,
+            proposals,
+            factor,
+            log_factor,
+        });
         for (k, &w) in active.iter().enumerate() {
             let rng = &mut s.walker_rngs[w];
             let x = &s.positions[w * ndim..(w + 1) * ndim];
             let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
-            // Joint: straight into the proposal; blocked: into the block's scratch.
-            let target = if block.is_some() {
-                &mut sub_out[..]
-            } else {
-                &mut *o
-            };
-            let c = mv.propose(
-                &moved[w * dim..(w + 1) * dim],
-                moved,
-                complement,
-                fit.for_walker(x, given),
-                rng,
-                target,
-                scratch_idx,
-                scratch_z,
-            );
-            (factor[k], log_factor[k]) = (c.factor, c.log_factor);
+            // After the move's draws, from the same stream.
             accept_u[k] = rng.random();
             if let Some(b) = block {
                 o.copy_from_slice(x);
-                for (&i, &y) in b.coords.iter().zip(sub_out.iter()) {
+                for (&i, &y) in b.coords.iter().zip(&sub_out[k * dim..(k + 1) * dim]) {
                     o[i] = y;
                 }
                 if let Some(f) = &followers {

@@ -4,7 +4,9 @@
 
 use rand_chacha::ChaCha8Rng;
 
-use super::super::moves::{Followers, Move, SliceDirections, SLICE_MAX_STEPS_OUT};
+use super::super::moves::{
+    DirectionDraw, Followers, OwnedComplement, SliceDirection, SLICE_MAX_STEPS_OUT,
+};
 use super::super::slice::{update_along_line, LineError};
 use super::{Ensemble, EnsembleState, Fatal, HalfStep, ProposalBuffers, UpdateBlock};
 use crate::density::{sort, Eval, LogDensityError};
@@ -18,7 +20,11 @@ pub(crate) type Evaluate<'e> =
 /// complement and read by every walker of the active half.
 #[derive(Debug)]
 pub(crate) struct SliceContext {
-    directions: SliceDirections,
+    /// The coordinates the move acts on (the block's, or all).
+    coords: Vec<usize>,
+    /// The complement at those coordinates, and the directions fitted to it.
+    complement: OwnedComplement,
+    directions: Box<dyn DirectionDraw>,
     /// The regression that carries the block's followers, under hierarchical updates when the
     /// density does not carry them itself.
     followers: Option<Followers>,
@@ -35,9 +41,6 @@ pub(crate) struct SliceTask<'a> {
     lp: f64,
     derived0: Vec<f64>,
     cache0: Vec<f64>,
-    /// All walkers' positions (only the complement's are read for the direction).
-    positions: &'a [f64],
-    complement: &'a [usize],
     context: &'a SliceContext,
     rng: &'a mut ChaCha8Rng,
     out: &'a mut [f64],
@@ -80,18 +83,11 @@ impl SliceTask<'_> {
         evaluate: &Evaluate,
         block: Option<(usize, &UpdateBlock)>,
     ) -> Result<SliceOutcome, Fatal> {
-        let ndim = self.x.len();
-        let dirs = &self.context.directions;
-        let (mut eta, mut z) = (vec![0.0; dirs.dim()], vec![0.0; dirs.dim()]);
-        dirs.draw(
-            self.context.mu,
-            (self.positions, ndim),
-            self.complement,
-            self.rng,
-            &mut z,
-            &mut eta,
-        );
-        let coords = dirs.coords();
+        let context = self.context;
+        let coords = &context.coords[..];
+        let mut eta = vec![0.0; coords.len()];
+        let complement = context.complement.view();
+        (context.directions).draw(complement, context.mu, self.rng, &mut eta);
         let followers = self.context.followers.as_ref();
         let mut rejections = Vec::new();
         let (x, derived0, cache0) = (self.x, &self.derived0[..], &self.cache0[..]);
@@ -160,13 +156,13 @@ impl SliceTask<'_> {
 }
 
 impl Ensemble {
-    /// What the slice move `mv` of half `h` works with in update slot `slot`: the directions
-    /// from the complement, the followers' regression (under hierarchical updates, when the
-    /// density does not carry them), and the ensemble's μ of the slot.
+    /// What the slice move along `directions` of half `h` works with in update slot `slot`:
+    /// the directions fitted to the complement, the followers' regression (under hierarchical
+    /// updates, when the density does not carry them), and the ensemble's μ of the slot.
     pub fn slice_context(
         &self,
         h: usize,
-        mv: &Move,
+        directions: &dyn SliceDirection,
         slot: usize,
         block: Option<&UpdateBlock>,
     ) -> SliceContext {
@@ -180,10 +176,11 @@ impl Ensemble {
                 &all[..]
             }
         };
-        let gaussian = matches!(mv, Move::Slice { gaussian: true });
-        let positions = &self.s.positions;
+        let complement = OwnedComplement::new(&self.s.positions, ndim, complement, coords);
         SliceContext {
-            directions: SliceDirections::new(gaussian, positions, ndim, complement, coords),
+            coords: coords.to_vec(),
+            directions: directions.fit(complement.view()),
+            complement,
             followers: block.and_then(|b| self.followers(h, slot, b)),
             mu: self.s.slice_scales[slot],
         }
@@ -206,7 +203,7 @@ impl Ensemble {
         let (sd, sc) = (out.derived_stride, out.state_stride);
         self.kind = HalfStep::Slice { evaluations: 0 };
         let Self { s, perm, .. } = self;
-        let (active, complement) = Self::halves(perm, h);
+        let (active, _) = Self::halves(perm, h);
         let EnsembleState {
             positions,
             log_density,
@@ -228,8 +225,6 @@ impl Ensemble {
                 lp: log_density[w],
                 derived0: d[..nd].to_vec(),
                 cache0: c[..nc].to_vec(),
-                positions,
-                complement,
                 context,
                 rng: rngs[w].take().expect("each active walker once"),
                 out: o,

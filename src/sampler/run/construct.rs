@@ -13,7 +13,7 @@ use super::super::history::RowHistory;
 use super::super::moves::SLICE_MU0;
 use super::super::report::TAU_WINDOWS;
 use super::plan::{blocks_of, carry_fits_match, check_dims, fresh_carry_fits, slice_slots};
-use super::state::{SamplerState, STATE_VERSION};
+use super::state::{specs, written, SamplerState, STATE_VERSION};
 use super::EnsembleSampler;
 use crate::density::{sort, BlockedDensity, Eval, LogDensity, Target};
 use crate::diagnostics::{blockwise_condition_number, WALKER_CONDITION_LIMIT};
@@ -302,7 +302,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             independent_parts: blocks.iter().filter(|b| b.independent()).count(),
             carry_jumps,
             pending: (0..ensembles.len()).map(|_| None).collect(),
-            step_moves: vec![config.moves()[0].0; ensembles.len()],
+            step_moves: vec![0; ensembles.len()],
             work: Work::new(ensembles.len(), half, ndim, nderived, state_len),
             block_streams: (0..ensembles.len()).map(|_| Streams::new()).collect(),
             eval_ns: vec![None; 2 * blocks.len().max(1)],
@@ -453,11 +453,11 @@ fn check_state(
             state.walkers,
             config.ensembles()
         )
-    } else if state.moves.as_slice() != config.moves() {
+    } else if state.moves != specs(config.moves()) {
         format!(
-            "the chains were drawn with the moves {:?}, the configuration has {:?}; resume with the original moves",
-            state.moves,
-            config.moves()
+            "the chains were drawn with the moves {}, the configuration has {}; resume with the original moves",
+            written(&state.moves),
+            written(&specs(config.moves()))
         )
     } else {
         return Ok(());

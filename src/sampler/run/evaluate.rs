@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use super::super::ensemble::{SliceContext, SliceTask, UpdateBlock, Work};
 use super::super::executor::{Batch, BlockShares, Executor, InProcess, Shares};
+use super::super::moves::Move;
 use super::step::HalfStepPlan;
 use super::EnsembleSampler;
 use crate::density::LogDensity;
@@ -28,10 +29,11 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         let (nderived, cache_len) = plan.carried;
         let half = self.config.walkers() / 2;
         // The ensembles whose half-step is a slice update have their points already.
+        let moves = self.config.moves();
         let skip: Vec<bool> = self
             .step_moves
             .iter()
-            .map(|m| !exact && m.is_slice())
+            .map(|&m| !exact && moves[m].0.is_slice())
             .collect();
         let Work {
             proposals,
@@ -130,14 +132,17 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     ) {
         let half = self.config.walkers() / 2;
         let slot = block.map_or(0, |b| b.0);
+        let moves = self.config.moves();
         let contexts: Vec<Option<SliceContext>> = self
             .ensembles
             .iter()
             .zip(&self.step_moves)
             .zip(&self.pending)
-            .map(|((ens, mv), p)| {
-                (mv.is_slice() && p.is_none())
-                    .then(|| ens.slice_context(h, mv, slot, block.map(|b| b.1)))
+            .map(|((ens, &m), p)| match &moves[m].0 {
+                Move::Slice(directions) if p.is_none() => {
+                    Some(ens.slice_context(h, directions.as_ref(), slot, block.map(|b| b.1)))
+                }
+                _ => None,
             })
             .collect();
         let mut tasks = Vec::new();

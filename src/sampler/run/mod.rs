@@ -13,7 +13,6 @@ use super::ensemble::{Ensemble, Fatal, Streams, UpdateBlock, Work};
 use super::error::SamplerError;
 use super::executor::Parallelism;
 use super::history::RowHistory;
-use super::moves::Move;
 use super::observer::{Observer, RunStart};
 use super::report::{RunReport, StopReason};
 use super::sink::{ChainSink, StepView};
@@ -56,8 +55,8 @@ pub struct EnsembleSampler<'a, D: LogDensity + ?Sized> {
     /// may be split into).
     independent_parts: usize,
     ensembles: Vec<Ensemble>,
-    /// Move of the current step per ensemble.
-    step_moves: Vec<Move>,
+    /// Move of the current step per ensemble (its index in the configuration's moves).
+    step_moves: Vec<usize>,
     /// Proposals of all ensembles' active halves, evaluated in one loop.
     work: Work,
     /// Per ensemble, the generators of an independent block's update, re-keyed in place for

@@ -8,7 +8,7 @@ use super::super::config::{SamplerConfig, Updates};
 use super::super::ensemble::{Ensemble, EnsembleState};
 use super::super::error::SamplerError;
 use super::super::history::{rebuild, History, RowHistory};
-use super::super::moves::Move;
+use super::super::moves::{Move, MoveSpec};
 use super::super::sink::ChainSink;
 use super::EnsembleSampler;
 use crate::density::LogDensity;
@@ -29,11 +29,11 @@ pub struct SamplerState {
     pub nderived: usize,
     /// Walkers per ensemble.
     pub walkers: usize,
-    /// The moves and weights the chains were drawn with; a resumed run must use the same to
-    /// continue the same chains (states written before moves were selectable used the
-    /// stretch move alone).
+    /// The moves (their specs) and weights the chains were drawn with; a resumed run must use
+    /// the same to continue the same chains (states written before moves were selectable used
+    /// the stretch move alone).
     #[serde(default = "stretch_alone")]
-    pub moves: Vec<(Move, f64)>,
+    pub moves: Vec<(MoveSpec, f64)>,
     /// Joint or blocked updates (states written before blocked updates existed were joint).
     #[serde(default)]
     pub updates: Updates,
@@ -107,8 +107,19 @@ impl SamplerState {
     }
 }
 
-fn stretch_alone() -> Vec<(Move, f64)> {
-    vec![(Move::stretch(), 1.0)]
+fn stretch_alone() -> Vec<(MoveSpec, f64)> {
+    vec![(Move::stretch().spec(), 1.0)]
+}
+
+/// The specs and weights of `moves`.
+pub(super) fn specs(moves: &[(Move, f64)]) -> Vec<(MoveSpec, f64)> {
+    moves.iter().map(|(m, w)| (m.spec(), *w)).collect()
+}
+
+/// A mixture's specs and weights as a list, `stretch(a=2)=0.5, ...`.
+pub(super) fn written(moves: &[(MoveSpec, f64)]) -> String {
+    let parts: Vec<String> = moves.iter().map(|(m, w)| format!("{m}={w}")).collect();
+    parts.join(", ")
 }
 
 impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
@@ -120,7 +131,7 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
             ndim: self.ndim,
             nderived: self.nderived,
             walkers: self.config.walkers(),
-            moves: self.config.moves().to_vec(),
+            moves: specs(self.config.moves()),
             updates: self.config.updates(),
             step: self.step,
             ensembles: self.ensembles.iter().map(|e| e.s.clone()).collect(),

@@ -226,10 +226,16 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         self.work.carry(plan.carried.0, plan.carried.1);
         for h in 0..2 {
             self.draw_half_step(h, block, exact, &plan);
-            if !exact && self.step_moves.iter().any(Move::is_slice) {
+            let moves = self.config.moves();
+            let is_slice = |&m: &usize| moves[m].0.is_slice();
+            let (any_slice, all_slice) = (
+                self.step_moves.iter().any(is_slice),
+                self.step_moves.iter().all(is_slice),
+            );
+            if !exact && any_slice {
                 self.slice_half_step(h, block, &plan);
             }
-            if exact || !self.step_moves.iter().all(Move::is_slice) {
+            if exact || !all_slice {
                 self.evaluate(block.map(|b| b.0), exact, &plan);
             }
             let half = self.config.walkers() / 2;
@@ -247,13 +253,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         if !exact {
             let slot = block.map_or(0, |b| b.0);
             let adapt = self.step < SLICE_ADAPT_STEPS;
+            let moves = self.config.moves();
             for ((ens, mv), p) in self
                 .ensembles
                 .iter_mut()
                 .zip(&self.step_moves)
                 .zip(&self.pending)
             {
-                if mv.is_slice() && p.is_none() {
+                if moves[*mv].0.is_slice() && p.is_none() {
                     ens.finish_slice_update(slot, adapt);
                 }
             }
@@ -280,7 +287,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         plan: &HalfStepPlan,
     ) {
         let half = self.config.walkers() / 2;
-        for (((ens, mv), p), (mut out, _)) in self
+        let moves = self.config.moves();
+        for (((ens, &m), p), (mut out, _)) in self
             .ensembles
             .iter_mut()
             .zip(&self.step_moves)
@@ -292,19 +300,27 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 continue;
             }
             ens.gather_state(h, plan.settle, plan.whole, &mut out);
-            // A slice half-step runs walker by walker (see `slice_half_step`).
-            if !exact && mv.is_slice() {
+            // A slice half-step runs walker by walker (see `slice_half_step`); an exact draw
+            // uses no move.
+            let mv = match &moves[m].0 {
+                Move::Proposal(mv) => Some(mv.as_ref()),
+                Move::Slice(_) => None,
+            };
+            if !exact && mv.is_none() {
                 continue;
             }
-            match block {
-                Some((b, ub)) if exact => {
+            match (block, mv) {
+                (Some((b, ub)), _) if exact => {
                     if let BlockKind::Exact { conditional, .. } = ub.kind {
                         let ln_conditional = |x: &[f64]| conditional.conditional_log_density(b, x);
                         *p = ens.draw_conditional(h, ub, &ln_conditional, out).err();
                     }
                 }
-                Some((b, ub)) => ens.draw(mv, h, Some((b, ub, ub.carry().map(|c| (b, c)))), out),
-                None => ens.draw(mv, h, None, out),
+                (Some((b, ub)), Some(mv)) => {
+                    ens.draw(mv, h, Some((b, ub, ub.carry().map(|c| (b, c)))), out)
+                }
+                (None, Some(mv)) => ens.draw(mv, h, None, out),
+                (_, None) => {}
             }
         }
     }
