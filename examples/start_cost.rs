@@ -20,7 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use slipbayes::data::ImportOptions;
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::model::{BlockPlan, ModelSpec, OneContact, Posterior};
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
@@ -73,7 +73,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             RunData::for_series(&spec, 1, repeat.clone())?,
         ];
         let started = Instant::now();
-        let posterior = Posterior::from_data(&spec, data)?;
+        let posterior = Posterior::from_data(&spec, BlockPlan::default(), data)?;
         let setup = started.elapsed().as_secs_f64();
         let started = Instant::now();
         let start = posterior.start().to_vec();

@@ -28,6 +28,7 @@
 //!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
 //!    [`ESS_MIN`](crate::diagnostics::ESS_MIN), τ reliable, no stuck walkers.
 //! 4. Writes `summary.json` and `summary.csv` atomically.
+mod curves;
 mod error;
 pub mod kfold;
 mod model;
@@ -49,6 +50,7 @@ use crate::sampler::{
 };
 use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 
+pub use crate::run_file::{RunFile, SamplerSpec};
 pub use error::FitError;
 pub use model::{fit_model, fit_model_offloaded, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{

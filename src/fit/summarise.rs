@@ -295,7 +295,7 @@ impl Plan {
             // working file that fails does fail it).
             let ratio = match ratio.and_then(|r| summarize_draws(&r, probs.0, probs.1)) {
                 Ok(r) => Some(r),
-                Err(e @ DiagnosticsError::Scratch { .. }) => return Err(diag(e)),
+                Err(e @ DiagnosticsError::Scratch(_)) => return Err(diag(e)),
                 Err(_) => None,
             };
             // The mean of 0/1 indicators and its MCSE (`None` when every draw agrees, where

@@ -1,9 +1,9 @@
-//! The report's sections, from the run's files and the curves redrawn from its draws.
+//! The report's sections, from the run's files (the curves the data do not sample included,
+//! which the fit redrew from the posterior).
 
 use std::collections::BTreeMap;
 
 use super::contours::{bin, Histogram2d, BINS};
-use super::curves::{coordinate_draws, interface_curve, peak_vs_t0, InterfaceCurve, PeakVsT0};
 use super::document::Block;
 use super::inputs::{coverage_95, RunInputs};
 use super::plots::{
@@ -15,20 +15,13 @@ use super::truth::Truths;
 use super::units::{significant, DisplayUnit};
 use super::ReportError;
 use crate::diagnostics::{problem_lines, quantile, Summary, ESS_MIN, RHAT_MAX};
+use crate::fit::run_dir::{InterfaceCurve, PeakVsT0};
 use crate::fit::{kept_rows, AggregateSummary, QuantitySummary};
 use crate::law::Scene;
-use crate::model::{Band, ModelSpec, Posterior};
+use crate::model::{Band, ModelSpec};
 use crate::plot::extend_bounds;
 use crate::storage::{ChainReader, StorageError};
 
-/// Posterior draws behind every redrawn curve (as many as `predictive.csv` uses).
-const CURVE_DRAWS: usize = 200;
-/// Points of a redrawn curve.
-const CURVE_POINTS: usize = 300;
-/// Points of the peak-against-t0 curve.
-const T0_POINTS: usize = 40;
-/// t0 is varied this factor below and above the run's posterior range.
-const T0_SPAN: f64 = 30.0;
 /// Walkers per ensemble shown in the trace plots, spread evenly over the ensemble.
 const TRACE_WALKERS: usize = 8;
 /// Bins of a rank plot.
@@ -133,7 +126,10 @@ struct Context<'a> {
     runs: Vec<RunView>,
     materials: Vec<String>,
     predictive: Vec<&'a Band>,
-    curves: Vec<Option<InterfaceCurve>>,
+    /// Per run, the law in interface time (first and fast slides).
+    curves: Vec<Option<&'a InterfaceCurve>>,
+    /// Per run, the peak against t0 (first and fast slides whose t0 is their own).
+    peaks_vs_t0: Vec<Option<&'a PeakVsT0>>,
     quantities: Vec<&'a QuantitySummary>,
     /// Kept rows of the chains (all of them).
     kept: Vec<usize>,
@@ -171,8 +167,8 @@ impl Context<'_> {
 ///
 /// # Errors
 /// [`ReportError`] when the run's files do not match its model, or a figure fails.
-pub fn build(inputs: &RunInputs, posterior: &Posterior) -> Result<Content, ReportError> {
-    let spec = posterior.spec();
+pub fn build(inputs: &RunInputs) -> Result<Content, ReportError> {
+    let spec = &inputs.run.model;
     let runs = run_views(spec);
     let mismatch = |problem: String| ReportError::Mismatch {
         dir: inputs.dir.path().to_path_buf(),
@@ -193,25 +189,37 @@ pub fn build(inputs: &RunInputs, posterior: &Posterior) -> Result<Content, Repor
                 })
         })
         .collect::<Result<_, _>>()?;
-    let draws = coordinate_draws(&inputs.chains, &inputs.summary.sampler, CURVE_DRAWS)?;
-    if draws.is_empty() {
-        return Err(mismatch("the chains hold no kept draws".into()));
+    if inputs.curves.draws == 0 {
+        return Err(mismatch(
+            "curves.json was redrawn from no posterior draw".into(),
+        ));
     }
-    let curves = (0..runs.len())
-        .map(|i| {
-            let end = predictive[i].time_s.last().copied().unwrap_or(1.0);
-            interface_curve(posterior, i, &draws, end, CURVE_POINTS)
+    let curves = runs
+        .iter()
+        .map(|r| {
+            inputs
+                .curves
+                .runs
+                .iter()
+                .find(|c| c.run == r.name)
+                .ok_or_else(|| {
+                    mismatch(format!(
+                        "curves.json has no curves for run {:?} of model.toml; re-run the fit",
+                        r.name
+                    ))
+                })
         })
         .collect::<Result<Vec<_>, _>>()?;
     let ctx = Context {
         inputs,
         materials: spec.file.materials.iter().map(|m| m.name.clone()).collect(),
+        truths: Truths::new(&runs, &inputs.truths),
         runs,
         predictive,
-        curves,
+        curves: curves.iter().map(|c| c.interface.as_ref()).collect(),
+        peaks_vs_t0: curves.iter().map(|c| c.peak_vs_t0.as_ref()).collect(),
         quantities: inputs.summary.quantities().collect(),
         kept: kept_rows(&inputs.chains, &inputs.summary.sampler, FIGURE_DRAWS),
-        truths: Truths::read(spec),
     };
     let run_name = inputs.dir.path().file_name().map_or_else(
         || inputs.dir.path().display().to_string(),
@@ -223,7 +231,7 @@ pub fn build(inputs: &RunInputs, posterior: &Posterior) -> Result<Content, Repor
     blocks.extend(provenance(&ctx));
     blocks.extend(data_section(&ctx));
     blocks.extend(fit_section(&ctx)?);
-    blocks.extend(peak_section(&ctx, posterior, &draws)?);
+    blocks.extend(peak_section(&ctx)?);
     blocks.extend(materials_section(&ctx, &comparisons)?);
     blocks.extend(diagnostics_section(&ctx)?);
     blocks.extend(summary_section(&ctx));
@@ -532,7 +540,7 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     ];
     for (i, run) in ctx.runs.iter().enumerate() {
         let file = format!("fit-{}.svg", run.name);
-        let svg = fit_figure(run, ctx.predictive[i], ctx.curves[i].as_ref());
+        let svg = fit_figure(run, ctx.predictive[i], ctx.curves[i]);
         let caption = match run.scene {
             Scene::Repeat => format!(
                 "{}: repeat slide at {}; elastic loading up to where the previous slide stopped.",
@@ -563,7 +571,7 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         let slides: Vec<(&RunView, &Band, &InterfaceCurve)> = ctx
             .slides()
             .filter(|(_, r)| r.contact == contact)
-            .filter_map(|(i, r)| ctx.curves[i].as_ref().map(|c| (r, ctx.predictive[i], c)))
+            .filter_map(|(i, r)| ctx.curves[i].map(|c| (r, ctx.predictive[i], c)))
             .collect();
         let file = format!("distance-{contact}.svg");
         // Data that never slide (no positive distance) have nothing to show on a log axis.
@@ -581,11 +589,7 @@ fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     Ok(blocks)
 }
 
-fn peak_section(
-    ctx: &Context,
-    posterior: &Posterior,
-    draws: &[(usize, Vec<f64>)],
-) -> Result<Vec<Block>, ReportError> {
+fn peak_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     let mut blocks = vec![
         heading(1, "peak", "Peak static friction"),
         Block::Paragraph(
@@ -610,11 +614,8 @@ fn peak_section(
                 peak_density(&values),
                 [s.ci_low, s.median, s.ci_high],
             ));
-            if let Some(t0) = ctx.find("t0", &run.name) {
-                let range = (t0.stats.ci_low / T0_SPAN, t0.stats.ci_high * T0_SPAN);
-                if let Some(curve) = peak_vs_t0(posterior, i, draws, range, T0_POINTS)? {
-                    v.push((run.name.clone(), curve));
-                }
+            if let Some(curve) = ctx.peaks_vs_t0[i] {
+                v.push((run.name.clone(), curve.clone()));
             }
             let cell = |name: &str| {
                 ctx.find(name, &run.name)
@@ -672,8 +673,9 @@ fn peak_section(
         blocks.push(figure(
             "peak-t0.svg".to_owned(),
             format!(
-                "The peak against t0, as in the paper's Fig. 4: for each slide, t0 is varied over {T0_SPAN}× below and above its 95 % interval while αv, a and F_d come from {} posterior draws (line: median, shade: 95 %); the markers are the posterior draws of (t0, F_peak) themselves. F_peak grows as ln(1/t0): an uncertain t0 widens the peak's interval.",
-                draws.len()
+                "The peak against t0, as in the paper's Fig. 4: for each slide, t0 is varied over {}× below and above its 95 % interval while αv, a and F_d come from {} posterior draws (line: median, shade: 95 %); the markers are the posterior draws of (t0, F_peak) themselves. F_peak grows as ln(1/t0): an uncertain t0 widens the peak's interval.",
+                ctx.inputs.curves.t0_span,
+                ctx.inputs.curves.draws
             ),
             peak_t0_figure(&versus_t0),
         ));
@@ -1042,13 +1044,7 @@ fn corner_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         let truth_text = if truth {
             format!(
                 " The blue lines and squares are the simulation's true values, read from the JSON that `slipbayes simulate` wrote beside each data file ({}).",
-                ctx.truths
-                    .files
-                    .iter()
-                    .filter_map(|f| f.file_name())
-                    .map(|f| f.to_string_lossy().into_owned())
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                ctx.truths.files.join(", ")
             )
         } else {
             String::new()

@@ -3,7 +3,8 @@
 //! and corner plots. Values arrive in SI and are shown in mN, µm, µm⁻¹, s.
 
 use super::contours::{Histogram2d, BINS};
-use super::curves::{kernel_density, InterfaceCurve, PeakVsT0};
+use super::density::kernel_density;
+use crate::fit::run_dir::{InterfaceCurve, PeakVsT0};
 use crate::law::Scene;
 use crate::model::Band;
 use crate::plot::{

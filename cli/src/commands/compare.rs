@@ -165,7 +165,7 @@ fn forward_model(dir: &RunDir) -> anyhow::Result<String> {
     let model = dir
         .read_model()
         .with_context(|| format!("reading the model of {}", dir.path().display()))?;
-    Ok(model.forward().to_string())
+    Ok(model.model.forward().to_string())
 }
 
 fn read_loo(dir: &RunDir, summary: FitSummary) -> anyhow::Result<Fitted> {

@@ -14,7 +14,8 @@ use slipbayes::fit::{
 };
 use slipbayes::law::LawKind;
 use slipbayes::model::spec::ForwardModel;
-use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::model::{ModelSpec, OneContact};
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{CarryFit, Mixture, Offload, Updates};
 
 use super::import::ImportArgs;
@@ -178,10 +179,11 @@ pub(super) fn run(args: &FitArgs, offload: Option<&mut dyn Offload>) -> anyhow::
     fit_and_report(&fit_spec(args)?, &args.out, &args.run, false, offload)
 }
 
-/// The model `fit` fits: the model file, or the quick path's one-contact model.
-pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<ModelSpec> {
+/// The run `fit` fits: the model file, or the quick path's one-contact model with the
+/// default sampler settings.
+pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<RunFile> {
     Ok(match (&args.model, &args.first) {
-        (Some(path), None) => ModelSpec::load(path)?,
+        (Some(path), None) => RunFile::load(path)?,
         (None, Some(first)) => quick_model(args, first)?,
         (None, None) => {
             bail!("give a model file, or --first FIRST.csv for the one-contact quick path")
@@ -197,12 +199,12 @@ pub(super) fn demo(args: &DemoArgs, offload: Option<&mut dyn Offload>) -> anyhow
     fit_and_report(&spec, &args.out, &args.run, !args.run.resume, offload)
 }
 
-/// The model `demo` fits.
-pub(super) fn demo_spec(args: &DemoArgs) -> anyhow::Result<ModelSpec> {
+/// The run `demo` fits.
+pub(super) fn demo_spec(args: &DemoArgs) -> anyhow::Result<RunFile> {
     if !args.model.exists() {
         bail!("{}", missing_demo_model(&args.model));
     }
-    Ok(ModelSpec::load(&args.model)?)
+    Ok(RunFile::load(&args.model)?)
 }
 
 /// Where `demo` looked for its model and how to point it at the one bundled with the source.
@@ -226,11 +228,11 @@ fn missing_demo_model(model: &Path) -> String {
 }
 
 /// The one-contact model of the quick path: groups `first`, `repeat` (runs) and `contact`.
-fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
+fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<RunFile> {
     let Some(velocity_m_per_s) = args.velocity else {
         bail!("--velocity is required with --first (m/s, e.g. 1e-9 for 1 nm/s)");
     };
-    Ok(ModelSpec::one_contact(&OneContact {
+    let model = ModelSpec::one_contact(&OneContact {
         first: first.to_path_buf(),
         repeat: args.repeat.clone(),
         velocity_m_per_s,
@@ -244,7 +246,8 @@ fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
             elastic: !args.rigid,
             ..ForwardModel::default()
         },
-    })?)
+    })?;
+    Ok(RunFile::with_default_sampler(model))
 }
 
 impl RunArgs {
@@ -265,14 +268,15 @@ impl RunArgs {
 }
 
 fn fit_and_report(
-    spec: &ModelSpec,
+    spec: &RunFile,
     out: &Path,
     run: &RunArgs,
     replace_earlier: bool,
     offload: Option<&mut dyn Offload>,
 ) -> anyhow::Result<ExitCode> {
-    let posterior = Posterior::new(spec)?;
-    let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
+    let posterior = spec.posterior()?;
+    let settings =
+        FitSettings::for_model(&posterior, &spec.sampler, &run.overrides(replace_earlier));
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let lock = RunLock::acquire(out)?;
     interrupt::install();
@@ -281,6 +285,7 @@ fn fit_and_report(
             .stop_when(&interrupt::INTERRUPTED);
     let command: Vec<String> = std::env::args().collect();
     let outcome = match fit_model_offloaded(
+        spec,
         &posterior,
         &settings,
         &lock,
@@ -302,7 +307,7 @@ fn fit_and_report(
     };
     print_summary(&outcome);
     #[cfg(feature = "report")]
-    super::report::write_and_print(&outcome.dir, &posterior)?;
+    super::report::write_and_print(&outcome.dir)?;
     let converged = outcome.summary.sampler.converged;
     if !converged {
         eprintln!(

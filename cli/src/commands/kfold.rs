@@ -9,7 +9,6 @@ use clap::Args;
 
 use slipbayes::fit::kfold::{kfold, Folds, DEFAULT_BLOCKS_PER_FOLD, DEFAULT_FOLDS};
 use slipbayes::fit::{FitError, RunDir};
-use slipbayes::model::Posterior;
 
 use crate::interrupt::{self, EXIT_INTERRUPTED};
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
@@ -52,7 +51,7 @@ pub(super) fn run(args: &KFoldArgs) -> anyhow::Result<ExitCode> {
     let mut summary = dir.read_summary()?;
     let mut settings = dir.read_record()?.settings;
     settings.quiet = args.quiet;
-    let posterior = Posterior::new(&spec)?;
+    let posterior = spec.posterior()?;
     let _lock = RunLock::acquire(&args.dir)?;
     interrupt::install();
     let mut observer =

@@ -147,11 +147,11 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     // Rank 0 says whether this rank holds only its share of the contacts' data.
     let posterior = match cluster.receive_density()? {
         DensityShare::Released => return Ok(()),
-        DensityShare::Whole => Posterior::new(&spec).with_context(loading)?,
+        DensityShare::Whole => spec.posterior().with_context(loading)?,
         DensityShare::Share(words) => {
             let data_share = DataShare::from_words(&words).with_context(loading)?;
             let own = |parts| cluster.own_parts(parts);
-            Posterior::share_of(&spec, &data_share, own).with_context(loading)?
+            Posterior::share_of(&spec.model, spec.plan(), &data_share, own).with_context(loading)?
         }
     };
     cluster.serve(&posterior)?;

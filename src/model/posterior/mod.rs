@@ -40,7 +40,8 @@ use layout::{Coord, CoordPrior, Layout, MaterialModel, Population, SigmaGroup, S
 use likelihood::RunModel;
 
 use super::data::RunData;
-use super::spec::{Blocking, ModelSpec, PopulationUpdates};
+use super::plan::{BlockPlan, Blocking, PopulationUpdates};
+use super::spec::ModelSpec;
 use crate::density::{
     BlockLinks, ColumnUnit, LogDensity, LogDensityError, Quantity, SearchMap, ShareError,
 };
@@ -57,6 +58,8 @@ pub use share::{DataShare, DataShareError};
 pub struct Posterior {
     /// The model it was built from.
     spec: ModelSpec,
+    /// How its blocks are grouped and its populations updated.
+    plan: BlockPlan,
     coords: Vec<Coord>,
     /// The reported columns, in the order of the derived values.
     quantities: Vec<Quantity>,
@@ -102,16 +105,17 @@ pub enum PosteriorError {
 
 impl Posterior {
     /// Loads every run's data (with its format, columns and window) and builds the posterior
-    /// over them; a long run is reduced to sufficient statistics (`long_records`).
+    /// over them, its blocks grouped as `plan` says; a long run is reduced to sufficient
+    /// statistics (`long_records`).
     ///
     /// # Errors
     /// [`PosteriorError`] naming the file, line or key at fault.
-    pub fn new(spec: &ModelSpec) -> Result<Self, PosteriorError> {
+    pub fn new(spec: &ModelSpec, plan: BlockPlan) -> Result<Self, PosteriorError> {
         check_run_count(spec)?;
         let data = (0..spec.file.runs.len())
             .map(|i| RunData::for_run(spec, i))
             .collect::<Result<Vec<_>, _>>()?;
-        Self::from_data(spec, data)
+        Self::from_data(spec, plan, data)
     }
 
     /// The posterior of `spec` over data already in memory, one [`RunData`] per run of the
@@ -120,14 +124,22 @@ impl Posterior {
     /// # Errors
     /// [`PosteriorError::Model`] when the number of data sets is not the number of runs, or
     /// the model has more than [`MAX_RUNS`] runs.
-    pub fn from_data(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
-        let mut posterior = Self::unreduced(spec, data)?;
+    pub fn from_data(
+        spec: &ModelSpec,
+        plan: BlockPlan,
+        data: Vec<RunData>,
+    ) -> Result<Self, PosteriorError> {
+        let mut posterior = Self::unreduced(spec, plan, data)?;
         posterior.reduce_long_runs();
         Ok(posterior)
     }
 
     /// The posterior of `spec` over `data` with every run exact (no long run reduced yet).
-    fn unreduced(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
+    fn unreduced(
+        spec: &ModelSpec,
+        plan: BlockPlan,
+        data: Vec<RunData>,
+    ) -> Result<Self, PosteriorError> {
         check_run_count(spec)?;
         if data.len() != spec.file.runs.len() {
             return Err(PosteriorError::Model {
@@ -141,7 +153,7 @@ impl Posterior {
         }
         let layout = Layout::new(spec, data);
         let order = evaluation_order(&layout.runs);
-        let group = |r: &RunModel| match spec.file.sampler.blocks {
+        let group = |r: &RunModel| match plan.blocks {
             Blocking::Material => spec.contact_material[r.contact],
             Blocking::Contact => r.contact,
         };
@@ -166,6 +178,7 @@ impl Posterior {
         );
         Ok(Self {
             spec: spec.clone(),
+            plan,
             coords: layout.coords,
             quantities: layout.quantities,
             sources: layout.sources,
@@ -191,6 +204,11 @@ impl Posterior {
     /// The model this posterior was built from.
     pub fn spec(&self) -> &ModelSpec {
         &self.spec
+    }
+
+    /// How its blocks are grouped and its populations updated.
+    pub fn plan(&self) -> BlockPlan {
+        self.plan
     }
 
     /// The reported columns, in the order of the derived values: every parameter in SI units
@@ -321,7 +339,7 @@ impl LogDensity for Posterior {
     /// The populations: given its members' ln θ, a population's (μ, ln s) has a conditional
     /// that reads no data.
     fn conditional_blocks(&self) -> Vec<usize> {
-        if self.spec.file.sampler.populations == PopulationUpdates::Carried {
+        if self.plan.populations == PopulationUpdates::Carried {
             return Vec::new();
         }
         (0..self.blocks.len())
@@ -344,7 +362,7 @@ impl LogDensity for Posterior {
 
     /// A population carries its members when they follow it (one block per contact).
     fn carries_followers(&self, block: usize) -> bool {
-        self.spec.file.sampler.populations != PopulationUpdates::Exact
+        self.plan.populations != PopulationUpdates::Exact
             && self.is_population(block)
             && self.blocks[block]
                 .links
@@ -355,7 +373,7 @@ impl LogDensity for Posterior {
 
     /// Under `populations = "auto"` the sampler measures whether the carried move is needed.
     fn carried_move_optional(&self, block: usize) -> bool {
-        self.spec.file.sampler.populations == PopulationUpdates::Auto && self.is_population(block)
+        self.plan.populations == PopulationUpdates::Auto && self.is_population(block)
     }
 
     /// The non-centred map of the block's populations: each member's ln θ keeps its
