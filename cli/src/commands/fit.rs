@@ -176,12 +176,12 @@ pub(super) struct DemoArgs {
 
 /// `fit`, its evaluations handed to `offload` when given (the ranks of an MPI job).
 pub(super) fn run(args: &FitArgs, offload: Option<&mut dyn Offload>) -> anyhow::Result<ExitCode> {
-    fit_and_report(&fit_spec(args)?, &args.out, &args.run, false, offload)
+    fit_and_report(&fit_run_file(args)?, &args.out, &args.run, false, offload)
 }
 
 /// The run `fit` fits: the model file, or the quick path's one-contact model with the
 /// default sampler settings.
-pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<RunFile> {
+pub(super) fn fit_run_file(args: &FitArgs) -> anyhow::Result<RunFile> {
     Ok(match (&args.model, &args.first) {
         (Some(path), None) => RunFile::load(path)?,
         (None, Some(first)) => quick_model(args, first)?,
@@ -194,13 +194,13 @@ pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<RunFile> {
 
 /// `demo`, its evaluations handed to `offload` when given.
 pub(super) fn demo(args: &DemoArgs, offload: Option<&mut dyn Offload>) -> anyhow::Result<ExitCode> {
-    let spec = demo_spec(args)?;
+    let run_file = demo_run_file(args)?;
     // The main job is re-run as it is: it replaces its earlier results unless resuming.
-    fit_and_report(&spec, &args.out, &args.run, !args.run.resume, offload)
+    fit_and_report(&run_file, &args.out, &args.run, !args.run.resume, offload)
 }
 
 /// The run `demo` fits.
-pub(super) fn demo_spec(args: &DemoArgs) -> anyhow::Result<RunFile> {
+pub(super) fn demo_run_file(args: &DemoArgs) -> anyhow::Result<RunFile> {
     if !args.model.exists() {
         bail!("{}", missing_demo_model(&args.model));
     }
@@ -268,15 +268,18 @@ impl RunArgs {
 }
 
 fn fit_and_report(
-    spec: &RunFile,
+    run_file: &RunFile,
     out: &Path,
     run: &RunArgs,
     replace_earlier: bool,
     offload: Option<&mut dyn Offload>,
 ) -> anyhow::Result<ExitCode> {
-    let posterior = spec.posterior()?;
-    let settings =
-        FitSettings::for_model(&posterior, &spec.sampler, &run.overrides(replace_earlier));
+    let posterior = run_file.posterior()?;
+    let settings = FitSettings::for_model(
+        &posterior,
+        &run_file.sampler,
+        &run.overrides(replace_earlier),
+    );
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let lock = RunLock::acquire(out)?;
     interrupt::install();
@@ -285,7 +288,7 @@ fn fit_and_report(
             .stop_when(&interrupt::INTERRUPTED);
     let command: Vec<String> = std::env::args().collect();
     let outcome = match fit_model_offloaded(
-        spec,
+        run_file,
         &posterior,
         &settings,
         &lock,
