@@ -37,13 +37,16 @@ enum Operand {
     Aggregate(usize),
 }
 
+/// One comparison: the quantity's name, its unit, what a mean is over (for an aggregate),
+/// and the operands A and B.
+type Pair = (String, String, String, Operand, Operand);
+
 /// A validated summary plan: which columns to summarise, which to average, and which pairs to
 /// compare.
 #[derive(Debug)]
 pub(crate) struct SummaryPlan {
     spec: SummarySpec,
-    /// (name, unit, note, A, B).
-    pairs: Vec<(String, String, String, Operand, Operand)>,
+    pairs: Vec<Pair>,
 }
 
 fn invalid(what: &'static str, problem: String) -> FitError {
@@ -51,136 +54,18 @@ fn invalid(what: &'static str, problem: String) -> FitError {
 }
 
 impl SummaryPlan {
+    /// The plan of `spec` over a density with these columns: every quantity and aggregate
+    /// reads columns the density has, each is reported once, and every comparison is of
+    /// quantities of one unit reported in at least two groups.
     pub(crate) fn new(
         param_names: &[String],
         derived_names: &[String],
         spec: &SummarySpec,
     ) -> Result<Self, FitError> {
-        let quantities = &spec.quantities;
-        if quantities.is_empty() {
-            return Err(invalid(
-                "quantity",
-                "no quantities to report: give at least one".into(),
-            ));
-        }
-        let known = |column: &str| {
-            param_names.iter().any(|n| n == column) || derived_names.iter().any(|n| n == column)
-        };
-        let mut seen = HashSet::new();
-        for q in quantities {
-            // The kind decides the list a quantity is reported in; its column may be a
-            // sampled coordinate or a derived value (e.g. a parameter in SI units computed
-            // from its log-scale coordinate).
-            if !known(&q.column) {
-                return Err(invalid(
-                    "quantity",
-                    format!(
-                        "{} reads column {:?}, which the density does not have; its columns are {param_names:?} and {derived_names:?}",
-                        q.label(),
-                        q.column
-                    ),
-                ));
-            }
-            if q.name.is_empty() {
-                return Err(invalid(
-                    "quantity",
-                    format!("the quantity of column {:?} has an empty name", q.column),
-                ));
-            }
-            if !seen.insert((q.name.as_str(), q.group.as_str())) {
-                return Err(invalid(
-                    "quantity",
-                    format!(
-                        "{} is reported twice; give each name and group once",
-                        q.label()
-                    ),
-                ));
-            }
-        }
-        for a in &spec.aggregates {
-            let label = crate::density::label(&a.name, &a.group);
-            if a.of.is_empty() {
-                return Err(invalid(
-                    "aggregate",
-                    format!("{label} averages no columns; give at least one"),
-                ));
-            }
-            if let Some(c) = a.of.iter().find(|c| !known(c)) {
-                return Err(invalid(
-                    "aggregate",
-                    format!("{label} averages column {c:?}, which the density does not have"),
-                ));
-            }
-            if !seen.insert((a.name.as_str(), a.group.as_str())) {
-                return Err(invalid(
-                    "aggregate",
-                    format!("{label} is reported twice (as a quantity or an aggregate)"),
-                ));
-            }
-        }
-        let comparisons = &spec.comparisons;
-        for (list, what) in [(&comparisons.names, "name"), (&comparisons.groups, "group")] {
-            let mut unique = HashSet::new();
-            if let Some(dup) = list.iter().find(|n| !unique.insert(n.as_str())) {
-                return Err(invalid(
-                    "comparison",
-                    format!("{what} {dup:?} is listed twice"),
-                ));
-            }
-        }
-        let operand = |name: &str, group: &str| {
-            if let Some(i) = quantities
-                .iter()
-                .position(|q| q.name == name && q.group == group)
-            {
-                return Some((
-                    Operand::Quantity(i),
-                    quantities[i].unit.clone(),
-                    String::new(),
-                ));
-            }
-            spec.aggregates
-                .iter()
-                .position(|a| a.name == name && a.group == group)
-                .map(|i| {
-                    let a = &spec.aggregates[i];
-                    (Operand::Aggregate(i), a.unit.clone(), a.note.clone())
-                })
-        };
-        let mut pairs = Vec::new();
-        for name in &comparisons.names {
-            let present: Vec<(&String, (Operand, String, String))> = comparisons
-                .groups
-                .iter()
-                .filter_map(|g| operand(name, g).map(|o| (g, o)))
-                .collect();
-            if present.len() < 2 {
-                return Err(invalid(
-                    "comparison",
-                    format!(
-                        "{name:?} is reported in {} of the groups {:?}; a comparison needs it in at least two",
-                        present.len(),
-                        comparisons.groups
-                    ),
-                ));
-            }
-            for (k, (ga, (a, unit_a, note_a))) in present.iter().enumerate() {
-                for (gb, (b, unit_b, _)) in &present[k + 1..] {
-                    if unit_a != unit_b {
-                        return Err(invalid(
-                            "comparison",
-                            format!(
-                                "{name}[{ga}] is in {unit_a:?} but {name}[{gb}] in {unit_b:?}; compare quantities of one unit"
-                            ),
-                        ));
-                    }
-                    pairs.push((name.clone(), unit_a.clone(), note_a.clone(), *a, *b));
-                }
-            }
-        }
+        check_reported(param_names, derived_names, spec)?;
         Ok(Self {
             spec: spec.clone(),
-            pairs,
+            pairs: comparison_pairs(spec)?,
         })
     }
 
@@ -273,7 +158,7 @@ impl SummaryPlan {
     fn compare(
         &self,
         reader: &DrawsReader,
-        (name, unit, note, a, b): &(String, String, String, Operand, Operand),
+        (name, unit, note, a, b): &Pair,
     ) -> Result<Comparison, FitError> {
         let (label_a, names_a) = self.operand(*a);
         let (label_b, names_b) = self.operand(*b);
@@ -486,6 +371,144 @@ impl<'a> DrawsReader<'a> {
             .map_err(diag)?;
         summarize_draws(&x, self.probs.0, self.probs.1).map_err(diag)
     }
+}
+
+/// Every quantity and aggregate of `spec` reads columns the density has (`param_names`,
+/// `derived_names`), has a name, and is reported once.
+fn check_reported(
+    param_names: &[String],
+    derived_names: &[String],
+    spec: &SummarySpec,
+) -> Result<(), FitError> {
+    let quantities = &spec.quantities;
+    if quantities.is_empty() {
+        return Err(invalid(
+            "quantity",
+            "no quantities to report: give at least one".into(),
+        ));
+    }
+    let known = |column: &str| {
+        param_names.iter().any(|n| n == column) || derived_names.iter().any(|n| n == column)
+    };
+    let mut seen = HashSet::new();
+    for q in quantities {
+        // The kind decides the list a quantity is reported in; its column may be a
+        // sampled coordinate or a derived value (e.g. a parameter in SI units computed
+        // from its log-scale coordinate).
+        if !known(&q.column) {
+            return Err(invalid(
+                "quantity",
+                format!(
+                    "{} reads column {:?}, which the density does not have; its columns are {param_names:?} and {derived_names:?}",
+                    q.label(),
+                    q.column
+                ),
+            ));
+        }
+        if q.name.is_empty() {
+            return Err(invalid(
+                "quantity",
+                format!("the quantity of column {:?} has an empty name", q.column),
+            ));
+        }
+        if !seen.insert((q.name.as_str(), q.group.as_str())) {
+            return Err(invalid(
+                "quantity",
+                format!(
+                    "{} is reported twice; give each name and group once",
+                    q.label()
+                ),
+            ));
+        }
+    }
+    for a in &spec.aggregates {
+        let label = crate::density::label(&a.name, &a.group);
+        if a.of.is_empty() {
+            return Err(invalid(
+                "aggregate",
+                format!("{label} averages no columns; give at least one"),
+            ));
+        }
+        if let Some(c) = a.of.iter().find(|c| !known(c)) {
+            return Err(invalid(
+                "aggregate",
+                format!("{label} averages column {c:?}, which the density does not have"),
+            ));
+        }
+        if !seen.insert((a.name.as_str(), a.group.as_str())) {
+            return Err(invalid(
+                "aggregate",
+                format!("{label} is reported twice (as a quantity or an aggregate)"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The ordered pairs of operands `spec`'s comparisons compare: (name, unit, note, A, B).
+fn comparison_pairs(spec: &SummarySpec) -> Result<Vec<Pair>, FitError> {
+    let quantities = &spec.quantities;
+    let comparisons = &spec.comparisons;
+    for (list, what) in [(&comparisons.names, "name"), (&comparisons.groups, "group")] {
+        let mut unique = HashSet::new();
+        if let Some(dup) = list.iter().find(|n| !unique.insert(n.as_str())) {
+            return Err(invalid(
+                "comparison",
+                format!("{what} {dup:?} is listed twice"),
+            ));
+        }
+    }
+    let operand = |name: &str, group: &str| {
+        if let Some(i) = quantities
+            .iter()
+            .position(|q| q.name == name && q.group == group)
+        {
+            return Some((
+                Operand::Quantity(i),
+                quantities[i].unit.clone(),
+                String::new(),
+            ));
+        }
+        spec.aggregates
+            .iter()
+            .position(|a| a.name == name && a.group == group)
+            .map(|i| {
+                let a = &spec.aggregates[i];
+                (Operand::Aggregate(i), a.unit.clone(), a.note.clone())
+            })
+    };
+    let mut pairs = Vec::new();
+    for name in &comparisons.names {
+        let present: Vec<(&String, (Operand, String, String))> = comparisons
+            .groups
+            .iter()
+            .filter_map(|g| operand(name, g).map(|o| (g, o)))
+            .collect();
+        if present.len() < 2 {
+            return Err(invalid(
+                "comparison",
+                format!(
+                    "{name:?} is reported in {} of the groups {:?}; a comparison needs it in at least two",
+                    present.len(),
+                    comparisons.groups
+                ),
+            ));
+        }
+        for (k, (ga, (a, unit_a, note_a))) in present.iter().enumerate() {
+            for (gb, (b, unit_b, _)) in &present[k + 1..] {
+                if unit_a != unit_b {
+                    return Err(invalid(
+                        "comparison",
+                        format!(
+                            "{name}[{ga}] is in {unit_a:?} but {name}[{gb}] in {unit_b:?}; compare quantities of one unit"
+                        ),
+                    ));
+                }
+                pairs.push((name.clone(), unit_a.clone(), note_a.clone(), *a, *b));
+            }
+        }
+    }
+    Ok(pairs)
 }
 
 /// What the summaries may hold in memory at once, beyond the row groups being read: as many
