@@ -21,17 +21,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spec = dir.read_model()?;
     let summary = dir.read_summary()?;
     let chains = dir.chain_reader()?;
-    let reduced = Posterior::new(&spec)?;
-    let mut file = spec.file.clone();
+    let reduced = spec.posterior()?;
+    let mut file = spec.model.file.clone();
     file.likelihood.tolerance = 0.0;
     for run in &mut file.runs {
         run.likelihood_tolerance = None;
     }
-    let exact = Posterior::new(&ModelSpec::validate(
-        file,
-        spec.base_dir.clone(),
-        spec.source.clone(),
-    )?)?;
+    let exact = Posterior::new(
+        &ModelSpec::validate(file, spec.model.base_dir.clone(), spec.model.source.clone())?,
+        spec.blocking(),
+    )?;
     for d in reduced.data_provenance() {
         match d.binning {
             Some(b) => println!(

@@ -25,7 +25,8 @@ use slipbayes::density::{LogDensity, Target};
 use slipbayes::fit::default_walkers;
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{
     CarryFit, EnsembleSampler, NullSink, SamplerConfig, Silent, Steps, Updates,
 };
@@ -46,9 +47,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|---|");
     let dir = tempfile::tempdir()?;
     for contacts in sizes {
-        let (spec, data) = campaign(dir.path(), contacts)?;
+        let (run_file, data) = campaign(dir.path(), contacts)?;
         let started = Instant::now();
-        let posterior = Posterior::from_data(&spec, data)?;
+        let posterior = Posterior::from_data(&run_file.model, run_file.blocking(), data)?;
         let built = started.elapsed().as_secs_f64();
         let started = Instant::now();
         let start = posterior.start().to_vec();
@@ -98,7 +99,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 fn campaign(
     dir: &std::path::Path,
     contacts: usize,
-) -> Result<(ModelSpec, Vec<RunData>), Box<dyn std::error::Error>> {
+) -> Result<(RunFile, Vec<RunData>), Box<dyn std::error::Error>> {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let mut model = String::from("[[material]]\nname = \"M\"\n");
     let mut runs = String::new();
@@ -153,11 +154,11 @@ fn campaign(
     }
     let path = dir.join(format!("campaign-{contacts}.toml"));
     std::fs::write(&path, model + &runs)?;
-    let spec = ModelSpec::load(&path)?;
+    let run_file = RunFile::load(&path)?;
     let data = series
         .into_iter()
         .enumerate()
-        .map(|(i, s)| RunData::for_series(&spec, i, s))
+        .map(|(i, s)| RunData::for_series(&run_file.model, i, s))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok((spec, data))
+    Ok((run_file, data))
 }

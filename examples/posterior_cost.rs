@@ -10,13 +10,13 @@ use std::time::Instant;
 
 use slipbayes::density::LogDensity;
 use slipbayes::law::{Simd, SIMD_ENV};
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::run_file::RunFile;
 
 const REPS: usize = 300;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let spec = ModelSpec::load(Path::new("models/demo.toml"))?;
-    let posterior = Posterior::new(&spec)?;
+    let spec = RunFile::load(Path::new("models/demo.toml"))?;
+    let posterior = spec.posterior()?;
     let x = posterior.start().to_vec();
     let mut derived = vec![0.0; posterior.derived_names().len()];
     let started = Instant::now();

@@ -21,7 +21,7 @@ use slipbayes::data::ImportOptions;
 use slipbayes::density::Target;
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::model::{BlockSettings, ModelSpec, OneContact, Posterior};
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
@@ -74,7 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             RunData::for_series(&spec, 1, repeat.clone())?,
         ];
         let started = Instant::now();
-        let posterior = Posterior::from_data(&spec, data)?;
+        let posterior = Posterior::from_data(&spec, BlockSettings::default(), data)?;
         let setup = started.elapsed().as_secs_f64();
         let started = Instant::now();
         let search = posterior.search_start();

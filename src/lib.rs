@@ -15,11 +15,15 @@
 //!   of friction.
 //! - [`diagnostics`]: autocorrelation time, R-hat, ESS, MCSE, credible intervals, and the
 //!   verdicts ([`diagnostics::Problem`]) that decide whether a run has converged.
+//! - [`IoError`]: the one shape of a failed file operation (what, which path, why), carried by
+//!   every error that touches files.
 //! - [`data`]: reading data sets (`time_s,force_N` CSV) and instrument exports, their true
 //!   values, and writing files atomically.
 //! - [`simulate`]: synthetic data sets from known parameters.
-//! - [`model`]: model files, priors and the joint posterior of many runs, contacts and
-//!   materials.
+//! - [`model`]: model specifications, priors and the joint posterior of many runs, contacts
+//!   and materials. Knows nothing of how it is sampled.
+//! - [`run_file`]: the run file a user writes (`models/*.toml`), parsed once at the edge into
+//!   the model specification and the sampler settings.
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable) and
 //!   summarise; [`fit::run_dir`] names, writes and reads every file of a run directory
@@ -45,6 +49,7 @@ pub mod diagnostics;
 pub mod distributed;
 #[cfg(feature = "parquet")]
 pub mod fit;
+mod io_error;
 pub mod law;
 pub mod model;
 pub mod optimize;
@@ -52,8 +57,11 @@ pub mod plot;
 pub mod prec;
 #[cfg(feature = "report")]
 pub mod report;
+pub mod run_file;
 pub mod sampler;
 pub mod simulate;
 pub mod special;
 #[cfg(feature = "parquet")]
 pub mod storage;
+
+pub use io_error::IoError;

@@ -13,6 +13,7 @@ use slipbayes::data::import::import_bytes;
 use slipbayes::data::labels::{Language, LANGUAGES};
 use slipbayes::data::{import, Clock, Format, ImportOptions, IntervalChoice};
 use slipbayes::prec::IMPORT_REL_TOL;
+use slipbayes::run_file::RunFile;
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -600,7 +601,6 @@ proptest! {
 #[test]
 fn model_files_read_exports_by_content() {
     use slipbayes::model::data::RunData;
-    use slipbayes::model::ModelSpec;
     let dir = tempfile::tempdir().unwrap();
     // A TRIOS export under a name that says nothing of its format.
     let renamed = dir.path().join("slide.dat");
@@ -613,11 +613,11 @@ fn model_files_read_exports_by_content() {
          velocity_m_per_s = 1e-9\nscene = \"repeat\"\ninterval = 3\nclock = \"step\"\n",
         fixture("rspace-kinexus.csv").display()
     );
-    let spec = ModelSpec::parse(&text, &dir.path().join("model.toml")).unwrap();
-    let trios = RunData::for_run(&spec, 0).unwrap();
+    let spec = RunFile::parse(&text, &dir.path().join("model.toml")).unwrap();
+    let trios = RunData::for_run(&spec.model, 0).unwrap();
     assert_eq!(trios.provenance.format, "trios");
     assert_eq!(trios.provenance.points_read, 223);
-    let rspace = RunData::for_run(&spec, 1).unwrap();
+    let rspace = RunData::for_run(&spec.model, 1).unwrap();
     assert_eq!(rspace.provenance.format, "rspace");
     assert_eq!(rspace.provenance.points_read, 40);
     // On the action clock the slide starts at its first row's 5 s, not at 157.3 s.
@@ -632,7 +632,7 @@ fn model_files_read_exports_by_content() {
         .iter()
         .any(|c| c.contains("F = M / r")));
     let text = text.replace("clock = \"step\"", "clock = \"sideways\"");
-    let err = ModelSpec::parse(&text, &dir.path().join("model.toml"))
+    let err = RunFile::parse(&text, &dir.path().join("model.toml"))
         .unwrap_err()
         .to_string();
     assert!(err.contains("clock"), "{err}");

@@ -9,7 +9,8 @@ use std::path::Path;
 use slipbayes::density::{BlockedDensity, LogDensity};
 use slipbayes::fit::{fit_model, kept_draws, FitOutcome, FitSettings, FitSummary, RunLock};
 use slipbayes::law::{Law, LawParams, Scene};
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{Parallelism, Silent, Steps};
 use slipbayes::storage::ColumnKind;
 
@@ -27,8 +28,8 @@ fn fit_full(
 ) -> (FitSummary, FitOutcome, Posterior) {
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, model).unwrap();
-    let spec = ModelSpec::load(&path).unwrap();
-    let post = Posterior::new(&spec).unwrap();
+    let spec = RunFile::load(&path).unwrap();
+    let post = spec.posterior().unwrap();
     // 24: the default Student-t proposal in a block of 10 needs 11 walkers per half.
     let settings = FitSettings {
         walkers: 24,
@@ -40,6 +41,7 @@ fn fit_full(
         ..FitSettings::default()
     };
     let outcome = fit_model(
+        &spec,
         &post,
         &settings,
         &RunLock::acquire(&dir.join(name)).unwrap(),
@@ -369,7 +371,7 @@ fn pooled_t0_predicts_a_new_contact() {
         + "[pooling]\nt0 = true\n";
     let path = d.join("pooled.toml");
     std::fs::write(&path, &text).unwrap();
-    let post = Posterior::new(&ModelSpec::load(&path).unwrap()).unwrap();
+    let post = RunFile::load(&path).unwrap().posterior().unwrap();
     let names = post.param_names();
     for n in [
         "ln_t0_pop_median[m]",
@@ -410,7 +412,7 @@ fn pooled_t0_predicts_a_new_contact() {
 /// updates carry none and keep 32.
 #[test]
 fn default_walkers_grow_with_the_followers_of_a_shared_block() {
-    use slipbayes::fit::SettingOverrides;
+    use slipbayes::fit::{SamplerSpec, SettingOverrides};
     use slipbayes::sampler::{CarryFit, Updates};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
@@ -419,14 +421,14 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
         .replace("../data/", &format!("{}/", root.join("data").display()));
     let demo_path = dir.path().join("demo.toml");
     std::fs::write(&demo_path, demo_text).unwrap();
-    let demo = Posterior::new(&ModelSpec::load(&demo_path).unwrap()).unwrap();
+    let demo = RunFile::load(&demo_path).unwrap().posterior().unwrap();
     let walkers_with = |post: &Posterior, updates: Option<Updates>, carry: Option<CarryFit>| {
         let overrides = SettingOverrides {
             updates,
             carry,
             ..SettingOverrides::default()
         };
-        FitSettings::for_model(post, &overrides).walkers
+        FitSettings::for_model(post, &SamplerSpec::default(), &overrides).walkers
     };
     let walkers = |post: &Posterior, updates: Option<Updates>| walkers_with(post, updates, None);
     assert_eq!(walkers(&demo, None), 32);
@@ -445,7 +447,7 @@ fn default_walkers_grow_with_the_followers_of_a_shared_block() {
     }
     let path = dir.path().join("campaign.toml");
     std::fs::write(&path, text).unwrap();
-    let campaign = Posterior::new(&ModelSpec::load(&path).unwrap()).unwrap();
+    let campaign = RunFile::load(&path).unwrap().posterior().unwrap();
     let followers = campaign
         .block_plan()
         .blocks

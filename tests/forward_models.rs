@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use slipbayes::density::LogDensity;
 use slipbayes::law::{LawKind, Scene};
 use slipbayes::model::spec::ForwardModel;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::run_file::RunFile;
 
 /// PTFE near the paper's Fig. 2 fit (as `common::simulate_ptfe`).
 const ALPHA: f64 = 0.92e6;
@@ -53,8 +53,8 @@ a = "contact"
     )
 }
 
-fn load(dir: &Path, head: &str) -> ModelSpec {
-    ModelSpec::load(&write(dir, "model.toml", &model(head))).unwrap()
+fn load(dir: &Path, head: &str) -> RunFile {
+    RunFile::load(&write(dir, "model.toml", &model(head))).unwrap()
 }
 
 fn simulate_full(dir: &Path) {
@@ -97,7 +97,7 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
             },
         ),
     ] {
-        assert_eq!(load(d, head).forward(), expected, "{head}");
+        assert_eq!(load(d, head).model.forward(), expected, "{head}");
     }
     assert_eq!(
         ForwardModel::default(),
@@ -108,7 +108,7 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
         }
     );
     let path = write(d, "bad.toml", &model("\nlaw = \"coulomb\""));
-    let e = ModelSpec::load(&path).unwrap_err().to_string();
+    let e = RunFile::load(&path).unwrap_err().to_string();
     for needed in [
         "bad.toml",
         "line 2",
@@ -119,7 +119,7 @@ fn law_key_parses_each_value_and_refuses_unknown_ones_by_name() {
         assert!(e.contains(needed), "`{needed}` missing from: {e}");
     }
     let path = write(d, "bad.toml", &model("elastic = \"no\""));
-    let e = ModelSpec::load(&path).unwrap_err().to_string();
+    let e = RunFile::load(&path).unwrap_err().to_string();
     assert!(e.contains("bad.toml") && e.contains("line 1"), "{e}");
 }
 
@@ -131,7 +131,7 @@ fn each_model_samples_and_reports_only_its_parameters() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     simulate_full(d);
-    let post = |head: &str| Posterior::new(&load(d, head)).unwrap();
+    let post = |head: &str| load(d, head).posterior().unwrap();
 
     let full = post("");
     assert_eq!(
@@ -187,8 +187,8 @@ fn each_model_samples_and_reports_only_its_parameters() {
             "contact = \"c2\"\ndata = \"first.csv\"",
         )
         + "[[contact]]\nname = \"c2\"\nmaterial = \"m\"\n";
-    let spec = ModelSpec::load(&write(d, "alone.toml", &alone)).unwrap();
-    let names = Posterior::new(&spec).unwrap().param_names();
+    let spec = RunFile::load(&write(d, "alone.toml", &alone)).unwrap();
+    let names = spec.posterior().unwrap().param_names();
     assert!(names.contains(&"ln_F_d[c]".to_owned()), "{names:?}");
     assert!(!names.contains(&"ln_F_d[c2]".to_owned()), "{names:?}");
 }
@@ -202,9 +202,10 @@ fn default_law_written_out_or_not_is_the_same_model_to_the_bit() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     simulate_full(d);
-    let implicit = Posterior::new(&load(d, "")).unwrap();
-    let explicit =
-        Posterior::new(&load(d, "law = \"aging-rejuvenation\"\nelastic = true")).unwrap();
+    let implicit = load(d, "").posterior().unwrap();
+    let explicit = load(d, "law = \"aging-rejuvenation\"\nelastic = true")
+        .posterior()
+        .unwrap();
     assert_eq!(implicit.param_names(), explicit.param_names());
     // A point off the mode, where every part of the model is exercised.
     let x: Vec<f64> = [ALPHA * 1.1, 0.55, F_D * 1.02, T0 * 0.9, K * 1.05]
@@ -258,11 +259,11 @@ mod fits {
     }
 
     /// Fits `model` in `dir` for `steps` steps and returns the summary.
-    fn fit(dir: &Path, spec: &ModelSpec, steps: u64) -> slipbayes::fit::FitSummary {
+    fn fit(dir: &Path, spec: &RunFile, steps: u64) -> slipbayes::fit::FitSummary {
         use slipbayes::fit::{fit_model, FitSettings, RunLock};
         use slipbayes::sampler::Parallelism;
         use slipbayes::sampler::{Silent, Steps};
-        let post = Posterior::new(spec).unwrap();
+        let post = spec.posterior().unwrap();
         let settings = FitSettings {
             walkers: 24,
             ensembles: 4,
@@ -272,6 +273,7 @@ mod fits {
             ..FitSettings::default()
         };
         fit_model(
+            spec,
             &post,
             &settings,
             &RunLock::acquire(&dir.join("fit")).unwrap(),

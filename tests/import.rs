@@ -10,7 +10,7 @@ use slipbayes::data::{
     import, ColumnMap, ColumnRef, DataError, Format, ImportOptions, IntervalChoice,
 };
 use slipbayes::law::{LawParams, Scene};
-use slipbayes::model::ModelSpec;
+use slipbayes::run_file::RunFile;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 fn repo(path: &str) -> PathBuf {
@@ -214,7 +214,7 @@ fn spec_error(run_extra: &str, velocity: &str) -> String {
          scene = \"first\"\n{run_extra}\n",
         repo("data/ptfe-c1-first.csv").display()
     );
-    ModelSpec::parse(&text, Path::new("model.toml"))
+    RunFile::parse(&text, Path::new("model.toml"))
         .unwrap_err()
         .to_string()
 }
@@ -255,10 +255,8 @@ fn fewer_points_than_parameters_is_refused() {
     let text = "[[material]]\nname = \"m\"\n[[contact]]\nname = \"c\"\nmaterial = \"m\"\n\
          [[run]]\nname = \"r\"\ncontact = \"c\"\ndata = \"short.csv\"\nvelocity_m_per_s = 1e-9\n\
          scene = \"first\"\n";
-    let spec = ModelSpec::parse(text, &dir.path().join("model.toml")).unwrap();
-    let e = slipbayes::model::Posterior::new(&spec)
-        .unwrap_err()
-        .to_string();
+    let spec = RunFile::parse(text, &dir.path().join("model.toml")).unwrap();
+    let e = spec.posterior().unwrap_err().to_string();
     assert!(e.contains("short.csv") && e.contains("at least 7"), "{e}");
 }
 
@@ -302,7 +300,7 @@ fn decimal_comma_cells() {
 #[test]
 fn io_error_names_the_file() {
     let err = import(Path::new("/nonexistent/run.csv"), &options()).unwrap_err();
-    assert!(matches!(err, DataError::Io { .. }));
+    assert!(matches!(err, DataError::Io(_)));
     assert!(err.to_string().contains("/nonexistent/run.csv"));
 }
 
@@ -445,10 +443,8 @@ fn a_missing_interval_names_the_model_run_and_the_intervals_there_are() {
          columns = {{ time = {{ name = \"Interval Time\" }}, force = {{ name = \"Torque\" }} }}\n",
         repo("data/rheocompass-ptfe-c1.txt").display()
     );
-    let spec = ModelSpec::parse(&text, Path::new("dir/model.toml")).unwrap();
-    let e = slipbayes::model::Posterior::new(&spec)
-        .unwrap_err()
-        .to_string();
+    let spec = RunFile::parse(&text, Path::new("dir/model.toml")).unwrap();
+    let e = spec.posterior().unwrap_err().to_string();
     for part in [
         "dir/model.toml: run `c-repeat`:",
         "rheocompass-ptfe-c1.txt: no interval 7",

@@ -15,8 +15,9 @@ use slipbayes::model::data::RunData;
 use slipbayes::model::sufficient::{
     max_error_for, plan_bins, ChebyshevBasis, PlanSettings, Reduction, ReferenceModel,
 };
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
 use slipbayes::optimize::initial_around_optimum;
+use slipbayes::run_file::RunFile;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// A first slide (and the repeat slide after it) simulated at 1 nm/s.
@@ -97,12 +98,12 @@ fn posterior_of(first: Series, repeat: Option<Series>, likelihood: &str) -> Post
                  velocity_m_per_s = 1e-9\nscene = \"repeat\"\n";
     }
     text += likelihood;
-    let spec = ModelSpec::parse(&text, Path::new("model.toml")).unwrap();
-    let mut data = vec![RunData::for_series(&spec, 0, first).unwrap()];
+    let spec = RunFile::parse(&text, Path::new("model.toml")).unwrap();
+    let mut data = vec![RunData::for_series(&spec.model, 0, first).unwrap()];
     if let Some(r) = repeat {
-        data.push(RunData::for_series(&spec, 1, r).unwrap());
+        data.push(RunData::for_series(&spec.model, 1, r).unwrap());
     }
-    Posterior::from_data(&spec, data).unwrap()
+    Posterior::from_data(&spec.model, spec.blocking(), data).unwrap()
 }
 
 /// Index of the first name starting with `prefix`.
@@ -284,7 +285,10 @@ fn a_tolerance_of_zero_and_short_records_are_exact() {
              scene = \"first\"\n{likelihood}",
             data.display()
         );
-        Posterior::new(&ModelSpec::parse(&text, Path::new("model.toml")).unwrap()).unwrap()
+        RunFile::parse(&text, Path::new("model.toml"))
+            .unwrap()
+            .posterior()
+            .unwrap()
     };
     let default = model("");
     let zero = model("[likelihood]\ntolerance = 0\nexact_up_to = 100\n");
@@ -463,8 +467,8 @@ fn a_share_of_the_data_reduces_its_long_runs_as_the_whole_posterior_does() {
     text += "[likelihood]\nexact_up_to = 5000\n[sampler]\nblocks = \"contact\"\n";
     let path = dir.path().join("model.toml");
     std::fs::write(&path, text).unwrap();
-    let spec = ModelSpec::load(&path).unwrap();
-    let whole = Posterior::new(&spec).unwrap();
+    let spec = RunFile::load(&path).unwrap();
+    let whole = spec.posterior().unwrap();
     let provenance = whole.data_provenance();
     let binned = |p: &[slipbayes::data::Provenance]| -> Vec<bool> {
         p.iter().map(|d| d.binning.is_some()).collect()
@@ -490,7 +494,8 @@ fn a_share_of_the_data_reduces_its_long_runs_as_the_whole_posterior_does() {
         let mut held_by_some = vec![false; provenance.len()];
         for r in 0..shares {
             let own = |parts: usize| parts * r / shares..parts * (r + 1) / shares;
-            let share = Posterior::share_of(&spec, &data_share, own).unwrap();
+            let share =
+                Posterior::share_of(&spec.model, spec.blocking(), &data_share, own).unwrap();
             let held: Vec<bool> = share
                 .data_provenance()
                 .iter()

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use slipbayes::density::LogDensity;
 use slipbayes::law::Scene;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::run_file::RunFile;
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
@@ -35,9 +35,9 @@ scene = "{scene}"
 
 fn load_err(dir: &Path, model: &str) -> String {
     let path = write(dir, "model.toml", model);
-    match ModelSpec::load(&path) {
+    match RunFile::load(&path) {
         Err(e) => e.to_string(),
-        Ok(spec) => match Posterior::new(&spec) {
+        Ok(spec) => match spec.posterior() {
             Err(e) => e.to_string(),
             Ok(_) => panic!("model should have been refused:\n{model}"),
         },
@@ -122,7 +122,7 @@ fn settings_no_model_reads_are_refused_and_rival_leftovers_listed() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let base = one_run_model("ok.csv", "1e-9", "first");
-    let load = |extra: &str| ModelSpec::load(&write(d, "model.toml", &format!("{extra}\n{base}")));
+    let load = |extra: &str| RunFile::load(&write(d, "model.toml", &format!("{extra}\n{base}")));
     let prior = "{ dist = \"log-uniform\", low = 1e3, high = 1e9 }";
     for (extra, key) in [
         (format!("[priors]\na = {prior}"), "priors.a"),
@@ -154,7 +154,7 @@ fn settings_no_model_reads_are_refused_and_rival_leftovers_listed() {
         ),
     ] {
         let spec = load(&extra).unwrap_or_else(|e| panic!("{extra}: {e}"));
-        assert_eq!(spec.unread_settings(), unread, "{extra}");
+        assert_eq!(spec.model.unread_settings(), unread, "{extra}");
     }
 }
 
@@ -168,7 +168,7 @@ fn committed_model_files_load() {
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
     {
-        ModelSpec::load(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        RunFile::load(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
     }
 }
 
@@ -179,22 +179,22 @@ fn layout_samples_only_what_scenes_use() {
     let d = dir.path();
     common::simulate_ptfe(d, "first.csv", Scene::First, 20_000.0, 50.0, 1, 20_000.0);
     common::simulate_ptfe(d, "repeat.csv", Scene::Repeat, 2_000.0, 10.0, 2, 20_000.0);
-    let spec = ModelSpec::load(&write(
+    let spec = RunFile::load(&write(
         d,
         "m.toml",
         &one_run_model("repeat.csv", "1e-9", "repeat"),
     ))
     .unwrap();
-    let post = Posterior::new(&spec).unwrap();
+    let post = spec.posterior().unwrap();
     // A repeat slide alone needs only F_d and k.
     assert_eq!(post.param_names(), vec!["ln_F_d[c1]", "ln_k[c1]"]);
-    let spec = ModelSpec::load(&write(
+    let spec = RunFile::load(&write(
         d,
         "m.toml",
         &one_run_model("first.csv", "1e-9", "stiff-fast"),
     ))
     .unwrap();
-    let post = Posterior::new(&spec).unwrap();
+    let post = spec.posterior().unwrap();
     assert!(!post.param_names().iter().any(|n| n.starts_with("ln_k")));
     assert!(post.derived_names().contains(&"sigma[r1]".to_string()));
 }
@@ -207,8 +207,8 @@ fn explicit_sigma_starts_at_the_noise_level() {
     common::simulate_ptfe(d, "first.csv", Scene::First, 20_000.0, 50.0, 1, 0.0);
     let text = one_run_model("first.csv", "1e-9", "first")
         + "\n[priors]\nsigma = { dist = \"half-normal\", sd = 1e-3 }\n";
-    let spec = ModelSpec::load(&write(d, "m.toml", &text)).unwrap();
-    let post = Posterior::new(&spec).unwrap();
+    let spec = RunFile::load(&write(d, "m.toml", &text)).unwrap();
+    let post = spec.posterior().unwrap();
     let i = post
         .param_names()
         .iter()
@@ -245,9 +245,8 @@ follows = "r1"
         "",
         "\n[priors]\nsigma = { dist = \"half-normal\", sd = 1e-3 }\n",
     ] {
-        let spec =
-            ModelSpec::load(&write(dir.path(), "m.toml", &(model.clone() + priors))).unwrap();
-        let post = Posterior::new(&spec).unwrap();
+        let spec = RunFile::load(&write(dir.path(), "m.toml", &(model.clone() + priors))).unwrap();
+        let post = spec.posterior().unwrap();
         let x = post.start().to_vec();
         let mut derived = vec![0.0; post.derived_names().len()];
         post.log_density(&x, &mut derived).unwrap();
@@ -260,7 +259,7 @@ follows = "r1"
                 .position(|n| *n == format!("sigma[{name}]"))
                 .unwrap();
             let sigma = derived[sigma_column];
-            let observed = slipbayes::model::data::RunData::for_run(&spec, run).unwrap();
+            let observed = slipbayes::model::data::RunData::for_run(&spec.model, run).unwrap();
             let model = post.run_forces(&x, run).unwrap();
             assert_eq!(pointwise[run].len(), observed.n_obs, "{name}");
             for (i, ll) in pointwise[run].iter().enumerate() {

@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use slipbayes::model::{ModelSpec, PointwiseError, Posterior};
+use slipbayes::model::{PointwiseError, Posterior};
+use slipbayes::run_file::RunFile;
 
 /// One PTFE contact: its 1 nm/s first slide and the repeat slide that follows it, σ of each
 /// run integrated out (the default log-uniform prior) and reported as a derived column.
@@ -35,8 +36,8 @@ follows = "first"
 }
 
 fn posterior(extra: &str) -> Posterior {
-    let spec = ModelSpec::parse(&model(extra), Path::new("model.toml")).expect("model");
-    Posterior::new(&spec).expect("posterior")
+    let spec = RunFile::parse(&model(extra), Path::new("model.toml")).expect("model");
+    spec.posterior().expect("posterior")
 }
 
 /// PSIS-LOO over draws near the mode: one result per run, and the model's total is their union.
@@ -118,8 +119,8 @@ fn a_fold_scores_with_its_own_noise_and_the_full_data_model() {
         }
     }
     let absolute = format!("aging = \"absolute\"\n{}", model(""));
-    let spec = ModelSpec::parse(&absolute, Path::new("model.toml")).expect("model");
-    let other = Posterior::new(&spec).expect("posterior");
+    let spec = RunFile::parse(&absolute, Path::new("model.toml")).expect("model");
+    let other = spec.posterior().expect("posterior");
     let refused = post
         .log_likelihood_under(&other, &x)
         .unwrap_err()

@@ -14,7 +14,8 @@ use slipbayes::density::{
     ShareError, SplitByPart, Target,
 };
 use slipbayes::distributed::ReplicaShares;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{
     EnsembleSampler, MemorySink, Move, Parallelism, SamplerConfig, Silent, Steps, Updates,
 };
@@ -109,8 +110,8 @@ fn demo_variant(dir: &Path, name: &str, extra: &str, blocks: &str) -> Posterior 
         None => (extra, ""),
     };
     std::fs::write(&path, format!("{top}\n{text}\n{tables}\n")).unwrap();
-    let spec = ModelSpec::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
-    Posterior::new(&spec).unwrap_or_else(|e| panic!("{name}: {e}"))
+    let spec = RunFile::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    spec.posterior().unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 fn same(a: f64, b: f64) -> bool {
@@ -276,7 +277,9 @@ fn data_shares(post: &Posterior, shares: usize) -> Option<Vec<Posterior>> {
     let own = |r: usize| move |parts: usize| parts * r / shares..parts * (r + 1) / shares;
     Some(
         (0..shares)
-            .map(|r| Posterior::share_of(post.spec(), &data_share, own(r)).unwrap())
+            .map(|r| {
+                Posterior::share_of(post.spec(), post.blocking(), &data_share, own(r)).unwrap()
+            })
             .collect(),
     )
 }
@@ -944,7 +947,7 @@ fn a_prior_that_excludes_what_the_data_say_is_named_with_their_value() {
         ),
     )
     .unwrap();
-    let post = Posterior::new(&ModelSpec::load(&model).unwrap()).unwrap();
+    let post = RunFile::load(&model).unwrap().posterior().unwrap();
     let start = post.start().to_vec();
     let why = post.explain(&start).expect("a reason");
     for part in [

@@ -8,13 +8,15 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use slipbayes::data::Series;
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 
 /// The pooled SBC model over placeholder data at its simulated design's times.
 fn pooled_design() -> Posterior {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/sbc_pooled.toml");
-    let spec = ModelSpec::load(&path).unwrap();
+    let spec = RunFile::load(&path).unwrap();
     let data = spec
+        .model
         .file
         .runs
         .iter()
@@ -31,10 +33,10 @@ fn pooled_design() -> Posterior {
                 time_s,
                 normal_force_n: None,
             };
-            RunData::for_series(&spec, i, series).unwrap()
+            RunData::for_series(&spec.model, i, series).unwrap()
         })
         .collect();
-    Posterior::from_data(&spec, data).unwrap()
+    Posterior::from_data(&spec.model, spec.blocking(), data).unwrap()
 }
 
 fn column(posterior: &Posterior, name: &str) -> usize {

@@ -12,7 +12,8 @@ use slipbayes::law::rate_state::LIKELIHOOD_TOLERANCE;
 use slipbayes::law::{InitialState, LawKind, RateStateParams, SpringSlider, StateLaw};
 use slipbayes::model::posterior::REJECT_RATE_STATE;
 use slipbayes::model::spec::ForwardModel;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 
 /// A slow first slide with a peak and an undershoot under the slip law (docs/model.md §10).
 const VELOCITY: f64 = 1e-6;
@@ -58,8 +59,8 @@ a = "contact"
     )
 }
 
-fn load(dir: &Path, head: &str) -> ModelSpec {
-    ModelSpec::load(&write(dir, "model.toml", &model(head))).unwrap()
+fn load(dir: &Path, head: &str) -> RunFile {
+    RunFile::load(&write(dir, "model.toml", &model(head))).unwrap()
 }
 
 fn times(duration_s: f64, interval_s: f64) -> Vec<f64> {
@@ -125,7 +126,7 @@ fn rate_state_keys_parse_and_refuse_what_does_not_apply_by_name() {
             elastic: true,
             state_law,
         };
-        assert_eq!(load(d, head).forward(), expected, "{head}");
+        assert_eq!(load(d, head).model.forward(), expected, "{head}");
     }
     assert_eq!(
         ForwardModel {
@@ -139,7 +140,7 @@ fn rate_state_keys_parse_and_refuse_what_does_not_apply_by_name() {
 
     let error = |head: &str| {
         let path = write(d, "bad.toml", &model(head));
-        ModelSpec::load(&path).unwrap_err().to_string()
+        RunFile::load(&path).unwrap_err().to_string()
     };
     let e = error("law = \"rate-state\"\nstate_law = \"ruina\"");
     for needed in ["bad.toml", "line 2", "`state_law = \"ruina\"`", "\"slip\""] {
@@ -161,7 +162,7 @@ fn rate_state_keys_parse_and_refuse_what_does_not_apply_by_name() {
     assert!(e.contains(": elastic:") && e.contains("spring"), "{e}");
     let stiff =
         model("law = \"rate-state\"").replace("scene = \"first\"", "scene = \"stiff-fast\"");
-    let e = ModelSpec::load(&write(d, "bad.toml", &stiff))
+    let e = RunFile::load(&write(d, "bad.toml", &stiff))
         .unwrap_err()
         .to_string();
     assert!(e.contains(": run[0].scene:"), "{e}");
@@ -179,7 +180,9 @@ fn rate_state_samples_its_own_parameters() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     simulate(d, StateLaw::Slip);
-    let post = Posterior::new(&load(d, "law = \"rate-state\"\nstate_law = \"slip\"")).unwrap();
+    let post = load(d, "law = \"rate-state\"\nstate_law = \"slip\"")
+        .posterior()
+        .unwrap();
     assert_eq!(
         post.param_names(),
         [
@@ -203,8 +206,8 @@ fn rate_state_samples_its_own_parameters() {
         "law = \"rate-state\"\n[priors]\nD_c = { dist = \"log-normal\", median = 1e-6, sd_log = 2.0 }",
     )
     .replace("a = \"contact\"", "a = \"contact\"\nb = \"contact\"");
-    let spec = ModelSpec::load(&write(d, "levels.toml", &text)).unwrap();
-    let post = Posterior::new(&spec).unwrap();
+    let spec = RunFile::load(&write(d, "levels.toml", &text)).unwrap();
+    let post = spec.posterior().unwrap();
     assert!(post.param_names().contains(&"ln_b[c]".to_owned()));
     let priors = post.prior_descriptions();
     let d_c = priors
@@ -229,8 +232,8 @@ fn likelihood_forces_are_the_spring_sliders() {
              [priors]\nsigma = {{ dist = \"uniform\", low = 0.0, high = 1.0 }}"
         );
         let text = model(&head).replace("a = \"contact\"", "a = \"contact\"\nsigma = \"contact\"");
-        let spec = ModelSpec::load(&write(d, "model.toml", &text)).unwrap();
-        let post = Posterior::new(&spec).unwrap();
+        let spec = RunFile::load(&write(d, "model.toml", &text)).unwrap();
+        let post = spec.posterior().unwrap();
         // Off the truth, so that nothing is at a special value.
         let (a, b, d_c, f0, t0, k, sigma) = (
             0.9 * A,
@@ -340,7 +343,9 @@ fn an_unsolvable_slide_is_a_labelled_rejection() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     simulate(d, StateLaw::Slip);
-    let post = Posterior::new(&load(d, "law = \"rate-state\"\nstate_law = \"slip\"")).unwrap();
+    let post = load(d, "law = \"rate-state\"\nstate_law = \"slip\"")
+        .posterior()
+        .unwrap();
     let x: Vec<f64> = [A, 2.0 * B, D_C, F0, HOLD, K]
         .iter()
         .map(|v| v.ln())
@@ -367,7 +372,8 @@ fn a_short_fit_of_slip_law_data_covers_the_truth() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     simulate(d, StateLaw::Slip);
-    let post = Posterior::new(&load(d, "law = \"rate-state\"\nstate_law = \"slip\"")).unwrap();
+    let run = load(d, "law = \"rate-state\"\nstate_law = \"slip\"");
+    let post = run.posterior().unwrap();
     let settings = FitSettings {
         walkers: 32,
         ensembles: 4,
@@ -377,6 +383,7 @@ fn a_short_fit_of_slip_law_data_covers_the_truth() {
         ..FitSettings::default()
     };
     let s = fit_model(
+        &run,
         &post,
         &settings,
         &RunLock::acquire(&d.join("fit")).unwrap(),
@@ -410,6 +417,6 @@ fn rate_state_settings_are_leftovers_under_the_default_law() {
     let d = dir.path();
     let text = model("[priors]\nD_c = { dist = \"log-uniform\", low = 1e-9, high = 1e-4 }")
         .replace("a = \"contact\"", "a = \"contact\"\nb = \"contact\"");
-    let spec = ModelSpec::load(&write(d, "leftover.toml", &text)).unwrap();
-    assert_eq!(spec.unread_settings(), ["levels.b", "priors.D_c"]);
+    let spec = RunFile::load(&write(d, "leftover.toml", &text)).unwrap();
+    assert_eq!(spec.model.unread_settings(), ["levels.b", "priors.D_c"]);
 }

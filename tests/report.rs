@@ -8,10 +8,10 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use slipbayes::data::ImportOptions;
-use slipbayes::fit::{fit_model, FitSettings, RunDir, RunLock, SettingOverrides};
-use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::fit::{fit_model, FitSettings, RunDir, RunFile, RunLock, SettingOverrides};
+use slipbayes::model::{ModelSpec, OneContact};
 use slipbayes::plot::check::{check_svg, elements, Element};
-use slipbayes::report::{rebuild_report, write_report};
+use slipbayes::report::write_report;
 use slipbayes::sampler::{Parallelism, Silent};
 
 fn repo(path: &str) -> PathBuf {
@@ -37,18 +37,20 @@ fn quick_fit() -> &'static Path {
             forward: Default::default(),
         })
         .unwrap();
-        let posterior = Posterior::new(&spec).unwrap();
+        let run = RunFile::with_default_sampler(spec);
+        let posterior = run.posterior().unwrap();
         let overrides = SettingOverrides {
             steps: Some(160),
             quiet: true,
             ..SettingOverrides::default()
         };
-        let settings = FitSettings::for_model(&posterior, &overrides);
+        let settings = FitSettings::for_model(&posterior, &run.sampler, &overrides);
         let lock = RunLock::acquire(&out).unwrap();
         let command = ["slipbayes", "fit", "--quick-path-test"]
             .map(String::from)
             .to_vec();
         let outcome = fit_model(
+            &run,
             &posterior,
             &settings,
             &lock,
@@ -58,7 +60,7 @@ fn quick_fit() -> &'static Path {
             Parallelism::default(),
         )
         .unwrap();
-        write_report(&outcome.dir, &posterior).unwrap();
+        write_report(&outcome.dir).unwrap();
         dir
     })
     .path()
@@ -189,7 +191,7 @@ fn a_report_rebuilt_from_the_run_directory_is_the_same() {
         fs::remove_file(copy.join(f)).unwrap();
     }
     fs::remove_dir_all(copy.join("figures")).unwrap();
-    let files = rebuild_report(&RunDir::new(&copy)).unwrap();
+    let files = write_report(&RunDir::new(&copy)).unwrap();
     assert_eq!(files.html, copy.join("report.html"));
     // The title names the run directory; everything else is the same, byte for byte.
     let original = fs::read_to_string(run_dir().join("report.md")).unwrap();
@@ -228,7 +230,7 @@ fn data_provenance_is_rendered_when_present() {
          "window_s": null, "binning": null, "conversions": []}
     ]);
     fs::write(&path, serde_json::to_string_pretty(&summary).unwrap()).unwrap();
-    rebuild_report(&RunDir::new(&copy)).unwrap();
+    write_report(&RunDir::new(&copy)).unwrap();
     let md = fs::read_to_string(copy.join("report.md")).unwrap();
     assert!(md.contains("## Data\n"), "{md}");
     assert!(md.contains(
@@ -243,7 +245,7 @@ fn data_provenance_is_rendered_when_present() {
     // A malformed fragment is an error naming the file and the key.
     summary["data"] = serde_json::json!([{"run": 3}]);
     fs::write(&path, serde_json::to_string(&summary).unwrap()).unwrap();
-    let err = rebuild_report(&RunDir::new(&copy)).unwrap_err().to_string();
+    let err = write_report(&RunDir::new(&copy)).unwrap_err().to_string();
     // `data` is part of the summary's schema: the error names the file and the position.
     assert!(
         err.contains("summary.json") && err.contains("line 1, column"),
@@ -254,7 +256,7 @@ fn data_provenance_is_rendered_when_present() {
 #[test]
 fn report_of_a_directory_without_a_run_says_what_is_missing() {
     let tmp = tempfile::tempdir().unwrap();
-    let err = rebuild_report(&RunDir::new(tmp.path()))
+    let err = write_report(&RunDir::new(tmp.path()))
         .unwrap_err()
         .to_string();
     assert!(
@@ -565,15 +567,14 @@ fn the_report_figures_have_what_issue_15_asks() {
     assert!(md.contains("ptfe-c1-first.json"));
 }
 
+/// A report reads its run directory and nothing else: with the run's data files gone, it is
+/// built all the same, and a run that recorded no truth (its data had no JSON beside them)
+/// draws none.
 #[test]
-fn without_truth_files_no_true_values_are_drawn() {
-    // The same run, its data copied to where no JSON lies beside them.
+fn a_report_needs_nothing_but_its_run_directory() {
+    // The same run, its model pointing at data files that do not exist.
     let tmp = tempfile::tempdir().unwrap();
-    let data = tmp.path().join("data");
-    fs::create_dir_all(&data).unwrap();
-    for f in ["ptfe-c1-first.csv", "ptfe-c1-repeat.csv"] {
-        fs::copy(repo(&format!("data/{f}")), data.join(f)).unwrap();
-    }
+    let data = tmp.path().join("gone");
     let copy = tmp.path().join("run");
     copy_dir(&run_dir(), &copy);
     let model = fs::read_to_string(copy.join("model.toml")).unwrap();
@@ -593,7 +594,17 @@ fn without_truth_files_no_true_values_are_drawn() {
         .join("\n");
     assert_ne!(model, moved, "model.toml names its data");
     fs::write(copy.join("model.toml"), moved).unwrap();
-    rebuild_report(&RunDir::new(&copy)).unwrap();
+    assert!(!data.exists());
+    write_report(&RunDir::new(&copy)).unwrap();
+    let original = fs::read_to_string(run_dir().join("report.md")).unwrap();
+    assert_eq!(
+        fs::read_to_string(copy.join("report.md")).unwrap(),
+        original,
+        "the report of a run whose data are gone differs"
+    );
+    // As if the fit had found no truth beside the data.
+    fs::write(copy.join("truth.json"), "[]\n").unwrap();
+    write_report(&RunDir::new(&copy)).unwrap();
     let corner = fs::read_to_string(copy.join("figures/corner-material.svg")).unwrap();
     assert_eq!(corner_problems(&corner, false), Vec::<String>::new());
     let md = fs::read_to_string(copy.join("report.md")).unwrap();

@@ -9,8 +9,9 @@ use std::path::Path;
 
 use slipbayes::density::{LogDensity, Target};
 use slipbayes::law::{LawParams, Scene};
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
 use slipbayes::optimize::find_mode;
+use slipbayes::run_file::RunFile;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 /// One prior draw: α (1/m), a/F_d, F_d (N), t0 (s), k (N/m), σ of the first and repeat slide.
@@ -56,7 +57,7 @@ fn posterior(dir: &Path, d: &Draw) -> Posterior {
         &model,
     )
     .unwrap();
-    Posterior::new(&ModelSpec::load(&model).unwrap()).unwrap()
+    RunFile::load(&model).unwrap().posterior().unwrap()
 }
 
 /// The posterior of draw `d` (its files in `dir`) and its log-density at the truth.

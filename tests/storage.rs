@@ -478,7 +478,7 @@ fn a_failed_write_in_the_background_is_returned_by_the_next_call() {
         }
     }
     match first_error.expect("the lost directory is noticed") {
-        StorageError::Io { action, path, .. } => {
+        StorageError::Io(slipbayes::IoError { action, path, .. }) => {
             assert_eq!(action, "create");
             assert_eq!(path, dir.join("part-000000.parquet.partial"));
         }

@@ -150,7 +150,13 @@ fn demo_leaves_a_fresh_clone_clean_and_the_committed_report_is_current() {
              `cargo run --release -- demo --out reports/demo`"
         )
     };
-    for file in ["summary.csv", "predictive.csv", "model.toml"] {
+    for file in [
+        "summary.csv",
+        "predictive.csv",
+        "model.toml",
+        "curves.json",
+        "truth.json",
+    ] {
         assert_eq!(
             fs::read_to_string(committed.join(file)).unwrap(),
             fs::read_to_string(fresh.join(file)).unwrap(),

@@ -21,7 +21,8 @@ use slipbayes::fit::{
 };
 use slipbayes::law::{Elastic, Law, LawParams};
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelFile, ModelSpec, Posterior, SpecError};
+use slipbayes::model::{ModelFile, ModelSpec, SpecError};
+use slipbayes::run_file::{RunFile, SamplerSpec};
 use slipbayes::sampler::{Observer, Parallelism, Progress};
 use slipbayes::simulate::{simulate as simulate_run, SimulationSpec};
 
@@ -243,22 +244,34 @@ fn simulate<'py>(
     ))
 }
 
-/// A model from a JSON object of the model file's structure, validated by the same code as a
+/// A run from a JSON object of the model file's structure, validated by the same code as a
 /// model file. Its errors name the key path in the dict (`run[2].velocity_m_per_s`), since the
 /// dict has no lines to point at. Data paths are relative to `base_dir`.
-fn model_from_json(json: &str, base_dir: &Path) -> PyResult<ModelSpec> {
+fn model_from_json(json: &str, base_dir: &Path) -> PyResult<RunFile> {
     let source = base_dir.join("<model dict>");
     let value: serde_json::Value = serde_json::from_str(json)
         .map_err(|e| SlipbayesError::new_err(format!("model dict: {e}")))?;
-    let file: ModelFile = serde_path_to_error::deserialize(value).map_err(|e| {
-        let key = e.path().to_string();
+    let invalid = |key: String, message: String| {
         error(&SpecError::Invalid {
             path: source.clone(),
             key,
-            message: e.into_inner().to_string(),
+            message,
         })
-    })?;
-    ModelSpec::validate(file, base_dir.to_path_buf(), source).map_err(|e| error(&e))
+    };
+    // The model's tables, then the `[sampler]` table the model lets through, as a file is read.
+    let sampler = match value.get("sampler") {
+        None => SamplerSpec::default(),
+        Some(table) => serde_path_to_error::deserialize(table.clone()).map_err(|e| {
+            let key = match e.path().to_string() {
+                inner if inner == "." => "sampler".to_owned(),
+                inner => format!("sampler.{inner}"),
+            };
+            invalid(key, e.into_inner().to_string())
+        })?,
+    };
+    let file: ModelFile = serde_path_to_error::deserialize(value)
+        .map_err(|e| invalid(e.path().to_string(), e.into_inner().to_string()))?;
+    RunFile::new(file, sampler, base_dir.to_path_buf(), source).map_err(|e| error(&e))
 }
 
 /// A held lock on a run directory (`RunLock`, the command line's): `fit` writes only into a
@@ -354,8 +367,8 @@ fn fit(
     report: bool,
     progress: Option<PyObject>,
 ) -> PyResult<String> {
-    let spec = match (model_path, model_json) {
-        (Some(path), None) => ModelSpec::load(&path).map_err(|e| error(&e))?,
+    let run = match (model_path, model_json) {
+        (Some(path), None) => RunFile::load(&path).map_err(|e| error(&e))?,
         (None, Some(json)) => model_from_json(&json, &base_dir.unwrap_or_default())?,
         _ => {
             return Err(PyValueError::new_err(
@@ -364,7 +377,7 @@ fn fit(
         }
     };
     let posterior = py
-        .allow_threads(|| Posterior::new(&spec))
+        .allow_threads(|| run.posterior())
         .map_err(|e| error(&e))?;
     let overrides = SettingOverrides {
         seed,
@@ -376,7 +389,7 @@ fn fit(
         overwrite,
         ..SettingOverrides::default()
     };
-    let settings = FitSettings::for_model(&posterior, &overrides);
+    let settings = FitSettings::for_model(&posterior, &run.sampler, &overrides);
     let lock = lock
         .lock
         .as_ref()
@@ -396,6 +409,7 @@ fn fit(
         let worker = scope.spawn(|| {
             pool.install(|| {
                 let outcome = fit_model(
+                    &run,
                     &posterior,
                     &settings,
                     lock,
@@ -405,7 +419,7 @@ fn fit(
                     Parallelism::default(),
                 )?;
                 if report {
-                    slipbayes::report::write_report(&outcome.dir, &posterior)
+                    slipbayes::report::write_report(&outcome.dir)
                         .map_err(|e| ReportFailed(message(&e)))?;
                 }
                 Ok::<_, FitOrReport>(outcome)
@@ -580,7 +594,8 @@ fn load_run<'py>(
     let summary_json = read(slipbayes::fit::run_dir::SUMMARY_JSON)?;
     let settings_json = read(slipbayes::fit::run_dir::SETTINGS_JSON)?;
     let summary = dir.read_summary().map_err(|e| error(&e))?;
-    let spec = dir.read_model().map_err(|e| error(&e))?;
+    let run_file = dir.read_model().map_err(|e| error(&e))?;
+    let spec = &run_file.model;
     let reader = dir.chain_reader().map_err(|e| error(&e))?;
     let (ensembles, walkers, steps) = (reader.ensembles(), reader.walkers(), reader.steps());
     let burn_in = summary.sampler.burn_in;
@@ -640,7 +655,7 @@ fn load_run<'py>(
     let observed = PyList::empty(py);
     let mut observed_error = None;
     for (i, run) in spec.file.runs.iter().enumerate() {
-        match RunData::for_run(&spec, i) {
+        match RunData::for_run(spec, i) {
             Ok(data) => observed.append((
                 run.name.clone(),
                 to_bytes(py, &data.model_times[..data.n_obs]),
@@ -655,7 +670,7 @@ fn load_run<'py>(
     let draws = log_likelihood_draws.filter(|&d| d > 0 && observed_error.is_none());
     if let Some(draws) = draws {
         let posterior = py
-            .allow_threads(|| Posterior::new(&spec))
+            .allow_threads(|| run_file.posterior())
             .map_err(|e| error(&e))?;
         let points: usize = (0..spec.file.runs.len())
             .map(|i| posterior.observed_forces(i).len())
@@ -682,7 +697,7 @@ fn load_run<'py>(
                 });
                 out.set_item(
                     "log_likelihood",
-                    per_run(py, &spec, &terms.map_err(failed)?)?,
+                    per_run(py, spec, &terms.map_err(failed)?)?,
                 )?;
                 log_likelihood.set_items(&out, "log_likelihood", burn_in)?;
             }
@@ -713,7 +728,7 @@ fn load_run<'py>(
         });
         out.set_item(
             "posterior_predictive",
-            per_run(py, &spec, &replicates.map_err(failed)?)?,
+            per_run(py, spec, &replicates.map_err(failed)?)?,
         )?;
         predictive.set_items(&out, "posterior_predictive", burn_in)?;
     }

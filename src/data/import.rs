@@ -284,10 +284,7 @@ pub struct Imported {
 /// file, no data rows, a missing column, an unknown or contradictory unit, a cell that is not a
 /// finite number (unless `drop_invalid`), times that do not strictly increase.
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Imported, DataError> {
-    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(crate::IoError::at("read", path))?;
     import_text(Cow::Owned(bytes), path, options)
 }
 

@@ -35,7 +35,6 @@ pub use rheocompass::IntervalChoice;
 
 use std::fmt::Write as _;
 use std::fs;
-use std::io;
 use std::path::{Path, PathBuf};
 
 /// Column names of the simple CSV format.
@@ -49,14 +48,8 @@ pub const NORMAL_FORCE_COLUMN: &str = "normal_force_N";
 #[derive(Debug, thiserror::Error)]
 pub enum DataError {
     /// The file could not be read or written.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] crate::IoError),
     /// The content is malformed at a known place.
     #[error("{path}:{line}:{column}: {message}")]
     Malformed {
@@ -195,10 +188,8 @@ impl Series {
     /// [`DataError::Io`] naming the path, or [`DataError::Ragged`].
     pub fn write_csv(&self, path: &Path) -> Result<(), DataError> {
         let text = self.to_csv()?;
-        write_atomically(path, text.as_bytes()).map_err(|source| DataError::Io {
-            path: path.to_owned(),
-            source,
-        })
+        write_atomically(path, text.as_bytes()).map_err(crate::IoError::at("write", path))?;
+        Ok(())
     }
 
     /// Reads a series in the simple format (`time_s,force_N[,normal_force_N]`).
@@ -207,10 +198,7 @@ impl Series {
     /// [`DataError::Io`] when the file cannot be read; [`DataError::Malformed`] naming line and
     /// column for a wrong header, a missing or extra field, or a number that does not parse.
     pub fn read_csv(path: &Path) -> Result<Self, DataError> {
-        let text = fs::read_to_string(path).map_err(|source| DataError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let text = fs::read_to_string(path).map_err(crate::IoError::at("read", path))?;
         Self::parse_csv(&text, path)
     }
 

@@ -4,7 +4,7 @@ use thiserror::Error;
 
 /// Why a diagnostic could not be computed. Every variant names the offending chain, index or
 /// value and says what would fix it.
-#[derive(Debug, Clone, PartialEq, Error)]
+#[derive(Debug, Error)]
 pub enum DiagnosticsError {
     /// No chains (walkers, ensembles) were given at all.
     #[error("no chains given: pass at least {needed} chain(s) of draws")]
@@ -83,20 +83,12 @@ pub enum DiagnosticsError {
         reason: &'static str,
     },
     /// A working file of a summary could not be created, written or read back (see
-    /// [`super::external`]).
+    /// [`super::summary`]).
     #[error(
-        "cannot {action} a working file of the summary in {}: {message} \
-         (the summary of a long run keeps its sorted draws there; free some disk space)",
-        dir.display()
+        "{0} (a working file of the summary: the summary of a long run keeps its sorted draws \
+         there; free some disk space)"
     )]
-    Scratch {
-        /// What was being done ("create", "write", "read").
-        action: &'static str,
-        /// The directory of the working files.
-        dir: std::path::PathBuf,
-        /// The underlying error, in words.
-        message: String,
-    },
+    Scratch(#[source] crate::IoError),
 }
 
 /// Checks that `chains` is non-empty, rectangular, at least `min_draws` long and finite.

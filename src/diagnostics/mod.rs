@@ -7,10 +7,10 @@
 //!   thinning and stopping).
 //! - [`arviz`]: ArviZ's rank-normalised split R-hat, bulk/tail/mean ESS, MCSE, HDI and
 //!   quantiles over independent chains, numerically identical to arviz 0.23.
-//! - [`ensemble`]: the summary of an ensemble run: R-hat *between independent ensembles*, ESS
-//!   over walkers, intervals over all draws (the design is argued in its documentation).
-//! - [`external`]: the same summary, to the bit, in memory that does not grow with the
-//!   number of draws (draws and sorted runs in working files): what a fit uses.
+//! - [`summary`]: the summary of an ensemble run: R-hat *between independent ensembles*, ESS
+//!   over walkers, intervals over all draws (the design is argued in its documentation); one
+//!   engine, in memory for a short run and through working files (an external sort) for a
+//!   long one, with the same numbers to the bit.
 //! - [`loo`]: PSIS-LOO cross-validation from pointwise log-likelihoods, and the comparison of
 //!   models by it (elpd differences with standard errors, stacking weights), as ArviZ's `loo`
 //!   and `compare`.
@@ -36,10 +36,9 @@
 //! ```
 pub mod arviz;
 pub mod autocorr;
-pub mod ensemble;
 mod error;
-pub mod external;
 pub mod loo;
+pub mod summary;
 pub mod verdict;
 mod walkers;
 
@@ -50,10 +49,12 @@ pub use arviz::{
 pub use autocorr::{
     integrated_time, mean_acf, AutocorrTime, DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR,
 };
-pub use ensemble::{ensemble_rhat, summarize, EnsembleDraws, Summary};
 pub use error::DiagnosticsError;
-pub use external::{summarize_draws, DrawsWriter, Limits, WalkerDraws, Workspace};
 pub use loo::{compare, psis_loo, Compared, Loo, LooError, MIN_LOO_DRAWS};
+pub use summary::{
+    ensemble_rhat, summarize, summarize_draws, DrawsWriter, EnsembleDraws, Limits, Summary,
+    WalkerDraws, Workspace,
+};
 pub use verdict::{
     problem_lines, quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX,
     TAU_FACTOR,

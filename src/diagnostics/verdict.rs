@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::ensemble::Summary;
+use super::summary::Summary;
 
 /// Largest R̂ between ensembles of a converged quantity (ArviZ's threshold).
 pub const RHAT_MAX: f64 = 1.01;

@@ -126,6 +126,9 @@ pub enum FitError {
     /// A posterior draw has no valid law, so its predictive curve cannot be drawn.
     #[error("computing the posterior predictive bands")]
     Predictive(#[source] crate::law::LawError),
+    /// A posterior draw has no valid law, so a curve of the report cannot be redrawn.
+    #[error("redrawing a curve of the report from a posterior draw")]
+    Curves(#[source] crate::law::LawError),
     /// Leave-one-out cross-validation failed at a posterior draw.
     #[error("computing the leave-one-out predictive accuracy (PSIS-LOO)")]
     Loo(#[source] crate::model::PointwiseError),

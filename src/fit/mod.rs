@@ -28,6 +28,7 @@
 //!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
 //!    [`ESS_MIN`](crate::diagnostics::ESS_MIN), τ reliable, no stuck walkers.
 //! 4. Writes `summary.json` and `summary.csv` atomically.
+mod curves;
 mod error;
 pub mod kfold;
 mod model;
@@ -49,6 +50,7 @@ use crate::sampler::{
 };
 use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
 
+pub use crate::run_file::{RunFile, SamplerSpec};
 pub use error::FitError;
 pub use model::{fit_model, peak_notes, summary_spec, SettingOverrides};
 pub use run_dir::{
@@ -83,11 +85,11 @@ pub fn replicate_rng(seed: u64, row: u64) -> ChaCha8Rng {
 }
 
 /// The default mixture of moves of a fit: half the Student-t independence proposal fitted to
-/// the complementary half (τ ≈ 6 steps on the one-contact posterior against 52 for the
-/// stretch move), half differential evolution, which explores along differences between
-/// walkers and keeps mixing where the complement is too small to fit a proposal to (a
-/// 10-contact campaign: τ 62 steps against 112 for Student-t with stretch). The measurements
-/// behind the choice are in the README, "Moves and blocks".
+/// the complementary half, which mixes in a few steps where the posterior is near normal
+/// (several times faster than the stretch move on one contact), half differential evolution,
+/// which explores along differences between walkers and keeps mixing where the complement is
+/// too small to fit a proposal to (a campaign of many contacts). The measurements behind the
+/// choice are in `reports/fit-defaults.md`.
 pub fn default_moves() -> Vec<(Move, f64)> {
     vec![
         (Move::student_t(), 0.5),
@@ -97,9 +99,10 @@ pub fn default_moves() -> Vec<(Move, f64)> {
 
 /// The stopping rule of a fit run until converged: the sampler's rule (longer than 50 τ_max,
 /// R̂ < 1.01 on its history) with τ settled to 10 % between checks rather than emcee's 1 %,
-/// which on short chains waits for the τ estimate's own noise to die down (with 1 %, the
-/// one-contact quick path ran 4,300 steps for τ ≈ 9). The fit then checks the summary itself,
-/// on every post-burn-in draw of every reported quantity, and samples on until that passes.
+/// which on short chains waits for the τ estimate's own noise to die down, hundreds of τ
+/// after the chains are long enough (`reports/fit-defaults.md`). The fit then checks the
+/// summary itself, on every post-burn-in draw of every reported quantity, and samples on
+/// until that passes.
 pub fn fit_stop_rule(max_steps: u64) -> StopRule {
     StopRule {
         tau_rel_change: 0.1,
@@ -109,8 +112,7 @@ pub fn fit_stop_rule(max_steps: u64) -> StopRule {
 
 /// The default updates of a fit: hierarchical, over the default blocks (a material's shared
 /// parameters, each contact's own), so that a sweep costs two evaluations of the runs and τ
-/// (in sweeps) stays near 10 steps from one contact to a campaign (README, "Moves and
-/// blocks").
+/// (in sweeps) does not grow from one contact to a campaign (`reports/fit-defaults.md`).
 pub fn default_updates() -> Updates {
     Updates::Hierarchical
 }
@@ -119,14 +121,13 @@ pub fn default_updates() -> Updates {
 /// max(32, 4·d + 4), where d is the number of coordinates one update moves (the dimension, or
 /// the largest block when the updates are blocked and the density has two blocks or more, as
 /// the sampler decides): the independence proposals are fitted to half the walkers, and a fit
-/// of d dimensions from barely d + 1 points proposes poorly (on the demo, 32 walkers for
-/// blocks of 9 gave τ ≈ 26 steps, 38 walkers τ ≈ 17). With hierarchical updates whose
+/// of d dimensions from barely d + 1 points proposes poorly. With hierarchical updates whose
 /// followers are carried by regressions fitted to the complement
 /// ([`CarryFit::Complement`]), also at least 2·f + 4, f the largest number of followers a
 /// block carries: the errors of all f coefficients add up in the acceptance ratio of the
-/// shared block, so τ grew as f over the walkers (10 contacts, 30 followers: τ 25 at 32
-/// walkers, 11 at 64). Under the default ([`CarryFit::Auto`]) a block with that many
-/// followers is carried by a tuned regression instead, which needs no more walkers.
+/// shared block, so τ grows as f over the walkers. Under the default ([`CarryFit::Auto`]) a
+/// block with that many followers is carried by a tuned regression instead, which needs no
+/// more walkers. The measurements behind both bounds are in `reports/fit-defaults.md`.
 pub fn default_walkers<'d, D: LogDensity + ?Sized + 'd>(
     target: impl Into<Target<'d, D>>,
     updates: Updates,
@@ -418,7 +419,7 @@ pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
     settings.validate(resume)?;
     let param_names = density.param_names();
     let derived_names = density.derived_names();
-    let plan = summarise::Plan::new(&param_names, &derived_names, spec)?;
+    let plan = summarise::SummaryPlan::new(&param_names, &derived_names, spec)?;
     let (mut sampler, mut sink, steps) = if resume {
         resumed_sampler(target, settings, dir)?
     } else {
@@ -586,7 +587,7 @@ fn fresh_sampler<'a, D: LogDensity + ?Sized>(
 struct Sampling<'f, 's, D: LogDensity + ?Sized> {
     sampler: EnsembleSampler<'s, D>,
     sink: ParquetSink,
-    plan: summarise::Plan,
+    plan: summarise::SummaryPlan,
     settings: &'f FitSettings,
     dir: &'f RunDir,
     started: Instant,

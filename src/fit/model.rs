@@ -1,15 +1,19 @@
 //! Fitting a friction model: what its summary reports, how a model file's sampler settings
 //! combine with a caller's, and the files a friction fit adds to its run directory.
 
-use super::run_dir::{relative_path, ForwardModelRecord, LooPoint, LooSummary, RunLock, RunRecord};
+use super::run_dir::{
+    relative_path, ForwardModelRecord, LooPoint, LooSummary, RunLock, RunRecord, RunTruth,
+};
 use super::{
     default_moves, default_updates, default_walkers, fit_stop_rule, kept_draws, run_fit, Aggregate,
-    ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, SummarySpec,
+    ComparisonSpec, FitError, FitOutcome, FitSettings, FitSummary, RunDir, RunFile, SamplerSpec,
+    SummarySpec,
 };
 use crate::density::{LogDensity, Target};
 use crate::law::Scene;
-use crate::model::{PointwiseError, Posterior};
+use crate::model::{ModelSpec, PointwiseError, Posterior};
 use crate::sampler::{CarryFit, Move, Observer, Parallelism, Steps, Updates};
+use crate::simulate::SimulationSpec;
 
 /// Draws behind the bands of `predictive.csv`: enough for stable 95 % quantiles, few enough
 /// to cost seconds.
@@ -46,10 +50,9 @@ pub struct SettingOverrides {
 }
 
 impl FitSettings {
-    /// The settings of a fit of `posterior`: its model file's `[sampler]` table under
+    /// The settings of a fit of `posterior`: its run file's `[sampler]` table `s` under
     /// `overrides`; walkers default to [`default_walkers`].
-    pub fn for_model(posterior: &Posterior, overrides: &SettingOverrides) -> Self {
-        let s = &posterior.spec().file.sampler;
+    pub fn for_model(posterior: &Posterior, s: &SamplerSpec, overrides: &SettingOverrides) -> Self {
         let updates = overrides
             .updates
             .or(s.updates)
@@ -201,17 +204,22 @@ pub fn peak_notes(posterior: &Posterior, summary: &FitSummary) -> Vec<String> {
     notes
 }
 
-/// Fits `posterior` into the run directory that `lock` holds and writes all of it: the chains
-/// and checkpoint, `summary.json` and `summary.csv` ([`run_fit`](super::run_fit) with [`summary_spec`]), then
-/// `model.toml`, `settings.json` (recording `command`) and `predictive.csv`. Taking the lock
-/// rather than a path, it cannot write a directory another fit is writing. The sampler
-/// evaluates as `parallelism` says: with the ranks of an MPI job, tell them first which
-/// density to build (`Cluster::share_density` with [`Posterior::data_share`]).
+/// Fits `posterior`, built from the run file `run`, into the run directory that `lock` holds
+/// and writes all of it: the chains and checkpoint, `summary.json` and `summary.csv`
+/// ([`run_fit`](super::run_fit) with [`summary_spec`]), then `model.toml` (the run file),
+/// `settings.json` (recording `command`) and `predictive.csv`. Taking the lock rather than a
+/// path, it cannot write a directory another fit is writing. The sampler evaluates as
+/// `parallelism` says: with the ranks of an MPI job, tell them first which density to build
+/// (`Cluster::share_density` with [`Posterior::data_share`]).
 ///
 /// # Errors
 /// As [`run_fit`](super::run_fit); [`FitError::RunDir`] when a file cannot be written;
 /// [`FitError::Predictive`] when a posterior draw has no valid law.
+// The run file and the posterior built from it go together: the caller builds the posterior
+// once, and hands the same one to the ranks of an MPI job through `parallelism`.
+#[allow(clippy::too_many_arguments)]
 pub fn fit_model<'p>(
+    run: &RunFile,
     posterior: &'p Posterior,
     settings: &FitSettings,
     lock: &RunLock,
@@ -222,7 +230,6 @@ pub fn fit_model<'p>(
 ) -> Result<FitOutcome, FitError> {
     let out = lock.dir();
     let dir = RunDir::new(out);
-    let spec = posterior.spec();
     let mut outcome = run_fit(
         Target::blocked(posterior),
         &summary_spec(posterior),
@@ -237,12 +244,31 @@ pub fn fit_model<'p>(
     if !outcome.summary.notes.is_empty() {
         dir.write_summary(&outcome.summary)?;
     }
-    dir.write_model(spec)?;
-    let data_dir = relative_path(out, &spec.base_dir).map_err(|source| {
-        FitError::RunDir(super::RunDirError::Write {
-            path: out.to_path_buf(),
-            source,
-        })
+    write_run_files(run, posterior, settings, command, &mut outcome)?;
+    Ok(outcome)
+}
+
+/// The files a friction fit adds to its run directory once the chains are summarised: the
+/// run file, the record of how it ran, the posterior predictive bands, what the report
+/// draws (the curves it redraws from the posterior, the truths behind synthetic data), and
+/// PSIS-LOO.
+fn write_run_files(
+    run: &RunFile,
+    posterior: &Posterior,
+    settings: &FitSettings,
+    command: Vec<String>,
+    outcome: &mut FitOutcome,
+) -> Result<(), FitError> {
+    let dir = outcome.dir.clone();
+    let out = dir.path();
+    let spec = &run.model;
+    dir.write_model(run)?;
+    let data_dir = relative_path(out, &spec.base_dir).map_err(|e| {
+        super::RunDirError::from(crate::IoError::new(
+            "resolve the data directory from",
+            out,
+            e,
+        ))
     })?;
     dir.write_record(&RunRecord {
         slipbayes_version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -254,15 +280,49 @@ pub fn fit_model<'p>(
         sampled_coordinates: posterior.param_names(),
         priors: posterior.prior_descriptions(),
     })?;
-    let draws = kept_draws(&outcome, &posterior.param_names(), PREDICTIVE_DRAWS)?;
+    let draws = kept_draws(outcome, &posterior.param_names(), PREDICTIVE_DRAWS)?;
     let stride = posterior.max_points().div_ceil(PREDICTIVE_POINTS);
     let bands = posterior
         .predictive_bands(&draws, stride, settings.seed)
         .map_err(FitError::Predictive)?;
     dir.write_predictive(&bands)?;
-    leave_one_out(posterior, &mut outcome)?;
+    dir.write_curves(&super::curves::redraw(
+        posterior,
+        &draws,
+        &bands,
+        &outcome.summary,
+    )?)?;
+    dir.write_truths(&truths(spec))?;
+    leave_one_out(posterior, outcome)?;
     dir.write_summary(&outcome.summary)?;
-    Ok(outcome)
+    Ok(())
+}
+
+/// The simulation behind each run whose data file has one beside it: the JSON that
+/// `slipbayes simulate` writes (`first.csv` → `first.json`, with `"synthetic": true`). A run
+/// without one, or with one that cannot be read or is not synthetic, has none.
+fn truths(spec: &ModelSpec) -> Vec<RunTruth> {
+    #[derive(serde::Deserialize)]
+    struct TruthFile {
+        synthetic: bool,
+        spec: SimulationSpec,
+    }
+    spec.file
+        .runs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            let path = spec.data_path(i).with_extension("json");
+            let truth: TruthFile =
+                serde_json::from_str(&std::fs::read_to_string(&path).ok()?).ok()?;
+            let file = path.file_name()?.to_string_lossy().into_owned();
+            truth.synthetic.then(|| RunTruth {
+                run: r.name.clone(),
+                file,
+                simulation: truth.spec,
+            })
+        })
+        .collect()
 }
 
 /// Posterior draws PSIS-LOO uses, spread evenly over the kept draws: enough for the Pareto
@@ -306,4 +366,27 @@ fn leave_one_out(posterior: &Posterior, outcome: &mut FitOutcome) -> Result<(), 
     outcome.dir.write_loo(&points)?;
     outcome.summary.loo = Some(LooSummary::new(&loo.total, &loo.runs, r_eff));
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// The truths a fit records are the JSON files `simulate` wrote beside the data, read
+    /// where the run file says the data are; data without them record none.
+    #[test]
+    fn truths_are_read_beside_the_data() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let demo = RunFile::load(&root.join("models/demo.toml")).unwrap();
+        let truths = truths(&demo.model);
+        assert_eq!(truths.len(), demo.model.file.runs.len());
+        assert_eq!(truths[0].run, demo.model.file.runs[0].name);
+        assert_eq!(truths[0].file, format!("{}.json", truths[0].run));
+        let elsewhere = tempfile::tempdir().unwrap();
+        let text = std::fs::read_to_string(root.join("models/demo.toml")).unwrap();
+        let moved =
+            RunFile::parse_in(&text, elsewhere.path().join("models"), "demo.toml".into()).unwrap();
+        assert!(super::truths(&moved.model).is_empty());
+    }
 }

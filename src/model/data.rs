@@ -406,8 +406,9 @@ impl RunData {
     pub fn max_force(&self) -> f64 {
         let w = (self.force.len() / 100).max(1);
         // Each window summed afresh costs n·w additions: nothing for a slide of a few thousand
-        // points, but 10¹⁰ (8 s of a start that otherwise takes 1 s) at 10⁶. Wider windows
-        // slide a running sum, whose rounding (about n ε relative) a rough start does not feel.
+        // points, but 10¹⁰ at 10⁶, many times the rest of the start (`reports/fit-defaults.md`).
+        // Wider windows slide a running sum, whose rounding (about n ε relative) a rough
+        // start does not feel.
         if w <= MAX_FORCE_DIRECT_WINDOW {
             return self
                 .force

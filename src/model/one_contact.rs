@@ -8,7 +8,6 @@ use crate::law::{LawKind, Scene};
 
 use super::spec::{
     ContactSpec, ForwardModel, Level, MaterialSpec, ModelFile, Param, PoolingSpec, RunSpec,
-    SamplerSpec,
 };
 use super::{ModelSpec, SpecError};
 
@@ -124,7 +123,7 @@ impl ModelSpec {
             aging: Default::default(),
             pooling: PoolingSpec::default(),
             priors: Default::default(),
-            sampler: SamplerSpec::default(),
+            sampler: Default::default(),
             likelihood: Default::default(),
         };
         ModelSpec::validate(file, PathBuf::from("."), PathBuf::from(COMMAND_LINE))

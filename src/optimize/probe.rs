@@ -187,15 +187,15 @@ pub(crate) struct SecondDifferences {
 mod tests {
     use super::*;
     use crate::density::BlockedDensity;
-    use crate::model::{ModelSpec, Posterior};
+    use crate::run_file::RunFile;
 
     /// The demo's posterior (17 coordinates in six blocks, with a cache): every point the probe
     /// evaluates by a block gives the bits of a full evaluation at the same point.
     #[test]
     fn block_moves_give_the_bits_of_full_evaluations() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let spec = ModelSpec::load(&root.join("models/demo.toml")).unwrap();
-        let posterior = Posterior::new(&spec).unwrap();
+        let spec = RunFile::load(&root.join("models/demo.toml")).unwrap();
+        let posterior = spec.posterior().unwrap();
         assert!(posterior.block_plan().blocks.len() >= 2 && posterior.state_len() > 0);
         let x = posterior.start().to_vec();
         let h: Vec<f64> = x.iter().map(|v| 1e-3 * v.abs().max(1.0)).collect();

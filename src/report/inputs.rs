@@ -1,8 +1,10 @@
 //! What a report reads back from a finished run directory, through the run directory's own
-//! types: `summary.json`, `settings.json`, `predictive.csv` and the chains.
+//! types: `model.toml`, `summary.json`, `settings.json`, `predictive.csv`, `curves.json`,
+//! `truth.json` and the chains.
 
 use super::ReportError;
-use crate::fit::{FitSummary, RunDir, RunRecord};
+use crate::fit::run_dir::{Curves, RunTruth};
+use crate::fit::{FitSummary, RunDir, RunFile, RunRecord};
 use crate::model::Band;
 use crate::storage::ChainReader;
 
@@ -22,12 +24,19 @@ pub fn coverage_95(run: &Band) -> f64 {
 pub struct RunInputs {
     /// The run directory.
     pub dir: RunDir,
+    /// `model.toml`: the runs, contacts and materials the report names (their data are not
+    /// read).
+    pub run: RunFile,
     /// `summary.json`.
     pub summary: FitSummary,
     /// `settings.json`.
     pub record: RunRecord,
     /// `predictive.csv`, per run in file order.
     pub predictive: Vec<Band>,
+    /// `curves.json`: the curves the fit redrew from the posterior.
+    pub curves: Curves,
+    /// `truth.json`: the simulations behind synthetic data.
+    pub truths: Vec<RunTruth>,
     /// The chains, read one row group at a time.
     pub chains: ChainReader,
 }
@@ -40,9 +49,14 @@ impl RunInputs {
     pub fn read(dir: &RunDir) -> Result<Self, ReportError> {
         Ok(Self {
             dir: dir.clone(),
-            summary: dir.read_summary()?,
+            // settings.json first: a fit writes it once its chains are summarised, so that
+            // a directory without it is no finished run, which the error says.
             record: dir.read_record()?,
+            summary: dir.read_summary()?,
+            run: dir.read_model()?,
             predictive: dir.read_predictive()?,
+            curves: dir.read_curves()?,
+            truths: dir.read_truths()?,
             chains: dir.chain_reader()?,
         })
     }

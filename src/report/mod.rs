@@ -2,11 +2,12 @@
 //! `report.md`, with SVG figures in `figures/`, built from a finished run directory.
 //!
 //! A report answers at a glance: does the model fit the data, did the sampler converge, what is
-//! the static friction peak with its uncertainty, and do the materials differ. It reads back
-//! what a fit wrote (`summary.json`, `settings.json`, `predictive.csv`, `chains/`) and redraws,
-//! from posterior draws, the curves the data do not sample (interface time, sliding distance,
-//! the peak against t0) through the model's [`Posterior`]. It knows nothing of how the
-//! chains were sampled, and never refits.
+//! the static friction peak with its uncertainty, and do the materials differ. It reads the
+//! run directory and nothing else: what a fit wrote (`model.toml`, `summary.json`,
+//! `settings.json`, `predictive.csv`, `curves.json`, `truth.json`, `chains/`), including the
+//! curves the data do not sample (interface time, sliding distance, the peak against t0),
+//! which the fit redrew from posterior draws. It knows nothing of how the chains were
+//! sampled, loads neither the model's data nor its posterior, and never refits.
 //!
 //! Layout written into the run directory:
 //! ```text
@@ -24,7 +25,7 @@
 mod comparison;
 mod content;
 mod contours;
-mod curves;
+mod density;
 mod document;
 mod inputs;
 mod plots;
@@ -35,7 +36,6 @@ use std::path::PathBuf;
 
 use crate::fit::run_dir::{FIGURES_DIR, REPORT_HTML, REPORT_MD};
 use crate::fit::{RunDir, RunDirError};
-use crate::model::Posterior;
 
 pub use comparison::{write_comparison, COMPARE_HTML, COMPARE_MD};
 pub use document::{render_html, render_markdown, Block};
@@ -48,16 +48,6 @@ pub enum ReportError {
     /// A file of the run directory is missing, malformed or cannot be written.
     #[error(transparent)]
     RunDir(#[from] RunDirError),
-    /// The model of the run (its `model.toml` and the data it names) could not be loaded
-    /// again.
-    #[error("rebuilding the posterior of {}: {source}", dir.display())]
-    Model {
-        /// The run directory.
-        dir: PathBuf,
-        /// The cause, naming the file, line or key.
-        #[source]
-        source: crate::model::PosteriorError,
-    },
     /// The chains lack a column the report needs.
     #[error("reading the chains of {}", dir.display())]
     Chains {
@@ -75,9 +65,6 @@ pub enum ReportError {
         /// What does not match.
         problem: String,
     },
-    /// A posterior draw gave an invalid law.
-    #[error("redrawing a curve from a posterior draw: {0}")]
-    Law(crate::law::LawError),
     /// A figure could not be drawn.
     #[error(transparent)]
     Draw(#[from] crate::plot::DrawError),
@@ -94,30 +81,16 @@ pub struct ReportFiles {
     pub figures: Vec<PathBuf>,
 }
 
-/// Rebuilds the report of the finished run in `dir` from its files alone: the model is read
-/// from its `model.toml` (the data files must still be where it says), nothing is refitted.
-///
-/// # Errors
-/// As [`write_report`], and [`ReportError::Model`] when the model cannot be loaded again.
-pub fn rebuild_report(dir: &RunDir) -> Result<ReportFiles, ReportError> {
-    let spec = dir.read_model()?;
-    let posterior = Posterior::new(&spec).map_err(|source| ReportError::Model {
-        dir: dir.path().to_path_buf(),
-        source,
-    })?;
-    write_report(dir, &posterior)
-}
-
-/// Builds the report of the finished run in `dir`, fitted with `posterior` (whose model
-/// names the runs, contacts and materials and redraws the curves the data do not sample),
-/// and writes `report.html`, `report.md` and `figures/*.svg` into it, each file atomically.
+/// Builds the report of the finished run in `dir` from its files alone (the directory may
+/// have moved, and the run's data files need not exist any more; nothing is refitted) and
+/// writes `report.html`, `report.md` and `figures/*.svg` into it, each file atomically.
 ///
 /// # Errors
 /// [`ReportError`] naming the file that is missing, malformed or cannot be written, or the
 /// figure that cannot be drawn.
-pub fn write_report(dir: &RunDir, posterior: &Posterior) -> Result<ReportFiles, ReportError> {
+pub fn write_report(dir: &RunDir) -> Result<ReportFiles, ReportError> {
     let inputs = RunInputs::read(dir)?;
-    let content = content::build(&inputs, posterior)?;
+    let content = content::build(&inputs)?;
     let figures = write_figures(dir, &content.blocks)?;
     let markdown = dir.write(
         REPORT_MD,
@@ -137,10 +110,8 @@ pub fn write_report(dir: &RunDir, posterior: &Posterior) -> Result<ReportFiles, 
 /// Writes every figure of `blocks` into `dir/figures/`, each atomically; their paths in order.
 fn write_figures(dir: &RunDir, blocks: &[Block]) -> Result<Vec<PathBuf>, ReportError> {
     let figures_dir = dir.file(FIGURES_DIR);
-    std::fs::create_dir_all(&figures_dir).map_err(|source| RunDirError::Write {
-        path: figures_dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&figures_dir)
+        .map_err(|e| RunDirError::from(crate::IoError::new("create", &figures_dir, e)))?;
     let mut figures = Vec::new();
     for block in blocks {
         if let Block::Figure { file, svg, .. } = block {

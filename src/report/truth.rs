@@ -1,64 +1,40 @@
 //! The true values behind synthetic data: `slipbayes simulate` writes them as JSON beside each
-//! data file (`first.csv` → `first.json`, with `"synthetic": true` and the simulation's
-//! settings). A report overlays them where every value a figure needs is known.
+//! data file, and a fit copies them into its run directory (`truth.json`). A report overlays
+//! them where every value a figure needs is known.
 
-use std::path::PathBuf;
-
-use serde::Deserialize;
-
+use super::plots::RunView;
+use crate::fit::run_dir::RunTruth;
 use crate::law::Scene;
 use crate::model::spec::{ForwardModel, Param};
-use crate::model::ModelSpec;
 use crate::simulate::SimulationSpec;
-
-/// What the report reads of a truth file.
-#[derive(Deserialize)]
-struct TruthFile {
-    synthetic: bool,
-    spec: SimulationSpec,
-}
 
 /// The simulation settings of each run of a model whose data file has a truth file beside it.
 #[derive(Debug, Clone)]
 pub struct Truths {
     /// Per run: its name, contact, material, scene and, when found, what simulated it.
     runs: Vec<(String, String, String, Scene, Option<SimulationSpec>)>,
-    /// The truth files read.
-    pub files: Vec<PathBuf>,
+    /// The names of the truth files, beside the data files they describe.
+    pub files: Vec<String>,
 }
 
 impl Truths {
-    /// Reads the JSON beside each data file of `spec`; a run without one (or with one that
-    /// does not say `"synthetic": true` or cannot be read) has no true values.
-    pub fn read(spec: &ModelSpec) -> Self {
-        let mut files = Vec::new();
-        let runs = spec
-            .file
-            .runs
+    /// The true values of the runs `runs` of a model, from what the fit recorded in
+    /// `truth.json`; a run without an entry has no true values.
+    pub fn new(runs: &[RunView], recorded: &[RunTruth]) -> Self {
+        let runs = runs
             .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                let path = spec.data_path(i).with_extension("json");
-                let truth = std::fs::read_to_string(&path)
-                    .ok()
-                    .and_then(|text| serde_json::from_str::<TruthFile>(&text).ok())
-                    .filter(|t| t.synthetic)
-                    .map(|t| t.spec);
-                if truth.is_some() {
-                    files.push(path);
-                }
-                let contact = spec.run_contact[i];
+            .map(|r| {
+                let truth = recorded.iter().find(|t| t.run == r.name);
                 (
                     r.name.clone(),
-                    spec.file.contacts[contact].name.clone(),
-                    spec.file.materials[spec.contact_material[contact]]
-                        .name
-                        .clone(),
+                    r.contact.clone(),
+                    r.material.clone(),
                     r.scene,
-                    truth,
+                    truth.map(|t| t.simulation.clone()),
                 )
             })
             .collect();
+        let files = recorded.iter().map(|t| t.file.clone()).collect();
         Self { runs, files }
     }
 

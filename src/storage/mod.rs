@@ -82,16 +82,8 @@ pub struct ChainFiles {
 #[derive(Debug, thiserror::Error)]
 pub enum StorageError {
     /// A file-system operation failed.
-    #[error("cannot {action} {}: {source}", path.display())]
-    Io {
-        /// What was being done ("create", "rename", ...).
-        action: &'static str,
-        /// The path at fault.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] crate::IoError),
     /// The directory holds a finished run.
     #[error(
         "{} already holds a completed run; choose another --out or pass --overwrite",
@@ -243,11 +235,7 @@ pub enum StorageError {
 
 impl StorageError {
     pub(crate) fn io(action: &'static str, path: &Path, source: std::io::Error) -> Self {
-        Self::Io {
-            action,
-            path: path.to_path_buf(),
-            source,
-        }
+        Self::Io(crate::IoError::new(action, path, source))
     }
 
     pub(crate) fn parquet(path: &Path, err: impl std::fmt::Display) -> Self {

@@ -34,6 +34,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::run_file::RunFile;
 
 /// Seed of every run of the bench (the sampler's default).
 pub const BENCH_SEED: u64 = slipbayes::sampler::DEFAULT_SEED;
@@ -246,9 +247,9 @@ pub(crate) fn load_posterior(path: &Path) -> Result<(ModelSpec, Posterior), Benc
         what: format!("model {}", path.display()),
         message,
     };
-    let spec = ModelSpec::load(path).map_err(|e| input(e.to_string()))?;
-    let posterior = Posterior::new(&spec).map_err(|e| input(e.to_string()))?;
-    Ok((spec, posterior))
+    let run = RunFile::load(path).map_err(|e| input(e.to_string()))?;
+    let posterior = run.posterior().map_err(|e| input(e.to_string()))?;
+    Ok((run.model, posterior))
 }
 
 /// Runs every measurement and returns the results; `progress` hears what is being done.

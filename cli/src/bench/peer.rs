@@ -16,6 +16,7 @@ use slipbayes::data::write_atomically;
 use slipbayes::density::LogDensity;
 use slipbayes::model::prior::Prior;
 use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::run_file::RunFile;
 
 /// Relative agreement required of the peer's log-density (relative to max(|ours|, 1)).
 pub const LOG_DENSITY_RTOL: f64 = 1e-9;
@@ -356,10 +357,12 @@ impl PeerInputs {
         posterior: &Posterior,
         ours: &Measured,
     ) -> Result<Self, BenchError> {
-        let spec = ModelSpec::load(&settings.one_contact_model).map_err(|e| BenchError::Input {
-            what: format!("model {}", settings.one_contact_model.display()),
-            message: e.to_string(),
-        })?;
+        let spec = RunFile::load(&settings.one_contact_model)
+            .map_err(|e| BenchError::Input {
+                what: format!("model {}", settings.one_contact_model.display()),
+                message: e.to_string(),
+            })?
+            .model;
         if spec.file.runs.len() != 1 {
             return Err(peer_err(
                 "the peer fits a model with exactly one first slide",

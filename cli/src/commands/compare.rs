@@ -162,10 +162,10 @@ fn read_kfold(dir: &RunDir, summary: FitSummary) -> anyhow::Result<Fitted> {
 
 /// The forward model the fit in `dir` used, from its `model.toml`.
 fn forward_model(dir: &RunDir) -> anyhow::Result<String> {
-    let model = dir
+    let run_file = dir
         .read_model()
         .with_context(|| format!("reading the model of {}", dir.path().display()))?;
-    Ok(model.forward().to_string())
+    Ok(run_file.model.forward().to_string())
 }
 
 fn read_loo(dir: &RunDir, summary: FitSummary) -> anyhow::Result<Fitted> {

@@ -13,6 +13,7 @@ use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, Sett
 use slipbayes::law::LawKind;
 use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{CarryFit, Mixture, Parallelism, Updates};
 
 use super::import::ImportArgs;
@@ -213,13 +214,14 @@ fn parallelism<'p>(
 
 /// `fit`, its evaluations shared by `ranks` when given (the ranks of an MPI job).
 pub(super) fn run(args: &FitArgs, ranks: Ranks<'_>) -> anyhow::Result<ExitCode> {
-    fit_and_report(&fit_spec(args)?, &args.out, &args.run, false, ranks)
+    fit_and_report(&fit_run_file(args)?, &args.out, &args.run, false, ranks)
 }
 
-/// The model `fit` fits: the model file, or the quick path's one-contact model.
-pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<ModelSpec> {
+/// The run `fit` fits: the model file, or the quick path's one-contact model with the
+/// default sampler settings.
+pub(super) fn fit_run_file(args: &FitArgs) -> anyhow::Result<RunFile> {
     Ok(match (&args.model, &args.first) {
-        (Some(path), None) => ModelSpec::load(path)?,
+        (Some(path), None) => RunFile::load(path)?,
         (None, Some(first)) => quick_model(args, first)?,
         (None, None) => {
             bail!("give a model file, or --first FIRST.csv for the one-contact quick path")
@@ -230,17 +232,17 @@ pub(super) fn fit_spec(args: &FitArgs) -> anyhow::Result<ModelSpec> {
 
 /// `demo`, its evaluations shared by `ranks` when given.
 pub(super) fn demo(args: &DemoArgs, ranks: Ranks<'_>) -> anyhow::Result<ExitCode> {
-    let spec = demo_spec(args)?;
+    let run_file = demo_run_file(args)?;
     // The main job is re-run as it is: it replaces its earlier results unless resuming.
-    fit_and_report(&spec, &args.out, &args.run, !args.run.resume, ranks)
+    fit_and_report(&run_file, &args.out, &args.run, !args.run.resume, ranks)
 }
 
-/// The model `demo` fits.
-pub(super) fn demo_spec(args: &DemoArgs) -> anyhow::Result<ModelSpec> {
+/// The run `demo` fits.
+pub(super) fn demo_run_file(args: &DemoArgs) -> anyhow::Result<RunFile> {
     if !args.model.exists() {
         bail!("{}", missing_demo_model(&args.model));
     }
-    Ok(ModelSpec::load(&args.model)?)
+    Ok(RunFile::load(&args.model)?)
 }
 
 /// Where `demo` looked for its model and how to point it at the one bundled with the source.
@@ -264,11 +266,11 @@ fn missing_demo_model(model: &Path) -> String {
 }
 
 /// The one-contact model of the quick path: groups `first`, `repeat` (runs) and `contact`.
-fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
+fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<RunFile> {
     let Some(velocity_m_per_s) = args.velocity else {
         bail!("--velocity is required with --first (m/s, e.g. 1e-9 for 1 nm/s)");
     };
-    Ok(ModelSpec::one_contact(&OneContact {
+    let model = ModelSpec::one_contact(&OneContact {
         first: first.to_path_buf(),
         repeat: args.repeat.clone(),
         velocity_m_per_s,
@@ -282,7 +284,8 @@ fn quick_model(args: &FitArgs, first: &Path) -> anyhow::Result<ModelSpec> {
             elastic: !args.rigid,
             ..ForwardModel::default()
         },
-    })?)
+    })?;
+    Ok(RunFile::with_default_sampler(model))
 }
 
 impl RunArgs {
@@ -303,14 +306,18 @@ impl RunArgs {
 }
 
 fn fit_and_report(
-    spec: &ModelSpec,
+    run_file: &RunFile,
     out: &Path,
     run: &RunArgs,
     replace_earlier: bool,
     mut ranks: Ranks<'_>,
 ) -> anyhow::Result<ExitCode> {
-    let posterior = Posterior::new(spec)?;
-    let settings = FitSettings::for_model(&posterior, &run.overrides(replace_earlier));
+    let posterior = run_file.posterior()?;
+    let settings = FitSettings::for_model(
+        &posterior,
+        &run_file.sampler,
+        &run.overrides(replace_earlier),
+    );
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let lock = RunLock::acquire(out)?;
     interrupt::install();
@@ -319,6 +326,7 @@ fn fit_and_report(
             .stop_when(&interrupt::INTERRUPTED);
     let command: Vec<String> = std::env::args().collect();
     let outcome = match fit_model(
+        run_file,
         &posterior,
         &settings,
         &lock,
@@ -340,7 +348,7 @@ fn fit_and_report(
     };
     print_summary(&outcome);
     #[cfg(feature = "report")]
-    super::report::write_and_print(&outcome.dir, &posterior)?;
+    super::report::write_and_print(&outcome.dir)?;
     let converged = outcome.summary.sampler.converged;
     if !converged {
         eprintln!(

@@ -9,7 +9,6 @@ use clap::Args;
 
 use slipbayes::fit::kfold::{kfold, Folds, DEFAULT_BLOCKS_PER_FOLD, DEFAULT_FOLDS};
 use slipbayes::fit::{FitError, RunDir};
-use slipbayes::model::Posterior;
 
 use crate::interrupt::{self, EXIT_INTERRUPTED};
 use crate::progress::{ProgressBarObserver, DEFAULT_LINE_EVERY};
@@ -46,13 +45,13 @@ pub(super) struct KFoldArgs {
 pub(super) fn run(args: &KFoldArgs) -> anyhow::Result<ExitCode> {
     let dir = RunDir::new(&args.dir);
     let shown = args.dir.display();
-    let spec = dir
+    let run_file = dir
         .read_model()
         .with_context(|| format!("reading the fit in {shown}"))?;
     let mut summary = dir.read_summary()?;
     let mut settings = dir.read_record()?.settings;
     settings.quiet = args.quiet;
-    let posterior = Posterior::new(&spec)?;
+    let posterior = run_file.posterior()?;
     let _lock = RunLock::acquire(&args.dir)?;
     interrupt::install();
     let mut observer =

@@ -121,9 +121,9 @@ fn say(line: String) {
 /// their share of `validate`'s replications).
 fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     let rank = cluster.rank();
-    let spec = match &cli.command {
-        Command::Fit(args) => fit::fit_spec(args)?,
-        Command::Demo(args) => fit::demo_spec(args)?,
+    let run_file = match &cli.command {
+        Command::Fit(args) => fit::fit_run_file(args)?,
+        Command::Demo(args) => fit::demo_run_file(args)?,
         Command::MpiLatency(args) => {
             latency(args, cluster)?;
             // Then wait for rank 0's release, as after a fit.
@@ -147,11 +147,12 @@ fn serve(cli: Cli, cluster: &mut Cluster) -> anyhow::Result<()> {
     // Rank 0 says whether this rank holds only its share of the contacts' data.
     let posterior = match cluster.receive_density()? {
         DensityShare::Released => return Ok(()),
-        DensityShare::Whole => Posterior::new(&spec).with_context(loading)?,
+        DensityShare::Whole => run_file.posterior().with_context(loading)?,
         DensityShare::Share(words) => {
             let data_share = DataShare::from_words(&words).with_context(loading)?;
             let own = |parts| cluster.own_parts(parts);
-            Posterior::share_of(&spec, &data_share, own).with_context(loading)?
+            Posterior::share_of(&run_file.model, run_file.blocking(), &data_share, own)
+                .with_context(loading)?
         }
     };
     cluster.serve(Target::blocked(&posterior))?;

@@ -8,13 +8,12 @@ use clap::Args;
 
 use slipbayes::fit::run_dir::{CHAINS_DIR, FIGURES_DIR, SETTINGS_JSON};
 use slipbayes::fit::RunDir;
-use slipbayes::model::Posterior;
-use slipbayes::report::{rebuild_report, write_report, ReportFiles};
+use slipbayes::report::{write_report, ReportFiles};
 
 /// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
-/// (summary.json, settings.json, model.toml, predictive.csv, chains/), without refitting.
-/// The run's data files must still be where its model says (curves in interface time are
-/// redrawn through the model).
+/// (summary.json, settings.json, model.toml, predictive.csv, curves.json, truth.json,
+/// chains/) and nothing else, without refitting: the directory may be moved or copied to
+/// another machine, without the run's data files.
 #[derive(Debug, Args)]
 pub(super) struct ReportArgs {
     /// The run directory (what `fit --out` or `demo` wrote).
@@ -26,15 +25,13 @@ pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     if let Some(problem) = missing_chains(&dir) {
         bail!("{problem}");
     }
-    let files = rebuild_report(&dir)
-        .with_context(|| format!("writing the report of {}", dir.path().display()))?;
-    print_written(&dir, &files);
+    write_and_print(&dir)?;
     Ok(ExitCode::SUCCESS)
 }
 
 /// Writes the report of the run in `dir` and says where it is.
-pub(super) fn write_and_print(dir: &RunDir, posterior: &Posterior) -> anyhow::Result<()> {
-    let files = write_report(dir, posterior)
+pub(super) fn write_and_print(dir: &RunDir) -> anyhow::Result<()> {
+    let files = write_report(dir)
         .with_context(|| format!("writing the report of {}", dir.path().display()))?;
     print_written(dir, &files);
     Ok(())

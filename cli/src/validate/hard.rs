@@ -19,7 +19,8 @@ use slipbayes::fit::run_dir::{CHAINS_DIR, CHECKPOINT};
 use slipbayes::fit::{fit_stop_rule, kept_draws, peak_notes, RunDir, DEFAULT_MAX_STEPS};
 use slipbayes::law::{Law, LawParams, Scene};
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{Move, Steps};
 use slipbayes::simulate::{simulate, SimulationSpec};
 
@@ -303,14 +304,15 @@ fn fit_case(
         model += &run_toml("repeat", "repeat.csv", "repeat", Some("first"));
     }
     // The model and its slides stay in memory; only the fit's chains go to disk.
-    let spec = ModelSpec::parse(&model, &dir.join("model.toml")).map_err(|e| e.to_string())?;
+    let run = RunFile::parse(&model, &dir.join("model.toml")).map_err(|e| e.to_string())?;
+    let spec = &run.model;
     let data = slides
         .into_iter()
         .enumerate()
-        .map(|(run, series)| RunData::for_series(&spec, run, series))
+        .map(|(i, series)| RunData::for_series(spec, i, series))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| e.to_string())?;
-    let posterior = Posterior::from_data(&spec, data).map_err(|e| e.to_string())?;
+    let posterior = Posterior::from_data(spec, run.blocking(), data).map_err(|e| e.to_string())?;
     let timer = Instant::now();
     let at_start = posterior.log_density(posterior.start(), &mut []);
     outcome.eval_s = timer.elapsed().as_secs_f64();

@@ -39,7 +39,8 @@ use slipbayes::fit::{run_fit, FitSettings};
 use slipbayes::fit::{RunDir, SummarySpec};
 use slipbayes::law::Scene;
 use slipbayes::model::data::RunData;
-use slipbayes::model::{ModelSpec, Posterior};
+use slipbayes::model::Posterior;
+use slipbayes::run_file::RunFile;
 use slipbayes::sampler::Move;
 use slipbayes::sampler::{Parallelism, Silent, Steps};
 use slipbayes::simulate::sample_times;
@@ -200,7 +201,8 @@ struct Design {
 }
 
 impl Design {
-    fn new(spec: ModelSpec, settings: &SbcSettings) -> Result<Self, ValidateError> {
+    fn new(run: RunFile, settings: &SbcSettings) -> Result<Self, ValidateError> {
+        let (spec, plan) = (&run.model, run.blocking());
         let bad = |message: String| ValidateError::Model {
             path: spec.source.clone(),
             message,
@@ -244,11 +246,11 @@ impl Design {
                 normal_force_n: None,
             };
             placeholders
-                .push(RunData::for_series(&spec, i, series).map_err(|e| bad(e.to_string()))?);
+                .push(RunData::for_series(spec, i, series).map_err(|e| bad(e.to_string()))?);
             times.push(t);
         }
         let posterior =
-            Posterior::from_data(&spec, placeholders).map_err(|e| bad(e.to_string()))?;
+            Posterior::from_data(spec, plan, placeholders).map_err(|e| bad(e.to_string()))?;
         // Every parameter, the peak of every first slide and the peak of a new contact: the
         // other derived columns (where and when the peak is) follow from these.
         let tracked = posterior
@@ -370,7 +372,8 @@ fn fit_and_rank(
             RunData::for_series(spec, run, series).map_err(|e| e.to_string())
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let posterior = Posterior::from_data(spec, data).map_err(|e| e.to_string())?;
+    let posterior =
+        Posterior::from_data(spec, design.posterior.blocking(), data).map_err(|e| e.to_string())?;
     let fit_dir = RunDir::new(dir.join("fit"));
     let outcome = quiet_fit(
         &posterior,
@@ -782,9 +785,9 @@ impl SbcRun {
     /// [`ValidateError`] for invalid settings or a model with a run SBC cannot simulate.
     pub fn load(settings: &SbcSettings, out: &Path) -> Result<Self, ValidateError> {
         settings.validate()?;
-        let spec = ModelSpec::load(&settings.model)?;
+        let run = RunFile::load(&settings.model)?;
         Ok(Self {
-            design: Design::new(spec, settings)?,
+            design: Design::new(run, settings)?,
             settings: settings.clone(),
             reps_dir: out.join(REPLICATIONS_DIR),
         })

@@ -7,6 +7,8 @@ use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use crate::IoError;
+
 /// The lock file inside the run directory.
 pub const LOCK_FILE: &str = ".slipbayes.lock";
 
@@ -31,16 +33,8 @@ pub enum LockError {
         command: String,
     },
     /// The directory or the lock file could not be created, written or removed.
-    #[error("{action} {}: {source}", path.display())]
-    Io {
-        /// What was being done, e.g. "creating the lock".
-        action: &'static str,
-        /// The directory or lock file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] IoError),
     /// The lock file was replaced again after a stale one was removed.
     #[error(
         "cannot lock {}: another process keeps replacing {}",
@@ -116,13 +110,9 @@ impl RunLock {
     pub fn acquire(dir: &Path) -> Result<Self, LockError> {
         let io = |action, path: &Path| {
             let path = path.to_path_buf();
-            move |source| LockError::Io {
-                action,
-                path,
-                source,
-            }
+            move |source| LockError::Io(IoError::new(action, path, source))
         };
-        std::fs::create_dir_all(dir).map_err(io("creating", dir))?;
+        std::fs::create_dir_all(dir).map_err(io("create the run directory", dir))?;
         let path = dir.join(LOCK_FILE);
         let me = this_process();
         // Twice at most: once more after removing a dead holder's lock.
@@ -130,7 +120,7 @@ impl RunLock {
             match OpenOptions::new().write(true).create_new(true).open(&path) {
                 Ok(mut file) => {
                     writeln!(file, "{}\n{}", me.pid, me.command)
-                        .map_err(io("writing the lock", &path))?;
+                        .map_err(io("write the lock file", &path))?;
                     return Ok(Self {
                         dir: dir.to_path_buf(),
                         path,
@@ -151,11 +141,11 @@ impl RunLock {
                         _ => match std::fs::remove_file(&path) {
                             Ok(()) => {}
                             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                            Err(e) => return Err(io("removing the stale lock", &path)(e)),
+                            Err(e) => return Err(io("remove the stale lock file", &path)(e)),
                         },
                     }
                 }
-                Err(e) => return Err(io("creating the lock", &path)(e)),
+                Err(e) => return Err(io("create the lock file", &path)(e)),
             }
         }
         Err(LockError::Contended {

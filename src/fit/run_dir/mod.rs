@@ -6,6 +6,8 @@
 //! DIR/summary.json        parameters, derived quantities, aggregates, comparisons, sampler
 //! DIR/summary.csv         one row per parameter and derived quantity (ArviZ's columns)
 //! DIR/predictive.csv      posterior and posterior predictive bands at the data times
+//! DIR/curves.json         the law in interface time and the peak against t0, redrawn
+//! DIR/truth.json          the simulations behind synthetic data, when there are any
 //! DIR/loo.csv             each observation's PSIS-LOO predictive density and Pareto k̂
 //! DIR/kfold.csv           each observation's K-fold predictive density (`slipbayes kfold`)
 //! DIR/kfold/fold-J/       the run directory of each fold's fit (`slipbayes kfold`)
@@ -15,12 +17,13 @@
 //! DIR/.slipbayes.lock     held while a fit writes the directory ([`RunLock`])
 //! ```
 //!
-//! A fit writes the first eight ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
-//! report reads them back through the same types ([`FitSummary`], [`RunRecord`],
-//! [`Band`]) and writes the last three. Every file is written atomically: a reader never
-//! sees half of one.
+//! A fit writes the first ten ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
+//! report reads them back through the same types ([`FitSummary`], [`RunRecord`], [`Band`],
+//! [`Curves`], [`RunTruth`]), and nothing outside the directory, and writes the last three.
+//! Every file is written atomically: a reader never sees half of one.
 
 mod csv;
+mod curves;
 mod kfold;
 mod lock;
 mod loo;
@@ -30,11 +33,14 @@ mod summary;
 
 use std::path::{Path, PathBuf};
 
+use super::RunFile;
 use crate::data::write_atomically;
-use crate::model::{Band, ModelFile, ModelSpec};
+use crate::model::{Band, SpecError};
 use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
+use crate::IoError;
 
 pub use csv::{summary_csv, CSV_COLUMNS};
+pub use curves::{Curves, InterfaceCurve, PeakVsT0, RunCurves, RunTruth};
 pub use kfold::{KFoldPoint, KFoldSummary, RunKFold, KFOLD_HEADER};
 pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
@@ -54,6 +60,10 @@ pub const SUMMARY_JSON: &str = "summary.json";
 pub const SUMMARY_CSV: &str = "summary.csv";
 /// The posterior and posterior predictive bands.
 pub const PREDICTIVE_CSV: &str = "predictive.csv";
+/// The curves a report draws that the data do not sample.
+pub const CURVES_JSON: &str = "curves.json";
+/// The simulations behind synthetic data.
+pub const TRUTH_JSON: &str = "truth.json";
 /// Each observation's leave-one-out predictive density and Pareto k̂.
 pub const LOO_CSV: &str = "loo.csv";
 /// Each observation's K-fold cross-validated predictive density (`slipbayes kfold`).
@@ -73,15 +83,9 @@ pub const FIGURES_DIR: &str = "figures";
 /// What went wrong reading or writing a file of a run directory; each names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum RunDirError {
-    /// A file could not be read.
-    #[error("reading {}: {source}; is this a finished run directory (slipbayes fit --out)?", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file of the run could not be read.
+    #[error("{0}; is this a finished run directory (slipbayes fit --out)?")]
+    Read(#[source] IoError),
     /// A file is malformed.
     #[error("{}: {message}", path.display())]
     Parse {
@@ -91,14 +95,8 @@ pub enum RunDirError {
         message: String,
     },
     /// A file could not be written (or a stale one removed).
-    #[error("writing {}: {source}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] IoError),
     /// The model recorded in the directory is no longer valid.
     #[error("loading the model of the run from {}: {message}", path.display())]
     Model {
@@ -175,13 +173,10 @@ impl RunDir {
     /// Writes `bytes` to the file `name` of the directory, atomically.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
+    /// [`RunDirError::Io`] naming the file.
     pub fn write(&self, name: &str, bytes: &[u8]) -> Result<PathBuf, RunDirError> {
         let path = self.file(name);
-        write_atomically(&path, bytes).map_err(|source| RunDirError::Write {
-            path: path.clone(),
-            source,
-        })?;
+        write_atomically(&path, bytes).map_err(IoError::at("write", &path))?;
         Ok(path)
     }
 
@@ -191,13 +186,14 @@ impl RunDir {
     /// [`RunDirError::Read`] naming the file.
     pub fn read(&self, name: &str) -> Result<String, RunDirError> {
         let path = self.file(name);
-        std::fs::read_to_string(&path).map_err(|source| RunDirError::Read { path, source })
+        std::fs::read_to_string(&path)
+            .map_err(|e| RunDirError::Read(IoError::new("read", &path, e)))
     }
 
     /// Writes `summary.json` and `summary.csv`.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
+    /// [`RunDirError::Io`] naming the file.
     pub fn write_summary(&self, summary: &FitSummary) -> Result<(), RunDirError> {
         let mut json = serde_json::to_vec_pretty(summary).map_err(|e| RunDirError::Parse {
             path: self.file(SUMMARY_JSON),
@@ -220,26 +216,27 @@ impl RunDir {
     /// Removes the summaries of an earlier run, which must not survive next to new chains.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] when a summary exists but cannot be removed.
+    /// [`RunDirError::Io`] when a summary exists but cannot be removed.
     pub fn remove_summaries(&self) -> Result<(), RunDirError> {
         for name in [SUMMARY_JSON, SUMMARY_CSV] {
             let path = self.file(name);
             match std::fs::remove_file(&path) {
                 Ok(()) => {}
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                Err(source) => return Err(RunDirError::Write { path, source }),
+                Err(e) => return Err(IoError::new("remove", path, e).into()),
             }
         }
         Ok(())
     }
 
-    /// Writes `model.toml`: the model as fitted, with a header saying where its data paths are
-    /// relative to.
+    /// Writes `model.toml`: the run file as fitted, with a header saying where its data paths
+    /// are relative to.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
-    pub fn write_model(&self, spec: &ModelSpec) -> Result<(), RunDirError> {
-        let model = toml::to_string_pretty(&spec.file).map_err(|e| RunDirError::Parse {
+    /// [`RunDirError::Io`] naming the file.
+    pub fn write_model(&self, run: &RunFile) -> Result<(), RunDirError> {
+        let spec = &run.model;
+        let model = run.to_toml().map_err(|e| RunDirError::Parse {
             path: self.file(MODEL_TOML),
             message: format!("cannot serialise the model: {e}"),
         })?;
@@ -252,14 +249,14 @@ impl RunDir {
         Ok(())
     }
 
-    /// The model of the run: its `model.toml`, with data paths resolved against the directory
+    /// The run file of the run: its `model.toml`, with data paths resolved against the directory
     /// `settings.json` records (`data_dir`, relative to the run directory), or, for runs that
     /// predate it, against the directory of the model file it names.
     ///
     /// # Errors
     /// [`RunDirError::Read`] or [`RunDirError::Parse`] for a missing or malformed file;
     /// [`RunDirError::Model`] when the model is invalid.
-    pub fn read_model(&self) -> Result<ModelSpec, RunDirError> {
+    pub fn read_model(&self) -> Result<RunFile, RunDirError> {
         let record = self.read_record()?;
         let base_dir = match &record.data_dir {
             Some(d) => self.path.join(d),
@@ -269,21 +266,19 @@ impl RunDir {
                 .unwrap_or_default(),
         };
         let path = self.file(MODEL_TOML);
-        let file: ModelFile =
-            toml::from_str(&self.read(MODEL_TOML)?).map_err(|e| RunDirError::Parse {
-                path: path.clone(),
-                message: e.to_string(),
-            })?;
-        ModelSpec::validate(file, base_dir, path.clone()).map_err(|e| RunDirError::Model {
-            path,
-            message: e.to_string(),
+        RunFile::parse_in(&self.read(MODEL_TOML)?, base_dir, path.clone()).map_err(|e| match e {
+            SpecError::Syntax { message, .. } => RunDirError::Parse { path, message },
+            other => RunDirError::Model {
+                path,
+                message: other.to_string(),
+            },
         })
     }
 
     /// Writes `settings.json`.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
+    /// [`RunDirError::Io`] naming the file.
     pub fn write_record(&self, record: &RunRecord) -> Result<(), RunDirError> {
         let json = serde_json::to_string_pretty(record).map_err(|e| RunDirError::Parse {
             path: self.file(SETTINGS_JSON),
@@ -304,7 +299,7 @@ impl RunDir {
     /// Writes `predictive.csv`.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
+    /// [`RunDirError::Io`] naming the file.
     pub fn write_predictive(&self, bands: &[Band]) -> Result<(), RunDirError> {
         self.write(PREDICTIVE_CSV, predictive::to_csv(bands).as_bytes())?;
         Ok(())
@@ -313,7 +308,7 @@ impl RunDir {
     /// Writes `loo.csv`.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
+    /// [`RunDirError::Io`] naming the file.
     pub fn write_loo(&self, points: &[LooPoint]) -> Result<(), RunDirError> {
         self.write(LOO_CSV, loo::to_csv(points).as_bytes())?;
         Ok(())
@@ -331,7 +326,7 @@ impl RunDir {
     /// Writes `kfold.csv`.
     ///
     /// # Errors
-    /// [`RunDirError::Write`] naming the file.
+    /// [`RunDirError::Io`] naming the file.
     pub fn write_kfold(&self, points: &[KFoldPoint]) -> Result<(), RunDirError> {
         self.write(KFOLD_CSV, kfold::to_csv(points).as_bytes())?;
         Ok(())
@@ -344,6 +339,60 @@ impl RunDir {
     pub fn read_kfold(&self) -> Result<Vec<KFoldPoint>, RunDirError> {
         let path = self.file(KFOLD_CSV);
         kfold::parse(&path, &self.read(KFOLD_CSV)?)
+    }
+
+    /// Writes `curves.json`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Io`] naming the file.
+    pub fn write_curves(&self, curves: &Curves) -> Result<(), RunDirError> {
+        // Long arrays of numbers: on one line, half the size of pretty JSON.
+        self.write_json(CURVES_JSON, curves, false)
+    }
+
+    /// `curves.json`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`] or [`RunDirError::Parse`] naming the file and line.
+    pub fn read_curves(&self) -> Result<Curves, RunDirError> {
+        parse_json(&self.file(CURVES_JSON), &self.read(CURVES_JSON)?)
+    }
+
+    /// Writes `truth.json` (an empty list when no run's data are synthetic).
+    ///
+    /// # Errors
+    /// [`RunDirError::Io`] naming the file.
+    pub fn write_truths(&self, truths: &[RunTruth]) -> Result<(), RunDirError> {
+        self.write_json(TRUTH_JSON, &truths, true)
+    }
+
+    /// `truth.json`.
+    ///
+    /// # Errors
+    /// [`RunDirError::Read`] or [`RunDirError::Parse`] naming the file and line.
+    pub fn read_truths(&self) -> Result<Vec<RunTruth>, RunDirError> {
+        parse_json(&self.file(TRUTH_JSON), &self.read(TRUTH_JSON)?)
+    }
+
+    /// Writes `value` as JSON, `pretty` or on one line, with a final line end.
+    fn write_json<T: serde::Serialize + ?Sized>(
+        &self,
+        name: &str,
+        value: &T,
+        pretty: bool,
+    ) -> Result<(), RunDirError> {
+        let json = if pretty {
+            serde_json::to_vec_pretty(value)
+        } else {
+            serde_json::to_vec(value)
+        };
+        let mut json = json.map_err(|e| RunDirError::Parse {
+            path: self.file(name),
+            message: format!("cannot serialise: {e}"),
+        })?;
+        json.push(b'\n');
+        self.write(name, &json)?;
+        Ok(())
     }
 
     /// `predictive.csv`, one band per run in file order.

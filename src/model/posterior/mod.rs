@@ -40,8 +40,9 @@ use blocks::{Block, Cache};
 use layout::{Coord, CoordPrior, Layout, MaterialModel, Population, SigmaGroup, Source};
 use likelihood::RunModel;
 
+use super::blocking::{BlockSettings, Blocking, PopulationUpdates};
 use super::data::RunData;
-use super::spec::{Blocking, ModelSpec, PopulationUpdates};
+use super::spec::ModelSpec;
 use crate::density::{
     BlockPlan, BlockUpdate, BlockedDensity, CarriedMove, CarryFollowers, ColumnUnit,
     ExactConditional, LogDensity, LogDensityError, OwnEntries, PlannedBlock, Quantity, ShareError,
@@ -61,6 +62,8 @@ pub use share::{DataShare, DataShareError};
 pub struct Posterior {
     /// The model it was built from.
     spec: ModelSpec,
+    /// How its blocks are grouped and its populations updated.
+    blocking: BlockSettings,
     coords: Vec<Coord>,
     /// The reported columns, in the order of the derived values.
     quantities: Vec<Quantity>,
@@ -108,15 +111,16 @@ pub enum PosteriorError {
 
 impl Posterior {
     /// Loads every run's data (with its format, columns and window) and builds the posterior
-    /// over them; a long run is reduced to sufficient statistics (`long_records`).
+    /// over them, its blocks grouped as `blocking` says; a long run is reduced to sufficient
+    /// statistics (`long_records`).
     ///
     /// # Errors
     /// [`PosteriorError`] naming the file, line or key at fault.
-    pub fn new(spec: &ModelSpec) -> Result<Self, PosteriorError> {
+    pub fn new(spec: &ModelSpec, blocking: BlockSettings) -> Result<Self, PosteriorError> {
         let data = (0..spec.file.runs.len())
             .map(|i| RunData::for_run(spec, i))
             .collect::<Result<Vec<_>, _>>()?;
-        Self::from_data(spec, data)
+        Self::from_data(spec, blocking, data)
     }
 
     /// The posterior of `spec` over data already in memory, one [`RunData`] per run of the
@@ -124,14 +128,22 @@ impl Posterior {
     ///
     /// # Errors
     /// [`PosteriorError::Model`] when the number of data sets is not the number of runs.
-    pub fn from_data(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
-        let mut posterior = Self::unreduced(spec, data)?;
+    pub fn from_data(
+        spec: &ModelSpec,
+        blocking: BlockSettings,
+        data: Vec<RunData>,
+    ) -> Result<Self, PosteriorError> {
+        let mut posterior = Self::unreduced(spec, blocking, data)?;
         posterior.reduce_long_runs();
         Ok(posterior)
     }
 
     /// The posterior of `spec` over `data` with every run exact (no long run reduced yet).
-    fn unreduced(spec: &ModelSpec, data: Vec<RunData>) -> Result<Self, PosteriorError> {
+    fn unreduced(
+        spec: &ModelSpec,
+        blocking: BlockSettings,
+        data: Vec<RunData>,
+    ) -> Result<Self, PosteriorError> {
         if data.len() != spec.file.runs.len() {
             return Err(PosteriorError::Model {
                 source_file: spec.source.clone(),
@@ -144,7 +156,7 @@ impl Posterior {
         }
         let layout = Layout::new(spec, data);
         let order = evaluation_order(&layout.runs);
-        let group = |r: &RunModel| match spec.file.sampler.blocks {
+        let group = |r: &RunModel| match blocking.blocks {
             Blocking::Material => spec.contact_material[r.contact],
             Blocking::Contact => r.contact,
         };
@@ -169,6 +181,7 @@ impl Posterior {
         );
         let mut posterior = Self {
             spec: spec.clone(),
+            blocking,
             coords: layout.coords,
             quantities: layout.quantities,
             sources: layout.sources,
@@ -197,6 +210,11 @@ impl Posterior {
     /// The model this posterior was built from.
     pub fn spec(&self) -> &ModelSpec {
         &self.spec
+    }
+
+    /// How its blocks are grouped and its populations updated.
+    pub fn blocking(&self) -> BlockSettings {
+        self.blocking
     }
 
     /// The reported columns, in the order of the derived values: every parameter in SI units
@@ -273,7 +291,7 @@ impl Posterior {
     /// How the populations are updated: the one setting of the run file the posterior's
     /// blocks read.
     fn population_updates(&self) -> PopulationUpdates {
-        self.spec.file.sampler.populations
+        self.blocking.populations
     }
 
     /// Whether block `b` is a population drawn exactly from its conditional (which reads no

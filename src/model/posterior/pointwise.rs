@@ -115,7 +115,7 @@ impl Posterior {
             .zip(held_out)
             .map(|(r, ranges)| r.data.without(ranges, r.scene == Scene::First))
             .collect::<Result<Vec<_>, _>>()?;
-        Self::from_data(&self.spec, data)
+        Self::from_data(&self.spec, self.blocking, data)
     }
 
     /// ln N(y_i | F_i(x), σ²) of every observation of this posterior at a draw `x` of `fold`,

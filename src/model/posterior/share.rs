@@ -17,6 +17,7 @@ use super::blocks::Owners;
 use super::{Posterior, PosteriorError};
 use crate::model::data::RunData;
 use crate::model::spec::ModelSpec;
+use crate::model::BlockSettings;
 
 /// What a process needs, besides the model file and its own runs' data, to build its share of
 /// a posterior ([`Posterior::share_of`]): every run's number of observations and normal force,
@@ -123,7 +124,7 @@ impl Posterior {
                 .all(|b| self.blocks[b].runs.is_empty() || self.owners.splits[b])
     }
 
-    /// The share of the posterior of `spec` that holds the data of the runs of the
+    /// The share of the posterior of `spec` (its blocks as `blocking` groups them) that holds the data of the runs of the
     /// independent blocks at positions `parts_of(count)` (`count`: the number of independent
     /// blocks) and of no other run, with the counts and long runs' points of `share` (from
     /// the whole posterior's [`data_share`](Self::data_share)). Its own blocks' updates and
@@ -136,6 +137,7 @@ impl Posterior {
     /// or when the model's updates do not split by independent block.
     pub fn share_of(
         spec: &ModelSpec,
+        blocking: BlockSettings,
         share: &DataShare,
         parts_of: impl FnOnce(usize) -> Range<usize>,
     ) -> Result<Self, PosteriorError> {
@@ -159,7 +161,7 @@ impl Posterior {
         let elsewhere =
             |i: usize| RunData::held_elsewhere(spec, i, share.points[i], share.normal_force[i]);
         // The structure (blocks, owners) does not depend on the data.
-        let skeleton = Self::unreduced(spec, (0..runs).map(elsewhere).collect())?;
+        let skeleton = Self::unreduced(spec, blocking, (0..runs).map(elsewhere).collect())?;
         if !skeleton.parts_hold_their_data() {
             return Err(model_error(
                 "this model's updates read other contacts' runs, so that every rank must hold \
@@ -191,7 +193,7 @@ impl Posterior {
             }
             data.push(d);
         }
-        let mut posterior = Self::unreduced(spec, data)?;
+        let mut posterior = Self::unreduced(spec, blocking, data)?;
         for ((r, &mine), f_n) in posterior
             .runs
             .iter_mut()
