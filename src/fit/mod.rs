@@ -87,7 +87,7 @@ pub fn replicate_rng(seed: u64, row: u64) -> ChaCha8Rng {
 /// stretch move), half differential evolution, which explores along differences between
 /// walkers and keeps mixing where the complement is too small to fit a proposal to (a
 /// 10-contact campaign: τ 62 steps against 112 for Student-t with stretch). The measurements
-/// behind the choice are in the README, "Moves and blocks".
+/// behind the choice: docs/sampler.md and reports/moves.md.
 pub fn default_moves() -> Vec<(Move, f64)> {
     vec![
         (Move::student_t(), 0.5),
@@ -109,8 +109,8 @@ pub fn fit_stop_rule(max_steps: u64) -> StopRule {
 
 /// The default updates of a fit: hierarchical, over the default blocks (a material's shared
 /// parameters, each contact's own), so that a sweep costs two evaluations of the runs and τ
-/// (in sweeps) stays near 10 steps from one contact to a campaign (README, "Moves and
-/// blocks").
+/// (in sweeps) stays near 10 steps from one contact to a campaign (docs/sampler.md,
+/// reports/moves.md).
 pub fn default_updates() -> Updates {
     Updates::Hierarchical
 }
