@@ -127,7 +127,10 @@ pub fn reference() -> String {
          `cli/tests/docs.rs` fails while it is stale.\n",
     );
     let section = |md: &mut String, title: &str, help: String| {
-        md.push_str(&format!("\n## {title}\n\n```text\n{}\n```\n", help.trim_end()));
+        md.push_str(&format!(
+            "\n## {title}\n\n```text\n{}\n```\n",
+            help.trim_end()
+        ));
     };
     section(&mut md, "slipbayes", cli.render_long_help().to_string());
     md.push_str("\nCommands:");

@@ -181,7 +181,11 @@ fn records(text: &str) -> Vec<(Vec<String>, bool)> {
 
 /// The quantities a header ranks, or what is wrong with it.
 fn quantities_of(header: &[String]) -> Result<Vec<String>, String> {
-    let fixed: Vec<&str> = header.iter().take(FIXED.len()).map(String::as_str).collect();
+    let fixed: Vec<&str> = header
+        .iter()
+        .take(FIXED.len())
+        .map(String::as_str)
+        .collect();
     if fixed != FIXED {
         return Err(format!(
             "not a table of replications: its header starts {fixed:?}, expected {FIXED:?}"
@@ -255,7 +259,9 @@ fn replication(cells: &[String], quantities: &[String]) -> Option<Replication> {
 ///
 /// # Errors
 /// [`TableError`] when the file cannot be read or its header is not a table's.
-pub fn read(path: &Path) -> Result<Option<(Vec<String>, BTreeMap<usize, Replication>)>, TableError> {
+pub fn read(
+    path: &Path,
+) -> Result<Option<(Vec<String>, BTreeMap<usize, Replication>)>, TableError> {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -405,7 +411,11 @@ mod tests {
         for cut in 1..next.len() {
             std::fs::write(&path, format!("{whole}{}", &next[..cut])).unwrap();
             let (_, back) = read(&path).unwrap().unwrap();
-            assert_eq!(back.keys().copied().collect::<Vec<_>>(), [1, 4], "cut at {cut}");
+            assert_eq!(
+                back.keys().copied().collect::<Vec<_>>(),
+                [1, 4],
+                "cut at {cut}"
+            );
         }
         std::fs::write(&path, &whole).unwrap();
         let (_, back) = read(&path).unwrap().unwrap();
