@@ -374,9 +374,10 @@ fn json_without(path: &Path, timing: &str) -> serde_json::Value {
 /// table (index, truth, ranks, quantiles, fit diagnostics; not its wall time), the report
 /// (not its median wall time) and the rank histograms, bytes for bytes.
 fn validation_results(out: &Path) -> (Vec<Replication>, serde_json::Value, Vec<u8>) {
-    let (_, rows) = table::read(&out.join(table::REPLICATIONS_TABLE))
+    let rows = table::read(&out.join(table::REPLICATIONS_TABLE))
         .unwrap()
-        .unwrap_or_else(|| panic!("{}: no table of replications", out.display()));
+        .unwrap_or_else(|| panic!("{}: no table of replications", out.display()))
+        .rows;
     let records = rows
         .into_values()
         .map(|mut r| {
@@ -445,11 +446,11 @@ fn validate_on_1_2_and_3_ranks_gives_the_replications_and_report_of_one_process(
     // are those of one process continued the same way.
     let Some((ranks, out)) = largest else { return };
     let path = out.join(table::REPLICATIONS_TABLE);
-    let (quantities, mut rows) = table::read(&path).unwrap().unwrap();
+    let mut t = table::read(&path).unwrap().unwrap();
     for i in [1, 4, 5] {
-        rows.remove(&i).unwrap();
+        t.rows.remove(&i).unwrap();
     }
-    table::write(&path, &quantities, &rows).unwrap();
+    table::write(&path, &t.quantities, &t.rows).unwrap();
     let (_, err) = validation(
         mpirun(ranks).args(validate_args(&out, 9)),
         &format!("the continued validation on {ranks} ranks"),

@@ -55,10 +55,10 @@ fn thirty_replications_are_not_grossly_miscalibrated() {
     // the others are read back, not re-run.
     let index = 7;
     let path = dir.path().join(table::REPLICATIONS_TABLE);
-    let (quantities, mut rows) = table::read(&path).unwrap().unwrap();
-    assert_eq!(rows.len(), 30);
-    rows.remove(&index);
-    table::write(&path, &quantities, &rows).unwrap();
+    let mut t = table::read(&path).unwrap().unwrap();
+    assert_eq!(t.rows.len(), 30);
+    t.rows.remove(&index);
+    table::write(&path, &t.quantities, &t.rows).unwrap();
     let rerun = std::sync::Mutex::new(Vec::new());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -77,7 +77,7 @@ fn thirty_replications_are_not_grossly_miscalibrated() {
         without_timing(reps[index].clone())
     );
     // The table holds every replication once, in index order, as the first run left it.
-    let (_, rows) = table::read(&path).unwrap().unwrap();
+    let rows = table::read(&path).unwrap().unwrap().rows;
     assert_eq!(
         rows.into_values().map(without_timing).collect::<Vec<_>>(),
         reps.iter().cloned().map(without_timing).collect::<Vec<_>>()

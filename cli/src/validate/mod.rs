@@ -789,12 +789,13 @@ impl SbcRun {
         }
         let quantities = run.quantities();
         let mut earlier = match table::read(&table_path)? {
-            Some((q, reps)) if q == quantities || reps.is_empty() => reps,
-            Some((q, _)) => {
+            Some(t) if t.quantities == quantities || t.rows.is_empty() => t.rows,
+            Some(t) => {
                 return Err(ValidateError::SettingsMismatch {
                     dir: out.to_path_buf(),
                     problem: format!(
-                        "its replications rank {q:?}, the model file now gives {quantities:?}"
+                        "its replications rank {:?}, the model file now gives {quantities:?}",
+                        t.quantities
                     ),
                 })
             }
@@ -917,8 +918,8 @@ impl SbcRun {
     /// [`ValidateError::Table`] when it cannot be read or written.
     pub fn finish(&self) -> Result<(), ValidateError> {
         let path = self.out.join(REPLICATIONS_TABLE);
-        if let Some((quantities, reps)) = table::read(&path)? {
-            table::write(&path, &quantities, &reps)?;
+        if let Some(t) = table::read(&path)? {
+            table::write(&path, &t.quantities, &t.rows)?;
         }
         Ok(())
     }
@@ -966,7 +967,7 @@ fn legacy_records(dir: &Path) -> Vec<Replication> {
 pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateError> {
     let path = out.join(REPLICATIONS_TABLE);
     match table::read(&path)? {
-        Some((_, reps)) => Ok(reps.into_values().collect()),
+        Some(t) => Ok(t.rows.into_values().collect()),
         None => {
             let legacy = legacy_records(&out.join(LEGACY_RECORDS_DIR));
             if legacy.is_empty() {

@@ -253,15 +253,21 @@ fn replication(cells: &[String], quantities: &[String]) -> Option<Replication> {
     Some(rep)
 }
 
-/// The quantities a table ranks and its whole rows, by index (a later row of an index
-/// replaces an earlier one); a row without its line end, or whose cells do not parse, is
-/// left out. `None` for a file that does not exist.
+/// A table read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// The quantities it ranks, in its columns' order.
+    pub quantities: Vec<String>,
+    /// Its whole rows, by index.
+    pub rows: BTreeMap<usize, Replication>,
+}
+
+/// The table at `path`: a later row of an index replaces an earlier one; a row without its
+/// line end, or whose cells do not parse, is left out. `None` for a file that does not exist.
 ///
 /// # Errors
 /// [`TableError`] when the file cannot be read or its header is not a table's.
-pub fn read(
-    path: &Path,
-) -> Result<Option<(Vec<String>, BTreeMap<usize, Replication>)>, TableError> {
+pub fn read(path: &Path) -> Result<Option<Table>, TableError> {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -270,18 +276,21 @@ pub fn read(
     let mut records = records(&text).into_iter();
     let Some((header, true)) = records.next() else {
         // An empty file, or a header cut short: nothing was recorded yet.
-        return Ok(Some((Vec::new(), BTreeMap::new())));
+        return Ok(Some(Table {
+            quantities: Vec::new(),
+            rows: BTreeMap::new(),
+        }));
     };
     let quantities = quantities_of(&header).map_err(|problem| TableError::Header {
         path: path.to_path_buf(),
         problem,
     })?;
-    let reps = records
+    let rows = records
         .filter(|(_, whole)| *whole)
         .filter_map(|(cells, _)| replication(&cells, &quantities))
         .map(|r| (r.index, r))
         .collect();
-    Ok(Some((quantities, reps)))
+    Ok(Some(Table { quantities, rows }))
 }
 
 /// Writes the table of `reps` (in index order) over `path`, atomically.
@@ -392,9 +401,9 @@ mod tests {
         let path = dir.path().join(REPLICATIONS_TABLE);
         let reps = BTreeMap::from([(0, done(0)), (3, failed(3))]);
         write(&path, &quantities(), &reps).unwrap();
-        let (q, back) = read(&path).unwrap().unwrap();
-        assert_eq!(q, quantities());
-        assert_eq!(back, reps);
+        let back = read(&path).unwrap().unwrap();
+        assert_eq!(back.quantities, quantities());
+        assert_eq!(back.rows, reps);
     }
 
     #[test]
@@ -410,7 +419,7 @@ mod tests {
         let next = row(&done(2), &quantities());
         for cut in 1..next.len() {
             std::fs::write(&path, format!("{whole}{}", &next[..cut])).unwrap();
-            let (_, back) = read(&path).unwrap().unwrap();
+            let back = read(&path).unwrap().unwrap().rows;
             assert_eq!(
                 back.keys().copied().collect::<Vec<_>>(),
                 [1, 4],
@@ -418,7 +427,7 @@ mod tests {
             );
         }
         std::fs::write(&path, &whole).unwrap();
-        let (_, back) = read(&path).unwrap().unwrap();
+        let back = read(&path).unwrap().unwrap().rows;
         assert_eq!(back, BTreeMap::from([(1, done(1)), (4, failed(4))]));
     }
 
