@@ -318,7 +318,7 @@ pub struct Appender {
 }
 
 impl Appender {
-    /// Opens `path`, which [`write`] has written, to append rows of `quantities`.
+    /// Opens `path`, which [`write()`] has written, to append rows of `quantities`.
     ///
     /// # Errors
     /// [`TableError::Io`] when it cannot be opened.
