@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's campaign scaling table: one-material campaigns of N contacts (first + repeat
+# reports/campaigns.md: one-material campaigns of N contacts (first + repeat
 # slide each, made by data/make_campaign.py through `slipbayes simulate`), each fitted with the
 # default settings until converged by the strict standard; contacts, dimensions, τ_max (in
 # steps, i.e. sweeps: one step updates every block once), steps, evaluations, wall time and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's before/after timings, alternated in one run so that the machine's state is
+# Before/after timings of the demo, alternated in one run so that the machine's state is
 # shared: the demo with its default settings (hierarchical updates, student-t=0.5,de=0.5, run
 # until converged), with the previous default (one block per material, blocked updates, run
 # until converged) against the settings the demo had before issue 13 (joint updates, stretch move,

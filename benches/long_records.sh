@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Long records on sufficient statistics, measured (README "Long records", docs/model.md §5):
+# Long records on sufficient statistics, measured (reports/long-records.md, docs/model.md §5):
 #
 # 1. The PTFE contact of docs/model.md §7 sampled every 0.02 s, as a rheometer logs: a first
 #    slide of 1,000,001 points (20,000 s) and a repeat slide of 100,001 (2,000 s), simulated
@@ -23,7 +23,7 @@
 # 30 min on 2 idle cores, most of it the exact subsample fit); STEPS (environment, default 4000)
 # sets the subsample fits' length. The data are simulated once per OUT_DIR.
 #
-# Writes OUT_DIR/results-HHMMSS.md (the numbers quoted in README, "Long records") and the run
+# Writes OUT_DIR/results-HHMMSS.md (reports/long-records.md is assembled from it) and the run
 # directories; the data (about 35 MB) and a copy of the binaries stay in OUT_DIR (so a build
 # during the run does not change what is measured), nothing is written to the repository.
 set -euo pipefail

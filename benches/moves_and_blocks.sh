@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's "Moves and blocks" table: τ, ESS, R̂ and wall time of fixed-length fits of
+# reports/moves.md: τ, ESS, R̂ and wall time of fixed-length fits of
 # five posteriors under several moves and updates, all on this machine in one sequential run
 # (so the wall times are comparable; nothing else should run meanwhile).
 #

@@ -3,8 +3,7 @@
 1 nm/s first slide and a repeat slide, with contact-to-contact spread in F_d, k and t0 (the
 paper's point: static friction varies between contacts). Writes the data (by
 `slipbayes simulate`: a 201-point first slide and a 51-point repeat slide per contact) and a
-model file `campaign.toml` into OUT; the "campaign" rows of the README's "Moves and blocks"
-table were measured on it.
+model file `campaign.toml` into OUT; the "campaign" rows of reports/moves.md were measured on it.
 
     python3 data/make_campaign.py --contacts 10 --out /tmp/campaign-10
 
@@ -31,7 +30,9 @@ def main():
     ap.add_argument("--contacts", type=int, required=True)
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--seed", type=int, default=7)
-    ap.add_argument("--binary", default="target/release/slipbayes")
+    # The repository's release build when there is one, else `slipbayes` on the PATH.
+    built = Path("target/release/slipbayes")
+    ap.add_argument("--binary", default=str(built) if built.exists() else "slipbayes")
     ap.add_argument("--first-interval", default="100", help="s between a first slide's points")
     ap.add_argument("--repeat-interval", default="40", help="s between a repeat slide's points")
     args = ap.parse_args()

@@ -10,7 +10,7 @@
 //!   Nelder–Mead rounds on the whole posterior, then the Laplace covariance).
 //!
 //! `cargo run --release --example start_cost [-- N ...]` (default N = 10⁴, 10⁵ and 10⁶).
-//! Reported in README.md ("Long records").
+//! Reported in reports/long-records.md (`bash reports/regenerate.sh long-records`).
 
 use std::path::PathBuf;
 use std::time::Instant;

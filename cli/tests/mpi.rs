@@ -14,6 +14,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use slipbayes::storage::read_chains;
+use slipbayes_cli::validate::{table, Replication};
 
 /// Three contacts of one material with t0 pooled: material blocks, contact blocks and the
 /// exact draws of a population, each a kind of request the ranks serve.
@@ -369,22 +370,21 @@ fn json_without(path: &Path, timing: &str) -> serde_json::Value {
     value
 }
 
-/// What a validation run left that must not depend on how it ran: every replication record
-/// (index, truth, ranks, quantiles, fit diagnostics; not its wall time), the report (not its
-/// median wall time) and the rank histograms, bytes for bytes.
-fn validation_results(
-    out: &Path,
-) -> (Vec<(String, serde_json::Value)>, serde_json::Value, Vec<u8>) {
-    let mut records: Vec<(String, serde_json::Value)> = std::fs::read_dir(out.join("replications"))
+/// What a validation run left that must not depend on how it ran: every replication of the
+/// table (index, truth, ranks, quantiles, fit diagnostics; not its wall time), the report
+/// (not its median wall time) and the rank histograms, bytes for bytes.
+fn validation_results(out: &Path) -> (Vec<Replication>, serde_json::Value, Vec<u8>) {
+    let rows = table::read(&out.join(table::REPLICATIONS_TABLE))
         .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "json"))
-        .map(|p| {
-            let name = p.file_name().unwrap().to_string_lossy().into_owned();
-            (name, json_without(&p, "wall_s"))
+        .unwrap_or_else(|| panic!("{}: no table of replications", out.display()))
+        .rows;
+    let records = rows
+        .into_values()
+        .map(|mut r| {
+            r.wall_s = 0.0;
+            r
         })
         .collect();
-    records.sort_by(|a, b| a.0.cmp(&b.0));
     (
         records,
         json_without(&out.join("validation.json"), "wall_s_median"),
@@ -445,9 +445,12 @@ fn validate_on_1_2_and_3_ranks_gives_the_replications_and_report_of_one_process(
     // continues on the most ranks: only the missing and the new ones run, and the results
     // are those of one process continued the same way.
     let Some((ranks, out)) = largest else { return };
+    let path = out.join(table::REPLICATIONS_TABLE);
+    let mut t = table::read(&path).unwrap().unwrap();
     for i in [1, 4, 5] {
-        std::fs::remove_file(out.join(format!("replications/{i:05}.json"))).unwrap();
+        t.rows.remove(&i).unwrap();
     }
+    table::write(&path, &t.quantities, &t.rows).unwrap();
     let (_, err) = validation(
         mpirun(ranks).args(validate_args(&out, 9)),
         &format!("the continued validation on {ranks} ranks"),

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use slipbayes_cli::validate::{
-    run_sbc, summarise, GrossLimits, Replication, SbcSettings, ValidateError,
+    run_sbc, summarise, table, GrossLimits, Replication, SbcSettings, ValidateError,
 };
 
 fn settings(replications: usize) -> SbcSettings {
@@ -54,11 +54,11 @@ fn thirty_replications_are_not_grossly_miscalibrated() {
     // A replication re-run on one thread, after its result was removed, is bit-identical;
     // the others are read back, not re-run.
     let index = 7;
-    let path = dir
-        .path()
-        .join("replications")
-        .join(format!("{index:05}.json"));
-    std::fs::remove_file(&path).unwrap();
+    let path = dir.path().join(table::REPLICATIONS_TABLE);
+    let mut t = table::read(&path).unwrap().unwrap();
+    assert_eq!(t.rows.len(), 30);
+    t.rows.remove(&index);
+    table::write(&path, &t.quantities, &t.rows).unwrap();
     let rerun = std::sync::Mutex::new(Vec::new());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -76,6 +76,20 @@ fn thirty_replications_are_not_grossly_miscalibrated() {
         without_timing(again[index].clone()),
         without_timing(reps[index].clone())
     );
+    // The table holds every replication once, in index order, as the first run left it.
+    let rows = table::read(&path).unwrap().unwrap().rows;
+    assert_eq!(
+        rows.into_values().map(without_timing).collect::<Vec<_>>(),
+        reps.iter().cloned().map(without_timing).collect::<Vec<_>>()
+    );
+    let text = std::fs::read_to_string(&path).unwrap();
+    let indices: Vec<&str> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    let expected: Vec<String> = (0..30).map(|i| i.to_string()).collect();
+    assert_eq!(indices, expected);
 
     // Other settings in the same directory are refused, naming what changed.
     let other = SbcSettings {

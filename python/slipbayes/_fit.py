@@ -1,4 +1,5 @@
-"""``slipbayes.fit``: a model file or a dict in, an ``arviz.InferenceData`` out."""
+"""``slipbayes.fit``: a model file or a dict in, ArviZ's container of the posterior out (an
+``xarray.DataTree`` under ArviZ 1.x, an ``arviz.InferenceData`` under ArviZ 0.x)."""
 
 from __future__ import annotations
 
@@ -157,7 +158,9 @@ def fit(
     progress=True,
     log_likelihood_draws=2000,
 ):
-    """Fits a friction model and returns its posterior as an ``arviz.InferenceData``.
+    """Fits a friction model and returns its posterior as ArviZ's container: an
+    ``xarray.DataTree`` under ArviZ 1.x, an ``arviz.InferenceData`` under ArviZ 0.x, with the
+    same groups either way.
 
     ``model`` is a model file (a path, as for ``slipbayes fit MODEL``) or a dict of the same
     structure: ``{"material": [{"name": ...}], "contact": [{"name", "material"}], "run":
@@ -187,7 +190,7 @@ def fit(
     stops the fit after its current step and a checkpoint and raises ``KeyboardInterrupt``
     saying how to resume.
 
-    The returned InferenceData is :func:`slipbayes.load`'s (``log_likelihood_draws`` as
+    The result is :func:`slipbayes.load`'s (``log_likelihood_draws`` as
     there: about that many draws of the pointwise log-likelihood and of the posterior
     predictive); its docstring says which ArviZ call reproduces which number of summary.json
     (ESS: ``az.ess(idata)``; R̂: ``az.rhat(slipbayes.ensembles_as_chains(idata))``). When a

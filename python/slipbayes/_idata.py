@@ -1,4 +1,8 @@
-"""A finished run directory as an ``arviz.InferenceData``.
+"""A finished run directory as ArviZ's container of groups: an ``xarray.DataTree`` under
+ArviZ 1.x, an ``arviz.InferenceData`` under ArviZ 0.x. Both hold the same groups
+(``posterior``, ``sample_stats``, ``observed_data``, ``log_likelihood``,
+``posterior_predictive``), each the same ``xarray.Dataset``, so ``az.loo``, ``az.compare``,
+``az.summary``, ``az.ess`` and ``az.rhat`` of either version read them alike.
 
 The arrays come from the Rust library (``_native.load_run``: summary.json, settings.json,
 the Parquet chains and the model's data); this module names and shapes them.
@@ -30,6 +34,34 @@ def _arviz():
     return az
 
 
+def arviz_1():
+    """Whether the installed ArviZ is 1.x or later (DataTree) rather than 0.x
+    (InferenceData)."""
+    return int(_arviz().__version__.split(".")[0]) >= 1
+
+
+def groups_of(datasets):
+    """ArviZ's container of the named ``xarray.Dataset`` groups: an ``xarray.DataTree`` under
+    ArviZ 1.x, an ``arviz.InferenceData`` under ArviZ 0.x."""
+    if arviz_1():
+        import xarray as xr
+
+        return xr.DataTree.from_dict(dict(datasets))
+    return _arviz().InferenceData(**datasets)
+
+
+def group_names(idata):
+    """The groups of a DataTree or an InferenceData, e.g. ``["posterior", "sample_stats"]``."""
+    if hasattr(idata, "children"):
+        return list(idata.children)
+    return list(idata.groups())
+
+
+def _dataset(group):
+    """A group as an ``xarray.Dataset`` (a DataTree node is converted)."""
+    return group.to_dataset() if hasattr(group, "to_dataset") and hasattr(group, "children") else group
+
+
 def _floats(raw: bytes, shape) -> np.ndarray:
     return np.frombuffer(raw, dtype=np.float64).reshape(shape).copy()
 
@@ -40,9 +72,8 @@ class SlipbayesWarning(UserWarning):
 
 
 def from_native(raw: dict, run_dir=None, stacklevel=3):
-    """The InferenceData of the dict ``_native.load_run`` returns; warnings point
+    """ArviZ's container of the dict ``_native.load_run`` returns; warnings point
     ``stacklevel`` frames up."""
-    az = _arviz()
     import xarray as xr
 
     summary = json.loads(raw["summary_json"])
@@ -198,19 +229,20 @@ def from_native(raw: dict, run_dir=None, stacklevel=3):
     if raw.get("log_likelihood_missing"):
         attrs["log_likelihood_missing"] = raw["log_likelihood_missing"]
         warnings.warn(
-            "slipbayes: the InferenceData has no log_likelihood group, so az.loo and "
+            "slipbayes: the result has no log_likelihood group, so az.loo and "
             "az.compare cannot use it: " + raw["log_likelihood_missing"],
             SlipbayesWarning,
             stacklevel=stacklevel,
         )
-    idata = az.InferenceData(**groups)
-    for name in idata.groups():
-        idata[name].attrs.update(attrs)
-    return idata
+    for ds in groups.values():
+        ds.attrs.update(attrs)
+    return groups_of(groups)
 
 
 def load(run_dir, log_likelihood_draws=2000):
-    """The InferenceData of a finished run directory (``slipbayes fit ... --out RUN_DIR``).
+    """The posterior of a finished run directory (``slipbayes fit ... --out RUN_DIR``) as
+    ArviZ's container: an ``xarray.DataTree`` under ArviZ 1.x, an ``arviz.InferenceData``
+    under ArviZ 0.x, with the same groups, variables and attributes.
 
     Groups: ``posterior`` (every reported quantity in SI units, named as in summary.json:
     ``alpha`` over ``material``, ``F_d`` and ``k`` over ``contact``, ``t0``, ``sigma`` and
@@ -249,10 +281,11 @@ def load(run_dir, log_likelihood_draws=2000):
     whose record was fitted on sufficient statistics (more than ``[likelihood] exact_up_to``
     points, 10,000 by default) keeps no likelihood per point, and leave-one-out needs every
     point's term: then the group is left out, the attribute ``log_likelihood_missing`` says
-    why, and a ``SlipbayesWarning`` names the run (thin its record with ``every = N``, or raise
-    ``exact_up_to``, to compare models on it).
+    why, and a ``SlipbayesWarning`` names the run (raise ``[likelihood] exact_up_to`` above
+    its length, or fit a thinned copy of the record, to compare models on it).
 
-    ``posterior_predictive`` (for ``az.plot_ppc`` and posterior predictive checks): ``force``,
+    ``posterior_predictive`` (for ``az.plot_ppc_dist`` in ArviZ 1.x, ``az.plot_ppc`` in 0.x,
+    and posterior predictive checks): ``force``,
     a replicated observation of every point of ``observed_data`` (same name, same
     ``observation`` dimension and coordinates) at each draw: the model force at the draw's
     parameters plus Gaussian noise of the draw's σ, computed by the library
@@ -281,10 +314,9 @@ def ensembles_as_chains(idata):
     slipbayes leaves it out). Only R̂ is meaningful on this view: its draws are not in time
     order, so ESS on it is not an ESS.
     """
-    az = _arviz()
     import xarray as xr
 
-    post = idata.posterior
+    post = _dataset(idata.posterior)
     walkers = int(post.attrs["walkers"])
     ensembles = int(post.attrs["ensembles"])
     kept = post.sizes["draw"]
@@ -306,15 +338,29 @@ def ensembles_as_chains(idata):
         "chain = ensemble; draw = every walker's first half of the kept steps, then every "
         "walker's last half (for R-hat only)"
     )
-    return az.InferenceData(posterior=ds)
+    return groups_of({"posterior": ds})
 
 
 def summary(idata, **kwargs):
     """``az.summary(idata)`` with ``r_hat`` between ensembles: every column as slipbayes
-    reports it (``round_to="none"`` unless given). Other keyword arguments go to
-    ``az.summary``."""
+    reports it, unrounded unless ``round_to`` is given. Other keyword arguments go to
+    ``az.summary``.
+
+    Under ArviZ 1.x the tail ESS and the interval follow ``rcParams["stats.ci_prob"]``
+    (0.89 by default: ESS of the 11 % and 89 % quantiles, an 89 % interval); here they are
+    taken at 0.95 unless ``ci_prob`` is given, so that ``ess_tail`` is slipbayes' (and
+    ArviZ 0.x's) ESS of the 5 % and 95 % quantiles and the interval columns
+    (``eti95_lb``, ``eti95_ub``) are summary.json's 95 % equal-tailed interval. Under ArviZ
+    0.x the interval columns are ArviZ's ``hdi_3%`` and ``hdi_97%``."""
     az = _arviz()
     kwargs.setdefault("round_to", "none")
+    if arviz_1():
+        with az.rc_context({"stats.ci_prob": kwargs.pop("ci_prob", 0.95)}):
+            return _summary(az, idata, kwargs)
+    return _summary(az, idata, kwargs)
+
+
+def _summary(az, idata, kwargs):
     table = az.summary(idata, **kwargs)
     if "r_hat" in table:
         rhat = az.summary(

@@ -19,6 +19,23 @@ SEED = 7
 PTFE = dict(alpha_per_m=0.92e6, a_n=6.2e-3, f_d_n=10e-3, t0_s=14.8)
 
 
+# ArviZ 1.x (Python >= 3.12) returns an xarray.DataTree; 0.x an InferenceData. The package
+# supports both, and CI runs these tests under each.
+import arviz as az
+
+ARVIZ_1 = int(az.__version__.split(".")[0]) >= 1
+
+
+def group_names(idata):
+    """The groups of a DataTree (ArviZ 1.x) or an InferenceData (ArviZ 0.x)."""
+    return set(idata.children) if ARVIZ_1 else set(idata.groups())
+
+
+def p_loo(loo):
+    """The effective number of parameters of ``az.loo``'s result in either version."""
+    return loo.p if ARVIZ_1 else loo["p_loo"]
+
+
 def same_bits(a, b):
     """Equal shapes and every float64 equal to the bit (NaN to NaN, 0.0 not -0.0)."""
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
@@ -82,7 +99,8 @@ def model_file(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def fitted(tmp_path_factory, model_file):
-    """(InferenceData, run directory) of the PTFE contact fitted from its model file."""
+    """(DataTree or InferenceData, run directory) of the PTFE contact fitted from its model
+    file."""
     out = tmp_path_factory.mktemp("fit") / "run"
     idata = slipbayes.fit(model_file, seed=SEED, steps=STEPS, out=out, progress=False)
     return idata, out

@@ -65,6 +65,10 @@ enum Command {
     Bench(bench::BenchArgs),
     #[cfg(feature = "mpi")]
     MpiLatency(ranks::LatencyArgs),
+    /// Print the command-line reference (docs/cli.md) in Markdown, generated from these
+    /// commands' own definitions.
+    #[command(hide = true)]
+    Reference,
 }
 
 /// Entry point of the `slipbayes` binary.
@@ -104,6 +108,49 @@ fn error_lines(err: &anyhow::Error) -> Vec<String> {
         }
     }
     lines
+}
+
+/// The command-line reference in Markdown: every command's `--help`, as clap renders it
+/// from the definitions above, so that the page cannot drift from the parser
+/// (`cli/tests/docs.rs` compares it with `docs/cli.md`).
+pub fn reference() -> String {
+    use clap::CommandFactory;
+    let mut cli = Cli::command();
+    cli.build();
+    let mut md = String::from(
+        "# Command-line reference\n\n\
+         Every command's `--help`, generated from the argument parser by the hidden command \
+         `slipbayes reference` (default features; the MPI build adds `mpi-latency`, see \
+         [Clusters](clusters.md)). Regenerate this page with\n\n\
+         <!-- not run: rewrites this page in the repository -->\n\
+         ```sh\ncargo run --release -- reference > docs/cli.md\n```\n\n\
+         `cli/tests/docs.rs` fails while it is stale.\n",
+    );
+    let section = |md: &mut String, title: &str, help: String| {
+        md.push_str(&format!(
+            "\n## {title}\n\n```text\n{}\n```\n",
+            help.trim_end()
+        ));
+    };
+    section(&mut md, "slipbayes", cli.render_long_help().to_string());
+    md.push_str("\nCommands:");
+    let commands: Vec<&clap::Command> = cli
+        .get_subcommands()
+        .filter(|c| !c.is_hide_set() && c.get_name() != "help")
+        .collect();
+    for (i, c) in commands.iter().enumerate() {
+        let sep = if i == 0 { " " } else { ", " };
+        md.push_str(&format!("{sep}[`{0}`](#slipbayes-{0})", c.get_name()));
+    }
+    md.push_str(".\n");
+    for c in commands {
+        section(
+            &mut md,
+            &format!("slipbayes {}", c.get_name()),
+            c.clone().render_long_help().to_string(),
+        );
+    }
+    md
 }
 
 /// A number > 0 (and finite), for flags such as `--velocity`: a negative one is parsed and
@@ -152,6 +199,10 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Validate(args) => validate::run(&args),
         #[cfg(feature = "parquet")]
         Command::Bench(args) => bench::run_bench(&args),
+        Command::Reference => {
+            print!("{}", reference());
+            Ok(ExitCode::SUCCESS)
+        }
         #[cfg(feature = "mpi")]
         Command::MpiLatency(_) => {
             anyhow::bail!("mpi-latency measures MPI: run it with mpirun -n R (R ≥ 2)")

@@ -14,7 +14,7 @@ use slipbayes::sampler::Mixture;
 /// Simulation-based calibration (Talts et al. 2018): draw parameters from the model's priors,
 /// simulate a first and a repeat slide, fit them, and rank the truth among the posterior draws.
 ///
-/// Writes to --out: replications/NNNNN.json (one per replication, written as each finishes;
+/// Writes to --out: replications.csv (a row per replication, appended as each finishes;
 /// re-running the same command continues where it stopped), validation.json,
 /// rank_histograms.svg and validation.md (χ² uniformity test and 50 %/95 % coverage per
 /// quantity). Exit code 4 ("miscalibrated") on gross miscalibration (95 % coverage below

@@ -11,10 +11,11 @@
 //!
 //! Replication `i` depends only on (seed, i): its randomness is ChaCha8 stream `i` of the
 //! seed, and the fit is bit-identical on any number of threads, so replications run in
-//! parallel and a run can stop and continue. Each finished replication is written at once,
-//! atomically, to `DIR/replications/NNNNN.json`; a re-run with the same settings skips them.
-//! [`SbcRun`] holds these parts apart so that the ranks of an MPI job can share them
-//! (`ranks`, feature `mpi`).
+//! parallel and a run can stop and continue. Each finished replication is appended at once to
+//! one table, `DIR/replications.csv` ([`table`]); a re-run with the same settings skips the
+//! replications it holds. Each fit runs in a scratch directory `DIR/fits/NNNNN/` whose chains
+//! are deleted once ranked. [`SbcRun`] holds these parts apart so that the ranks of an MPI job
+//! can share them (`ranks`, feature `mpi`).
 //!
 //! This part joins model, simulation and fit; it prints nothing (progress goes to a callback).
 pub mod hard;
@@ -22,6 +23,7 @@ pub mod hard;
 pub mod ranks;
 pub mod stats;
 pub mod svg;
+pub mod table;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -47,8 +49,13 @@ use slipbayes::simulate::sample_times;
 
 pub use stats::{Coverage, Uniformity};
 
-/// Sub-directory of one replication's files, and of their results.
-pub const REPLICATIONS_DIR: &str = "replications";
+/// Sub-directory of the replications' fits (scratch: each fit's chains are deleted once
+/// ranked).
+pub const FITS_DIR: &str = "fits";
+/// Sub-directory of the one-file-per-replication records of earlier versions, which opening
+/// a run converts into the table.
+const LEGACY_RECORDS_DIR: &str = "replications";
+pub use table::REPLICATIONS_TABLE;
 /// The settings of a validation run, which a continued run must match.
 pub const SETTINGS_FILE: &str = "settings.json";
 /// Prior draws in a row that the law rejects (stick-slip) before a replication gives up.
@@ -97,6 +104,12 @@ pub enum ValidateError {
     /// The model file could not be loaded.
     #[error(transparent)]
     Spec(#[from] slipbayes::model::SpecError),
+    /// The table of replications cannot be read or written.
+    #[error(transparent)]
+    Table(#[from] table::TableError),
+    /// Replications were recorded through a run that was loaded, not opened (a bug).
+    #[error("a validation run must be opened (SbcRun::open) before it records replications")]
+    NotOpened,
 }
 
 /// The simulated design and the fit of every replication.
@@ -719,6 +732,7 @@ pub fn run_sbc(
         progress(rep);
         Ok(())
     })?;
+    run.finish()?;
     finished.extend(fresh.into_iter().map(|r| (r.index, r)));
     Ok(finished.into_values().collect())
 }
@@ -730,13 +744,20 @@ pub fn run_sbc(
 pub struct SbcRun {
     settings: SbcSettings,
     design: Design,
-    reps_dir: PathBuf,
+    out: PathBuf,
+    /// The table, open for appending: `None` for a run [loaded](Self::load) to run
+    /// replications that another process records.
+    table: Option<table::Appender>,
+    /// The replications the table held when the run was opened.
+    earlier: BTreeMap<usize, Replication>,
 }
 
 impl SbcRun {
     /// Checks the settings and the model, and opens `out` for them: its replications are
     /// removed with `overwrite`, else an earlier run there must have the same settings (the
-    /// number of replications may grow); `settings.json` is (re)written.
+    /// number of replications may grow) and rank the same quantities; `settings.json` is
+    /// (re)written, and the table of replications rewritten with the rows it holds whole
+    /// (the records of an earlier version, one file per replication, are converted into it).
     ///
     /// # Errors
     /// [`ValidateError`] for invalid settings, a model with a run SBC cannot simulate, an
@@ -747,16 +768,14 @@ impl SbcRun {
         out: &Path,
         overwrite: bool,
     ) -> Result<Self, ValidateError> {
-        let run = Self::load(settings, out)?;
-        let reps_dir = &run.reps_dir;
+        let mut run = Self::load(settings, out)?;
         let settings_path = out.join(SETTINGS_FILE);
+        let table_path = out.join(REPLICATIONS_TABLE);
+        let legacy = out.join(LEGACY_RECORDS_DIR);
         if overwrite {
-            match std::fs::remove_dir_all(reps_dir) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                    return Err(io("removing", reps_dir)(e))
-                }
-                _ => {}
-            }
+            remove(&table_path, false)?;
+            remove(&legacy, true)?;
+            remove(&out.join(FITS_DIR), true)?;
         } else if let Ok(text) = std::fs::read_to_string(&settings_path) {
             let earlier: SbcSettings =
                 serde_json::from_str(&text).map_err(|e| ValidateError::SettingsMismatch {
@@ -772,9 +791,33 @@ impl SbcRun {
                 });
             }
         }
-        std::fs::create_dir_all(reps_dir).map_err(io("creating", reps_dir))?;
+        let quantities = run.quantities();
+        let mut earlier = match table::read(&table_path)? {
+            Some(t) if t.quantities == quantities || t.rows.is_empty() => t.rows,
+            Some(t) => {
+                return Err(ValidateError::SettingsMismatch {
+                    dir: out.to_path_buf(),
+                    problem: format!(
+                        "its replications rank {:?}, the model file now gives {quantities:?}",
+                        t.quantities
+                    ),
+                })
+            }
+            None => BTreeMap::new(),
+        };
+        let converted = legacy_records(&legacy);
+        for rep in converted.iter().cloned() {
+            earlier.entry(rep.index).or_insert(rep);
+        }
+        std::fs::create_dir_all(out).map_err(io("creating", out))?;
         let json = serde_json::to_vec_pretty(settings).unwrap_or_default();
         write_atomically(&settings_path, &json).map_err(io("writing", &settings_path))?;
+        table::write(&table_path, &quantities, &earlier)?;
+        if !converted.is_empty() {
+            remove(&legacy, true)?;
+        }
+        run.table = Some(table::Appender::open(&table_path, &quantities)?);
+        run.earlier = earlier;
         Ok(run)
     }
 
@@ -789,19 +832,27 @@ impl SbcRun {
         Ok(Self {
             design: Design::new(run, settings)?,
             settings: settings.clone(),
-            reps_dir: out.join(REPLICATIONS_DIR),
+            out: out.to_path_buf(),
+            table: None,
+            earlier: BTreeMap::new(),
         })
     }
 
-    /// The replications among `0..settings.replications` whose records are on disk (a record
-    /// that does not parse is not finished: it is run again).
+    /// The columns whose truth is ranked, in the table's order.
+    fn quantities(&self) -> Vec<String> {
+        self.design
+            .tracked
+            .iter()
+            .map(|t| t.column.clone())
+            .collect()
+    }
+
+    /// The replications among `0..settings.replications` that the table held whole when the
+    /// run was opened (a row cut short is not finished: it is run again).
     pub fn finished(&self) -> BTreeMap<usize, Replication> {
-        (0..self.settings.replications)
-            .filter_map(|i| {
-                let text = std::fs::read_to_string(self.record_path(i)).ok()?;
-                let rep: Replication = serde_json::from_str(&text).ok()?;
-                Some((i, rep))
-            })
+        self.earlier
+            .range(..self.settings.replications)
+            .map(|(&i, r)| (i, r.clone()))
             .collect()
     }
 
@@ -812,7 +863,7 @@ impl SbcRun {
             .collect()
     }
 
-    /// Runs replications `indices` (each fit in its own directory `replications/NNNNN/`),
+    /// Runs replications `indices` (each fit in its own scratch directory `fits/NNNNN/`),
     /// as many at a time as there are threads, and hands each to `done` as it finishes, from
     /// whichever thread ran it; returns them in the order of `indices`. Stops after the
     /// replications in flight when `done` fails, with its error.
@@ -829,6 +880,7 @@ impl SbcRun {
         // that dozens were in flight at once, holding their memory, and none finished for
         // minutes.
         let at_once = rayon::current_num_threads().max(1);
+        let fits = self.out.join(FITS_DIR);
         let mut reps = Vec::with_capacity(indices.len());
         for chunk in indices.chunks(at_once) {
             let ran: Vec<Result<Replication, E>> = chunk
@@ -839,7 +891,7 @@ impl SbcRun {
                         &self.design,
                         &self.settings,
                         i,
-                        &self.reps_dir.join(format!("{i:05}")),
+                        &fits.join(format!("{i:05}")),
                     );
                     done(&rep)?;
                     Ok(rep)
@@ -852,41 +904,85 @@ impl SbcRun {
         Ok(reps)
     }
 
-    /// Writes `rep`'s record, `replications/NNNNN.json`, atomically: a run stopped at any
-    /// moment leaves whole records, which a continued run reads back.
+    /// Appends `rep`'s row to the table and flushes it to disk: a run stopped at any moment
+    /// leaves whole rows, which a continued run reads back.
     ///
     /// # Errors
-    /// [`ValidateError::Io`] when it cannot be written.
+    /// [`ValidateError::Table`] when it cannot be written, [`ValidateError::NotOpened`] for a
+    /// run that was [loaded](Self::load) rather than opened.
     pub fn record(&self, rep: &Replication) -> Result<(), ValidateError> {
-        let path = self.record_path(rep.index);
-        write_atomically(&path, &Self::record_bytes(rep)).map_err(io("writing", &path))
+        let table = self.table.as_ref().ok_or(ValidateError::NotOpened)?;
+        Ok(table.append(rep)?)
     }
 
-    /// The bytes of `rep`'s record, as [`record`](Self::record) writes them.
+    /// Rewrites the table in index order, once every replication has run: the same
+    /// replications give the same file whatever order they finished in.
+    ///
+    /// # Errors
+    /// [`ValidateError::Table`] when it cannot be read or written.
+    pub fn finish(&self) -> Result<(), ValidateError> {
+        let path = self.out.join(REPLICATIONS_TABLE);
+        if let Some(t) = table::read(&path)? {
+            table::write(&path, &t.quantities, &t.rows)?;
+        }
+        Ok(())
+    }
+
+    /// The bytes of `rep` as one rank sends it to another.
     pub fn record_bytes(rep: &Replication) -> Vec<u8> {
-        serde_json::to_vec_pretty(rep).unwrap_or_default()
-    }
-
-    fn record_path(&self, index: usize) -> PathBuf {
-        self.reps_dir.join(format!("{index:05}.json"))
+        serde_json::to_vec(rep).unwrap_or_default()
     }
 }
 
-/// The replications finished so far in `out` (any order of indices), to report on a run that
-/// is still going or was stopped.
-///
-/// # Errors
-/// [`ValidateError::Io`] when `out` holds no replications directory.
-pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateError> {
-    let dir = out.join(REPLICATIONS_DIR);
-    let mut reps: Vec<Replication> = std::fs::read_dir(&dir)
-        .map_err(io("reading", &dir))?
+/// Removes a file (or, with `dir`, a directory and its contents) that may not exist.
+fn remove(path: &Path, dir: bool) -> Result<(), ValidateError> {
+    let removed = if dir {
+        std::fs::remove_dir_all(path)
+    } else {
+        std::fs::remove_file(path)
+    };
+    match removed {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io("removing", path)(e)),
+        _ => Ok(()),
+    }
+}
+
+/// The records an earlier version wrote, one JSON file per replication in `dir`
+/// (`NNNNN.json`); records that do not parse were unfinished and are left out.
+fn legacy_records(dir: &Path) -> Vec<Replication> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut reps: Vec<Replication> = entries
         .filter_map(|e| e.ok())
         .filter(|e| e.path().extension().is_some_and(|x| x == "json"))
         .filter_map(|e| serde_json::from_str(&std::fs::read_to_string(e.path()).ok()?).ok())
         .collect();
     reps.sort_by_key(|r| r.index);
-    Ok(reps)
+    reps
+}
+
+/// The replications finished so far in `out`, in index order, to report on a run that is
+/// still going or was stopped.
+///
+/// # Errors
+/// [`ValidateError`] when `out` holds no table of replications (nor the records of an
+/// earlier version) or it cannot be read.
+pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateError> {
+    let path = out.join(REPLICATIONS_TABLE);
+    match table::read(&path)? {
+        Some(t) => Ok(t.rows.into_values().collect()),
+        None => {
+            let legacy = legacy_records(&out.join(LEGACY_RECORDS_DIR));
+            if legacy.is_empty() {
+                Err(io("reading", &path)(std::io::Error::from(
+                    std::io::ErrorKind::NotFound,
+                )))
+            } else {
+                Ok(legacy)
+            }
+        }
+    }
 }
 
 /// Writes `validation.json` (the report), `rank_histograms.svg` and `validation.md` (a table

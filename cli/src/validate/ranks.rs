@@ -7,9 +7,9 @@
 //! replications at positions `r, r + R, ...` of it ([`share`]). A replication depends only on (seed, index),
 //! never on the rank or the number of threads that ran it, so the records and the report are
 //! those of one process. The other ranks send each finished replication's record to rank 0,
-//! which writes it at once, atomically, as one process does: a job stopped at any moment
-//! leaves whole records, and the same command continues with the rest, on any number of
-//! ranks. Each fit writes its chains under `replications/NNNNN/` on the rank that runs it
+//! which appends it to the table at once, as one process does: a job stopped at any moment
+//! leaves whole rows, and the same command continues with the rest, on any number of
+//! ranks. Each fit writes its chains under `fits/NNNNN/` on the rank that runs it
 //! and deletes them when done (a scratch directory: on a cluster without a shared file
 //! system, on that node's disk).
 
@@ -138,6 +138,7 @@ pub fn run_root(
     let mut replications = own?;
     replications.extend(others);
     replications.sort_by_key(|r| r.index);
+    run.finish()?;
     Ok(Shared {
         replications,
         received,
