@@ -35,6 +35,7 @@ targets=(
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
   "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|30 min|partly (wall times)"
   "mpi|reports/mpi.md: fits over MPI ranks, time per sweep and memory per rank|20 min|yes"
+  "structure|reports/structure.md: the shape of src/ (largest files, long functions, the core trait, pub items) against 361f0fe|5 s|no"
 )
 
 list() {
@@ -204,6 +205,14 @@ run() {
     stamp "$target" "$load" "$start" reports/mpi.md
     # Back to the default build, which the other targets and the tests use.
     build
+    ;;
+  structure)
+    local table=$scratch/structure.md
+    python3 benches/structure.py 361f0fe HEAD > "$table"
+    assemble reports/structure.md "The shape of the source" \
+      "How the library's source is laid out, before the restructuring of its core (\`361f0fe\`) and now: \`python3 benches/structure.py 361f0fe HEAD\` reads both commits from git. The bounds it checks: no file in \`src/\` over about 800 lines (test modules aside; a file whose test module takes it over is listed but within the bound) and no function over about 120; a core trait of at most six methods, further capabilities in traits of their own (\`BlockedDensity\` and the traits its plan hands out, see \`src/density/\`)." \
+      "$table"
+    stamp "$target" "$load" "$start" reports/structure.md
     ;;
   *)
     echo "unknown target $target; the targets are:" >&2
