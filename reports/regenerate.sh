@@ -210,7 +210,7 @@ run() {
     local table=$scratch/structure.md
     python3 benches/structure.py 361f0fe HEAD > "$table"
     assemble reports/structure.md "The shape of the source" \
-      "How the library's source is laid out, before the restructuring of its core (\`361f0fe\`) and now: \`python3 benches/structure.py 361f0fe HEAD\` reads both commits from git. The bounds it checks: no file in \`src/\` over about 800 lines (test modules aside; a file whose test module takes it over is listed but within the bound) and no function over about 120; a core trait of at most six methods, further capabilities in traits of their own (\`BlockedDensity\` and the traits its plan hands out, see \`src/density/\`)." \
+      "How the library's source is laid out, before the restructuring of its core (\`361f0fe\`) and now: \`python3 benches/structure.py 361f0fe HEAD\` reads both commits from git. The bounds it checks: no file in \`src/\` over about 800 lines (test modules aside) and no function over about 120; a core trait of at most six methods, further capabilities in traits of their own (\`BlockedDensity\` and the traits its plan hands out, see \`src/density/\`)." \
       "$table"
     stamp "$target" "$load" "$start" reports/structure.md
     ;;
