@@ -615,8 +615,39 @@ fn resolve(
             ));
         }
     }
-    let name = &reference.name;
-    let to_si = match (role, unit.quantity) {
+    let to_si = si_factor(
+        path,
+        &reference.name,
+        role,
+        &unit,
+        moment_arm_m,
+        conversions,
+        |message| at_header(index + 1, message),
+    )?;
+    Ok(Resolved {
+        index,
+        role,
+        unit,
+        to_si,
+    })
+}
+
+/// The factor from the mapped column's `unit` to SI for its `role` (a torque divided by the
+/// moment arm gives a force), each conversion noted in `conversions`.
+///
+/// # Errors
+/// [`DataError::Unsupported`] for a torque without a positive moment arm;
+/// `not_of_role`'s error (naming the column) when its unit is not one of the role's.
+fn si_factor(
+    path: &Path,
+    name: &str,
+    role: &'static str,
+    unit: &Unit,
+    moment_arm_m: f64,
+    conversions: &mut Vec<String>,
+    not_of_role: impl FnOnce(String) -> DataError,
+) -> Result<f64, DataError> {
+    Ok(match (role, unit.quantity) {
         ("time", Quantity::Time { to_s }) => {
             if (to_s - 1.0).abs() > 0.0 {
                 conversions.push(format!("time `{name}`: {unit} → s (× {to_s})"));
@@ -645,32 +676,23 @@ fn resolve(
             to_n_m / moment_arm_m
         }
         _ => {
-            return Err(at_header(
-                index + 1,
-                format!(
-                    "column `{name}` is in `{unit}`, which is not a unit of {}; map the {role} \
-                     to a column in {}",
-                    if role == "time" {
-                        "time"
-                    } else {
-                        "force or torque"
-                    },
-                    if role == "time" {
-                        "s, min or h"
-                    } else if role == "force" {
-                        "N, mN, µN or N·m, mN·m, µN·m"
-                    } else {
-                        "N, mN or µN"
-                    }
-                ),
-            ))
+            return Err(not_of_role(format!(
+                "column `{name}` is in `{unit}`, which is not a unit of {}; map the {role} \
+                 to a column in {}",
+                if role == "time" {
+                    "time"
+                } else {
+                    "force or torque"
+                },
+                if role == "time" {
+                    "s, min or h"
+                } else if role == "force" {
+                    "N, mN, µN or N·m, mN·m, µN·m"
+                } else {
+                    "N, mN or µN"
+                }
+            )))
         }
-    };
-    Ok(Resolved {
-        index,
-        role,
-        unit,
-        to_si,
     })
 }
 
@@ -736,84 +758,26 @@ fn map_table(
     };
     let mut lines = Vec::with_capacity(rows);
     let mut dropped_invalid = 0;
-    'rows: for row in 0..rows {
+    for row in 0..rows {
         let mut bad_here: [Option<&Bad>; 3] = [None; 3];
         while let Some((_, slot, b)) = bad.next_if(|(r, _, _)| *r == row) {
             bad_here[*slot] = Some(b);
         }
-        let mut values = [0.0; 3];
-        for (slot, r) in mapped.iter().enumerate() {
-            let v = extracted.values[slot][row];
-            let problem = match bad_here[slot] {
-                Some(Bad::Flagged(point)) => Problem::Flagged(point),
-                Some(Bad::Empty) => Problem::Cell("an empty cell".to_owned()),
-                Some(Bad::Text(t)) => Problem::Cell(format!("`{t}`")),
-                None if (v * r.to_si).abs() <= MAX_MAGNITUDE_SI => {
-                    values[slot] = v * r.to_si;
-                    continue;
-                }
-                None if v.is_finite() => Problem::Beyond(format!(
-                    "{v:e} ({:e} in {}) is beyond ±{MAX_MAGNITUDE_SI:e}: not a measurement \
-                     (and its square would overflow the likelihood)",
-                    v * r.to_si,
-                    if r.role == "time" { "s" } else { "N" }
-                )),
-                None => Problem::Cell(v.to_string()),
-            };
-            if options.drop_invalid {
-                dropped_invalid += 1;
-                continue 'rows;
-            }
-            let drop_hint = "drop such points explicitly (model file: `drop_invalid = true`; \
-                             command line: --drop-invalid) and they are counted in the report";
-            return Err(DataError::Malformed {
-                path: path.to_owned(),
-                line: table.line(row),
-                column: r.index + 1,
-                message: match problem {
-                    Problem::Flagged(point) => format!(
-                        "the instrument marked point `{point}` invalid; choose intervals without \
-                         it, or {drop_hint}"
-                    ),
-                    Problem::Beyond(bad) => format!(
-                        "column `{}` ({}): {bad}; fix the point, or {drop_hint}",
-                        table.names[r.index], r.role
-                    ),
-                    Problem::Cell(bad) => format!(
-                        "{bad} in column `{}` ({}) is not a finite number; fix the point, or \
-                         {drop_hint}",
-                        table.names[r.index], r.role
-                    ),
-                },
-            });
-        }
+        let Some(values) = row_values(
+            table,
+            path,
+            &mapped,
+            &extracted.values,
+            row,
+            bad_here,
+            options.drop_invalid,
+        )?
+        else {
+            dropped_invalid += 1;
+            continue;
+        };
         if let Some(&previous) = series.time_s.last() {
-            if values[0] <= previous {
-                let what = if values[0] < previous {
-                    "earlier than"
-                } else {
-                    "equal to"
-                };
-                let restart = match table.block_of(row) {
-                    Some(block) if block.rows.start == row => format!(
-                        "; it is the first point of {}: keep {}s whose times follow on \
-                         (model file: `interval = …`; command line: --interval)",
-                        block.name, block.kind
-                    ),
-                    _ => String::new(),
-                };
-                return Err(DataError::Malformed {
-                    path: path.to_owned(),
-                    line: table.line(row),
-                    column: mapped[0].index + 1,
-                    message: format!(
-                        "time {} s is {what} the previous point's {previous} s; times must \
-                         strictly increase (sort the rows, remove duplicates, or map a \
-                         continuous time column rather than one that restarts per interval){restart}",
-                        values[0]
-                    ),
-                });
-            }
+            check_time_order(table, path, row, values[0], previous, mapped[0].index)?;
         }
         series.time_s.push(values[0]);
         series.force_n.push(values[1]);
@@ -837,6 +801,108 @@ fn map_table(
         conversions,
         found,
     })
+}
+
+/// The SI values of the mapped columns in `row` (`bad_here`: its bad cells by slot), or
+/// `None` when a cell is bad or beyond any measurement and `drop_invalid` drops the row.
+///
+/// # Errors
+/// [`DataError::Malformed`] naming the line and column of such a cell otherwise.
+fn row_values(
+    table: &Table,
+    path: &Path,
+    mapped: &[Resolved],
+    values_read: &[Vec<f64>],
+    row: usize,
+    bad_here: [Option<&Bad>; 3],
+    drop_invalid: bool,
+) -> Result<Option<[f64; 3]>, DataError> {
+    let mut values = [0.0; 3];
+    for (slot, r) in mapped.iter().enumerate() {
+        let v = values_read[slot][row];
+        let problem = match bad_here[slot] {
+            Some(Bad::Flagged(point)) => Problem::Flagged(point),
+            Some(Bad::Empty) => Problem::Cell("an empty cell".to_owned()),
+            Some(Bad::Text(t)) => Problem::Cell(format!("`{t}`")),
+            None if (v * r.to_si).abs() <= MAX_MAGNITUDE_SI => {
+                values[slot] = v * r.to_si;
+                continue;
+            }
+            None if v.is_finite() => Problem::Beyond(format!(
+                "{v:e} ({:e} in {}) is beyond ±{MAX_MAGNITUDE_SI:e}: not a measurement \
+                 (and its square would overflow the likelihood)",
+                v * r.to_si,
+                if r.role == "time" { "s" } else { "N" }
+            )),
+            None => Problem::Cell(v.to_string()),
+        };
+        if drop_invalid {
+            return Ok(None);
+        }
+        let drop_hint = "drop such points explicitly (model file: `drop_invalid = true`; \
+                         command line: --drop-invalid) and they are counted in the report";
+        return Err(DataError::Malformed {
+            path: path.to_owned(),
+            line: table.line(row),
+            column: r.index + 1,
+            message: match problem {
+                Problem::Flagged(point) => format!(
+                    "the instrument marked point `{point}` invalid; choose intervals without \
+                     it, or {drop_hint}"
+                ),
+                Problem::Beyond(bad) => format!(
+                    "column `{}` ({}): {bad}; fix the point, or {drop_hint}",
+                    table.names[r.index], r.role
+                ),
+                Problem::Cell(bad) => format!(
+                    "{bad} in column `{}` ({}) is not a finite number; fix the point, or \
+                     {drop_hint}",
+                    table.names[r.index], r.role
+                ),
+            },
+        });
+    }
+    Ok(Some(values))
+}
+
+/// Checks that the time of `row` follows the previous point's.
+///
+/// # Errors
+/// [`DataError::Malformed`] naming the line, and the block the row starts if it does.
+fn check_time_order(
+    table: &Table,
+    path: &Path,
+    row: usize,
+    time: f64,
+    previous: f64,
+    time_column: usize,
+) -> Result<(), DataError> {
+    if time <= previous {
+        let what = if time < previous {
+            "earlier than"
+        } else {
+            "equal to"
+        };
+        let restart = match table.block_of(row) {
+            Some(block) if block.rows.start == row => format!(
+                "; it is the first point of {}: keep {}s whose times follow on \
+                 (model file: `interval = …`; command line: --interval)",
+                block.name, block.kind
+            ),
+            _ => String::new(),
+        };
+        return Err(DataError::Malformed {
+            path: path.to_owned(),
+            line: table.line(row),
+            column: time_column + 1,
+            message: format!(
+                "time {time} s is {what} the previous point's {previous} s; times must \
+                 strictly increase (sort the rows, remove duplicates, or map a \
+                 continuous time column rather than one that restarts per interval){restart}"
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// What is wrong with a mapped cell.
