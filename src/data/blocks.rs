@@ -110,6 +110,57 @@ impl Export {
                 ),
             });
         }
+        let mut found = self.describe();
+        let chosen = chosen_blocks(&self.blocks, choice, kind, path)?;
+        let Some(&first) = chosen.first() else {
+            return Err(DataError::Unsupported {
+                path: path.to_owned(),
+                message: format!("no {kind} chosen; give `all` or {kind} numbers"),
+            });
+        };
+        let JoinedColumns {
+            names,
+            units,
+            left_out,
+        } = joined_columns(&chosen, kind, path)?;
+        let left_out = (!left_out.is_empty()).then(|| {
+            format!(
+                "columns not in every chosen {kind} are left out ({}): choose {kind}s that \
+                 have the columns you need (model file: `interval = N`; command line: \
+                 --interval N)",
+                quoted(left_out.into_iter())
+            )
+        });
+        found.extend(left_out.clone());
+        found.push(format!("{kind}s kept: {choice}"));
+        let (rows, segments, ranges) = joined_rows(&chosen, &names, kind);
+        let sections: Vec<&str> = self.sections.iter().map(String::as_str).collect();
+        let roles = Roles::identify(&names, &units, &sections);
+        found.push(format!("columns recognised: {}", roles.describe(&names)));
+        Ok(Table {
+            header_line: first.header_line.max(1),
+            names,
+            units,
+            found,
+            roles,
+            data: Data::Text(TextData {
+                text: self.text,
+                separator: self.separator,
+                numbers: self.numbers,
+                rows,
+                segments,
+            }),
+            blocks: ranges,
+            tried: None,
+            left_out,
+        })
+    }
+
+    /// What was found, for the user: the vendor and language, the encoding and formats, the
+    /// header's facts, each block with its points (and its columns, unless all blocks share
+    /// them).
+    fn describe(&self) -> Vec<String> {
+        let kind = self.kind;
         let roles_all = {
             let first = &self.blocks[0];
             let sections: Vec<&str> = self.sections.iter().map(String::as_str).collect();
@@ -167,125 +218,135 @@ impl Export {
                 columns_with_units(&self.blocks[0].names, &self.blocks[0].units)
             ));
         }
-        let blocks = &self.blocks;
-        let chosen: Vec<&Block> = match choice {
-            IntervalChoice::All => blocks.iter().collect(),
-            IntervalChoice::Numbers(numbers) => numbers
-                .iter()
-                .map(|&n| {
-                    blocks
-                        .iter()
-                        .find(|b| b.number == n)
-                        .ok_or_else(|| DataError::NoSuchInterval {
-                            path: path.to_owned(),
-                            kind,
-                            asked: n,
-                            intervals: blocks.iter().map(|b| (b.number, b.rows.len())).collect(),
-                            table: None,
-                        })
-                })
-                .collect::<Result<_, _>>()?,
-        };
-        let Some(&first) = chosen.first() else {
-            return Err(DataError::Unsupported {
-                path: path.to_owned(),
-                message: format!("no {kind} chosen; give `all` or {kind} numbers"),
-            });
-        };
-        // Columns of every chosen block, in the first one's order; a column the blocks
-        // disagree on the unit of cannot be joined.
-        let mut names = Vec::new();
-        let mut units = Vec::new();
-        let mut left_out = Vec::new();
-        for (c, name) in first.names.iter().enumerate() {
-            let mut everywhere = true;
-            for other in &chosen[1..] {
-                match other.names.iter().position(|n| n == name) {
-                    Some(o) if other.units[o] != first.units[c] => {
-                        return Err(DataError::Malformed {
-                            path: path.to_owned(),
-                            line: other.header_line.max(1),
-                            column: o + 1,
-                            message: format!(
-                                "column `{name}` is in {} in {kind} {} but in {} in {kind} {}; \
-                                 choose {kind}s that agree (model file: `interval = N`; \
-                                 command line: --interval N)",
-                                other.units[o].as_deref().unwrap_or("no unit"),
-                                other.number,
-                                first.units[c].as_deref().unwrap_or("no unit"),
-                                first.number
-                            ),
-                        });
-                    }
-                    Some(_) => {}
-                    None => everywhere = false,
-                }
-            }
-            if everywhere {
-                names.push(name.clone());
-                units.push(first.units[c].clone());
-            } else {
-                left_out.push(name.as_str());
-            }
-        }
-        let left_out = (!left_out.is_empty()).then(|| {
-            format!(
-                "columns not in every chosen {kind} are left out ({}): choose {kind}s that \
-                 have the columns you need (model file: `interval = N`; command line: \
-                 --interval N)",
-                quoted(left_out.into_iter())
-            )
-        });
-        found.extend(left_out.clone());
-        found.push(format!("{kind}s kept: {choice}"));
-        let mut rows: Vec<TextRow> = Vec::new();
-        let mut segments = Vec::new();
-        let mut ranges = Vec::new();
-        for block in &chosen {
-            let start = rows.len();
-            rows.extend_from_slice(&block.rows);
-            let fields = names
-                .iter()
-                .map(|n| {
-                    let at = block.names.iter().position(|b| b == n).unwrap_or(0);
-                    block.fields[at]
-                })
-                .collect();
-            segments.push(Segment {
-                rows: start..rows.len(),
-                fields,
-                point_field: block.point_field,
-            });
-            let label = block
-                .label
-                .as_deref()
-                .map(|l| format!(" ({l})"))
-                .unwrap_or_default();
-            ranges.push(BlockRows {
-                rows: start..rows.len(),
-                kind,
-                name: format!("{kind} {}{label}", block.number),
-            });
-        }
-        let sections: Vec<&str> = self.sections.iter().map(String::as_str).collect();
-        let roles = Roles::identify(&names, &units, &sections);
-        found.push(format!("columns recognised: {}", roles.describe(&names)));
-        Ok(Table {
-            header_line: first.header_line.max(1),
-            names,
-            units,
-            found,
-            roles,
-            data: Data::Text(TextData {
-                text: self.text,
-                separator: self.separator,
-                numbers: self.numbers,
-                rows,
-                segments,
-            }),
-            blocks: ranges,
-            tried: None,
-            left_out,
-        })
+        found
     }
+}
+
+/// The blocks `choice` names, in its order.
+///
+/// # Errors
+/// [`DataError::NoSuchInterval`] for a number no block has.
+fn chosen_blocks<'b>(
+    blocks: &'b [Block],
+    choice: &IntervalChoice,
+    kind: &'static str,
+    path: &Path,
+) -> Result<Vec<&'b Block>, DataError> {
+    match choice {
+        IntervalChoice::All => Ok(blocks.iter().collect()),
+        IntervalChoice::Numbers(numbers) => numbers
+            .iter()
+            .map(|&n| {
+                blocks
+                    .iter()
+                    .find(|b| b.number == n)
+                    .ok_or_else(|| DataError::NoSuchInterval {
+                        path: path.to_owned(),
+                        kind,
+                        asked: n,
+                        intervals: blocks.iter().map(|b| (b.number, b.rows.len())).collect(),
+                        table: None,
+                    })
+            })
+            .collect(),
+    }
+}
+
+/// Columns of every chosen block, in the first one's order, with their units, and the first
+/// block's columns that some other lacks.
+struct JoinedColumns<'b> {
+    names: Vec<String>,
+    units: Vec<Option<String>>,
+    left_out: Vec<&'b str>,
+}
+
+/// The [`JoinedColumns`] of the chosen blocks.
+///
+/// # Errors
+/// [`DataError::Malformed`] for a column the blocks disagree on the unit of: it cannot be
+/// joined.
+fn joined_columns<'b>(
+    chosen: &[&'b Block],
+    kind: &'static str,
+    path: &Path,
+) -> Result<JoinedColumns<'b>, DataError> {
+    let first = chosen[0];
+    let mut names = Vec::new();
+    let mut units = Vec::new();
+    let mut left_out = Vec::new();
+    for (c, name) in first.names.iter().enumerate() {
+        let mut everywhere = true;
+        for other in &chosen[1..] {
+            match other.names.iter().position(|n| n == name) {
+                Some(o) if other.units[o] != first.units[c] => {
+                    return Err(DataError::Malformed {
+                        path: path.to_owned(),
+                        line: other.header_line.max(1),
+                        column: o + 1,
+                        message: format!(
+                            "column `{name}` is in {} in {kind} {} but in {} in {kind} {}; \
+                             choose {kind}s that agree (model file: `interval = N`; \
+                             command line: --interval N)",
+                            other.units[o].as_deref().unwrap_or("no unit"),
+                            other.number,
+                            first.units[c].as_deref().unwrap_or("no unit"),
+                            first.number
+                        ),
+                    });
+                }
+                Some(_) => {}
+                None => everywhere = false,
+            }
+        }
+        if everywhere {
+            names.push(name.clone());
+            units.push(first.units[c].clone());
+        } else {
+            left_out.push(name.as_str());
+        }
+    }
+    Ok(JoinedColumns {
+        names,
+        units,
+        left_out,
+    })
+}
+
+/// The chosen blocks' rows one after the other, each block's fields for the joined columns
+/// `names`, and the range of rows each block holds.
+fn joined_rows(
+    chosen: &[&Block],
+    names: &[String],
+    kind: &'static str,
+) -> (Vec<TextRow>, Vec<Segment>, Vec<BlockRows>) {
+    let mut rows: Vec<TextRow> = Vec::new();
+    let mut segments = Vec::new();
+    let mut ranges = Vec::new();
+    for block in chosen {
+        let start = rows.len();
+        rows.extend_from_slice(&block.rows);
+        let fields = names
+            .iter()
+            .map(|n| {
+                let at = block.names.iter().position(|b| b == n).unwrap_or(0);
+                block.fields[at]
+            })
+            .collect();
+        segments.push(Segment {
+            rows: start..rows.len(),
+            fields,
+            point_field: block.point_field,
+        });
+        let label = block
+            .label
+            .as_deref()
+            .map(|l| format!(" ({l})"))
+            .unwrap_or_default();
+        ranges.push(BlockRows {
+            rows: start..rows.len(),
+            kind,
+            name: format!("{kind} {}{label}", block.number),
+        });
+    }
+    (rows, segments, ranges)
 }

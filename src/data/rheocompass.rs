@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 use super::blocks::{not_recognised, Block, Export};
 use super::labels::{normalise, LANGUAGES};
 use super::table::{Table, TextRow};
-use super::text::{is_blank, lines, split_fields, unquote, Encoding, NumberFormat};
+use super::text::{is_blank, lines, split_fields, unquote, Encoding, Line, NumberFormat};
 use super::DataError;
 
 /// Which intervals of an export to keep.
@@ -248,67 +248,14 @@ pub fn parse(
 ) -> Result<Table, DataError> {
     let separator =
         recognise(&text).map_err(not_recognised(path, "an Anton Paar RheoCompass export"))?;
-    let malformed = |line: usize, column: usize, message: String| DataError::Malformed {
-        path: path.to_owned(),
-        line,
-        column,
-        message,
-    };
-    let mut found_lines = Vec::new();
-    let mut sections: Vec<String> = Vec::new();
-    let mut interval_label: Option<String> = None;
-    let mut columns_label: Option<String> = None;
-    let mut intervals: Vec<Found> = Vec::new();
-    let mut result: Option<String> = None;
-    let mut meta_since_interval: Vec<(String, String)> = Vec::new();
-    let mut state = State::Outside;
+    let mut reader = Reader::new(path, separator);
     let mut fields = Vec::new();
-    let mut sample: Vec<String> = Vec::new();
-    let mut sampled = 0;
     for line in lines(&text) {
         let raw = &text[line.start..line.end];
         let bytes = raw.as_bytes();
         // Data rows start with the separator: the common case, handled without splitting.
-        if state == State::Data && bytes.first() == Some(&separator) {
-            let Some(current) = intervals.last_mut() else {
-                continue;
-            };
-            let block = &mut current.block;
-            let rest = &raw[1..];
-            if block.point_field.is_some() {
-                let end = memchr::memchr(separator, rest.as_bytes()).unwrap_or(rest.len());
-                let point = unquote(&rest[..end]);
-                if point.is_empty() {
-                    // No point number: a waveform sample of the point before, or a blank row.
-                    if !is_blank(raw, separator) {
-                        block.skipped += 1;
-                    }
-                    continue;
-                }
-                let digits = point.bytes().take_while(u8::is_ascii_digit).count();
-                let flagged = digits > 0 && digits < point.len();
-                block.rows.push(TextRow {
-                    start: line.start,
-                    end: line.end,
-                    line: line.number,
-                    flagged,
-                });
-            } else {
-                if is_blank(raw, separator) {
-                    continue;
-                }
-                block.rows.push(TextRow {
-                    start: line.start,
-                    end: line.end,
-                    line: line.number,
-                    flagged: false,
-                });
-            }
-            if block.rows.len() <= SAMPLE_ROWS && sampled < 20 * SAMPLE_ROWS {
-                sampled += 1;
-                split_fields(raw, separator, usize::MAX, &mut fields);
-                sample.extend(fields.iter().skip(1).map(|f| (*f).to_owned()));
-            }
+        if reader.state == State::Data && bytes.first() == Some(&separator) {
+            reader.data_row(&line, raw, &mut fields);
             continue;
         }
         if is_blank(raw, separator) {
@@ -316,111 +263,253 @@ pub fn parse(
         }
         split_fields(raw, separator, usize::MAX, &mut fields);
         let first = unquote(fields[0]);
-        if !first.is_empty() {
-            let is_interval = match &interval_label {
-                Some(l) => first == l,
-                None => interval_header(&fields).is_some(),
-            };
-            if is_interval {
-                let Some(number) = fields.get(1).and_then(|f| unquote(f).parse::<usize>().ok())
-                else {
-                    return Err(malformed(
-                        line.number,
-                        2,
-                        format!("`{first}` must be followed by the interval number"),
-                    ));
-                };
-                if interval_label.is_none() {
-                    sections.push(first.to_owned());
-                    interval_label = Some(first.to_owned());
-                }
-                // The result (test) this interval belongs to: the last `Result:`-like line since
-                // the interval before, else the last label line.
-                if !meta_since_interval.is_empty() {
-                    let results: Vec<String> =
-                        LANGUAGES.iter().map(|l| normalise(l.result)).collect();
-                    let named = meta_since_interval
-                        .iter()
-                        .rev()
-                        .find(|(l, _)| results.contains(&normalise(l)))
-                        .or(meta_since_interval.last());
-                    result = named.map(|(_, v)| v.clone()).filter(|v| !v.is_empty());
-                    meta_since_interval.clear();
-                }
-                intervals.push(Found {
-                    block: Block {
-                        declared: fields.get(2).and_then(|f| unquote(f).parse().ok()),
-                        ..Block::default()
-                    },
-                    written: number,
-                    result: result.clone(),
-                });
-                state = State::Outside;
-                continue;
-            }
-            let is_columns = match &columns_label {
-                Some(l) => first == l,
-                None => {
-                    label(fields[0]).is_some()
-                        && intervals.last().is_some_and(|i| i.block.names.is_empty())
-                        && state == State::Outside
-                }
-            };
-            if is_columns {
-                let Some(current) = intervals.last_mut() else {
-                    return Err(malformed(
-                        line.number,
-                        1,
-                        format!("`{first}` (column names) before any interval header"),
-                    ));
-                };
-                // Rows already read have the first header's width (a fuzzing find).
-                if !current.block.names.is_empty() {
-                    return Err(malformed(
-                        line.number,
-                        1,
-                        format!(
-                            "a second `{first}` line in interval {}; each interval has one \
-                             (was the file joined from two exports?)",
-                            current.written
-                        ),
-                    ));
-                }
-                if columns_label.is_none() {
-                    sections.push(first.to_owned());
-                    columns_label = Some(first.to_owned());
-                }
-                let mut names: Vec<String> =
-                    fields[1..].iter().map(|f| unquote(f).to_owned()).collect();
-                while names.last().is_some_and(String::is_empty) {
-                    names.pop();
-                }
-                let block = &mut current.block;
-                block.units = vec![None; names.len()];
-                block.fields = (1..=names.len()).collect();
-                block.names = names;
-                block.header_line = line.number;
-                state = State::Header;
-                continue;
-            }
-            // Header block (`Project:`, `Test:`, `Result:`, …): for the record.
-            let value: Vec<&str> = fields[1..]
-                .iter()
-                .map(|f| unquote(f))
-                .filter(|s| !s.is_empty())
-                .collect();
-            if intervals.is_empty() && found_lines.len() < 7 {
-                found_lines.push(format!("{first} {}", value.join(" ")).trim().to_owned());
-            }
-            if label(fields[0]).is_some() && !sections.iter().any(|s| s == first) {
-                sections.push(first.to_owned());
-            }
-            meta_since_interval.push((first.to_owned(), value.join(" ")));
-            state = State::Outside;
-            continue;
+        if first.is_empty() {
+            reader.unlabelled_row(&line, &fields)?;
+        } else if reader.is_interval_header(first, &fields) {
+            reader.interval_header(&line, first, &fields)?;
+        } else if reader.is_column_names(first, &fields) {
+            reader.column_names(&line, first, &fields)?;
+        } else {
+            reader.label_line(first, &fields);
         }
-        let Some(current) = intervals.last_mut().filter(|i| !i.block.names.is_empty()) else {
+    }
+    reader.into_export(text, encoding)?.into_table(choice, path)
+}
+
+/// A malformed line of the export at `path`.
+fn malformed(path: &Path, line: usize, column: usize, message: String) -> DataError {
+    DataError::Malformed {
+        path: path.to_owned(),
+        line,
+        column,
+        message,
+    }
+}
+
+/// What [`parse`] has read so far, line after line.
+struct Reader<'p> {
+    path: &'p Path,
+    separator: u8,
+    /// The header block's first lines and remarks on the intervals, for the record.
+    found_lines: Vec<String>,
+    /// The labels of the export's sections, in the order first met.
+    sections: Vec<String>,
+    /// The labels of an interval header and of column names, once the first of each is met.
+    interval_label: Option<String>,
+    columns_label: Option<String>,
+    intervals: Vec<Found>,
+    /// The test (result) of the interval being read.
+    result: Option<String>,
+    /// Label lines since the last interval header: the next interval's test is named there.
+    meta_since_interval: Vec<(String, String)>,
+    state: State,
+    /// Fields of the first data rows, for the number-format detection.
+    sample: Vec<String>,
+    sampled: usize,
+}
+
+impl<'p> Reader<'p> {
+    fn new(path: &'p Path, separator: u8) -> Self {
+        Self {
+            path,
+            separator,
+            found_lines: Vec::new(),
+            sections: Vec::new(),
+            interval_label: None,
+            columns_label: None,
+            intervals: Vec::new(),
+            result: None,
+            meta_since_interval: Vec::new(),
+            state: State::Outside,
+            sample: Vec::new(),
+            sampled: 0,
+        }
+    }
+
+    /// A data row starting with the separator: a point, or (without a point number) a waveform
+    /// sample of the point before.
+    fn data_row<'t>(&mut self, line: &Line, raw: &'t str, fields: &mut Vec<&'t str>) {
+        let separator = self.separator;
+        let Some(current) = self.intervals.last_mut() else {
+            return;
+        };
+        let block = &mut current.block;
+        let rest = &raw[1..];
+        if block.point_field.is_some() {
+            let end = memchr::memchr(separator, rest.as_bytes()).unwrap_or(rest.len());
+            let point = unquote(&rest[..end]);
+            if point.is_empty() {
+                // No point number: a waveform sample of the point before, or a blank row.
+                if !is_blank(raw, separator) {
+                    block.skipped += 1;
+                }
+                return;
+            }
+            let digits = point.bytes().take_while(u8::is_ascii_digit).count();
+            let flagged = digits > 0 && digits < point.len();
+            block.rows.push(TextRow {
+                start: line.start,
+                end: line.end,
+                line: line.number,
+                flagged,
+            });
+        } else {
+            if is_blank(raw, separator) {
+                return;
+            }
+            block.rows.push(TextRow {
+                start: line.start,
+                end: line.end,
+                line: line.number,
+                flagged: false,
+            });
+        }
+        if block.rows.len() <= SAMPLE_ROWS && self.sampled < 20 * SAMPLE_ROWS {
+            self.sampled += 1;
+            split_fields(raw, separator, usize::MAX, fields);
+            self.sample
+                .extend(fields.iter().skip(1).map(|f| (*f).to_owned()));
+        }
+    }
+
+    /// Whether a line labelled `first` opens an interval: the label of the first interval
+    /// header, or before one, an interval header's shape.
+    fn is_interval_header(&self, first: &str, fields: &[&str]) -> bool {
+        match &self.interval_label {
+            Some(l) => first == l,
+            None => interval_header(fields).is_some(),
+        }
+    }
+
+    /// Opens an interval, in the test (result) named since the interval before.
+    fn interval_header(
+        &mut self,
+        line: &Line,
+        first: &str,
+        fields: &[&str],
+    ) -> Result<(), DataError> {
+        let Some(number) = fields.get(1).and_then(|f| unquote(f).parse::<usize>().ok()) else {
             return Err(malformed(
+                self.path,
+                line.number,
+                2,
+                format!("`{first}` must be followed by the interval number"),
+            ));
+        };
+        if self.interval_label.is_none() {
+            self.sections.push(first.to_owned());
+            self.interval_label = Some(first.to_owned());
+        }
+        // The result (test) this interval belongs to: the last `Result:`-like line since
+        // the interval before, else the last label line.
+        if !self.meta_since_interval.is_empty() {
+            let results: Vec<String> = LANGUAGES.iter().map(|l| normalise(l.result)).collect();
+            let named = self
+                .meta_since_interval
+                .iter()
+                .rev()
+                .find(|(l, _)| results.contains(&normalise(l)))
+                .or(self.meta_since_interval.last());
+            self.result = named.map(|(_, v)| v.clone()).filter(|v| !v.is_empty());
+            self.meta_since_interval.clear();
+        }
+        self.intervals.push(Found {
+            block: Block {
+                declared: fields.get(2).and_then(|f| unquote(f).parse().ok()),
+                ..Block::default()
+            },
+            written: number,
+            result: self.result.clone(),
+        });
+        self.state = State::Outside;
+        Ok(())
+    }
+
+    /// Whether a line labelled `first` holds column names: the label of the first such line,
+    /// or before one, any label right after an interval header that has none yet.
+    fn is_column_names(&self, first: &str, fields: &[&str]) -> bool {
+        match &self.columns_label {
+            Some(l) => first == l,
+            None => {
+                label(fields[0]).is_some()
+                    && self
+                        .intervals
+                        .last()
+                        .is_some_and(|i| i.block.names.is_empty())
+                    && self.state == State::Outside
+            }
+        }
+    }
+
+    /// The column names of the interval being read.
+    fn column_names(&mut self, line: &Line, first: &str, fields: &[&str]) -> Result<(), DataError> {
+        let Some(current) = self.intervals.last_mut() else {
+            return Err(malformed(
+                self.path,
+                line.number,
+                1,
+                format!("`{first}` (column names) before any interval header"),
+            ));
+        };
+        // Rows already read have the first header's width (a fuzzing find).
+        if !current.block.names.is_empty() {
+            return Err(malformed(
+                self.path,
+                line.number,
+                1,
+                format!(
+                    "a second `{first}` line in interval {}; each interval has one \
+                     (was the file joined from two exports?)",
+                    current.written
+                ),
+            ));
+        }
+        if self.columns_label.is_none() {
+            self.sections.push(first.to_owned());
+            self.columns_label = Some(first.to_owned());
+        }
+        let mut names: Vec<String> = fields[1..].iter().map(|f| unquote(f).to_owned()).collect();
+        while names.last().is_some_and(String::is_empty) {
+            names.pop();
+        }
+        let block = &mut current.block;
+        block.units = vec![None; names.len()];
+        block.fields = (1..=names.len()).collect();
+        block.names = names;
+        block.header_line = line.number;
+        self.state = State::Header;
+        Ok(())
+    }
+
+    /// A line of the header block (`Project:`, `Test:`, `Result:`, …): for the record.
+    fn label_line(&mut self, first: &str, fields: &[&str]) {
+        let value: Vec<&str> = fields[1..]
+            .iter()
+            .map(|f| unquote(f))
+            .filter(|s| !s.is_empty())
+            .collect();
+        if self.intervals.is_empty() && self.found_lines.len() < 7 {
+            self.found_lines
+                .push(format!("{first} {}", value.join(" ")).trim().to_owned());
+        }
+        if label(fields[0]).is_some() && !self.sections.iter().any(|s| s == first) {
+            self.sections.push(first.to_owned());
+        }
+        self.meta_since_interval
+            .push((first.to_owned(), value.join(" ")));
+        self.state = State::Outside;
+    }
+
+    /// A line whose first field is empty that is not a data row starting with the separator:
+    /// a row qualifying the names, the units, or a data row with spaces before the separator.
+    fn unlabelled_row(&mut self, line: &Line, fields: &[&str]) -> Result<(), DataError> {
+        let Some(current) = self
+            .intervals
+            .last_mut()
+            .filter(|i| !i.block.names.is_empty())
+        else {
+            return Err(malformed(
+                self.path,
                 line.number,
                 1,
                 "a data row before any interval's column names (a line of a label such as \
@@ -430,8 +519,8 @@ pub fn parse(
             ));
         };
         let block = &mut current.block;
-        if state == State::Header {
-            if units_row(&fields) {
+        if self.state == State::Header {
+            if units_row(fields) {
                 for (unit, f) in block.units.iter_mut().zip(&fields[1..]) {
                     let v = unquote(f);
                     *unit = (!v.is_empty()).then(|| v.to_owned());
@@ -442,14 +531,14 @@ pub fn parse(
                     .first()
                     .is_some_and(Option::is_none)
                     .then_some(1);
-                state = State::Data;
-                continue;
+                self.state = State::Data;
+                return Ok(());
             }
             if !fields[1..].iter().any(|f| NumberFormat::reads_as_number(f)) {
                 // A row qualifying the names (`Sinusoïdes`, `Fundamental`).
-                continue;
+                return Ok(());
             }
-            state = State::Data;
+            self.state = State::Data;
         }
         // A data row that did not start with the separator byte (spaces before it).
         block.rows.push(TextRow {
@@ -458,69 +547,77 @@ pub fn parse(
             line: line.number,
             flagged: false,
         });
+        Ok(())
     }
-    if intervals.is_empty() {
-        return Err(DataError::Unsupported {
-            path: path.to_owned(),
-            message: "no interval header: not a RheoCompass export, or an empty one; export the \
-                      test with its data points"
-                .into(),
-        });
-    }
-    let numbers = NumberFormat::detect(sample.iter().map(String::as_str), separator);
-    let mut written: Vec<usize> = intervals.iter().map(|i| i.written).collect();
-    written.sort_unstable();
-    let repeated = written.windows(2).any(|w| w[0] == w[1]);
-    let results = {
-        let mut r: Vec<&Option<String>> = intervals.iter().map(|i| &i.result).collect();
-        r.dedup();
-        r.len()
-    };
-    if repeated {
-        found_lines.push(format!(
-            "{results} tests (results) whose interval numbers repeat: intervals are numbered \
-             1–{} in file order",
-            intervals.len()
-        ));
-    }
-    for i in intervals.iter().filter(|i| i.block.names.is_empty()) {
-        found_lines.push(format!(
-            "interval {} has no column names (no data exported); left out",
-            i.written
-        ));
-    }
-    let blocks = intervals
-        .into_iter()
-        .enumerate()
-        .map(|(index, i)| {
-            let mut block = i.block;
-            let test = i.result.as_deref().map(|r| format!("result `{r}`"));
-            if repeated {
-                block.number = index + 1;
-                block.label = Some(match test {
-                    Some(t) => format!("{t}, its interval {}", i.written),
-                    None => format!("its interval {}", i.written),
-                });
-            } else {
-                block.number = i.written;
-                block.label = if results > 1 { test } else { None };
-            }
-            block
+
+    /// The export read: its intervals numbered (in file order when tests repeat the numbers)
+    /// and labelled by their test where the file has several.
+    fn into_export(self, text: String, encoding: Encoding) -> Result<Export, DataError> {
+        if self.intervals.is_empty() {
+            return Err(DataError::Unsupported {
+                path: self.path.to_owned(),
+                message: "no interval header: not a RheoCompass export, or an empty one; export \
+                          the test with its data points"
+                    .into(),
+            });
+        }
+        let separator = self.separator;
+        let intervals = self.intervals;
+        let mut found_lines = self.found_lines;
+        let numbers = NumberFormat::detect(self.sample.iter().map(String::as_str), separator);
+        let mut written: Vec<usize> = intervals.iter().map(|i| i.written).collect();
+        written.sort_unstable();
+        let repeated = written.windows(2).any(|w| w[0] == w[1]);
+        let results = {
+            let mut r: Vec<&Option<String>> = intervals.iter().map(|i| &i.result).collect();
+            r.dedup();
+            r.len()
+        };
+        if repeated {
+            found_lines.push(format!(
+                "{results} tests (results) whose interval numbers repeat: intervals are numbered \
+                 1–{} in file order",
+                intervals.len()
+            ));
+        }
+        for i in intervals.iter().filter(|i| i.block.names.is_empty()) {
+            found_lines.push(format!(
+                "interval {} has no column names (no data exported); left out",
+                i.written
+            ));
+        }
+        let blocks = intervals
+            .into_iter()
+            .enumerate()
+            .map(|(index, i)| {
+                let mut block = i.block;
+                let test = i.result.as_deref().map(|r| format!("result `{r}`"));
+                if repeated {
+                    block.number = index + 1;
+                    block.label = Some(match test {
+                        Some(t) => format!("{t}, its interval {}", i.written),
+                        None => format!("its interval {}", i.written),
+                    });
+                } else {
+                    block.number = i.written;
+                    block.label = if results > 1 { test } else { None };
+                }
+                block
+            })
+            .filter(|b| !b.names.is_empty())
+            .collect();
+        Ok(Export {
+            vendor: "Anton Paar RheoCompass export",
+            kind: "interval",
+            text,
+            encoding,
+            separator,
+            numbers,
+            found: found_lines,
+            sections: self.sections,
+            blocks,
         })
-        .filter(|b| !b.names.is_empty())
-        .collect();
-    Export {
-        vendor: "Anton Paar RheoCompass export",
-        kind: "interval",
-        text,
-        encoding,
-        separator,
-        numbers,
-        found: found_lines,
-        sections,
-        blocks,
     }
-    .into_table(choice, path)
 }
 
 #[cfg(test)]

@@ -149,44 +149,11 @@ pub fn parse(
                     column: 1,
                     message: format!("{reason}; each `[step]` has a name, column names and units"),
                 })?;
-            split_fields(
-                &text[names.start..names.end],
+            steps.push(step_block(
+                &text,
                 separator,
-                usize::MAX,
+                (name, declared, names, units),
                 &mut fields,
-            );
-            let mut column_names: Vec<String> =
-                fields.iter().map(|f| unquote(f).to_owned()).collect();
-            while column_names.last().is_some_and(String::is_empty) {
-                column_names.pop();
-            }
-            split_fields(
-                &text[units.start..units.end],
-                separator,
-                usize::MAX,
-                &mut fields,
-            );
-            let column_units = (0..column_names.len())
-                .map(|c| {
-                    fields
-                        .get(c)
-                        .map(|u| unquote(u))
-                        .filter(|u| !u.is_empty())
-                        .map(str::to_owned)
-                })
-                .collect();
-            let step_name =
-                unquote(text[name.start..name.end].trim_end_matches([',', ';', '\t'])).to_owned();
-            steps.push((
-                step_name,
-                Block {
-                    declared,
-                    fields: (0..column_names.len()).collect(),
-                    names: column_names,
-                    units: column_units,
-                    header_line: names.number,
-                    ..Block::default()
-                },
             ));
             in_data = true;
             continue;
@@ -223,27 +190,7 @@ pub fn parse(
             sample.extend(fields.iter().map(|f| (*f).to_owned()));
         }
     }
-    // Steps are chosen by the number their name ends with when every name has a distinct one
-    // (TRIOS numbers the procedure's steps), else by their order.
-    let numbers: Vec<Option<usize>> = steps.iter().map(|(n, _)| number_in_name(n)).collect();
-    let mut distinct: Vec<usize> = numbers.iter().flatten().copied().collect();
-    distinct.sort_unstable();
-    distinct.dedup();
-    let by_name = distinct.len() == steps.len() && numbers.iter().all(Option::is_some);
-    let blocks = steps
-        .into_iter()
-        .zip(numbers)
-        .enumerate()
-        .map(|(index, ((name, mut block), number))| {
-            block.number = if by_name {
-                number.unwrap_or(index + 1)
-            } else {
-                index + 1
-            };
-            block.label = Some(format!("`{name}`"));
-            block
-        })
-        .collect();
+    let blocks = numbered(steps);
     drop(all);
     Export {
         vendor: "TA Instruments TRIOS export",
@@ -257,6 +204,69 @@ pub fn parse(
         blocks,
     }
     .into_table(choice, path)
+}
+
+/// A step's name and its block, from the lines `step_head` found: its columns named and
+/// their units, no rows yet.
+fn step_block<'t>(
+    text: &'t str,
+    separator: u8,
+    (name, declared, names, units): (Line, Option<usize>, Line, Line),
+    fields: &mut Vec<&'t str>,
+) -> (String, Block) {
+    split_fields(&text[names.start..names.end], separator, usize::MAX, fields);
+    let mut column_names: Vec<String> = fields.iter().map(|f| unquote(f).to_owned()).collect();
+    while column_names.last().is_some_and(String::is_empty) {
+        column_names.pop();
+    }
+    split_fields(&text[units.start..units.end], separator, usize::MAX, fields);
+    let column_units = (0..column_names.len())
+        .map(|c| {
+            fields
+                .get(c)
+                .map(|u| unquote(u))
+                .filter(|u| !u.is_empty())
+                .map(str::to_owned)
+        })
+        .collect();
+    let step_name =
+        unquote(text[name.start..name.end].trim_end_matches([',', ';', '\t'])).to_owned();
+    (
+        step_name,
+        Block {
+            declared,
+            fields: (0..column_names.len()).collect(),
+            names: column_names,
+            units: column_units,
+            header_line: names.number,
+            ..Block::default()
+        },
+    )
+}
+
+/// The steps' blocks numbered: by the number their name ends with when every name has a
+/// distinct one (TRIOS numbers the procedure's steps), else by their order; labelled by their
+/// name.
+fn numbered(steps: Vec<(String, Block)>) -> Vec<Block> {
+    let numbers: Vec<Option<usize>> = steps.iter().map(|(n, _)| number_in_name(n)).collect();
+    let mut distinct: Vec<usize> = numbers.iter().flatten().copied().collect();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let by_name = distinct.len() == steps.len() && numbers.iter().all(Option::is_some);
+    steps
+        .into_iter()
+        .zip(numbers)
+        .enumerate()
+        .map(|(index, ((name, mut block), number))| {
+            block.number = if by_name {
+                number.unwrap_or(index + 1)
+            } else {
+                index + 1
+            };
+            block.label = Some(format!("`{name}`"));
+            block
+        })
+        .collect()
 }
 
 #[cfg(test)]

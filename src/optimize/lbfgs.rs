@@ -148,45 +148,7 @@ pub fn lbfgs<O: Objective>(f: O, start: &[f64], options: &LbfgsOptions) -> (Vec<
         if g_max <= options.g_tol * (1.0 + fx.abs()) {
             break;
         }
-        // Two-loop recursion: d = −H g.
-        d.copy_from_slice(&g);
-        let m = s_hist.len();
-        let mut alpha = vec![0.0; m];
-        for k in (0..m).rev() {
-            let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
-            alpha[k] = rho * dot(&s_hist[k], &d);
-            for (di, yi) in d.iter_mut().zip(&y_hist[k]) {
-                *di -= alpha[k] * yi;
-            }
-        }
-        match &precondition {
-            Some(p) => {
-                for (di, pi) in d.iter_mut().zip(p) {
-                    *di *= pi;
-                }
-            }
-            None => {
-                let gamma = if m > 0 {
-                    dot(&s_hist[m - 1], &y_hist[m - 1]) / dot(&y_hist[m - 1], &y_hist[m - 1])
-                } else {
-                    // First step: move a small distance along the gradient.
-                    1e-3 / g_max.max(f64::MIN_POSITIVE)
-                };
-                for di in d.iter_mut() {
-                    *di *= gamma;
-                }
-            }
-        }
-        for k in 0..m {
-            let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
-            let beta = rho * dot(&y_hist[k], &d);
-            for (di, si) in d.iter_mut().zip(&s_hist[k]) {
-                *di += (alpha[k] - beta) * si;
-            }
-        }
-        for di in d.iter_mut() {
-            *di = -*di;
-        }
+        two_loop_direction(&g, g_max, &s_hist, &y_hist, precondition.as_deref(), &mut d);
         let mut slope = dot(&g, &d);
         if slope >= 0.0 {
             // Not a descent direction (bad curvature pairs): restart along the gradient.
@@ -197,19 +159,7 @@ pub fn lbfgs<O: Objective>(f: O, start: &[f64], options: &LbfgsOptions) -> (Vec<
             }
             slope = dot(&g, &d);
         }
-        // Backtracking Armijo line search.
-        let mut step = 1.0;
-        let mut f_new = f64::INFINITY;
-        for _ in 0..60 {
-            for i in 0..n {
-                x_new[i] = x[i] + step * d[i];
-            }
-            f_new = f.value(&x_new);
-            if f_new.is_finite() && f_new <= fx + 1e-4 * step * slope {
-                break;
-            }
-            step *= 0.5;
-        }
+        let (step, f_new) = backtracking_line_search(&mut f, &x, fx, &d, slope, &mut x_new);
         if !(f_new.is_finite() && f_new <= fx) {
             if s_hist.is_empty() && precondition.is_none() {
                 break;
@@ -254,6 +204,84 @@ pub fn lbfgs<O: Objective>(f: O, start: &[f64], options: &LbfgsOptions) -> (Vec<
         }
     }
     (x, fx)
+}
+
+/// The two-loop recursion: `d` = −H g, H the inverse Hessian that the curvature pairs
+/// (`s_hist`, `y_hist`) model over a diagonal start: `precondition` if there is one, else the
+/// scale of the last pair (a small step along the gradient before any).
+fn two_loop_direction(
+    g: &[f64],
+    g_max: f64,
+    s_hist: &[Vec<f64>],
+    y_hist: &[Vec<f64>],
+    precondition: Option<&[f64]>,
+    d: &mut [f64],
+) {
+    d.copy_from_slice(g);
+    let m = s_hist.len();
+    let mut alpha = vec![0.0; m];
+    for k in (0..m).rev() {
+        let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
+        alpha[k] = rho * dot(&s_hist[k], d);
+        for (di, yi) in d.iter_mut().zip(&y_hist[k]) {
+            *di -= alpha[k] * yi;
+        }
+    }
+    match precondition {
+        Some(p) => {
+            for (di, pi) in d.iter_mut().zip(p) {
+                *di *= pi;
+            }
+        }
+        None => {
+            let gamma = if m > 0 {
+                dot(&s_hist[m - 1], &y_hist[m - 1]) / dot(&y_hist[m - 1], &y_hist[m - 1])
+            } else {
+                // First step: move a small distance along the gradient.
+                1e-3 / g_max.max(f64::MIN_POSITIVE)
+            };
+            for di in d.iter_mut() {
+                *di *= gamma;
+            }
+        }
+    }
+    for k in 0..m {
+        let rho = 1.0 / dot(&y_hist[k], &s_hist[k]);
+        let beta = rho * dot(&y_hist[k], d);
+        for (di, si) in d.iter_mut().zip(&s_hist[k]) {
+            *di += (alpha[k] - beta) * si;
+        }
+    }
+    for di in d.iter_mut() {
+        *di = -*di;
+    }
+}
+
+/// Backtracking Armijo line search from `x` (value `fx`) along `d` (`slope` = g·d < 0): halves
+/// the step from 1 until the value falls enough, at most 60 times. Returns the last step and
+/// its value, the point left in `x_new`.
+fn backtracking_line_search<O: Objective>(
+    f: &mut O,
+    x: &[f64],
+    fx: f64,
+    d: &[f64],
+    slope: f64,
+    x_new: &mut [f64],
+) -> (f64, f64) {
+    let n = x.len();
+    let mut step = 1.0;
+    let mut f_new = f64::INFINITY;
+    for _ in 0..60 {
+        for i in 0..n {
+            x_new[i] = x[i] + step * d[i];
+        }
+        f_new = f.value(x_new);
+        if f_new.is_finite() && f_new <= fx + 1e-4 * step * slope {
+            break;
+        }
+        step *= 0.5;
+    }
+    (step, f_new)
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! The sections a reader meets first: at a glance, how the run was made, the data.
 
 use super::*;
+use crate::fit::FitSummary;
 
 /// One material comparison as the report words it: the quantity (its symbol, and what a mean
 /// is over), A, B, P(A > B), and the difference's and ratio's median with 95 % interval.
@@ -132,6 +133,42 @@ pub(super) fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<B
         blocks.push(Block::List(peaks));
     }
     let summary = &ctx.inputs.summary;
+    blocks.extend(cross_validation(summary));
+    if let Some(model) = summary.model.as_ref().filter(|m| !m.unread.is_empty()) {
+        blocks.push(Block::Paragraph(format!(
+            "Settings of the model file not read by this model (law = \"{}\", elastic = {}; \
+             their parameters are not sampled): {}.",
+            model.law,
+            model.elastic,
+            model.unread.join(", ")
+        )));
+    }
+    let notes = &summary.notes;
+    if !notes.is_empty() {
+        blocks.push(Block::Paragraph("What the data do not show:".into()));
+        blocks.push(Block::List(notes.clone()));
+    }
+    if !comparisons.is_empty() {
+        blocks.push(Block::Paragraph("Do the materials differ?".into()));
+        blocks.push(Block::List(
+            comparisons
+                .iter()
+                .map(|c| {
+                    format!(
+                        "P({}[{}] > {}[{}]) = {:.3}",
+                        c.symbol, c.a, c.symbol, c.b, c.p_a_greater
+                    )
+                })
+                .collect(),
+        ));
+    }
+    blocks
+}
+
+/// How well the fit predicts points it has not seen: leave-one-out, k-fold, or why
+/// leave-one-out was not computed.
+fn cross_validation(summary: &FitSummary) -> Vec<Block> {
+    let mut blocks = Vec::new();
     if let Some(loo) = &summary.loo {
         let points: usize = loo.runs.iter().map(|r| r.points).sum();
         blocks.push(Block::Paragraph(format!(
@@ -165,34 +202,6 @@ pub(super) fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<B
         blocks.push(Block::Paragraph(format!(
             "Leave-one-out (PSIS-LOO) was not computed: {reason}."
         )));
-    }
-    if let Some(model) = summary.model.as_ref().filter(|m| !m.unread.is_empty()) {
-        blocks.push(Block::Paragraph(format!(
-            "Settings of the model file not read by this model (law = \"{}\", elastic = {}; \
-             their parameters are not sampled): {}.",
-            model.law,
-            model.elastic,
-            model.unread.join(", ")
-        )));
-    }
-    let notes = &summary.notes;
-    if !notes.is_empty() {
-        blocks.push(Block::Paragraph("What the data do not show:".into()));
-        blocks.push(Block::List(notes.clone()));
-    }
-    if !comparisons.is_empty() {
-        blocks.push(Block::Paragraph("Do the materials differ?".into()));
-        blocks.push(Block::List(
-            comparisons
-                .iter()
-                .map(|c| {
-                    format!(
-                        "P({}[{}] > {}[{}]) = {:.3}",
-                        c.symbol, c.a, c.symbol, c.b, c.p_a_greater
-                    )
-                })
-                .collect(),
-        ));
     }
     blocks
 }

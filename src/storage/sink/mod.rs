@@ -1,36 +1,30 @@
 //! The streaming Parquet writer behind [`ChainSink`], and resuming it after a kill.
+//!
+//! This file holds the sink the sampler talks to and its row buffer; `writer` the thread that
+//! encodes row groups and writes parts; `checkpoint` the checkpoint file, resuming from it,
+//! and clearing an earlier run.
 
-use std::fs::{self, File};
-use std::io::BufWriter;
+mod checkpoint;
+mod writer;
+
+use std::fs;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{mpsc, Arc};
-use std::thread::{self, JoinHandle};
 
 use polars_arrow::array::{Array, PrimitiveArray};
-use polars_arrow::datatypes::ArrowSchema;
-use polars_arrow::record_batch::RecordBatchT;
-use polars_parquet::write::{
-    CompressionOptions, Encoding, FileWriter, KeyValue, RowGroupIterator, StatisticsOptions,
-    Version, WriteOptions,
-};
-use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
+use polars_parquet::write::KeyValue;
+use serde::Serialize;
 
 use super::metadata::{column_infos, key_values, rewrite_footer, ChainDescription, ColumnInfo};
-use super::read::{chains_schema, check_schema, Part};
+use super::read::{chains_schema, Part};
 use super::{
-    is_leftover_name, parse_part_name, part_name, partial_name, ChainFiles, ChainSink, StepView,
-    StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
+    parse_part_name, part_name, partial_name, ChainFiles, ChainSink, StepView, StorageError,
+    ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
 };
-use crate::data::atomic::{sync_dir, write_atomically};
-
-/// Tag of the checkpoint format, checked on resume: version 2 is binary (MessagePack), version
-/// 1 the JSON of earlier releases, still read.
-const CHECKPOINT_FORMAT: &str = "slipbayes-chains/2";
-const JSON_CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
-/// Where earlier releases wrote their JSON checkpoint, beside the binary one.
-const JSON_CHECKPOINT: &str = "checkpoint.json";
+use crate::data::atomic::sync_dir;
+use checkpoint::{existing_run, remove_run};
+use writer::{Files, Job, RowGroup, Writer};
 
 /// How a [`ParquetSink`] writes.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -58,40 +52,6 @@ impl Default for SinkOptions {
             overwrite: false,
         }
     }
-}
-
-/// What a checkpoint says of the chains (the sampler state follows it in the file).
-#[derive(Debug, Serialize, Deserialize)]
-struct CheckpointHeader {
-    format: String,
-    param_names: Vec<String>,
-    derived_names: Vec<String>,
-    /// Rows per row group, kept so that a resumed run groups rows as the original did.
-    row_group_rows: usize,
-    /// Complete parts `part-000000 .. part-(parts-1)` that belong to the run.
-    parts: u64,
-    /// Rows in those parts.
-    rows: u64,
-    /// One past the largest step recorded in those parts: where a resumed run continues.
-    steps: u64,
-    finished: bool,
-}
-
-/// A checkpoint: binary, `header` then the state, both MessagePack.
-#[derive(Debug)]
-struct CheckpointFile {
-    header: CheckpointHeader,
-    /// The sampler state in MessagePack (named fields); `None` when none was given yet. A JSON
-    /// checkpoint's state is converted on reading.
-    state: Option<Vec<u8>>,
-}
-
-/// A checkpoint of an earlier release: JSON with the state inside.
-#[derive(Deserialize)]
-struct JsonCheckpointFile {
-    #[serde(flatten)]
-    header: CheckpointHeader,
-    state: serde_json::Value,
 }
 
 /// Rows waiting to be written, column by column; never more than one row group.
@@ -147,14 +107,6 @@ impl RowBuffer {
     }
 }
 
-/// The part being written: a `.partial` file in the run directory.
-struct OpenPart {
-    index: u64,
-    path: PathBuf,
-    writer: FileWriter<BufWriter<File>>,
-    rows: u64,
-}
-
 /// What every part's footer says besides its steps.
 #[derive(Debug, Clone)]
 struct Footer {
@@ -177,45 +129,6 @@ impl Footer {
     }
 }
 
-/// The file side of a sink: the part being written, what is durable, the last state. The
-/// writer thread owns it while the run goes on; [`ParquetSink::finish`] takes it back.
-struct Files {
-    files: ChainFiles,
-    param_names: Vec<String>,
-    derived_names: Vec<String>,
-    schema: Arc<ArrowSchema>,
-    row_group_rows: usize,
-    part: Option<OpenPart>,
-    /// First step of the part being written (steps of one part are contiguous).
-    part_first_step: u64,
-    durable_parts: u64,
-    durable_rows: u64,
-    last_state: Option<Vec<u8>>,
-}
-
-/// Rows taken out of the buffer as Arrow arrays: one row group.
-struct RowGroup {
-    rows: usize,
-    arrays: Vec<Box<dyn Array>>,
-}
-
-/// What the sampler's thread hands to the writer thread.
-enum Job {
-    /// A full row group for the open part.
-    Rows(RowGroup),
-    /// A checkpoint: the rows still buffered, then the part closed and the checkpoint replaced.
-    Checkpoint {
-        rest: Option<RowGroup>,
-        /// One past the last step recorded.
-        steps: u64,
-        footer: Arc<Footer>,
-        /// The sampler state in MessagePack.
-        state: Vec<u8>,
-    },
-    /// Answers once every earlier job is done, with what is durable.
-    Report(mpsc::SyncSender<Written>),
-}
-
 /// What a sink has made durable: complete parts and the rows in them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Written {
@@ -223,43 +136,6 @@ pub struct Written {
     pub parts: u64,
     /// Rows in those parts.
     pub rows: u64,
-}
-
-/// The thread that encodes row groups, writes parts and replaces the checkpoint, so that the
-/// sampler's threads never wait for the disk (only for the writer to take the previous job,
-/// when it is still busy with it).
-struct Writer {
-    jobs: mpsc::SyncSender<Job>,
-    thread: JoinHandle<Result<Files, StorageError>>,
-}
-
-impl Writer {
-    fn start(files: Files) -> Result<Self, StorageError> {
-        // A rendezvous channel: a job is handed over only when the writer is free, so a sink
-        // holds at most two row groups (one being written, one filling or waiting to be taken).
-        let (jobs, queue) = mpsc::sync_channel::<Job>(0);
-        let dir = files.files.dir.clone();
-        let thread = thread::Builder::new()
-            .name("slipbayes-chains".into())
-            .spawn(move || {
-                let mut files = files;
-                for job in queue {
-                    files.run(job)?;
-                }
-                Ok(files)
-            })
-            .map_err(|e| StorageError::io("start the writer thread for", &dir, e))?;
-        Ok(Self { jobs, thread })
-    }
-
-    /// Waits for every job handed over and gives the files back, or the first error.
-    fn stop(self) -> Result<Files, StorageError> {
-        drop(self.jobs);
-        match self.thread.join() {
-            Ok(result) => result,
-            Err(panic) => std::panic::resume_unwind(panic),
-        }
-    }
 }
 
 /// Streams chains to Parquet parts in a run directory and checkpoints them with the sampler
@@ -350,104 +226,6 @@ impl ParquetSink {
             options.row_group_rows,
             Resumed::default(),
         )
-    }
-
-    /// Reopens the run in `files` at its last checkpoint: removes `.partial` and temporary files
-    /// and every part written after the checkpoint, checks the kept parts against the
-    /// checkpoint, and returns the sink positioned to continue with the saved sampler state.
-    /// The next step to record is [`ParquetSink::steps`]; rows are grouped as in the original
-    /// run, so a resumed run writes the same files as an uninterrupted one.
-    ///
-    /// # Errors
-    /// [`StorageError::NoCheckpoint`] when there is no checkpoint;
-    /// [`StorageError::AlreadyFinished`] when the run finished;
-    /// [`StorageError::BadCheckpoint`] when the checkpoint or its state cannot be parsed as `S`;
-    /// [`StorageError::SchemaMismatch`] or [`StorageError::Inconsistent`] when the kept parts
-    /// do not match the checkpoint; [`StorageError::Io`] on file-system errors.
-    pub fn resume<S: DeserializeOwned>(files: &ChainFiles) -> Result<(Self, S), StorageError> {
-        let dir = files.dir.as_path();
-        let checkpoint_path = files.checkpoint.clone();
-        let Some(CheckpointFile {
-            header: checkpoint,
-            state: stored,
-        }) = read_checkpoint(files)?
-        else {
-            return Err(StorageError::NoCheckpoint {
-                dir: dir.to_path_buf(),
-            });
-        };
-        if checkpoint.finished {
-            return Err(StorageError::AlreadyFinished {
-                dir: dir.to_path_buf(),
-            });
-        }
-        validate_names(&checkpoint.param_names, &checkpoint.derived_names)?;
-        let bad_state = |source| StorageError::BadCheckpoint {
-            path: checkpoint_path.clone(),
-            source,
-        };
-        let state: S = match &stored {
-            Some(bytes) => rmp_serde::from_slice(bytes).map_err(|e| bad_state(e.into()))?,
-            None => return Err(bad_state("the checkpoint holds no sampler state".into())),
-        };
-
-        remove_leftovers(files)?;
-        let chains_dir = &files.chains;
-        let mut present = Vec::new();
-        for (index, path) in list_parts(chains_dir)? {
-            if index >= checkpoint.parts {
-                // Written after the checkpoint by the killed run: the resumed run rewrites it.
-                fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
-            } else {
-                present.push(index);
-            }
-        }
-        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
-        sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
-
-        let inconsistent = |problem: String| StorageError::Inconsistent {
-            dir: dir.to_path_buf(),
-            problem,
-        };
-        if let Some(missing) = (0..checkpoint.parts).find(|i| present.binary_search(i).is_err()) {
-            return Err(inconsistent(format!(
-                "{} lists {} parts but {} is missing",
-                checkpoint_path.display(),
-                checkpoint.parts,
-                part_name(missing)
-            )));
-        }
-        let expected = chains_schema(&checkpoint.param_names, &checkpoint.derived_names);
-        let mut rows = 0u64;
-        for index in 0..checkpoint.parts {
-            let path = chains_dir.join(part_name(index));
-            let part = Part::open(path.clone())?;
-            check_schema(&path, &part.schema, &expected)?;
-            rows += part.rows() as u64;
-        }
-        if rows != checkpoint.rows {
-            return Err(inconsistent(format!(
-                "{} records {} rows but its {} parts hold {}",
-                checkpoint_path.display(),
-                checkpoint.rows,
-                checkpoint.parts,
-                rows
-            )));
-        }
-
-        let sink = Self::start(
-            files,
-            checkpoint.param_names,
-            checkpoint.derived_names,
-            checkpoint.row_group_rows.max(1),
-            Resumed {
-                parts: checkpoint.parts,
-                rows: checkpoint.rows,
-                steps: checkpoint.steps,
-                state: stored,
-            },
-        )?;
-        Ok((sink, state))
     }
 
     /// The sink, with its writer thread started, continuing from `resumed`.
@@ -657,117 +435,6 @@ struct Resumed {
     state: Option<Vec<u8>>,
 }
 
-impl Files {
-    /// Does one job of the writer thread.
-    fn run(&mut self, job: Job) -> Result<(), StorageError> {
-        match job {
-            Job::Rows(rows) => self.write_rows(rows),
-            Job::Checkpoint {
-                rest,
-                steps,
-                footer,
-                state,
-            } => {
-                if let Some(rows) = rest {
-                    self.write_rows(rows)?;
-                }
-                self.close_part(steps, &footer)?;
-                self.last_state = Some(state);
-                self.write_checkpoint(false, steps)
-            }
-            Job::Report(answer) => {
-                // The sink may have stopped waiting; nothing is lost then.
-                let _ = answer.send(Written {
-                    parts: self.durable_parts,
-                    rows: self.durable_rows,
-                });
-                Ok(())
-            }
-        }
-    }
-
-    /// Writes `rows` as one row group of the open part, opening it if needed.
-    fn write_rows(&mut self, rows: RowGroup) -> Result<(), StorageError> {
-        let part = match &mut self.part {
-            Some(part) => part,
-            slot => slot.insert(open_part(
-                &self.files.dir,
-                self.durable_parts,
-                &self.schema,
-            )?),
-        };
-        let path = part.path.clone();
-        let batch = RecordBatchT::try_new(rows.rows, Arc::clone(&self.schema), rows.arrays)
-            .map_err(|e| StorageError::parquet(&path, e))?;
-        let encodings = vec![vec![Encoding::Plain]; self.schema.len()];
-        let groups = RowGroupIterator::try_new(
-            std::iter::once(Ok(batch)),
-            &self.schema,
-            part.writer.options(),
-            encodings,
-        )
-        .map_err(|e| StorageError::parquet(&path, e))?;
-        for group in groups {
-            let group = group.map_err(|e| StorageError::parquet(&path, e))?;
-            part.writer
-                .write(group)
-                .map_err(|e| StorageError::parquet(&path, e))?;
-        }
-        part.rows += rows.rows as u64;
-        Ok(())
-    }
-
-    /// Makes the open part, which ends before step `steps`, complete and durable under its
-    /// final name in `chains/`.
-    fn close_part(&mut self, steps: u64, footer: &Footer) -> Result<(), StorageError> {
-        let Some(mut part) = self.part.take() else {
-            return Ok(());
-        };
-        let path = part.path;
-        let pairs = footer.key_values(self.part_first_step..steps);
-        part.writer
-            .end(Some(pairs))
-            .map_err(|e| StorageError::parquet(&path, e))?;
-        let file = part
-            .writer
-            .into_inner()
-            .into_inner()
-            .map_err(|e| StorageError::io("write", &path, e.into_error()))?;
-        file.sync_all()
-            .map_err(|e| StorageError::io("sync", &path, e))?;
-        drop(file);
-        let chains_dir = &self.files.chains;
-        let target = chains_dir.join(part_name(part.index));
-        fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))?;
-        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
-        self.durable_parts += 1;
-        self.durable_rows += part.rows;
-        self.part_first_step = steps;
-        Ok(())
-    }
-
-    fn write_checkpoint(&self, finished: bool, steps: u64) -> Result<(), StorageError> {
-        let header = CheckpointHeader {
-            format: CHECKPOINT_FORMAT.to_owned(),
-            param_names: self.param_names.clone(),
-            derived_names: self.derived_names.clone(),
-            row_group_rows: self.row_group_rows,
-            parts: self.durable_parts,
-            rows: self.durable_rows,
-            steps,
-            finished,
-        };
-        let path = &self.files.checkpoint;
-        let mut bytes =
-            rmp_serde::to_vec_named(&header).map_err(|e| StorageError::State(e.into()))?;
-        if let Some(state) = &self.last_state {
-            bytes.extend_from_slice(state);
-        }
-        write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))?;
-        remove_json_checkpoint(&self.files)
-    }
-}
-
 impl ChainSink for ParquetSink {
     type Error = StorageError;
 
@@ -844,26 +511,6 @@ impl ChainSink for ParquetSink {
     }
 }
 
-/// Creates the `.partial` file of part `index` and writes its header.
-fn open_part(dir: &Path, index: u64, schema: &ArrowSchema) -> Result<OpenPart, StorageError> {
-    let path = dir.join(partial_name(index));
-    let file = File::create(&path).map_err(|e| StorageError::io("create", &path, e))?;
-    let options = WriteOptions {
-        statistics: StatisticsOptions::default(),
-        version: Version::V2,
-        compression: CompressionOptions::Snappy,
-        data_page_size: None,
-    };
-    let writer = FileWriter::try_new(BufWriter::new(file), schema.clone(), options)
-        .map_err(|e| StorageError::parquet(&path, e))?;
-    Ok(OpenPart {
-        index,
-        path,
-        writer,
-        rows: 0,
-    })
-}
-
 /// Refuses names that cannot be distinct, non-empty column names of the chain table.
 fn validate_names(param_names: &[String], derived_names: &[String]) -> Result<(), StorageError> {
     let reserved = [
@@ -891,152 +538,6 @@ fn validate_names(param_names: &[String], derived_names: &[String]) -> Result<()
         }
     }
     Ok(())
-}
-
-/// Reads the checkpoint of `files` (or, without one, the JSON checkpoint an earlier release
-/// wrote beside it); `None` when there is neither.
-fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, StorageError> {
-    let path = &files.checkpoint;
-    let bad = |path: &Path, source: Box<dyn std::error::Error + Send + Sync>| {
-        StorageError::BadCheckpoint {
-            path: path.to_path_buf(),
-            source,
-        }
-    };
-    let checkpoint = match read_if_present(path)? {
-        Some(bytes) => {
-            let mut reader = std::io::Cursor::new(&bytes[..]);
-            let header: CheckpointHeader =
-                rmp_serde::from_read(&mut reader).map_err(|e| bad(path, e.into()))?;
-            let state = &bytes[reader.position() as usize..];
-            CheckpointFile {
-                header,
-                state: (!state.is_empty()).then(|| state.to_vec()),
-            }
-        }
-        None => {
-            let path = &json_checkpoint(files);
-            let Some(bytes) = read_if_present(path)? else {
-                return Ok(None);
-            };
-            let json: JsonCheckpointFile =
-                serde_json::from_slice(&bytes).map_err(|e| bad(path, e.into()))?;
-            // Its state is carried in the binary form from here on.
-            let state = if json.state.is_null() {
-                None
-            } else {
-                Some(rmp_serde::to_vec_named(&json.state).map_err(|e| bad(path, e.into()))?)
-            };
-            if json.header.format != JSON_CHECKPOINT_FORMAT {
-                return Err(bad(
-                    path,
-                    format!(
-                        "format {:?}, expected {JSON_CHECKPOINT_FORMAT:?}",
-                        json.header.format
-                    )
-                    .into(),
-                ));
-            }
-            return Ok(Some(CheckpointFile {
-                header: json.header,
-                state,
-            }));
-        }
-    };
-    if checkpoint.header.format != CHECKPOINT_FORMAT {
-        return Err(bad(
-            path,
-            format!(
-                "format {:?}, expected {CHECKPOINT_FORMAT:?}",
-                checkpoint.header.format
-            )
-            .into(),
-        ));
-    }
-    Ok(Some(checkpoint))
-}
-
-fn read_if_present(path: &Path) -> Result<Option<Vec<u8>>, StorageError> {
-    match fs::read(path) {
-        Ok(b) => Ok(Some(b)),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(StorageError::io("read", path, e)),
-    }
-}
-
-/// The JSON checkpoint of an earlier release, beside the binary one.
-fn json_checkpoint(files: &ChainFiles) -> PathBuf {
-    files
-        .checkpoint
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(JSON_CHECKPOINT)
-}
-
-/// Removes the JSON checkpoint of an earlier release, once a binary one replaces it.
-fn remove_json_checkpoint(files: &ChainFiles) -> Result<(), StorageError> {
-    let path = json_checkpoint(files);
-    if path == files.checkpoint {
-        return Ok(());
-    }
-    match fs::remove_file(&path) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(StorageError::io("remove", &path, e)),
-    }
-}
-
-/// Whether `files` hold a run of ours: `Some(finished)`, or `None` when they hold none.
-fn existing_run(files: &ChainFiles) -> Result<Option<bool>, StorageError> {
-    match read_checkpoint(files) {
-        Ok(Some(c)) => return Ok(Some(c.header.finished)),
-        Ok(None) => {}
-        // An unreadable checkpoint still marks a run; only --overwrite may remove it.
-        Err(StorageError::BadCheckpoint { .. }) => return Ok(Some(false)),
-        Err(e) => return Err(e),
-    }
-    let has_parts = !list_parts(&files.chains)?.is_empty();
-    let has_leftovers = !list_leftovers(&files.dir)?.is_empty();
-    Ok((has_parts || has_leftovers).then_some(false))
-}
-
-/// Removes the parts, leftovers and checkpoint of an earlier run (nothing else).
-fn remove_run(files: &ChainFiles) -> Result<(), StorageError> {
-    let chains_dir = &files.chains;
-    for (_, path) in list_parts(chains_dir)? {
-        fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
-    }
-    remove_leftovers(files)?;
-    let checkpoint = &files.checkpoint;
-    match fs::remove_file(checkpoint) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-        Err(e) => return Err(StorageError::io("remove", checkpoint, e)),
-    }
-    remove_json_checkpoint(files)?;
-    if chains_dir.is_dir() {
-        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
-    }
-    sync_dir(&files.dir).map_err(|e| StorageError::io("sync directory", &files.dir, e))
-}
-
-/// Removes `.partial` parts and temporary files of interrupted writes in the store's directory
-/// and its chains directory.
-fn remove_leftovers(files: &ChainFiles) -> Result<(), StorageError> {
-    let mut leftovers = list_leftovers(&files.dir)?;
-    leftovers.extend(list_leftovers(&files.chains)?);
-    for path in leftovers {
-        fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
-    }
-    Ok(())
-}
-
-fn list_leftovers(dir: &Path) -> Result<Vec<PathBuf>, StorageError> {
-    Ok(list_files(dir)?
-        .into_iter()
-        .filter(|(name, _)| is_leftover_name(name))
-        .map(|(_, path)| path)
-        .collect())
 }
 
 /// Complete parts in a chains directory, sorted by number (empty when it does not exist).

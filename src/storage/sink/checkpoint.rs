@@ -1,0 +1,323 @@
+//! The checkpoint of a chain store (binary, or the JSON of earlier releases), resuming a run
+//! from it, and clearing an earlier run.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use super::super::read::{chains_schema, check_schema, Part};
+use super::super::{is_leftover_name, part_name, ChainFiles, StorageError};
+use super::{list_files, list_parts, validate_names, Files, ParquetSink, Resumed};
+use crate::data::atomic::{sync_dir, write_atomically};
+
+/// Tag of the checkpoint format, checked on resume: version 2 is binary (MessagePack), version
+/// 1 the JSON of earlier releases, still read.
+const CHECKPOINT_FORMAT: &str = "slipbayes-chains/2";
+const JSON_CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
+/// Where earlier releases wrote their JSON checkpoint, beside the binary one.
+const JSON_CHECKPOINT: &str = "checkpoint.json";
+
+/// What a checkpoint says of the chains (the sampler state follows it in the file).
+#[derive(Debug, Serialize, Deserialize)]
+struct CheckpointHeader {
+    format: String,
+    param_names: Vec<String>,
+    derived_names: Vec<String>,
+    /// Rows per row group, kept so that a resumed run groups rows as the original did.
+    row_group_rows: usize,
+    /// Complete parts `part-000000 .. part-(parts-1)` that belong to the run.
+    parts: u64,
+    /// Rows in those parts.
+    rows: u64,
+    /// One past the largest step recorded in those parts: where a resumed run continues.
+    steps: u64,
+    finished: bool,
+}
+
+/// A checkpoint: binary, `header` then the state, both MessagePack.
+#[derive(Debug)]
+struct CheckpointFile {
+    header: CheckpointHeader,
+    /// The sampler state in MessagePack (named fields); `None` when none was given yet. A JSON
+    /// checkpoint's state is converted on reading.
+    state: Option<Vec<u8>>,
+}
+
+/// A checkpoint of an earlier release: JSON with the state inside.
+#[derive(Deserialize)]
+struct JsonCheckpointFile {
+    #[serde(flatten)]
+    header: CheckpointHeader,
+    state: serde_json::Value,
+}
+
+impl ParquetSink {
+    /// Reopens the run in `files` at its last checkpoint: removes `.partial` and temporary files
+    /// and every part written after the checkpoint, checks the kept parts against the
+    /// checkpoint, and returns the sink positioned to continue with the saved sampler state.
+    /// The next step to record is [`ParquetSink::steps`]; rows are grouped as in the original
+    /// run, so a resumed run writes the same files as an uninterrupted one.
+    ///
+    /// # Errors
+    /// [`StorageError::NoCheckpoint`] when there is no checkpoint;
+    /// [`StorageError::AlreadyFinished`] when the run finished;
+    /// [`StorageError::BadCheckpoint`] when the checkpoint or its state cannot be parsed as `S`;
+    /// [`StorageError::SchemaMismatch`] or [`StorageError::Inconsistent`] when the kept parts
+    /// do not match the checkpoint; [`StorageError::Io`] on file-system errors.
+    pub fn resume<S: DeserializeOwned>(files: &ChainFiles) -> Result<(Self, S), StorageError> {
+        let dir = files.dir.as_path();
+        let checkpoint_path = files.checkpoint.clone();
+        let Some(CheckpointFile {
+            header: checkpoint,
+            state: stored,
+        }) = read_checkpoint(files)?
+        else {
+            return Err(StorageError::NoCheckpoint {
+                dir: dir.to_path_buf(),
+            });
+        };
+        if checkpoint.finished {
+            return Err(StorageError::AlreadyFinished {
+                dir: dir.to_path_buf(),
+            });
+        }
+        validate_names(&checkpoint.param_names, &checkpoint.derived_names)?;
+        let bad_state = |source| StorageError::BadCheckpoint {
+            path: checkpoint_path.clone(),
+            source,
+        };
+        let state: S = match &stored {
+            Some(bytes) => rmp_serde::from_slice(bytes).map_err(|e| bad_state(e.into()))?,
+            None => return Err(bad_state("the checkpoint holds no sampler state".into())),
+        };
+
+        remove_leftovers(files)?;
+        let chains_dir = &files.chains;
+        let mut present = Vec::new();
+        for (index, path) in list_parts(chains_dir)? {
+            if index >= checkpoint.parts {
+                // Written after the checkpoint by the killed run: the resumed run rewrites it.
+                fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
+            } else {
+                present.push(index);
+            }
+        }
+        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
+        sync_dir(dir).map_err(|e| StorageError::io("sync directory", dir, e))?;
+
+        let inconsistent = |problem: String| StorageError::Inconsistent {
+            dir: dir.to_path_buf(),
+            problem,
+        };
+        if let Some(missing) = (0..checkpoint.parts).find(|i| present.binary_search(i).is_err()) {
+            return Err(inconsistent(format!(
+                "{} lists {} parts but {} is missing",
+                checkpoint_path.display(),
+                checkpoint.parts,
+                part_name(missing)
+            )));
+        }
+        let expected = chains_schema(&checkpoint.param_names, &checkpoint.derived_names);
+        let mut rows = 0u64;
+        for index in 0..checkpoint.parts {
+            let path = chains_dir.join(part_name(index));
+            let part = Part::open(path.clone())?;
+            check_schema(&path, &part.schema, &expected)?;
+            rows += part.rows() as u64;
+        }
+        if rows != checkpoint.rows {
+            return Err(inconsistent(format!(
+                "{} records {} rows but its {} parts hold {}",
+                checkpoint_path.display(),
+                checkpoint.rows,
+                checkpoint.parts,
+                rows
+            )));
+        }
+
+        let sink = Self::start(
+            files,
+            checkpoint.param_names,
+            checkpoint.derived_names,
+            checkpoint.row_group_rows.max(1),
+            Resumed {
+                parts: checkpoint.parts,
+                rows: checkpoint.rows,
+                steps: checkpoint.steps,
+                state: stored,
+            },
+        )?;
+        Ok((sink, state))
+    }
+}
+
+impl Files {
+    pub(super) fn write_checkpoint(&self, finished: bool, steps: u64) -> Result<(), StorageError> {
+        let header = CheckpointHeader {
+            format: CHECKPOINT_FORMAT.to_owned(),
+            param_names: self.param_names.clone(),
+            derived_names: self.derived_names.clone(),
+            row_group_rows: self.row_group_rows,
+            parts: self.durable_parts,
+            rows: self.durable_rows,
+            steps,
+            finished,
+        };
+        let path = &self.files.checkpoint;
+        let mut bytes =
+            rmp_serde::to_vec_named(&header).map_err(|e| StorageError::State(e.into()))?;
+        if let Some(state) = &self.last_state {
+            bytes.extend_from_slice(state);
+        }
+        write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))?;
+        remove_json_checkpoint(&self.files)
+    }
+}
+
+/// Reads the checkpoint of `files` (or, without one, the JSON checkpoint an earlier release
+/// wrote beside it); `None` when there is neither.
+fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, StorageError> {
+    let path = &files.checkpoint;
+    let bad = |path: &Path, source: Box<dyn std::error::Error + Send + Sync>| {
+        StorageError::BadCheckpoint {
+            path: path.to_path_buf(),
+            source,
+        }
+    };
+    let checkpoint = match read_if_present(path)? {
+        Some(bytes) => {
+            let mut reader = std::io::Cursor::new(&bytes[..]);
+            let header: CheckpointHeader =
+                rmp_serde::from_read(&mut reader).map_err(|e| bad(path, e.into()))?;
+            let state = &bytes[reader.position() as usize..];
+            CheckpointFile {
+                header,
+                state: (!state.is_empty()).then(|| state.to_vec()),
+            }
+        }
+        None => {
+            let path = &json_checkpoint(files);
+            let Some(bytes) = read_if_present(path)? else {
+                return Ok(None);
+            };
+            let json: JsonCheckpointFile =
+                serde_json::from_slice(&bytes).map_err(|e| bad(path, e.into()))?;
+            // Its state is carried in the binary form from here on.
+            let state = if json.state.is_null() {
+                None
+            } else {
+                Some(rmp_serde::to_vec_named(&json.state).map_err(|e| bad(path, e.into()))?)
+            };
+            if json.header.format != JSON_CHECKPOINT_FORMAT {
+                return Err(bad(
+                    path,
+                    format!(
+                        "format {:?}, expected {JSON_CHECKPOINT_FORMAT:?}",
+                        json.header.format
+                    )
+                    .into(),
+                ));
+            }
+            return Ok(Some(CheckpointFile {
+                header: json.header,
+                state,
+            }));
+        }
+    };
+    if checkpoint.header.format != CHECKPOINT_FORMAT {
+        return Err(bad(
+            path,
+            format!(
+                "format {:?}, expected {CHECKPOINT_FORMAT:?}",
+                checkpoint.header.format
+            )
+            .into(),
+        ));
+    }
+    Ok(Some(checkpoint))
+}
+
+fn read_if_present(path: &Path) -> Result<Option<Vec<u8>>, StorageError> {
+    match fs::read(path) {
+        Ok(b) => Ok(Some(b)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(StorageError::io("read", path, e)),
+    }
+}
+
+/// The JSON checkpoint of an earlier release, beside the binary one.
+fn json_checkpoint(files: &ChainFiles) -> PathBuf {
+    files
+        .checkpoint
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(JSON_CHECKPOINT)
+}
+
+/// Removes the JSON checkpoint of an earlier release, once a binary one replaces it.
+fn remove_json_checkpoint(files: &ChainFiles) -> Result<(), StorageError> {
+    let path = json_checkpoint(files);
+    if path == files.checkpoint {
+        return Ok(());
+    }
+    match fs::remove_file(&path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(StorageError::io("remove", &path, e)),
+    }
+}
+
+/// Whether `files` hold a run of ours: `Some(finished)`, or `None` when they hold none.
+pub(super) fn existing_run(files: &ChainFiles) -> Result<Option<bool>, StorageError> {
+    match read_checkpoint(files) {
+        Ok(Some(c)) => return Ok(Some(c.header.finished)),
+        Ok(None) => {}
+        // An unreadable checkpoint still marks a run; only --overwrite may remove it.
+        Err(StorageError::BadCheckpoint { .. }) => return Ok(Some(false)),
+        Err(e) => return Err(e),
+    }
+    let has_parts = !list_parts(&files.chains)?.is_empty();
+    let has_leftovers = !list_leftovers(&files.dir)?.is_empty();
+    Ok((has_parts || has_leftovers).then_some(false))
+}
+
+/// Removes the parts, leftovers and checkpoint of an earlier run (nothing else).
+pub(super) fn remove_run(files: &ChainFiles) -> Result<(), StorageError> {
+    let chains_dir = &files.chains;
+    for (_, path) in list_parts(chains_dir)? {
+        fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
+    }
+    remove_leftovers(files)?;
+    let checkpoint = &files.checkpoint;
+    match fs::remove_file(checkpoint) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(StorageError::io("remove", checkpoint, e)),
+    }
+    remove_json_checkpoint(files)?;
+    if chains_dir.is_dir() {
+        sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
+    }
+    sync_dir(&files.dir).map_err(|e| StorageError::io("sync directory", &files.dir, e))
+}
+
+/// Removes `.partial` parts and temporary files of interrupted writes in the store's directory
+/// and its chains directory.
+fn remove_leftovers(files: &ChainFiles) -> Result<(), StorageError> {
+    let mut leftovers = list_leftovers(&files.dir)?;
+    leftovers.extend(list_leftovers(&files.chains)?);
+    for path in leftovers {
+        fs::remove_file(&path).map_err(|e| StorageError::io("remove", &path, e))?;
+    }
+    Ok(())
+}
+
+fn list_leftovers(dir: &Path) -> Result<Vec<PathBuf>, StorageError> {
+    Ok(list_files(dir)?
+        .into_iter()
+        .filter(|(name, _)| is_leftover_name(name))
+        .map(|(_, path)| path)
+        .collect())
+}
