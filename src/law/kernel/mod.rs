@@ -72,20 +72,14 @@ use lanes::LawLanes;
 use spring::spring_lanes;
 
 /// Points per batch: four AVX-512 registers of f64 (eight AVX2 registers), so that several
-/// independent dependency chains fill the pipelines (one register's worth, 8, was 1.3–1.5×
-/// slower per point on this project's machine, 16 about 5 % slower than 32).
+/// independent dependency chains fill the pipelines, which one register's worth leaves idle.
 pub const LANES: usize = 32;
 /// Batches between two anchors where the Hermite guesses have been good: a chunk of
 /// `MAX_BATCHES_PER_CHUNK * LANES + 1` points. An anchor is a serial chain of scalar law
-/// evaluations (about 34 ns each on this project's machine, whatever the vector width), so
-/// longer chunks pay for fewer of them; 4 (129 points) was 4 % faster per point than 2 on the
-/// bench's slide on AVX2 and AVX-512 (more anchors take a second Newton step, 35 of 56 against
-/// 32 of 87, and the batches take no more rounds). With the quintic guesses 8 took more rounds
-/// and was slower; with the septic ones (error ∝ spacing⁸) 8 (257 points) takes one batch round
-/// more than 4 on the bench's slide but 33 anchors instead of 48: callgrind 88.04 → 86.73
-/// instructions per point on AVX2. With the step of third order completing the Newton steps
-/// that miss, 16 (513 points) takes 26 anchors instead of 33 and no more batch work (81.41 →
-/// 80.67); 32 took 24 (80.55), and is left for sparser records' sake.
+/// evaluations, as slow whatever the vector width, so longer chunks pay for fewer of them; the
+/// septic guesses (error ∝ spacing⁸) and the third-order step that completes the Newton steps
+/// that miss keep the batches of a 513-point chunk as cheap as those of a shorter one, and a
+/// longer chunk saves few anchors more while a sparse record's guesses degrade.
 const MAX_BATCHES_PER_CHUNK: usize = 16;
 /// Chunks in a row whose every batch's Newton steps were final before a short chunk (one
 /// batch between anchors) grows back.
@@ -231,9 +225,8 @@ pub(super) fn stiff<V: FnMut(usize, f64, f64), T: Tally>(
 }
 
 /// Whether `times` strictly increase (a NaN fails the comparison), compared branch-free over
-/// the pairs on `simd`'s registers: on the baseline's two lanes per comparison, this check cost
-/// about 2.5 % of the observed-time model in lanes on AVX2 (callgrind), a branch per point
-/// about 5 % of a stiff slide.
+/// the pairs on `simd`'s registers: the check runs on every evaluation, and a branch per point
+/// would cost a visible share of a stiff slide.
 pub(super) fn strictly_increasing(simd: Simd, times: &[f64]) -> bool {
     match simd {
         #[cfg(target_arch = "x86_64")]
