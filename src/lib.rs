@@ -8,15 +8,15 @@
 //!
 //! # Fit a model file into a run directory
 //!
-//! [`run_file::RunFile`] reads and validates the file; its posterior loads the data; the
-//! file's `[sampler]` table, under the caller's overrides, gives the fit's settings; a
-//! [`fit::RunLock`] claims the directory against a second fit; [`fit::fit_model`] samples,
+//! [`RunFile`] reads and validates the file; its posterior loads the data; the file's
+//! `[sampler]` table, under the caller's [`SettingOverrides`], gives the [`FitSettings`]; a
+//! [`RunLock`] claims the directory against a second fit; [`fit_model`] samples,
 //! summarises and writes the run directory. Progress goes to an observer (here none).
 //!
 //! ```
-//! use slipbayes::fit::{fit_model, FitSettings, RunLock, SettingOverrides};
-//! use slipbayes::run_file::RunFile;
-//! use slipbayes::sampler::{Parallelism, Silent};
+//! use slipbayes::{
+//!     fit_model, FitSettings, Parallelism, RunFile, RunLock, SettingOverrides, Silent,
+//! };
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let data = concat!(env!("CARGO_MANIFEST_DIR"), "/data");
@@ -80,18 +80,14 @@
 //!
 //! # Build a posterior from data and evaluate it
 //!
-//! [`model::Posterior`] is a [`density::LogDensity`] over the sampled (log) parameters. It
-//! loads each run's data file itself ([`run_file::RunFile::posterior`]), or takes data
-//! already in memory, one [`model::data::RunData`] per run of the model in its order.
+//! [`Posterior`] is a [`LogDensity`] over the sampled (log) parameters. It loads each run's
+//! data file itself ([`RunFile::posterior`]), or takes data already in memory, one
+//! [`RunData`] per run of the model in its order ([`Posterior::from_data`]).
 //!
 //! ```
 //! use std::path::Path;
 //!
-//! use slipbayes::data::Series;
-//! use slipbayes::density::LogDensity;
-//! use slipbayes::model::data::RunData;
-//! use slipbayes::model::Posterior;
-//! use slipbayes::run_file::RunFile;
+//! use slipbayes::{LogDensity, Posterior, RunData, RunFile, Series};
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! // A record from anywhere (an instrument's own reader, a notebook): here the bundled CSV.
@@ -137,13 +133,17 @@
 //!
 //! # Run the sampler on your own density
 //!
-//! The sampler knows nothing of friction: any [`density::LogDensity`] will do. A point the
-//! density refuses ([`density::LogDensityError::rejected`]) is a rejected proposal, counted
-//! by reason; draws go to a chain sink (here in memory).
+//! The sampler knows nothing of friction: any [`LogDensity`] will do. A point the density
+//! refuses ([`LogDensityError::rejected`]) is a rejected proposal, counted by reason; draws
+//! go to a [`ChainSink`] (here a [`MemorySink`]); progress to an [`Observer`] (here
+//! [`Silent`]). [`SamplerConfig`] also takes a mixture of [`Move`]s, one's own among them
+//! ([`ProposalMove`]), and a density that offers blocks ([`BlockedDensity`]) is updated
+//! block by block when handed over as [`Target::blocked`].
 //!
 //! ```
-//! use slipbayes::density::{LogDensity, LogDensityError};
-//! use slipbayes::sampler::{EnsembleSampler, MemorySink, SamplerConfig, Silent, Steps};
+//! use slipbayes::{
+//!     EnsembleSampler, LogDensity, LogDensityError, MemorySink, SamplerConfig, Silent, Steps,
+//! };
 //!
 //! /// A correlated Gaussian in two dimensions (correlation 0.8, unit variances).
 //! struct Gaussian;
@@ -190,14 +190,15 @@
 //!
 //! # Read a run directory
 //!
-//! [`fit::RunDir`] names, writes and reads every file of a run directory: the summary
-//! (`summary.json`), the chains (Parquet parts under `chains/`), the model and the run record.
+//! [`RunDir`] names, writes and reads every file of a run directory: the summary
+//! ([`FitSummary`], `summary.json`), the chains (Parquet parts under `chains/`), the model
+//! and the run record.
 //!
 //! ```
-//! # use slipbayes::fit::{fit_model, FitSettings, RunLock, SettingOverrides};
-//! # use slipbayes::run_file::RunFile;
-//! # use slipbayes::sampler::{Parallelism, Silent};
-//! use slipbayes::fit::RunDir;
+//! # use slipbayes::{
+//! #     fit_model, FitSettings, Parallelism, RunFile, RunLock, SettingOverrides, Silent,
+//! # };
+//! use slipbayes::RunDir;
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! # let data = concat!(env!("CARGO_MANIFEST_DIR"), "/data");
@@ -213,7 +214,8 @@
 //! # let overrides = SettingOverrides { steps: Some(100), quiet: true, ..Default::default() };
 //! # let settings = FitSettings::for_model(&posterior, &run.sampler, &overrides);
 //! # let lock = RunLock::acquire(&tmp.path().join("run"))?;
-//! # fit_model(&run, &posterior, &settings, &lock, false, vec![], &mut Silent, Parallelism::default())?;
+//! # let (parallelism, observer) = (Parallelism::default(), &mut Silent);
+//! # fit_model(&run, &posterior, &settings, &lock, false, vec![], observer, parallelism)?;
 //! # drop(lock);
 //! # let path = tmp.path().join("run");
 //! // `path`: a directory `slipbayes fit` (or `fit_model`) wrote.
@@ -298,4 +300,21 @@ pub mod special;
 #[cfg(feature = "parquet")]
 pub mod storage;
 
+// The names a user of the library needs, at the top: fit a model file, build a posterior from
+// data, run the sampler on one's own density, read a run directory. Everything else stays in
+// its module.
+pub use data::Series;
+pub use density::{BlockedDensity, LogDensity, LogDensityError, Target};
+#[cfg(feature = "parquet")]
+pub use fit::{
+    fit_model, FitError, FitOutcome, FitSettings, FitSummary, RunDir, RunDirError, RunLock,
+    SettingOverrides,
+};
 pub use io_error::IoError;
+pub use model::data::RunData;
+pub use model::{BlockSettings, ModelSpec, OneContact, Posterior, PosteriorError, SpecError};
+pub use run_file::RunFile;
+pub use sampler::{
+    ChainSink, EnsembleSampler, MemorySink, Move, Observer, Parallelism, ProposalMove, RunReport,
+    SamplerConfig, SamplerError, Silent, Steps, StopRule, Updates,
+};

@@ -3,7 +3,7 @@
 //!
 //! - [`spec`]: the model's part of a run file (`models/*.toml`), validated once with errors
 //!   naming the key.
-//! - [`plan`]: how the posterior groups its blocks and updates its populations, a setting of
+//! - [`blocking`]: how the posterior groups its blocks and updates its populations, a setting of
 //!   the sampler handed to the posterior as an argument.
 //! - [`prior`]: prior distributions and their log-scale Jacobians.
 //! - [`data`]: a run's data loaded, checked and windowed for the likelihood.
