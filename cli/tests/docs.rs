@@ -19,7 +19,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use slipbayes::model::ModelSpec;
+use slipbayes::run_file::RunFile;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -282,7 +282,7 @@ scene = "first"
 /// The names the parser lists in its error for `text`: "expected one of `a`, `b`" (serde's
 /// unknown field or variant) or "can be given for a, b" (the priors' names).
 fn names_in_error(text: &str) -> Vec<String> {
-    let err = ModelSpec::parse(text, Path::new("probe.toml"))
+    let err = RunFile::parse(text, Path::new("probe.toml"))
         .err()
         .unwrap_or_else(|| panic!("the parser accepted a probe with an unknown key:\n{text}"))
         .to_string();
@@ -492,7 +492,7 @@ fn every_toml_block_is_a_model_the_parser_accepts() {
                 merge(&mut base, part);
                 toml::to_string(&base).unwrap()
             };
-            if let Err(e) = ModelSpec::parse(&whole, Path::new("guide.toml")) {
+            if let Err(e) = RunFile::parse(&whole, Path::new("guide.toml")) {
                 problems.push(format!("{at}: {e}"));
             }
             checked += 1;
