@@ -187,7 +187,7 @@ impl Cluster {
     }
 
     /// On ranks other than 0, before a fit's [`serve`](Self::serve): which density to build,
-    /// as rank 0 tells with [`share_density`](Cluster::share_density).
+    /// as rank 0 tells with [`share_density`](Self::share_density).
     ///
     /// # Errors
     /// [`ClusterError::Replica`] when rank 0 sends another request first (it runs another
