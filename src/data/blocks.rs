@@ -99,7 +99,11 @@ impl Export {
     /// # Errors
     /// [`DataError::Unsupported`] when the file has no block or a chosen one is not in it;
     /// [`DataError::Malformed`] when blocks to be joined give one column two units.
-    pub fn into_table(self, choice: &IntervalChoice, path: &Path) -> Result<Table, DataError> {
+    pub(crate) fn into_table(
+        self,
+        choice: &IntervalChoice,
+        path: &Path,
+    ) -> Result<Table, DataError> {
         let kind = self.kind;
         if self.blocks.is_empty() {
             return Err(DataError::Unsupported {

@@ -193,7 +193,7 @@ pub const LANGUAGES: &[Language] = &[
 ];
 
 /// Lower case, single spaces, no trailing colon: how labels are compared.
-pub fn normalise(label: &str) -> String {
+pub(crate) fn normalise(label: &str) -> String {
     let mut out = String::with_capacity(label.len());
     for word in label.trim().trim_end_matches(':').split_whitespace() {
         if !out.is_empty() {
@@ -206,7 +206,7 @@ pub fn normalise(label: &str) -> String {
 
 /// How a column was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FoundBy {
+pub(crate) enum FoundBy {
     /// Its label is in [`LANGUAGES`].
     Label,
     /// Its unit (no label matched).
@@ -231,7 +231,7 @@ impl Roles {
     }
 
     /// How the column holding `role` was found.
-    pub fn found_by(&self, role: Role) -> Option<FoundBy> {
+    pub(crate) fn found_by(&self, role: Role) -> Option<FoundBy> {
         self.found
             .iter()
             .find(|(r, _, _)| *r == role)

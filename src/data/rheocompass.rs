@@ -70,7 +70,7 @@ impl std::str::FromStr for IntervalChoice {
 /// How a model file writes the choice: `interval = 2`, `[1, 2]` or `"all"`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(untagged)]
-pub enum IntervalSpec {
+pub(crate) enum IntervalSpec {
     /// One interval.
     One(usize),
     /// Several intervals.
@@ -154,7 +154,7 @@ fn units_row(fields: &[&str]) -> bool {
 
 /// Whether the first lines of a text have a RheoCompass export's shape; the reason if not.
 /// Returns the separator.
-pub fn recognise(text: &str) -> Result<u8, String> {
+pub(crate) fn recognise(text: &str) -> Result<u8, String> {
     let mut fields = Vec::new();
     for separator in SEPARATORS {
         let mut header_at = None;

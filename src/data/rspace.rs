@@ -108,7 +108,7 @@ fn header(text: &str) -> Result<Header, String> {
 }
 
 /// Whether a text has an rSpace export's shape; the reason if not. Returns the separator.
-pub fn recognise(text: &str) -> Result<u8, String> {
+pub(crate) fn recognise(text: &str) -> Result<u8, String> {
     header(text).map(|h| h.separator)
 }
 

@@ -144,7 +144,7 @@ pub fn read_csv(text: &str, encoding: Encoding, path: &Path) -> Result<Table, Da
 ///
 /// # Errors
 /// [`DataError::Unsupported`] naming the file when it is not a readable Parquet file.
-pub fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
+pub(crate) fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
     let frame = ParquetReader::new(Cursor::new(bytes))
         .finish()
         .map_err(|_| {

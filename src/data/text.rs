@@ -50,12 +50,12 @@ impl fmt::Display for Encoding {
 /// Decodes a file's bytes and names the encoding found: a byte-order mark decides; without
 /// one, UTF-16 is recognised by its zero bytes (ASCII text in UTF-16 has a zero in every other
 /// byte), then UTF-8 is tried, and anything else is read as Latin-1.
-pub fn decode(bytes: &[u8]) -> (String, Encoding) {
+pub(crate) fn decode(bytes: &[u8]) -> (String, Encoding) {
     decode_owned(std::borrow::Cow::Borrowed(bytes))
 }
 
 /// As [`decode`], without copying bytes that are UTF-8 already.
-pub fn decode_owned(bytes: std::borrow::Cow<'_, [u8]>) -> (String, Encoding) {
+pub(crate) fn decode_owned(bytes: std::borrow::Cow<'_, [u8]>) -> (String, Encoding) {
     if let Some(rest) = bytes.strip_prefix(&[0xFF, 0xFE]) {
         return (
             decode_utf16(rest, true),
@@ -220,7 +220,7 @@ pub fn lines(text: &str) -> impl Iterator<Item = Line> + '_ {
 
 /// Whether a line holds nothing but separators and spaces (RheoCompass writes its blank lines
 /// as a row of commas when it exports comma-separated).
-pub fn is_blank(line: &str, separator: u8) -> bool {
+pub(crate) fn is_blank(line: &str, separator: u8) -> bool {
     line.bytes()
         .all(|b| b == separator || b == b' ' || b == b'\t')
 }
@@ -228,7 +228,7 @@ pub fn is_blank(line: &str, separator: u8) -> bool {
 /// Splits `line` at `separator` into `out` (cleared first), at most `limit` fields (the last
 /// one then holds the rest of the line). A field in double quotes may hold the separator; the
 /// quotes stay in the field (see [`unquote`]).
-pub fn split_fields<'a>(line: &'a str, separator: u8, limit: usize, out: &mut Vec<&'a str>) {
+pub(crate) fn split_fields<'a>(line: &'a str, separator: u8, limit: usize, out: &mut Vec<&'a str>) {
     out.clear();
     let mut start = 0;
     let mut quoted = false;
@@ -250,7 +250,7 @@ pub fn split_fields<'a>(line: &'a str, separator: u8, limit: usize, out: &mut Ve
 }
 
 /// A field without the spaces around it and without enclosing double quotes.
-pub fn unquote(field: &str) -> &str {
+pub(crate) fn unquote(field: &str) -> &str {
     let t = field.trim();
     t.strip_prefix('"')
         .and_then(|s| s.strip_suffix('"'))
@@ -260,7 +260,7 @@ pub fn unquote(field: &str) -> &str {
 /// How numbers are written: the decimal mark (the mark grouping digits is whatever else stands
 /// between groups of three digits).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum NumberFormat {
+pub(crate) enum NumberFormat {
     /// `1234.5`, `1,234.5`, `1.2345E+03`.
     #[default]
     DecimalPoint,

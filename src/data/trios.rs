@@ -79,7 +79,7 @@ fn step_head(
 }
 
 /// Whether a text has a TRIOS export's shape; the reason if not. Returns the separator.
-pub fn recognise(text: &str) -> Result<u8, String> {
+pub(crate) fn recognise(text: &str) -> Result<u8, String> {
     let mut all = lines(text).take(HEAD_LINES);
     let Some(_) = all.by_ref().find(|l| is_step_marker(&text[l.start..l.end])) else {
         return Err(format!("no `[step]` line in the first {HEAD_LINES} lines"));

@@ -46,7 +46,7 @@ pub const KNOWN_UNITS: &str = "time: s, min, h; force: N, mN, µN (or uN); \
 
 /// Parses a unit such as `[mN·m]`, `min` or `µN` (brackets and spaces optional).
 /// `None` for a unit slipbayes does not know.
-pub fn parse_unit(text: &str) -> Option<Unit> {
+pub(crate) fn parse_unit(text: &str) -> Option<Unit> {
     let written = text
         .trim()
         .trim_start_matches('[')

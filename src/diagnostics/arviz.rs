@@ -504,7 +504,7 @@ pub fn rhat(chains: &[&[f64]]) -> Result<f64, DiagnosticsError> {
 ///
 /// # Errors
 /// As [`rhat`].
-pub fn rhat_by(
+pub(crate) fn rhat_by(
     chains: usize,
     draws: usize,
     at: &dyn Fn(usize, usize) -> f64,

@@ -107,7 +107,7 @@ impl Loo {
     ///
     /// # Panics
     /// When `parts` is empty.
-    pub fn concatenate<'a>(parts: impl IntoIterator<Item = &'a Loo>) -> Loo {
+    pub(crate) fn concatenate<'a>(parts: impl IntoIterator<Item = &'a Loo>) -> Loo {
         let mut parts = parts.into_iter();
         let mut total = parts.next().expect("at least one part").clone();
         for part in parts {

@@ -42,9 +42,10 @@ pub mod summary;
 pub mod verdict;
 mod walkers;
 
+pub(crate) use arviz::rhat_by;
 pub use arviz::{
     equal_tailed_interval, ess_bulk, ess_mean, ess_tail, hdi, mcse_mean, mcse_quantile, mcse_sd,
-    quantile, rhat, rhat_by, MIN_CHAINS_RHAT, MIN_DRAWS, TAIL_PROBS,
+    quantile, rhat, MIN_CHAINS_RHAT, MIN_DRAWS, TAIL_PROBS,
 };
 pub use autocorr::{
     integrated_time, mean_acf, AutocorrTime, DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR,
@@ -55,8 +56,9 @@ pub use summary::{
     ensemble_rhat, summarize, summarize_draws, DrawsWriter, EnsembleDraws, Limits, Summary,
     WalkerDraws, Workspace,
 };
+pub(crate) use verdict::stuck_walkers;
 pub use verdict::{
-    problem_lines, quantity_problems, stuck_walkers, EssKind, Problem, ESS_MIN, RHAT_MAX,
-    TAU_FACTOR,
+    problem_lines, quantity_problems, EssKind, Problem, ESS_MIN, RHAT_MAX, TAU_FACTOR,
 };
-pub use walkers::{blockwise_condition_number, walker_condition_number, WALKER_CONDITION_LIMIT};
+pub(crate) use walkers::blockwise_condition_number;
+pub use walkers::WALKER_CONDITION_LIMIT;

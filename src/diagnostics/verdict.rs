@@ -324,7 +324,7 @@ pub fn quantity_problems(quantity: &str, s: &Summary, ensembles: usize) -> Vec<P
 /// A [`Problem::StuckWalkers`] for each ensemble with walkers that accepted less than
 /// [`STUCK_ACCEPTANCE`] of their proposals (`acceptance[ensemble][walker]`), once the run has
 /// at least [`STUCK_MIN_STEPS`] steps.
-pub fn stuck_walkers<'a>(
+pub(crate) fn stuck_walkers<'a>(
     acceptance: impl IntoIterator<Item = &'a [f64]>,
     steps: u64,
 ) -> Vec<Problem> {

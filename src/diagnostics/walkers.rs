@@ -10,7 +10,7 @@ pub const WALKER_CONDITION_LIMIT: f64 = 1e8;
 
 /// Condition number of the centred walker matrix with columns scaled to unit norm
 /// (`walkers × ndim`); +∞ when a column is constant.
-pub fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
+pub(crate) fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
     let walkers = positions.len() / ndim;
     let mut m = DMatrix::from_row_slice(walkers, ndim, positions);
     for mut col in m.column_iter_mut() {
@@ -35,7 +35,11 @@ pub fn walker_condition_number(positions: &[f64], ndim: usize) -> f64 {
 /// The largest [`walker_condition_number`] of the walkers' coordinates in each block
 /// (`blocks` of coordinate indices; the whole space when empty): under blocked updates the
 /// walkers need to span each block's subspace, not the whole space.
-pub fn blockwise_condition_number(positions: &[f64], ndim: usize, blocks: &[Vec<usize>]) -> f64 {
+pub(crate) fn blockwise_condition_number(
+    positions: &[f64],
+    ndim: usize,
+    blocks: &[Vec<usize>],
+) -> f64 {
     if blocks.is_empty() {
         return walker_condition_number(positions, ndim);
     }

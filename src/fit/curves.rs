@@ -63,7 +63,11 @@ pub(super) fn redraw(
 
 /// Per grid point, the `probs` quantiles over the rows of `values[draw][point]`:
 /// `out[q][point]`. Rows holding a NaN at a point are skipped there.
-pub fn pointwise_quantiles(values: &[Vec<f64>], points: usize, probs: &[f64]) -> Vec<Vec<f64>> {
+pub(crate) fn pointwise_quantiles(
+    values: &[Vec<f64>],
+    points: usize,
+    probs: &[f64],
+) -> Vec<Vec<f64>> {
     let mut out = vec![vec![f64::NAN; points]; probs.len()];
     let mut column = Vec::with_capacity(values.len());
     for j in 0..points {
@@ -84,7 +88,7 @@ pub fn pointwise_quantiles(values: &[Vec<f64>], points: usize, probs: &[f64]) ->
 ///
 /// # Errors
 /// A draw that gives an invalid law.
-pub fn interface_curve(
+pub(crate) fn interface_curve(
     posterior: &Posterior,
     run: usize,
     draws: &[Vec<f64>],
@@ -123,7 +127,7 @@ pub fn interface_curve(
 ///
 /// # Errors
 /// A draw that gives an invalid law.
-pub fn peak_vs_t0(
+pub(crate) fn peak_vs_t0(
     posterior: &Posterior,
     run: usize,
     draws: &[Vec<f64>],

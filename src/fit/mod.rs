@@ -350,7 +350,7 @@ pub fn kept_draws(
 ///
 /// # Errors
 /// As [`kept_draws`].
-pub fn draws_from(
+pub(crate) fn draws_from(
     dir: &RunDir,
     sampler: &SamplerSummary,
     names: &[String],

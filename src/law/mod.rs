@@ -161,7 +161,7 @@ impl LawKind {
     /// Whether the law has an interior static-friction peak that the fit reports (F_peak,
     /// τ_peak, ...). A rate-and-state first slide peaks too, but its peak is a point of an
     /// ODE solution with no interface time: it is not among the derived quantities.
-    pub fn has_peak(self) -> bool {
+    pub(crate) fn has_peak(self) -> bool {
         match self {
             Self::AgingRejuvenation => true,
             Self::LogAging | Self::RateState => false,
@@ -170,7 +170,7 @@ impl LawKind {
 
     /// Whether the law is solved in interface time through the elastic correction
     /// ([`InterfaceLaw`], [`ObservedSlide`]); rate-and-state is an ODE over the slide instead.
-    pub fn in_interface_time(self) -> bool {
+    pub(crate) fn in_interface_time(self) -> bool {
         !matches!(self, Self::RateState)
     }
 }

@@ -254,7 +254,7 @@ impl ObservedSlide {
     ///
     /// # Errors
     /// As [`ObservedSlide::forces`].
-    pub fn force_at(&self, time: f64) -> Result<f64, LawError> {
+    pub(crate) fn force_at(&self, time: f64) -> Result<f64, LawError> {
         let mut out = [0.0];
         self.forces(&[time], &mut out, None)?;
         Ok(out[0])

@@ -407,11 +407,6 @@ impl SpringSlider {
         p.f0_n + (p.a_n - p.b_n) * (self.velocity_m_per_s / self.reference_velocity_m_per_s).ln()
     }
 
-    /// Steady-state θ at the driving velocity, D_c/v (s).
-    pub fn steady_theta_s(&self) -> f64 {
-        self.params.dc_m / self.velocity_m_per_s
-    }
-
     /// Recorded force at each time of `times` (seconds from the start of driving, strictly
     /// increasing, ≥ 0), written into `forces`.
     ///
@@ -446,7 +441,7 @@ impl SpringSlider {
     ///
     /// # Errors
     /// As [`SpringSlider::forces`].
-    pub fn for_each_state(
+    pub(crate) fn for_each_state(
         &self,
         times: &[f64],
         mut visit: impl FnMut(usize, SliderState),

@@ -39,7 +39,7 @@ pub enum PopulationUpdates {
 
 impl PopulationUpdates {
     /// Whether this is the default (`auto`), which a run file need not write.
-    pub fn is_default(&self) -> bool {
+    pub(crate) fn is_default(&self) -> bool {
         *self == Self::default()
     }
 }

@@ -64,7 +64,7 @@ pub struct RunData {
 
 /// Which part of a run's data enters the likelihood.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Selection {
+pub(crate) struct Selection {
     /// Time window [start, end] (s of instrument time), inclusive.
     pub window_s: Option<[f64; 2]>,
 }
@@ -97,7 +97,7 @@ impl RunData {
     /// of them besides: their count `n_obs` (the likelihood of a sampled or integrated σ
     /// reads it) and the mean recorded normal force (the static coefficient's column), as
     /// its only value.
-    pub fn held_elsewhere(
+    pub(crate) fn held_elsewhere(
         spec: &ModelSpec,
         run: usize,
         n_obs: usize,
@@ -150,7 +150,7 @@ impl RunData {
     ///
     /// # Errors
     /// As [`RunData::for_run`].
-    pub fn prepare(
+    pub(crate) fn prepare(
         imported: Imported,
         path: &Path,
         run: &str,
@@ -365,7 +365,7 @@ impl RunData {
     }
 
     /// Mean recorded normal force (N), if recorded.
-    pub fn mean_normal_force(&self) -> Option<f64> {
+    pub(crate) fn mean_normal_force(&self) -> Option<f64> {
         self.normal_force
             .as_ref()
             .map(|v| v.iter().sum::<f64>() / v.len() as f64)
@@ -373,7 +373,7 @@ impl RunData {
 
     /// Noise estimate of one point: RMS of successive differences over √2; insensitive to a
     /// smooth trend.
-    pub fn noise_estimate(&self) -> f64 {
+    pub(crate) fn noise_estimate(&self) -> f64 {
         let d: f64 = (1..self.force.len())
             .map(|j| (self.force[j] - self.force[j - 1]).powi(2) / 2.0)
             .sum();
@@ -383,7 +383,7 @@ impl RunData {
     /// Noise estimate of one point from second differences: RMS of y_(j+1) − 2y_j + y_(j−1)
     /// over √6. A linear trend cancels, so a steep, densely sampled rise (where successive
     /// differences see the slope) does not inflate it.
-    pub fn noise_estimate_detrended(&self) -> f64 {
+    pub(crate) fn noise_estimate_detrended(&self) -> f64 {
         let f = &self.force;
         if f.len() < 3 {
             return self.noise_estimate();
@@ -396,14 +396,14 @@ impl RunData {
     }
 
     /// Mean force over the last tenth of the record.
-    pub fn late_level(&self) -> f64 {
+    pub(crate) fn late_level(&self) -> f64 {
         let n = self.force.len();
         let tail = &self.force[n - (n / 10).max(1)..];
         tail.iter().sum::<f64>() / tail.len() as f64
     }
 
     /// Largest force, smoothed over a hundredth of the record.
-    pub fn max_force(&self) -> f64 {
+    pub(crate) fn max_force(&self) -> f64 {
         let w = (self.force.len() / 100).max(1);
         // Each window summed afresh costs n·w additions: nothing for a slide of a few thousand
         // points, but 10¹⁰ at 10⁶, many times the rest of the start (`reports/fit-defaults.md`).

@@ -133,7 +133,7 @@ impl Prior {
     }
 
     /// Whether the prior allows only θ > 0 (so the parameter can be sampled as ln θ).
-    pub fn positive_support(&self) -> bool {
+    pub(crate) fn positive_support(&self) -> bool {
         match *self {
             Self::Uniform { low, .. } => low >= 0.0,
             Self::Normal { low, .. } => low.is_some_and(|l| l >= 0.0),
@@ -154,7 +154,7 @@ impl Prior {
     }
 
     /// ln p(θ) up to a constant that does not depend on θ; −∞ outside the support.
-    pub fn ln_density(&self, theta: f64) -> f64 {
+    pub(crate) fn ln_density(&self, theta: f64) -> f64 {
         let (low, high) = self.bounds();
         if !(theta >= low && theta <= high) {
             return f64::NEG_INFINITY;

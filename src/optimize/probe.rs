@@ -140,7 +140,7 @@ impl<'d, D: LogDensity + ?Sized> Probe<'d, D> {
     /// for every pair `j < i` at `x + s_i h_i e_i + s_j h_j e_j` for the signs (+, +), (+, −),
     /// (−, +), (−, −) (row `i` holds `i` entries). The point with `i` moved is evaluated once
     /// per sign and `j` moved from it, by the block of `j`.
-    pub fn second_differences(&self, x: &[f64], h: &[f64]) -> SecondDifferences {
+    pub(crate) fn second_differences(&self, x: &[f64], h: &[f64]) -> SecondDifferences {
         let base = self.cached(x);
         let at_x = match &base {
             Some(c) => c.log_density,

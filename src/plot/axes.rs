@@ -79,14 +79,14 @@ pub struct Plot {
 
 impl Plot {
     /// Pixel x of value `v`, if it can be shown.
-    pub fn x_px(&self, v: f64) -> Option<f64> {
+    pub(crate) fn x_px(&self, v: f64) -> Option<f64> {
         self.x
             .fraction(v)
             .map(|f| self.rect.x0 + f * self.rect.width())
     }
 
     /// Pixel y of value `v`, if it can be shown.
-    pub fn y_px(&self, v: f64) -> Option<f64> {
+    pub(crate) fn y_px(&self, v: f64) -> Option<f64> {
         self.y
             .fraction(v)
             .map(|f| self.rect.y1 - f * self.rect.height())

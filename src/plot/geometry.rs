@@ -32,7 +32,7 @@ impl Rect {
     }
 
     /// The rectangle of `size` at the origin.
-    pub fn of_size((width, height): (f64, f64)) -> Self {
+    pub(crate) fn of_size((width, height): (f64, f64)) -> Self {
         Self::new(0.0, 0.0, width, height)
     }
 
@@ -42,12 +42,12 @@ impl Rect {
     }
 
     /// Height.
-    pub fn height(&self) -> f64 {
+    pub(crate) fn height(&self) -> f64 {
         self.y1 - self.y0
     }
 
     /// The rectangle grown by `d` on every side (shrunk for negative `d`, never inside out).
-    pub fn inflate(&self, d: f64) -> Self {
+    pub(crate) fn inflate(&self, d: f64) -> Self {
         let (cx, cy) = ((self.x0 + self.x1) / 2.0, (self.y0 + self.y1) / 2.0);
         Self {
             x0: (self.x0 - d).min(cx),
@@ -58,7 +58,7 @@ impl Rect {
     }
 
     /// Whether the two rectangles share an area (touching edges do not count).
-    pub fn overlaps(&self, other: &Rect) -> bool {
+    pub(crate) fn overlaps(&self, other: &Rect) -> bool {
         self.x0 < other.x1 && other.x0 < self.x1 && self.y0 < other.y1 && other.y0 < self.y1
     }
 
@@ -68,7 +68,7 @@ impl Rect {
     }
 
     /// Whether `other` lies wholly inside (edges included), with `slack` pixels to spare.
-    pub fn encloses(&self, other: &Rect, slack: f64) -> bool {
+    pub(crate) fn encloses(&self, other: &Rect, slack: f64) -> bool {
         other.x0 >= self.x0 - slack
             && other.x1 <= self.x1 + slack
             && other.y0 >= self.y0 - slack
@@ -113,12 +113,12 @@ impl Rect {
 }
 
 /// Whether the segment `a`–`b` passes through `r` (Liang–Barsky).
-pub fn segment_hits(a: Point, b: Point, r: &Rect) -> bool {
+pub(crate) fn segment_hits(a: Point, b: Point, r: &Rect) -> bool {
     clip_segment(a, b, r).is_some()
 }
 
 /// The part of the segment `a`–`b` inside `r`, if any (Liang–Barsky).
-pub fn clip_segment(a: Point, b: Point, r: &Rect) -> Option<(Point, Point)> {
+pub(crate) fn clip_segment(a: Point, b: Point, r: &Rect) -> Option<(Point, Point)> {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let (mut t0, mut t1) = (0.0_f64, 1.0_f64);
     for (p, q) in [
@@ -152,7 +152,7 @@ pub fn clip_segment(a: Point, b: Point, r: &Rect) -> Option<(Point, Point)> {
 /// The pieces of the polyline through `points` inside `r`: a line leaving the plot area and
 /// coming back is drawn as two pieces, never across the frame. Non-finite points break the
 /// line.
-pub fn clip_polyline(points: &[Point], r: &Rect) -> Vec<Vec<Point>> {
+pub(crate) fn clip_polyline(points: &[Point], r: &Rect) -> Vec<Vec<Point>> {
     let mut pieces: Vec<Vec<Point>> = Vec::new();
     let mut current: Vec<Point> = Vec::new();
     let finite = |p: &Point| p.0.is_finite() && p.1.is_finite();
@@ -202,7 +202,7 @@ fn near(a: Point, b: Point) -> bool {
 }
 
 /// The polygon `points` cut to `r` (Sutherland–Hodgman); empty when nothing is left.
-pub fn clip_polygon(points: &[Point], r: &Rect) -> Vec<Point> {
+pub(crate) fn clip_polygon(points: &[Point], r: &Rect) -> Vec<Point> {
     type Inside = fn(Point, &Rect) -> bool;
     type Cross = fn(Point, Point, &Rect) -> Point;
     let edges: [(Inside, Cross); 4] = [

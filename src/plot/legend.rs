@@ -61,7 +61,7 @@ pub fn box_size(entries: &[LegendEntry]) -> (f64, f64) {
 
 /// Where a box of `size` fits inside `area` without touching any of `shapes`: the corners
 /// first (upper right, upper left, lower right, lower left), then the middles of the edges.
-pub fn free_spot(area: &Rect, size: (f64, f64), shapes: &[Shape]) -> Option<Rect> {
+pub(crate) fn free_spot(area: &Rect, size: (f64, f64), shapes: &[Shape]) -> Option<Rect> {
     let (w, h) = size;
     let inner = area.inflate(-CLEAR_PX);
     if w > inner.width() || h > inner.height() {

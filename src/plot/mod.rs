@@ -34,13 +34,12 @@ pub use axes::{
     axis_margins, choose_ticks, draw_axes, draw_grid, fit_axes, Axis, Margins, Plot, Show, GAP_PX,
     TICK_PX,
 };
-pub use geometry::{clip_polygon, clip_polyline, point_in_polygon, Point, Rect, Shape};
-pub use legend::{box_size, draw_box, draw_row, free_spot, row_height, LegendEntry, Swatch};
+pub use geometry::{point_in_polygon, Point, Rect, Shape};
+pub use legend::{box_size, draw_box, draw_row, row_height, LegendEntry, Swatch};
 pub use panel::{LegendAt, Panel};
-pub use series::{draw_series, Mark, Marker, Series};
+pub use series::{draw_series, Marker, Series};
 pub use style::{
-    axis_stroke, band_fills, grid, ink, series_stroke, tint, Dash, Rgb, CAPTION_PX, FONT, MARK,
-    MAX_FIGURE_WIDTH, MIN_TEXT_PX, PANEL, TEXT_PX,
+    band_fills, grid, ink, series_stroke, tint, Dash, Rgb, CAPTION_PX, MARK, PANEL, TEXT_PX,
 };
 pub use svg::{escape, svg_figure, Canvas, Fill, Font, Stroke};
 pub use ticks::{extend_bounds, padded, range_of, significant, tick, widen, Scale, Ticks};

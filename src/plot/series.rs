@@ -7,7 +7,7 @@
 
 use super::axes::Plot;
 use super::geometry::{clip_polygon, clip_polyline, Point, Rect, Shape};
-use super::style::{ink, Rgb};
+use super::style::Rgb;
 use super::svg::{Canvas, Fill, Stroke};
 
 /// A marker shape.
@@ -129,7 +129,8 @@ pub enum Series {
 
 impl Series {
     /// A line of series `k` (its ink and dash), `width` pixels wide.
-    pub fn line_of(k: usize, points: Vec<(f64, f64)>, width: f64) -> Self {
+    #[cfg(test)]
+    pub(crate) fn line_of(k: usize, points: Vec<(f64, f64)>, width: f64) -> Self {
         Self::Line {
             points,
             stroke: super::style::series_stroke(k, width),
@@ -137,17 +138,18 @@ impl Series {
     }
 
     /// Markers of series `k` (its shape and ink).
-    pub fn markers_of(k: usize, points: Vec<(f64, f64)>) -> Self {
+    #[cfg(test)]
+    pub(crate) fn markers_of(k: usize, points: Vec<(f64, f64)>) -> Self {
         Self::Markers {
             points,
             marker: Marker::of(k),
-            color: ink(k),
+            color: super::style::ink(k),
             radius: 3.5,
         }
     }
 
     /// The marks this series leaves on `plot`, cut to its area.
-    pub fn marks(&self, plot: &Plot) -> Vec<Mark> {
+    pub(crate) fn marks(&self, plot: &Plot) -> Vec<Mark> {
         let area = plot.rect;
         let to_px = |pts: &mut dyn Iterator<Item = (f64, f64)>| -> Vec<Point> {
             pts.map(|p| plot.px(p).unwrap_or((f64::NAN, f64::NAN)))
@@ -238,7 +240,7 @@ impl Series {
 
 /// One element drawn on the canvas, in pixels.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Mark {
+pub(crate) enum Mark {
     /// An open polyline.
     Polyline(Vec<Point>, Stroke),
     /// A polygon.
@@ -298,6 +300,7 @@ pub fn draw_series(canvas: &mut Canvas, plot: &Plot, series: &[Series]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plot::style::ink;
     use crate::plot::ticks::Scale;
 
     fn plot() -> Plot {

@@ -6,15 +6,15 @@ use super::svg::{Fill, Stroke};
 
 /// Font family of every text: the browser's sans-serif ([`text`](super::text) estimates its
 /// widths).
-pub const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 /// Size of tick labels, legends and axis descriptions (CSS pixels at scale 1): readable at 1×.
 pub const TEXT_PX: f64 = 12.0;
 /// Size of captions.
 pub const CAPTION_PX: f64 = 14.0;
 /// No text of a figure is smaller than this (CSS pixels at scale 1).
-pub const MIN_TEXT_PX: f64 = 11.0;
+pub(crate) const MIN_TEXT_PX: f64 = 11.0;
 /// The widest figure a report shows at its own size (the page's content width, pixels).
-pub const MAX_FIGURE_WIDTH: u32 = 1200;
+pub(crate) const MAX_FIGURE_WIDTH: u32 = 1200;
 /// Width and height of one standard panel, in pixels.
 pub const PANEL: (u32, u32) = (560, 380);
 
@@ -26,7 +26,7 @@ impl Rgb {
     /// Black.
     pub const BLACK: Rgb = Rgb(0, 0, 0);
     /// White.
-    pub const WHITE: Rgb = Rgb(255, 255, 255);
+    pub(crate) const WHITE: Rgb = Rgb(255, 255, 255);
 }
 
 impl fmt::Display for Rgb {
@@ -109,6 +109,6 @@ pub fn grid() -> (Stroke, Stroke) {
 }
 
 /// Stroke of axis lines and tick marks.
-pub fn axis_stroke() -> Stroke {
+pub(crate) fn axis_stroke() -> Stroke {
     Stroke::solid(Rgb::BLACK, 1.0)
 }

@@ -175,7 +175,7 @@ impl Canvas {
     }
 
     /// A straight `<line>`: grid lines only (see the module documentation).
-    pub fn grid_line(&mut self, a: Point, b: Point, stroke: Stroke) {
+    pub(crate) fn grid_line(&mut self, a: Point, b: Point, stroke: Stroke) {
         let _ = writeln!(
             self.svg,
             "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\"{}/>",

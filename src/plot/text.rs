@@ -12,15 +12,15 @@ use super::geometry::Rect;
 /// sans-serif, sets digits and lower case about 12 % wider.
 pub const WIDTH_MARGIN: f64 = 1.15;
 /// Height above the baseline that glyphs reach (accents included), in em.
-pub const ASCENT_EM: f64 = 0.8;
+pub(crate) const ASCENT_EM: f64 = 0.8;
 /// Depth below the baseline (descenders), in em.
-pub const DESCENT_EM: f64 = 0.22;
+pub(crate) const DESCENT_EM: f64 = 0.22;
 /// Half the x-height, in em: a `dy` of `0.5ex` moves the baseline this far down.
 const HALF_EX_EM: f64 = 0.26;
 /// A `dy` of `0.76em` moves the baseline this far down (hanging text).
 const HANG_EM: f64 = 0.76;
 /// Distance between the baselines of two lines, in em.
-pub const LINE_EM: f64 = 1.25;
+pub(crate) const LINE_EM: f64 = 1.25;
 
 /// Horizontal position of the anchor in the text.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -75,7 +75,7 @@ pub enum Rotation {
 
 impl Rotation {
     /// Degrees as SVG's `rotate()` takes them; `None` when upright.
-    pub fn degrees(self) -> Option<u32> {
+    pub(crate) fn degrees(self) -> Option<u32> {
         match self {
             Self::None => None,
             Self::Quarter => Some(90),
@@ -85,7 +85,7 @@ impl Rotation {
     }
 
     /// The rotation of SVG's `rotate(degrees)`, if it is a multiple of 90.
-    pub fn of_degrees(degrees: f64) -> Option<Self> {
+    pub(crate) fn of_degrees(degrees: f64) -> Option<Self> {
         let d = degrees.rem_euclid(360.0);
         [
             (0.0, Self::None),
@@ -144,17 +144,17 @@ fn char_em(c: char) -> f64 {
 }
 
 /// Estimated width of `text` at `px` pixels, in pixels (with [`WIDTH_MARGIN`]).
-pub fn text_width(text: &str, px: f64) -> f64 {
+pub(crate) fn text_width(text: &str, px: f64) -> f64 {
     text.chars().map(char_em).sum::<f64>() * px * WIDTH_MARGIN
 }
 
 /// Height of one line of text at `px` pixels (ascent and descent).
-pub fn text_height(px: f64) -> f64 {
+pub(crate) fn text_height(px: f64) -> f64 {
     (ASCENT_EM + DESCENT_EM) * px
 }
 
 /// Distance between the baselines of two lines at `px` pixels.
-pub fn line_height(px: f64) -> f64 {
+pub(crate) fn line_height(px: f64) -> f64 {
     LINE_EM * px
 }
 
@@ -186,7 +186,7 @@ pub fn text_box(text: &str, px: f64, at: (f64, f64), anchor: Anchor, rotation: R
 
 /// `text` broken at spaces (or before `[` and `(`) into lines no wider than `width` pixels at
 /// `px` pixels, where it can be: a word wider than the line stays whole.
-pub fn wrap(text: &str, px: f64, width: f64) -> Vec<String> {
+pub(crate) fn wrap(text: &str, px: f64, width: f64) -> Vec<String> {
     // Words, each marked when it continues the word before (a name cut before its group).
     let mut words: Vec<(String, bool)> = Vec::new();
     for word in text.split(' ') {

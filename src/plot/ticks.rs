@@ -84,14 +84,14 @@ impl Scale {
 
     /// Tick sets for this scale, densest first, each with at least two ticks inside the range
     /// (at least one set, whatever the range).
-    pub fn candidates(&self) -> Vec<Ticks> {
+    pub(crate) fn candidates(&self) -> Vec<Ticks> {
         self.tick_sets(false)
     }
 
     /// The same tick sets as [`candidates`](Self::candidates), labelled as briefly as an
     /// offset and a scale allow (`−2, 0, 2` and `×10⁻³ +10` for 9.998, 10, 10.002): for axes
     /// too short for plain labels.
-    pub fn compact_candidates(&self) -> Vec<Ticks> {
+    pub(crate) fn compact_candidates(&self) -> Vec<Ticks> {
         self.tick_sets(true)
     }
 
@@ -283,7 +283,7 @@ fn decimal(n: i64, exp: i32) -> String {
 }
 
 /// `10⁻³`, `10⁶`.
-pub fn power_of_ten(p: i32) -> String {
+pub(crate) fn power_of_ten(p: i32) -> String {
     let mut s = "10".to_owned();
     for c in p.to_string().chars() {
         s.push(match c {

@@ -9,9 +9,9 @@ use super::{write_figures, ReportError, ReportFiles};
 use crate::fit::RunDir;
 
 /// The comparison report's Markdown file.
-pub const COMPARE_MD: &str = "compare.md";
+pub(crate) const COMPARE_MD: &str = "compare.md";
 /// The comparison report's HTML file.
-pub const COMPARE_HTML: &str = "compare.html";
+pub(crate) const COMPARE_HTML: &str = "compare.html";
 
 /// Writes `compare.md`, `compare.html` and `figures/compare-<run>.svg` into `out`: `ranking`
 /// (the table and verdicts), then one figure per run with every fit of `fits` (name, run

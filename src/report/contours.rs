@@ -4,18 +4,18 @@
 //! drawing.
 
 /// Contour levels as σ of a 2-D Gaussian: each encloses 1 − exp(−σ²/2) of the mass.
-pub const SIGMAS: [f64; 4] = [0.5, 1.0, 1.5, 2.0];
+pub(crate) const SIGMAS: [f64; 4] = [0.5, 1.0, 1.5, 2.0];
 /// Bins of a corner plot's histograms along each axis.
-pub const BINS: usize = 30;
+pub(crate) const BINS: usize = 30;
 /// Smoothing of a 2-D histogram: a Gaussian of this many bins' standard deviation.
 const SMOOTH_BINS: f64 = 1.0;
 
 /// Closed contour lines in data coordinates, each a polygon.
-pub type Loops = Vec<Vec<(f64, f64)>>;
+pub(crate) type Loops = Vec<Vec<(f64, f64)>>;
 
 /// A histogram of pairs over a `bins` × `bins` grid spanning `x` and `y`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Histogram2d {
+pub(crate) struct Histogram2d {
     /// Range of the first quantity.
     pub x: (f64, f64),
     /// Range of the second.

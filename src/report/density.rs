@@ -5,7 +5,7 @@ use crate::diagnostics::quantile;
 
 /// Gaussian kernel density of `values` on `points` grid points spanning the values ± 3
 /// bandwidths (Silverman's rule): (grid, density). Empty for fewer than two finite values.
-pub fn kernel_density(values: &[f64], points: usize) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn kernel_density(values: &[f64], points: usize) -> (Vec<f64>, Vec<f64>) {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.len() < 2 {
         return (Vec::new(), Vec::new());

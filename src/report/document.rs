@@ -64,7 +64,7 @@ fn escape_cell(s: &str) -> String {
 }
 
 /// The report as Markdown; figures are linked as `figures/<file>`.
-pub fn render_markdown(title: &str, blocks: &[Block]) -> String {
+pub(crate) fn render_markdown(title: &str, blocks: &[Block]) -> String {
     let mut md = format!("# {title}\n\n");
     for block in blocks {
         match block {
@@ -158,7 +158,7 @@ nav a{margin-right:1em}\
 /// The report as one self-contained HTML page: inline CSS and SVG figures, no scripts, no
 /// external URLs. On screen figures keep their own size (their text is sized for it) and
 /// scroll sideways in a narrow window; in print they shrink to the page.
-pub fn render_html(title: &str, blocks: &[Block]) -> String {
+pub(crate) fn render_html(title: &str, blocks: &[Block]) -> String {
     let mut html = format!(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\

@@ -9,7 +9,7 @@ use crate::model::Band;
 use crate::storage::ChainReader;
 
 /// Fraction of a run's observations inside its 95 % predictive band.
-pub fn coverage_95(run: &Band) -> f64 {
+pub(crate) fn coverage_95(run: &Band) -> f64 {
     let inside = (0..run.time_s.len())
         .filter(|&j| {
             let y = run.observed_n[j];
@@ -21,7 +21,7 @@ pub fn coverage_95(run: &Band) -> f64 {
 
 /// Everything read back from a run directory.
 #[derive(Debug, Clone)]
-pub struct RunInputs {
+pub(crate) struct RunInputs {
     /// The run directory.
     pub dir: RunDir,
     /// `model.toml`: the runs, contacts and materials the report names (their data are not

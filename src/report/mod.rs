@@ -37,10 +37,10 @@ use std::path::PathBuf;
 use crate::fit::run_dir::{FIGURES_DIR, REPORT_HTML, REPORT_MD};
 use crate::fit::{RunDir, RunDirError};
 
-pub use comparison::{write_comparison, COMPARE_HTML, COMPARE_MD};
-pub use document::{render_html, render_markdown, Block};
-pub use inputs::{coverage_95, RunInputs};
-pub use units::{significant, DisplayUnit};
+pub use comparison::write_comparison;
+pub use document::Block;
+pub(crate) use document::{render_html, render_markdown};
+pub(crate) use inputs::RunInputs;
 
 /// Errors building a report.
 #[derive(Debug, thiserror::Error)]

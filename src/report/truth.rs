@@ -10,7 +10,7 @@ use crate::simulate::SimulationSpec;
 
 /// The simulation settings of each run of a model whose data file has a truth file beside it.
 #[derive(Debug, Clone)]
-pub struct Truths {
+pub(crate) struct Truths {
     /// Per run: its name, contact, material, scene and, when found, what simulated it.
     runs: Vec<(String, String, String, Scene, Option<SimulationSpec>)>,
     /// The names of the truth files, beside the data files they describe.

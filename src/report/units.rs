@@ -9,7 +9,7 @@ pub use crate::plot::significant;
 
 /// How a quantity in an SI unit is shown: the unit's label and the factor from SI to it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DisplayUnit {
+pub(crate) struct DisplayUnit {
     /// The unit shown (`"mN"`, `"µm⁻¹"`, ...); empty for a pure number.
     pub label: String,
     /// Multiply an SI value by this to get the shown value.
@@ -19,7 +19,7 @@ pub struct DisplayUnit {
 impl DisplayUnit {
     /// The shown unit of an SI unit as `summary.json` writes it (`"N"`, `"1/m"`, `"s"`,
     /// `"N/m"`, `"m"`, `"1"`); an unknown unit is shown as it is, in its own scale.
-    pub fn of_si(unit: &str) -> Self {
+    pub(crate) fn of_si(unit: &str) -> Self {
         let (label, factor) = match unit {
             "N" => ("mN", 1e3),
             "1/m" => ("µm⁻¹", 1e-6),

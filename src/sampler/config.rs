@@ -328,16 +328,12 @@ impl SamplerConfig {
     pub fn parallel(&self) -> bool {
         self.parallel
     }
-    /// Maximum history rows per walker.
-    pub fn history_rows(&self) -> usize {
-        self.history_rows
-    }
 
     /// Rows the history keeps for a density of `ndim` parameters:
-    /// [`history_rows`](Self::history_rows), fewer when rows of every walker of every
+    /// the configured maximum per walker, fewer when rows of every walker of every
     /// ensemble would take the history beyond [`HISTORY_BUDGET_BYTES`], never fewer than
     /// [`MIN_BUDGET_ROWS`] for that reason.
-    pub fn history_rows_for(&self, ndim: usize) -> usize {
+    pub(crate) fn history_rows_for(&self, ndim: usize) -> usize {
         let row_bytes = self.ensembles * self.walkers * ndim.max(1) * std::mem::size_of::<f64>();
         self.history_rows
             .min((HISTORY_BUDGET_BYTES / row_bytes).max(MIN_BUDGET_ROWS))

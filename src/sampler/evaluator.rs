@@ -40,7 +40,7 @@ impl EvalKind<'_> {
     /// Whether the evaluation reads what the proposal carries of its walker's derived values
     /// and state (a block update changes only their parts of the block): they must travel
     /// with the point.
-    pub fn reads_state(self) -> bool {
+    pub(crate) fn reads_state(self) -> bool {
         !matches!(self, Self::Full | Self::FullWithState(_))
     }
 

@@ -308,21 +308,6 @@ impl<'w> WalkerDraws<'w> {
         self.chains() * self.steps
     }
 
-    /// Number of ensembles.
-    pub fn ensembles(&self) -> usize {
-        self.ensembles
-    }
-
-    /// Walkers per ensemble.
-    pub fn walkers(&self) -> usize {
-        self.walkers
-    }
-
-    /// Steps per walker.
-    pub fn steps(&self) -> usize {
-        self.steps
-    }
-
     /// Walker `c` (`e * walkers + w`) from step `t` on, `out.len()` steps.
     fn read(
         &self,

@@ -82,12 +82,14 @@ impl Workspace {
     }
 
     /// Working files created so far (each removed when done).
-    pub fn files_created(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn files_created(&self) -> usize {
         self.files.load(Atomic::Relaxed)
     }
 
     /// The most sorted runs one merge has read so far (1 when every sort fitted in memory).
-    pub fn most_runs_merged(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn most_runs_merged(&self) -> usize {
         self.most_runs.load(Atomic::Relaxed)
     }
 

@@ -30,7 +30,7 @@ const PLAIN_RANGE: (f64, f64) = (1e-4, 1e15);
 /// The text of `summary.csv` (RFC 4180, `\n` line ends): parameters first, then derived
 /// quantities, in the order of `summary`. A missing value (R̂ with one ensemble) is an empty
 /// field; NaN and infinities are written `NaN`, `inf`, `-inf` (as pandas reads them).
-pub fn summary_csv(summary: &FitSummary) -> String {
+pub(crate) fn summary_csv(summary: &FitSummary) -> String {
     let mut out = CSV_COLUMNS.join(",");
     out.push('\n');
     let rows = summary

@@ -123,7 +123,7 @@ impl Number {
 mod numbers {
     use super::*;
 
-    pub fn serialize<S: Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
         s.collect_seq(values.iter().map(|&x| Number::of(x)))
     }
 
@@ -138,7 +138,7 @@ mod numbers {
 mod bands {
     use super::*;
 
-    pub fn serialize<S: Serializer>(bands: &[Vec<f64>; 3], s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(bands: &[Vec<f64>; 3], s: S) -> Result<S::Ok, S::Error> {
         s.collect_seq(
             bands
                 .iter()
@@ -158,7 +158,7 @@ mod bands {
 mod pairs {
     use super::*;
 
-    pub fn serialize<S: Serializer>(pairs: &[(f64, f64)], s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(pairs: &[(f64, f64)], s: S) -> Result<S::Ok, S::Error> {
         s.collect_seq(pairs.iter().map(|&(a, b)| [Number::of(a), Number::of(b)]))
     }
 

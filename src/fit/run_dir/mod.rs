@@ -39,13 +39,15 @@ use crate::model::{Band, SpecError};
 use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
 use crate::IoError;
 
-pub use csv::{summary_csv, CSV_COLUMNS};
+pub(crate) use csv::summary_csv;
+pub use csv::CSV_COLUMNS;
 pub use curves::{Curves, InterfaceCurve, PeakVsT0, RunCurves, RunTruth};
 pub use kfold::{KFoldPoint, KFoldSummary, RunKFold, KFOLD_HEADER};
 pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
 pub use predictive::PREDICTIVE_HEADER;
-pub use record::{relative_path, RunRecord};
+pub(crate) use record::relative_path;
+pub use record::RunRecord;
 pub use summary::{
     AggregateSummary, Comparison, FitSummary, ForwardModelRecord, QuantitySummary, SamplerSummary,
 };
@@ -217,7 +219,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] when a summary exists but cannot be removed.
-    pub fn remove_summaries(&self) -> Result<(), RunDirError> {
+    pub(crate) fn remove_summaries(&self) -> Result<(), RunDirError> {
         for name in [SUMMARY_JSON, SUMMARY_CSV] {
             let path = self.file(name);
             match std::fs::remove_file(&path) {
@@ -234,7 +236,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
-    pub fn write_model(&self, run: &RunFile) -> Result<(), RunDirError> {
+    pub(crate) fn write_model(&self, run: &RunFile) -> Result<(), RunDirError> {
         let spec = &run.model;
         let model = run.to_toml().map_err(|e| RunDirError::Parse {
             path: self.file(MODEL_TOML),
@@ -279,7 +281,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
-    pub fn write_record(&self, record: &RunRecord) -> Result<(), RunDirError> {
+    pub(crate) fn write_record(&self, record: &RunRecord) -> Result<(), RunDirError> {
         let json = serde_json::to_string_pretty(record).map_err(|e| RunDirError::Parse {
             path: self.file(SETTINGS_JSON),
             message: format!("cannot serialise the run record: {e}"),
@@ -300,7 +302,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
-    pub fn write_predictive(&self, bands: &[Band]) -> Result<(), RunDirError> {
+    pub(crate) fn write_predictive(&self, bands: &[Band]) -> Result<(), RunDirError> {
         self.write(PREDICTIVE_CSV, predictive::to_csv(bands).as_bytes())?;
         Ok(())
     }
@@ -309,7 +311,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
-    pub fn write_loo(&self, points: &[LooPoint]) -> Result<(), RunDirError> {
+    pub(crate) fn write_loo(&self, points: &[LooPoint]) -> Result<(), RunDirError> {
         self.write(LOO_CSV, loo::to_csv(points).as_bytes())?;
         Ok(())
     }
@@ -345,7 +347,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
-    pub fn write_curves(&self, curves: &Curves) -> Result<(), RunDirError> {
+    pub(crate) fn write_curves(&self, curves: &Curves) -> Result<(), RunDirError> {
         // Long arrays of numbers: on one line, half the size of pretty JSON.
         self.write_json(CURVES_JSON, curves, false)
     }
@@ -362,7 +364,7 @@ impl RunDir {
     ///
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
-    pub fn write_truths(&self, truths: &[RunTruth]) -> Result<(), RunDirError> {
+    pub(crate) fn write_truths(&self, truths: &[RunTruth]) -> Result<(), RunDirError> {
         self.write_json(TRUTH_JSON, &truths, true)
     }
 

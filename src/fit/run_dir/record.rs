@@ -37,7 +37,7 @@ pub struct RunRecord {
 ///
 /// # Errors
 /// The I/O error of making a path absolute.
-pub fn relative_path(base: &Path, target: &Path) -> std::io::Result<PathBuf> {
+pub(crate) fn relative_path(base: &Path, target: &Path) -> std::io::Result<PathBuf> {
     use std::path::Component;
     let normal = |p: &Path| -> std::io::Result<Vec<std::ffi::OsString>> {
         let mut parts: Vec<std::ffi::OsString> = Vec::new();

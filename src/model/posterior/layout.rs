@@ -35,7 +35,7 @@ pub(super) struct Coord {
 
 impl Coord {
     /// Whether the coordinate's prior has density at `u`.
-    pub fn prior_contains(&self, u: f64) -> bool {
+    pub(crate) fn prior_contains(&self, u: f64) -> bool {
         match &self.prior {
             CoordPrior::Log(prior) => prior.ln_density(u.exp()) > f64::NEG_INFINITY,
             CoordPrior::Population { .. } => u.is_finite(),

@@ -114,7 +114,7 @@ impl RunModel {
     ///
     /// # Errors
     /// [`LawError::InvalidParameter`] naming the parameter out of its domain.
-    pub fn spring_slider(&self, x: &[f64]) -> Result<SpringSlider, LawError> {
+    pub(crate) fn spring_slider(&self, x: &[f64]) -> Result<SpringSlider, LawError> {
         let value = |c: Option<usize>| c.map_or(f64::NAN, |i| x[i].exp());
         let params = RateStateParams::new(
             value(self.a),
@@ -174,7 +174,7 @@ impl RunModel {
 
     /// Visits (index, force) of the model at every model time; `f_end` is where the slide a
     /// repeat slide follows stopped (`None`: F_d).
-    pub fn visit_forces(
+    pub(crate) fn visit_forces(
         &self,
         x: &[f64],
         f_end: Option<f64>,
@@ -185,7 +185,7 @@ impl RunModel {
 
     /// Visits (index, force) of the model at each of `times` (increasing); `f_end` as for
     /// [`visit_forces`](Self::visit_forces).
-    pub fn visit_forces_at(
+    pub(crate) fn visit_forces_at(
         &self,
         x: &[f64],
         f_end: Option<f64>,
@@ -269,7 +269,7 @@ impl RunModel {
 
     /// The Gaussian log-likelihood of this run's sum of squared residuals `ssr` at `x` when
     /// its σ is sampled; 0 when σ is integrated out (its σ group's term holds it).
-    pub fn gaussian_term(&self, x: &[f64], ssr: f64) -> f64 {
+    pub(crate) fn gaussian_term(&self, x: &[f64], ssr: f64) -> f64 {
         match self.sigma {
             SigmaSource::Coord(s) => {
                 // x[s] is ln σ already.

@@ -75,7 +75,7 @@ pub struct ModelSpec {
 
 impl ModelSpec {
     /// The parameters some run of the model samples under the forward model `forward`.
-    pub fn params_in_use(&self, forward: ForwardModel) -> BTreeSet<Param> {
+    pub(crate) fn params_in_use(&self, forward: ForwardModel) -> BTreeSet<Param> {
         let mut used = BTreeSet::new();
         for (r, follows) in self.file.runs.iter().zip(&self.run_follows) {
             used.extend(
@@ -90,7 +90,7 @@ impl ModelSpec {
     /// The names whose priors the model reads under `forward`: each sampled parameter's
     /// (a/F_d's in place of a's under `aging = "ratio"`), and for a pooled one its
     /// population's, whose median follows the parameter's own prior (except t0's).
-    pub fn prior_names_in_use(&self, forward: ForwardModel) -> BTreeSet<String> {
+    pub(crate) fn prior_names_in_use(&self, forward: ForwardModel) -> BTreeSet<String> {
         let ratio = forward.aging_ratio(self.file.aging);
         let mut names = BTreeSet::new();
         for p in self.params_in_use(forward) {
@@ -137,7 +137,7 @@ impl ModelSpec {
     }
 
     /// How to read a run's data file.
-    pub fn import_options(&self, run: usize) -> ImportOptions {
+    pub(crate) fn import_options(&self, run: usize) -> ImportOptions {
         let r = &self.file.runs[run];
         let defaults = ImportOptions::default();
         ImportOptions {
@@ -155,7 +155,7 @@ impl ModelSpec {
     /// it point by point (a run of at most `[likelihood] exact_up_to` points, or a tolerance
     /// of 0). `[likelihood] tolerance` bounds the error of the whole model's log-likelihood:
     /// it is shared evenly by the long runs that do not set `likelihood_tolerance` themselves.
-    pub fn reduction_tolerances(&self, points: &[usize]) -> Vec<Option<f64>> {
+    pub(crate) fn reduction_tolerances(&self, points: &[usize]) -> Vec<Option<f64>> {
         let long = |i: usize| points[i] > self.file.likelihood.exact_up_to;
         let sharing = (0..points.len())
             .filter(|&i| long(i) && self.file.runs[i].likelihood_tolerance.is_none())

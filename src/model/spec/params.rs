@@ -77,7 +77,7 @@ impl Param {
     }
 
     /// The default level (docs/model.md §5), used when the model file says nothing.
-    pub fn default_level(self) -> Level {
+    pub(crate) fn default_level(self) -> Level {
         match self {
             Self::Alpha | Self::A | Self::B | Self::Dc => Level::Material,
             Self::FD | Self::K => Level::Contact,
@@ -114,7 +114,7 @@ impl Default for ForwardModel {
 
 impl ForwardModel {
     /// The parameters of the law itself, in reporting order.
-    pub fn law_params(self) -> &'static [Param] {
+    pub(crate) fn law_params(self) -> &'static [Param] {
         match self.law {
             LawKind::AgingRejuvenation => &[Param::Alpha, Param::A, Param::FD, Param::T0],
             LawKind::LogAging => &[Param::A, Param::T0],
@@ -142,7 +142,7 @@ impl ForwardModel {
 
     /// Whether `a` is sampled as a/F_d: under `aging = "ratio"`, when a is the aging
     /// amplitude of a law with F_d (not rate-and-state's direct effect, sampled in newtons).
-    pub fn aging_ratio(self, aging: Aging) -> bool {
+    pub(crate) fn aging_ratio(self, aging: Aging) -> bool {
         aging == Aging::Ratio
             && self.law != LawKind::RateState
             && self.law_params().contains(&Param::FD)

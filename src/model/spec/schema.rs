@@ -213,7 +213,7 @@ pub struct PoolingSpec {
 
 impl PoolingSpec {
     /// Whether `p` is pooled.
-    pub fn pools(&self, p: Param) -> bool {
+    pub(crate) fn pools(&self, p: Param) -> bool {
         match p {
             Param::T0 => self.t0,
             Param::FD => self.f_d,

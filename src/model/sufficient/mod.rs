@@ -27,10 +27,7 @@ use std::borrow::Cow;
 
 use rayon::prelude::*;
 
-pub use moments::{
-    chebyshev_coefficients, chebyshev_points, interpolation_error_estimate, BinMoments,
-    ChebyshevBasis, MAX_NODES,
-};
+pub use moments::{interpolation_error_estimate, BinMoments, ChebyshevBasis, MAX_NODES};
 pub use plan::{plan_bins, PlanSettings, PlannedBin, ReferenceModel};
 
 /// The largest interpolation error (N) a binned point may have so that the log-likelihood of

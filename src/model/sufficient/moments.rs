@@ -7,7 +7,7 @@ pub const MAX_NODES: usize = 16;
 
 /// The `n` Chebyshev points of the first kind on [−1, 1], in increasing order:
 /// u_j = −cos((2j + 1)π / 2n).
-pub fn chebyshev_points(n: usize) -> Vec<f64> {
+pub(crate) fn chebyshev_points(n: usize) -> Vec<f64> {
     (0..n).map(|j| -angle(j, n).cos()).collect()
 }
 
@@ -159,11 +159,6 @@ impl BinMoments {
         })
     }
 
-    /// Number of points in the bin.
-    pub fn points(&self) -> usize {
-        self.points
-    }
-
     /// Σ_i (y_i − p(u_i))² for the polynomial p with values `at_nodes` at the Chebyshev
     /// points (clamped at zero: rounding may take a perfect fit a hair below).
     pub fn ssr(&self, at_nodes: &[f64]) -> f64 {
@@ -228,7 +223,7 @@ fn solve_positive_definite(g: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
 
 /// Chebyshev coefficients c_0 … c_(n−1) of the polynomial of degree n − 1 through `values`
 /// at [`chebyshev_points`]`(n)` (a discrete cosine transform, O(n²)).
-pub fn chebyshev_coefficients(values: &[f64]) -> Vec<f64> {
+pub(crate) fn chebyshev_coefficients(values: &[f64]) -> Vec<f64> {
     let n = values.len();
     (0..n)
         .map(|k| {

@@ -47,7 +47,7 @@ const TRACES_PER_FIGURE: usize = 8;
 const FIGURE_DRAWS: usize = 200_000;
 
 /// A finished report: its blocks and, separately, its figures (file name, SVG).
-pub struct Content {
+pub(crate) struct Content {
     /// Title.
     pub title: String,
     /// Blocks in order (figures included).
@@ -55,7 +55,7 @@ pub struct Content {
 }
 
 /// Greek and sub-scripted names for the quantities slipbayes reports.
-pub fn symbol(name: &str) -> String {
+pub(crate) fn symbol(name: &str) -> String {
     match name {
         "alpha" => "α",
         "a_over_F_d" => "a/F_d",
@@ -112,7 +112,7 @@ fn table(header: &[&str], rows: Vec<Vec<String>>, flagged: Vec<bool>) -> Block {
 }
 
 /// Runs of the model as the report names them.
-pub fn run_views(spec: &ModelSpec) -> Vec<RunView> {
+pub(crate) fn run_views(spec: &ModelSpec) -> Vec<RunView> {
     spec.file
         .runs
         .iter()

@@ -8,7 +8,7 @@ use super::*;
 /// one quantity at a time, so that the figure holds a few numbers per quantity, never the
 /// draws.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CornerColumn {
+pub(crate) struct CornerColumn {
     /// Axis label with unit.
     pub name: String,
     /// Range shown: the draws between their 0.05 and 99.95 % quantiles and the true value,
@@ -24,7 +24,7 @@ pub struct CornerColumn {
 
 /// A corner plot's numbers: its columns, and the 2-D histogram of every pair.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CornerData {
+pub(crate) struct CornerData {
     /// One per quantity.
     pub columns: Vec<CornerColumn>,
     /// For rows i > j, in the order (1, 0), (2, 0), (2, 1), (3, 0), …: the histogram of
@@ -69,7 +69,7 @@ const CORNER_ROW_GAP: f64 = 40.0;
 ///
 /// # Errors
 /// [`DrawError`] when there are fewer than two quantities.
-pub fn corner_figure(name: &str, data: &CornerData) -> Result<String, DrawError> {
+pub(crate) fn corner_figure(name: &str, data: &CornerData) -> Result<String, DrawError> {
     let cols = &data.columns;
     let n = cols.len();
     if n < 2 {

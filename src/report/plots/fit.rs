@@ -9,7 +9,11 @@ const RESIDUAL_HEIGHT: u32 = 230;
 /// Data in observed time with the posterior median and the 50 %/95 % predictive bands; for a
 /// slide with a law, a second panel in interface time with the elastic part removed; under
 /// them the residuals.
-pub fn fit_figure(run: &RunView, predictive: &Band, curve: Option<&InterfaceCurve>) -> String {
+pub(crate) fn fit_figure(
+    run: &RunView,
+    predictive: &Band,
+    curve: Option<&InterfaceCurve>,
+) -> String {
     let panels = if curve.is_some() { 2 } else { 1 };
     svg_figure((PANEL.0 * panels, PANEL.1 + RESIDUAL_HEIGHT), |c| {
         let (top, bottom) = c.bounds().split_top(f64::from(PANEL.1));
@@ -132,7 +136,7 @@ fn residual_panel(c: &mut Canvas, area: Rect, p: &Band) {
 /// follows the data and another does not shows even when the curves coincide at full scale.
 /// `fits` pairs each fit's name with its band of this run (the same data), the reference
 /// (best-ranked) first.
-pub fn overlay_figure(run: &str, fits: &[(&str, &Band)]) -> String {
+pub(crate) fn overlay_figure(run: &str, fits: &[(&str, &Band)]) -> String {
     svg_figure((PANEL.0, PANEL.1 + RESIDUAL_HEIGHT), |c| {
         let (top, bottom) = c.bounds().split_top(f64::from(PANEL.1));
         let Some((reference_name, reference)) = fits.first() else {
@@ -201,7 +205,7 @@ pub fn overlay_figure(run: &str, fits: &[(&str, &Band)]) -> String {
 /// slides at different velocities fall on one curve when the law holds. `None` when no data
 /// point has a positive sliding distance (data that never slide have nothing to show on a
 /// logarithmic axis).
-pub fn distance_figure(
+pub(crate) fn distance_figure(
     contact: &str,
     slides: &[(&RunView, &Band, &InterfaceCurve)],
 ) -> Option<String> {

@@ -4,7 +4,7 @@ use super::*;
 
 /// One row of a forest panel: a group's median, 50 % and 95 % intervals, in display units.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ForestRow {
+pub(crate) struct ForestRow {
     /// Group (material, contact or run).
     pub label: String,
     /// Median.
@@ -21,7 +21,7 @@ pub struct ForestRow {
 
 /// One panel of the forest plot.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ForestPanel {
+pub(crate) struct ForestPanel {
     /// Title (quantity and comparison).
     pub title: String,
     /// Axis label with unit.
@@ -43,7 +43,7 @@ const CONTACT_GREY: Rgb = Rgb(125, 125, 125);
 /// The forest plot: per quantity, each material and contact (or run) as a thick 50 % bar, a
 /// thin 95 % bar and a white dot at the median; materials black, contacts and runs grey; the
 /// numbers (median [95 %]) beside each row.
-pub fn forest_figure(panels: &[ForestPanel]) -> String {
+pub(crate) fn forest_figure(panels: &[ForestPanel]) -> String {
     let legend = vec![
         LegendEntry::new(
             "median",

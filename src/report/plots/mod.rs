@@ -32,7 +32,7 @@ const FIGURE_WIDTH: f64 = 1160.0;
 
 /// A run as the report names it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct RunView {
+pub(crate) struct RunView {
     /// Run name.
     pub name: String,
     /// Scene.
@@ -46,7 +46,7 @@ pub struct RunView {
 }
 
 /// A velocity as people say it: `1 nm/s`, `4 µm/s`.
-pub fn velocity_text(v: f64) -> String {
+pub(crate) fn velocity_text(v: f64) -> String {
     let (value, unit) = if v >= 1e-3 {
         (v * 1e3, "mm/s")
     } else if v >= 1e-6 {
@@ -69,11 +69,11 @@ fn scaled(v: &[f64], factor: f64) -> Vec<f64> {
     v.iter().map(|f| f * factor).collect()
 }
 
-pub use corner::{corner_figure, CornerColumn, CornerData};
-pub use fit::{distance_figure, fit_figure, overlay_figure};
-pub use forest::{forest_figure, ForestPanel, ForestRow};
-pub use peak::{peak_density, peak_density_figure, peak_t0_figure, PeakDraws};
-pub use trace::{trace_figure, trace_stride, RankCounts, TracePanel};
+pub(crate) use corner::{corner_figure, CornerColumn, CornerData};
+pub(crate) use fit::{distance_figure, fit_figure, overlay_figure};
+pub(crate) use forest::{forest_figure, ForestPanel, ForestRow};
+pub(crate) use peak::{peak_density, peak_density_figure, peak_t0_figure, PeakDraws};
+pub(crate) use trace::{trace_figure, trace_stride, RankCounts, TracePanel};
 
 #[cfg(test)]
 mod tests {

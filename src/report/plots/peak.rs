@@ -4,11 +4,11 @@ use super::*;
 
 /// One panel of the peak density figure: title, the density of the F_peak draws in mN
 /// ([`peak_density`]), and (2.5 %, 50 %, 97.5 %) in N.
-pub type PeakDraws = (String, (Vec<f64>, Vec<f64>), [f64; 3]);
+pub(crate) type PeakDraws = (String, (Vec<f64>, Vec<f64>), [f64; 3]);
 
 /// The density a panel of [`peak_density_figure`] draws, of F_peak draws in N: what a panel
 /// keeps of its draws, so that the figure holds no draws.
-pub fn peak_density(draws_n: &[f64]) -> (Vec<f64>, Vec<f64>) {
+pub(crate) fn peak_density(draws_n: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let mn: Vec<f64> = draws_n.iter().map(|f| f * MN).collect();
     kernel_density(&mn, 200)
 }
@@ -16,7 +16,7 @@ pub fn peak_density(draws_n: &[f64]) -> (Vec<f64>, Vec<f64>) {
 /// Posterior density of the peak static friction, one panel per run and per material mean:
 /// the density, its 95 % interval shaded under it, and the median as a dashed line. The
 /// density leaves the top third of each panel free for the legend.
-pub fn peak_density_figure(panels: &[PeakDraws]) -> String {
+pub(crate) fn peak_density_figure(panels: &[PeakDraws]) -> String {
     let (rows, cols) = panel_grid(panels.len(), 3);
     let (w, h) = (390u32, 300u32);
     svg_figure((w * cols as u32, h * rows as u32), |c| {
@@ -56,7 +56,7 @@ pub fn peak_density_figure(panels: &[PeakDraws]) -> String {
 /// The peak against t0 (the paper's Fig. 4) per material: for each slide, the median and
 /// 95 % band of F_peak when t0 is varied with the other parameters drawn from the posterior,
 /// and the posterior draws of (t0, F_peak) themselves.
-pub fn peak_t0_figure(materials: &[(String, Vec<(String, PeakVsT0)>)]) -> String {
+pub(crate) fn peak_t0_figure(materials: &[(String, Vec<(String, PeakVsT0)>)]) -> String {
     let (rows, cols) = panel_grid(materials.len(), 2);
     svg_figure((PANEL.0 * cols as u32, (PANEL.1 + 40) * rows as u32), |c| {
         let areas = c.bounds().grid(rows, cols);

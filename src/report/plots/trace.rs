@@ -6,7 +6,7 @@ use super::*;
 /// ensembles' kept draws, and per ensemble the count of its draws in each of equal bins of
 /// rank.
 #[derive(Debug, Clone, PartialEq)]
-pub struct RankCounts {
+pub(crate) struct RankCounts {
     /// Number of ranks (kept draws of all ensembles).
     pub ranks: usize,
     /// `counts[ensemble][bin]`.
@@ -16,7 +16,7 @@ pub struct RankCounts {
 /// One row of the trace figure: a parameter's walkers per ensemble as drawn (every
 /// [`trace_stride`]-th step) with the range of every step, and its rank counts.
 #[derive(Debug, Clone, PartialEq)]
-pub struct TracePanel {
+pub(crate) struct TracePanel {
     /// Title (parameter and unit).
     pub title: String,
     /// Steps of the run (the x axis spans them).
@@ -35,7 +35,7 @@ pub struct TracePanel {
 const TRACE_POINTS: usize = 150;
 
 /// Steps between the points drawn of a trace of `steps` steps.
-pub fn trace_stride(steps: usize) -> usize {
+pub(crate) fn trace_stride(steps: usize) -> usize {
     steps.div_ceil(TRACE_POINTS).max(1)
 }
 
@@ -46,7 +46,7 @@ const TRACE_SPLIT: f64 = 0.62;
 /// every ensemble (ensembles told apart by ink), the burn-in marked; on the right each
 /// ensemble's histogram of ranks among all ensembles' kept draws, a dashed line at what
 /// uniform ranks give. All rows share the step axis and the rank axis, labelled at the bottom.
-pub fn trace_figure(panels: &[TracePanel], burn_in: u64, ensembles: usize) -> String {
+pub(crate) fn trace_figure(panels: &[TracePanel], burn_in: u64, ensembles: usize) -> String {
     let mut legend: Vec<LegendEntry> = (0..ensembles)
         .map(|e| {
             LegendEntry::new(

@@ -86,7 +86,7 @@ impl Streams {
     /// Makes these the generators of the update of the independent block keyed `key` (its
     /// first coordinate) in ensemble `e` of `walkers` walkers at step `step`, in the same
     /// buffers.
-    pub fn rekey(&mut self, seed: u64, e: usize, key: usize, walkers: usize, step: u64) {
+    pub(crate) fn rekey(&mut self, seed: u64, e: usize, key: usize, walkers: usize, step: u64) {
         self.ensemble = block_rng(seed, e, key, 0, step);
         self.walkers.clear();
         self.walkers
@@ -280,7 +280,7 @@ pub(crate) struct Ensemble {
 
 impl Ensemble {
     /// Fresh generators for ensemble `e`.
-    pub fn fresh_rngs(seed: u64, e: usize, walkers: usize) -> (ChaCha8Rng, Vec<ChaCha8Rng>) {
+    pub(crate) fn fresh_rngs(seed: u64, e: usize, walkers: usize) -> (ChaCha8Rng, Vec<ChaCha8Rng>) {
         (
             stream_rng(seed, ensemble_stream(e)),
             (0..walkers)
@@ -320,14 +320,14 @@ impl Ensemble {
     /// Exchanges the ensemble's generators with `streams`: an update of an independent
     /// block draws from its own streams, and the ensemble's, exchanged back afterwards, are
     /// left where they were.
-    pub fn swap_streams(&mut self, streams: &mut Streams) {
+    pub(crate) fn swap_streams(&mut self, streams: &mut Streams) {
         std::mem::swap(&mut self.s.ensemble_rng, &mut streams.ensemble);
         std::mem::swap(&mut self.s.walker_rngs, &mut streams.walkers);
     }
 
     /// Starts a step: the random split into halves and the move of this step (its index in
     /// `moves`), both from the ensemble's stream.
-    pub fn start_step(&mut self, moves: &[(Move, f64)]) -> usize {
+    pub(crate) fn start_step(&mut self, moves: &[(Move, f64)]) -> usize {
         let walkers = self.perm.len();
         let half = walkers / 2;
         // Partial Fisher–Yates from the identity: the first half becomes a uniformly random
@@ -480,7 +480,7 @@ impl Ensemble {
     /// # Errors
     /// [`Fatal`] naming the walker whose conditional density is not finite where its
     /// log-density is, or whose slice collapsed.
-    pub fn draw_conditional(
+    pub(crate) fn draw_conditional(
         &mut self,
         h: usize,
         block: &UpdateBlock,
@@ -564,7 +564,7 @@ impl Ensemble {
 
     /// Gathers this step's walkers into the tuning of every tuned block, and when `freeze`
     /// ends the window (see [`CarryTuning`]).
-    pub fn tune_carry(&mut self, blocks: &[UpdateBlock], freeze: bool) {
+    pub(crate) fn tune_carry(&mut self, blocks: &[UpdateBlock], freeze: bool) {
         let ndim = self.ndim;
         let EnsembleState {
             positions,

@@ -159,7 +159,7 @@ impl Ensemble {
     /// What the slice move along `directions` of half `h` works with in update slot `slot`:
     /// the directions fitted to the complement, the followers' regression (under hierarchical
     /// updates, when the density does not carry them), and the ensemble's μ of the slot.
-    pub fn slice_context(
+    pub(crate) fn slice_context(
         &self,
         h: usize,
         directions: &dyn SliceDirection,
@@ -190,7 +190,7 @@ impl Ensemble {
     /// into `out` and `evals` (this ensemble's blocks of [`Work`]).
     /// Each proposal carries `carried` derived values and entries of state, gathered in `out`
     /// ([`gather_state`](Self::gather_state)).
-    pub fn slice_tasks<'a>(
+    pub(crate) fn slice_tasks<'a>(
         &'a mut self,
         h: usize,
         context: &'a SliceContext,
@@ -241,7 +241,7 @@ impl Ensemble {
     ///
     /// # Errors
     /// The first walker's [`Fatal`].
-    pub fn finish_slice(
+    pub(crate) fn finish_slice(
         &mut self,
         outcomes: impl IntoIterator<Item = Result<SliceOutcome, Fatal>>,
     ) -> Result<(), Fatal> {
@@ -263,7 +263,7 @@ impl Ensemble {
     /// `adapt`, tunes the slot's μ by zeus's rule `μ ← 2 μ N_e / (N_e + N_c)` from the
     /// expansions and contractions of every walker (N_e at least 1, as zeus, so that μ
     /// cannot collapse to 0 when no slice needed stepping out).
-    pub fn finish_slice_update(&mut self, slot: usize, adapt: bool) {
+    pub(crate) fn finish_slice_update(&mut self, slot: usize, adapt: bool) {
         self.s.slice_updates += 1;
         if adapt {
             let (e, c) = self.slice_tally;

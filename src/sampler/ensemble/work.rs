@@ -123,7 +123,7 @@ impl Ensemble {
     /// (nothing when `whole` is false and `settle` is [`Settle::Whole`]: a full evaluation
     /// needs none); for an independent block, notes each walker's own terms, on whose change
     /// its proposal is accepted.
-    pub fn gather_state(
+    pub(crate) fn gather_state(
         &mut self,
         h: usize,
         settle: Settle,

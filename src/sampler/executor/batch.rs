@@ -213,7 +213,7 @@ impl Batch<'_> {
 
     #[cfg(any(test, feature = "mpi"))]
     /// Entries of state each point carries.
-    pub fn cache_len(&self) -> usize {
+    pub(crate) fn cache_len(&self) -> usize {
         self.cache_len
     }
 
@@ -240,7 +240,7 @@ impl Batch<'_> {
     #[cfg(any(test, feature = "mpi"))]
     /// Stores the outcome of item `k` evaluated elsewhere: its value and the derived values
     /// and cache it left.
-    pub fn set_outcome(
+    pub(crate) fn set_outcome(
         &mut self,
         k: usize,
         result: Result<f64, LogDensityError>,
@@ -277,7 +277,7 @@ impl Batch<'_> {
     ///
     /// # Panics
     /// When the batch does not split by part.
-    pub fn evaluate_share_here(&mut self, parts: Range<usize>) -> Vec<Option<ShareError>> {
+    pub(crate) fn evaluate_share_here(&mut self, parts: Range<usize>) -> Vec<Option<ShareError>> {
         let splitter = splitter(self.shares);
         let parallel = self.parallel;
         let eval = |(x, d, c, _): ItemMut| splitter.share(parts.clone(), x, d, c).err();
@@ -317,7 +317,7 @@ impl Batch<'_> {
     ///
     /// # Panics
     /// When the batch does not split by part.
-    pub fn evaluate_share_apart(
+    pub(crate) fn evaluate_share_apart(
         &self,
         parts: Range<usize>,
         entries: &ShareEntries,
@@ -335,7 +335,7 @@ impl Batch<'_> {
     /// Merges another share's outcome into every item: its `values` of `entries` where it
     /// succeeded, and where it failed, its failure into `failures` if it comes before the
     /// failure kept there (see [`ShareError::keep_first`]).
-    pub fn merge_share(
+    pub(crate) fn merge_share(
         &mut self,
         failures: &mut [Option<ShareError>],
         entries: &ShareEntries,
@@ -351,7 +351,7 @@ impl Batch<'_> {
     }
 
     /// Stores into item `k` the `values` of another share's `entries`.
-    pub fn store_share(&mut self, k: usize, entries: &ShareEntries, values: &[f64]) {
+    pub(crate) fn store_share(&mut self, k: usize, entries: &ShareEntries, values: &[f64]) {
         let s = self.slots[k];
         let (d, c) = (self.derived_stride, self.state_stride);
         let (from_derived, from_cache) = values.split_at(entries.derived.len());
@@ -369,7 +369,7 @@ impl Batch<'_> {
     ///
     /// # Panics
     /// When the batch does not split by part.
-    pub fn finish_shares(&mut self, failures: Vec<Option<ShareError>>) {
+    pub(crate) fn finish_shares(&mut self, failures: Vec<Option<ShareError>>) {
         let splitter = splitter(self.shares);
         let parallel = self.parallel;
         let finish = |((x, d, c, e), failure): (ItemMut, Option<ShareError>)| {
@@ -389,7 +389,7 @@ impl Batch<'_> {
 
     /// Evaluates items `items` in this process (on the rayon pool when the sampler evaluates
     /// in parallel), exactly as the sampler does without an offload.
-    pub fn evaluate_here(&mut self, items: Range<usize>) {
+    pub(crate) fn evaluate_here(&mut self, items: Range<usize>) {
         let mut wanted = vec![false; self.evals.len()];
         for &s in &self.slots[items] {
             wanted[s] = true;

@@ -91,11 +91,6 @@ impl std::fmt::Debug for Parallelism<'_> {
 }
 
 impl<'a> Parallelism<'a> {
-    /// Every evaluation in this process (the default).
-    pub fn in_process() -> Self {
-        Self::default()
-    }
-
     /// Through `executor`.
     pub(crate) fn through(executor: &'a mut dyn Executor) -> Self {
         Self {

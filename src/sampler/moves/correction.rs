@@ -23,7 +23,7 @@ impl Correction {
 
     /// The factor `e^log_factor`, from its logarithm (`ln q(x) − ln q(y)` for an independence
     /// proposal `q`).
-    pub fn from_log(log_factor: f64) -> Self {
+    pub(crate) fn from_log(log_factor: f64) -> Self {
         Self {
             factor: log_factor.exp(),
             log_factor,

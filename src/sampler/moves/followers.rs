@@ -158,7 +158,7 @@ impl CarryTuning {
 
     /// Ends the window: `B` from its moments becomes the frozen regression (kept as it was
     /// when the block's covariance is not positive definite), and a new window starts.
-    pub fn freeze(&mut self) {
+    pub(crate) fn freeze(&mut self) {
         let p = self.block_dim;
         let nf = self.sum_followers.len();
         let n = self.draws as f64;

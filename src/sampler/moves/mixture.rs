@@ -104,7 +104,7 @@ impl Move {
     /// # Errors
     /// [`SamplerError::InvalidMove`] for a kind that is not built in (a move of one's own is
     /// recorded, not read back) or parameters the move refuses.
-    pub fn built_in(spec: &MoveSpec) -> Result<Self, SamplerError> {
+    pub(crate) fn built_in(spec: &MoveSpec) -> Result<Self, SamplerError> {
         Ok(match spec.kind() {
             "stretch" => Self::proposal(Stretch::from_spec(spec)?),
             "differential_evolution" => Self::proposal(DifferentialEvolution::from_spec(spec)?),
@@ -135,7 +135,7 @@ impl Move {
 
     /// Whether this is the slice move, whose half-steps do not go through the batched
     /// propose, evaluate, accept.
-    pub fn is_slice(&self) -> bool {
+    pub(crate) fn is_slice(&self) -> bool {
         matches!(self, Self::Slice(_))
     }
 

@@ -95,7 +95,7 @@ impl SamplerState {
     /// # Errors
     /// What `column` returns, or [`SamplerError::Shape`] when it gives the wrong number of
     /// values.
-    pub fn rebuild_history_rows<E: From<SamplerError>>(
+    pub(crate) fn rebuild_history_rows<E: From<SamplerError>>(
         &mut self,
         config: &SamplerConfig,
         column: impl FnMut(usize, &[usize]) -> Result<Vec<f64>, E>,
