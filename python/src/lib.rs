@@ -452,6 +452,12 @@ fn fit(
                     shared.stop.store(true, Ordering::Relaxed);
                     interrupt.get_or_insert(e);
                 }
+                // A Ctrl-C during the callback stops the fit now rather than a poll later, by
+                // when a short fit may have ended.
+                if let Err(e) = py.check_signals() {
+                    shared.stop.store(true, Ordering::Relaxed);
+                    interrupt.get_or_insert(e);
+                }
             }
         }
     })?;
