@@ -94,12 +94,8 @@ impl ProposalMove for Independence {
             Some(mut fit) => half.propose_each(|walker, rng, out| {
                 Correction::from_log(fit.propose(walker.x, rng, out))
             }),
-            // The complement lies in a subspace: the walker stays where it is (a step that
-            // changes nothing but still consumes its uniform).
-            None => half.propose_each(|walker, _, out| {
-                out.copy_from_slice(walker.x);
-                Correction::SYMMETRIC
-            }),
+            // The complement lies in a subspace.
+            None => half.stay(),
         }
     }
 }

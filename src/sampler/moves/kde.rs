@@ -59,11 +59,8 @@ impl ProposalMove for Kde {
             Some(mut fit) => half.propose_each(|walker, rng, out| {
                 Correction::from_log(fit.propose(walker.x, rng, out))
             }),
-            // The complement lies in a subspace: the walker stays where it is.
-            None => half.propose_each(|walker, _, out| {
-                out.copy_from_slice(walker.x);
-                Correction::SYMMETRIC
-            }),
+            // The complement lies in a subspace.
+            None => half.stay(),
         }
     }
 }

@@ -126,6 +126,16 @@ impl<'a> ActiveHalf<'a> {
         }
         Proposed(())
     }
+
+    /// Every walker of the half proposes where it is: the step of a move that cannot propose
+    /// (its fit to the complement failed, the complement lying in a subspace) changes nothing
+    /// but still consumes each walker's acceptance uniform, so the streams stay in step.
+    pub fn stay(self) -> Proposed {
+        self.propose_each(|walker, _, out| {
+            out.copy_from_slice(walker.x);
+            Correction::SYMMETRIC
+        })
+    }
 }
 
 /// Test support: the proposal of `mv` for one walker at `x`, with the walkers `complement`
