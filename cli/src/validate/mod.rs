@@ -47,6 +47,7 @@ use slipbayes::run_file::RunFile;
 use slipbayes::sampler::Move;
 use slipbayes::sampler::{Parallelism, Silent, Steps};
 use slipbayes::simulate::sample_times;
+use slipbayes::IoError;
 
 pub use report::{summarise, write_report, GrossLimits, QuantityCalibration, SbcReport};
 pub use stats::{Coverage, Uniformity};
@@ -93,16 +94,8 @@ pub enum ValidateError {
         problem: String,
     },
     /// Reading or writing a file failed.
-    #[error("{action} {path}: {source}")]
-    Io {
-        /// What was being done.
-        action: &'static str,
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] IoError),
     /// The model file could not be loaded.
     #[error(transparent)]
     Spec(#[from] slipbayes::model::SpecError),
@@ -518,11 +511,7 @@ pub(crate) fn quiet_fit(
 
 fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> ValidateError {
     let path = path.to_path_buf();
-    move |source| ValidateError::Io {
-        action,
-        path,
-        source,
-    }
+    move |source| IoError::new(action, path, source).into()
 }
 
 fn first_difference(a: &SbcSettings, b: &SbcSettings) -> String {
@@ -640,9 +629,9 @@ impl SbcRun {
         for rep in converted.iter().cloned() {
             earlier.entry(rep.index).or_insert(rep);
         }
-        std::fs::create_dir_all(out).map_err(io("creating", out))?;
+        std::fs::create_dir_all(out).map_err(io("create", out))?;
         let json = serde_json::to_vec_pretty(settings).unwrap_or_default();
-        write_atomically(&settings_path, &json).map_err(io("writing", &settings_path))?;
+        write_atomically(&settings_path, &json).map_err(io("write", &settings_path))?;
         table::write(&table_path, &quantities, &earlier)?;
         if !converted.is_empty() {
             remove(&legacy, true)?;
@@ -773,7 +762,7 @@ fn remove(path: &Path, dir: bool) -> Result<(), ValidateError> {
         std::fs::remove_file(path)
     };
     match removed {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io("removing", path)(e)),
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io("remove", path)(e)),
         _ => Ok(()),
     }
 }
@@ -806,7 +795,7 @@ pub fn finished_replications(out: &Path) -> Result<Vec<Replication>, ValidateErr
         None => {
             let legacy = legacy_records(&out.join(LEGACY_RECORDS_DIR));
             if legacy.is_empty() {
-                Err(io("reading", &path)(std::io::Error::from(
+                Err(io("read", &path)(std::io::Error::from(
                     std::io::ErrorKind::NotFound,
                 )))
             } else {

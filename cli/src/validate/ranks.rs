@@ -57,11 +57,8 @@ pub enum RanksError {
 /// # Errors
 /// [`ValidateError::Io`] when the model file cannot be read.
 pub fn fingerprint(settings: &SbcSettings) -> Result<u64, ValidateError> {
-    let model = std::fs::read(&settings.model).map_err(|source| ValidateError::Io {
-        action: "reading",
-        path: settings.model.clone(),
-        source,
-    })?;
+    let model =
+        std::fs::read(&settings.model).map_err(slipbayes::IoError::at("read", &settings.model))?;
     // The same binary on every rank: its std hasher (fixed keys) gives the same value.
     let mut hasher = std::hash::DefaultHasher::new();
     serde_json::to_vec(settings)

@@ -193,7 +193,7 @@ pub fn write_report(
 ) -> Result<(), ValidateError> {
     let json_path = out.join("validation.json");
     let json = serde_json::to_vec_pretty(report).unwrap_or_default();
-    write_atomically(&json_path, &json).map_err(io("writing", &json_path))?;
+    write_atomically(&json_path, &json).map_err(io("write", &json_path))?;
     let panels: Vec<(String, &Uniformity)> = report
         .quantities
         .iter()
@@ -205,10 +205,10 @@ pub fn write_report(
     );
     let svg_path = out.join("rank_histograms.svg");
     let histograms = svg::rank_histograms(&panels, report.succeeded, &title);
-    write_atomically(&svg_path, histograms.as_bytes()).map_err(io("writing", &svg_path))?;
+    write_atomically(&svg_path, histograms.as_bytes()).map_err(io("write", &svg_path))?;
     let md_path = out.join("validation.md");
     write_atomically(&md_path, markdown(report, limits, command).as_bytes())
-        .map_err(io("writing", &md_path))
+        .map_err(io("write", &md_path))
 }
 
 fn markdown(r: &SbcReport, limits: &GrossLimits, command: &str) -> String {

@@ -56,25 +56,13 @@ pub enum TableError {
         problem: String,
     },
     /// Reading or writing failed.
-    #[error("{action} {path}: {source}")]
-    Io {
-        /// What was being done.
-        action: &'static str,
-        /// The table.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Io(#[from] slipbayes::IoError),
 }
 
 fn io(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> TableError {
     let path = path.to_path_buf();
-    move |source| TableError::Io {
-        action,
-        path,
-        source,
-    }
+    move |source| slipbayes::IoError::new(action, path, source).into()
 }
 
 /// The header row of a table ranking `quantities`.
@@ -271,7 +259,7 @@ pub fn read(path: &Path) -> Result<Option<Table>, TableError> {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(io("reading", path)(e)),
+        Err(e) => return Err(io("read", path)(e)),
     };
     let mut records = records(&text).into_iter();
     let Some((header, true)) = records.next() else {
@@ -306,7 +294,7 @@ pub fn write(
     for rep in reps.values() {
         text.push_str(&row(rep, quantities));
     }
-    write_atomically(path, text.as_bytes()).map_err(io("writing", path))
+    write_atomically(path, text.as_bytes()).map_err(io("write", path))
 }
 
 /// A table open for appending rows, from any thread.
@@ -326,7 +314,7 @@ impl Appender {
         let file = OpenOptions::new()
             .append(true)
             .open(path)
-            .map_err(io("opening", path))?;
+            .map_err(io("open", path))?;
         Ok(Self {
             path: path.to_path_buf(),
             quantities: quantities.to_vec(),
@@ -343,7 +331,7 @@ impl Appender {
         let mut file = self.file.lock().unwrap_or_else(|p| p.into_inner());
         file.write_all(bytes.as_bytes())
             .and_then(|()| file.sync_data())
-            .map_err(io("appending to", &self.path))
+            .map_err(io("append to", &self.path))
     }
 }
 
