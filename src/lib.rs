@@ -260,6 +260,8 @@
 //!   and materials. Knows nothing of how it is sampled.
 //! - [`run_file`]: the run file a user writes (`models/*.toml`), parsed once at the edge into
 //!   the model specification and the sampler settings.
+//! - [`output_dir`]: whose directory it is: every command writes only into a new, empty or
+//!   marked directory of its own, or with `--overwrite`, and then only its own files.
 //! - [`storage`]: chains streamed to Parquet and checkpoints for resuming (feature `parquet`).
 //! - [`fit`]: a whole fit over any log-density: sample into a run directory (resumable) and
 //!   summarise; [`fit::run_dir`] names, writes and reads every file of a run directory
@@ -289,6 +291,7 @@ mod io_error;
 pub mod law;
 pub mod model;
 pub mod optimize;
+pub mod output_dir;
 pub mod plot;
 pub mod prec;
 #[cfg(feature = "report")]
@@ -313,6 +316,7 @@ pub use fit::{
 pub use io_error::IoError;
 pub use model::data::RunData;
 pub use model::{BlockSettings, ModelSpec, OneContact, Posterior, PosteriorError, SpecError};
+pub use output_dir::{claim_files, ClaimError, OutputDir, OutputKind};
 pub use run_file::RunFile;
 pub use sampler::{
     ChainSink, EnsembleSampler, MemorySink, Move, Observer, Parallelism, ProposalMove, RunReport,

@@ -178,8 +178,11 @@ def fit(
     ``out``: the run directory to write (chains, summary.json, model.toml, settings.json,
     predictive.csv, and report.html with ``report=True``), the same files as ``slipbayes fit
     --out``; ``load(out)`` reads it back. ``None`` fits into a temporary directory that is
-    removed once the result is read. ``overwrite`` replaces an earlier run there; ``resume``
-    continues an interrupted one. The run directory is locked while the fit writes it (the
+    removed once the result is read. ``out`` must be new, empty or a slipbayes run directory
+    (it carries the marker ``.slipbayes-run``); any other directory raises ``SlipbayesError``
+    naming the files that would be replaced, unless ``overwrite``, which also replaces an
+    earlier run there (only slipbayes' own files are written, every other file stays);
+    ``resume`` continues an interrupted one. The run directory is locked while the fit writes it (the
     lock file ``.slipbayes.lock``, the command line's own lock): a second fit into a directory
     that another live fit holds, from this process or another, raises ``SlipbayesError``
     naming the holder and the lock file, before anything is written.
@@ -224,7 +227,7 @@ def fit(
             raise TypeError(f"model must be a path or a dict, not {type(model).__name__}")
         # The lock is taken before anything is written into the run directory (the dict's
         # data files) and held until the fit and its report are written.
-        with _native.RunDirLock(os.fspath(run_dir)) as lock:
+        with _native.RunDirLock(os.fspath(run_dir), overwrite=overwrite) as lock:
             if isinstance(model, dict):
                 kwargs["model_json"] = _model_json(model, run_dir / "data")
                 kwargs["base_dir"] = os.getcwd()

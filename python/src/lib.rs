@@ -16,12 +16,14 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 
+use slipbayes::fit::run_dir::PYTHON_RUN_OUTPUT;
 use slipbayes::fit::{
     fit_model, replicate_rng, FitError, FitSettings, RunDir, RunLock, SettingOverrides,
 };
 use slipbayes::law::{Elastic, Law, LawParams};
 use slipbayes::model::data::RunData;
 use slipbayes::model::{ModelFile, ModelSpec, SpecError};
+use slipbayes::output_dir::OutputDir;
 use slipbayes::run_file::{RunFile, SamplerSpec};
 use slipbayes::sampler::{Observer, Parallelism, Progress};
 use slipbayes::simulate::{simulate as simulate_run, SimulationSpec};
@@ -284,11 +286,17 @@ struct RunDirLock {
 
 #[pymethods]
 impl RunDirLock {
-    /// Locks `run_dir` (created if need be); raises SlipbayesError naming the holder and the
-    /// lock file when another live process holds it.
+    /// Locks `run_dir` (created if need be) and claims it as a run directory (one that is not
+    /// new, empty or a slipbayes run is refused unless `overwrite`, as `slipbayes fit --out`);
+    /// raises SlipbayesError naming the holder and the lock file when another live process
+    /// holds it, or the directory and the files it would replace.
     #[new]
-    fn new(run_dir: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (run_dir, overwrite=false))]
+    fn new(run_dir: PathBuf, overwrite: bool) -> PyResult<Self> {
         let lock = RunLock::acquire(&run_dir).map_err(|e| error(&e))?;
+        // Locked first, so that a directory another fit holds is left as it is; a refused
+        // one keeps nothing of this call (the lock goes with it).
+        OutputDir::claim(&run_dir, PYTHON_RUN_OUTPUT, overwrite).map_err(|e| error(&e))?;
         Ok(Self { lock: Some(lock) })
     }
 
@@ -602,7 +610,8 @@ fn load_run<'py>(
     let summary = dir.read_summary().map_err(|e| error(&e))?;
     let run_file = dir.read_model().map_err(|e| error(&e))?;
     let spec = &run_file.model;
-    let reader = dir.chain_reader().map_err(|e| error(&e))?;
+    // Checked against the summary: a run replaced while it was read is refused.
+    let reader = dir.finished_chain_reader(&summary).map_err(|e| error(&e))?;
     let (ensembles, walkers, steps) = (reader.ensembles(), reader.walkers(), reader.steps());
     let burn_in = summary.sampler.burn_in;
     if burn_in >= steps {

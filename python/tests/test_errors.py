@@ -72,3 +72,20 @@ def test_law_names_the_parameter_and_element():
     with pytest.raises(slipbayes.SlipbayesError, match=r"element 1: parameter t0 = -1e0"):
         slipbayes.law([20.0, 30.0], alpha_per_m=1e6, a_n=1e-3, f_d_n=1e-2,
                       t0_s=[1.0, -1.0], velocity_m_per_s=1e-9)
+
+
+def test_fit_into_a_folder_of_the_users_refuses_and_overwrite_keeps_its_other_files(tmp_path):
+    paper = tmp_path / "paper"
+    paper.mkdir()
+    for name in ("summary.json", "report.html", "notes.txt"):
+        (paper / name).write_text(f"the user's {name}")
+    model = one_contact()
+    with pytest.raises(slipbayes.SlipbayesError,
+                       match=r"(?s)paper.*would replace report\.html, summary\.json.*--overwrite"):
+        slipbayes.fit(model, steps=100, out=paper, progress=False)
+    # Nothing was written, not even the dict's data or the lock.
+    assert sorted(p.name for p in paper.iterdir()) == ["notes.txt", "report.html", "summary.json"]
+    slipbayes.fit(model, steps=100, out=paper, overwrite=True, progress=False)
+    assert (paper / "notes.txt").read_text() == "the user's notes.txt"
+    assert (paper / "summary.json").read_text() != "the user's summary.json"
+    assert (paper / ".slipbayes-run").exists()

@@ -47,17 +47,21 @@ impl RunInputs {
     /// # Errors
     /// [`ReportError::RunDir`] naming the file that is missing or malformed.
     pub fn read(dir: &RunDir) -> Result<Self, ReportError> {
+        // settings.json first: a fit writes it once its chains are summarised, so that a
+        // directory without it is no finished run, which the error says.
+        let record = dir.read_record()?;
+        let summary = dir.read_summary()?;
         Ok(Self {
             dir: dir.clone(),
-            // settings.json first: a fit writes it once its chains are summarised, so that
-            // a directory without it is no finished run, which the error says.
-            record: dir.read_record()?,
-            summary: dir.read_summary()?,
+            record,
             run: dir.read_model()?,
             predictive: dir.read_predictive()?,
             curves: dir.read_curves()?,
             truths: dir.read_truths()?,
-            chains: dir.chain_reader()?,
+            // Last, and checked against the summary: a run replaced while it was read is
+            // refused, never reported half old and half new.
+            chains: dir.finished_chain_reader(&summary)?,
+            summary,
         })
     }
 }

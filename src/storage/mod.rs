@@ -35,6 +35,11 @@
 //! - [`ParquetSink::finish`] closes the last part and marks the checkpoint finished; a
 //!   finished store is neither resumed nor overwritten without [`SinkOptions::overwrite`].
 //!
+//! - A reader of a run that a fit may be writing ([`ChainReader::open_at_checkpoint`],
+//!   [`read_chains_at_checkpoint`]) reads the parts the checkpoint counts, and nothing after
+//!   them, each through the handle it opened: a consistent run, whatever the fit does
+//!   meanwhile, without a lock.
+//!
 //! Row groups are encoded, parts written and checkpoints replaced on a thread of the sink's own,
 //! so the sampler does not wait for the disk; an error there is returned by the sink's next
 //! call, and a sink dropped without finishing completes what it was handed first (so its last
@@ -54,7 +59,7 @@ pub use crate::sampler::sink::{ChainSink, StepView};
 pub use metadata::{
     read_part_metadata, ChainDescription, ChainMetadata, ColumnInfo, ColumnKind, ColumnUnit,
 };
-pub use read::{read_chains, ChainReader, Chains};
+pub use read::{read_chains, read_chains_at_checkpoint, ChainReader, Chains};
 pub use sink::{ParquetSink, SinkOptions, Written, ROW_GROUP_BYTES};
 
 /// Name of the index column holding the ensemble number.

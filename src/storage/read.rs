@@ -4,6 +4,7 @@
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use polars_arrow::array::{Array, PrimitiveArray};
 use polars_arrow::datatypes::{ArrowDataType, ArrowSchema, Field};
@@ -14,8 +15,10 @@ use polars_parquet::read::{
 use polars_utils::mmap::{MemReader, MemSlice};
 
 use super::metadata::{read_part_metadata, ChainMetadata};
-use super::sink::list_parts;
-use super::{StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN};
+use super::sink::{checkpointed, list_parts};
+use super::{
+    ChainFiles, StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
+};
 
 /// The chains of a run, in memory, row by row in file order (step, then ensemble, then walker).
 #[derive(Debug, Clone, PartialEq)]
@@ -131,7 +134,20 @@ impl Chains {
 /// a part lacks an index or log-density column or differs from the first part;
 /// [`StorageError::Parquet`] or [`StorageError::Io`] when a part cannot be read.
 pub fn read_chains(chains_dir: &Path) -> Result<Chains, StorageError> {
-    let store = PartSet::open(chains_dir)?;
+    chains_of(chains_dir, PartSet::open(chains_dir, None)?)
+}
+
+/// Reads the parts of the store `files` that its checkpoint counts, as
+/// [`ChainReader::open_at_checkpoint`] opens them: what a reader of a run that a fit may be
+/// writing reads.
+///
+/// # Errors
+/// As [`read_chains`] and [`ChainReader::open_at_checkpoint`].
+pub fn read_chains_at_checkpoint(files: &ChainFiles) -> Result<Chains, StorageError> {
+    chains_of(&files.chains, PartSet::open_at_checkpoint(files)?)
+}
+
+fn chains_of(chains_dir: &Path, store: PartSet) -> Result<Chains, StorageError> {
     let mut chains = Chains {
         dir: chains_dir.to_path_buf(),
         columns: Vec::new(),
@@ -166,9 +182,66 @@ struct PartSet {
     derived_names: Vec<String>,
 }
 
+/// Times a reader starts again when the run it reads is replaced under it.
+const READ_ATTEMPTS: usize = 3;
+
 impl PartSet {
-    fn open(chains_dir: &Path) -> Result<Self, StorageError> {
-        let listed = list_parts(chains_dir)?;
+    /// The parts of `files` that its checkpoint counts (all parts when there is no checkpoint,
+    /// as in a store copied without it). Each part is opened once and read through that
+    /// handle, so that a part replaced or removed afterwards (its footer rewritten when the
+    /// run finishes, the run replaced with `--overwrite`) is still read whole as it was.
+    /// When the parts the checkpoint counts are gone or differ from it, because the run was
+    /// replaced between reading the checkpoint and opening them, it starts again from the
+    /// new checkpoint.
+    fn open_at_checkpoint(files: &ChainFiles) -> Result<Self, StorageError> {
+        let mut attempt = 0;
+        loop {
+            attempt += 1;
+            let counted = checkpointed(files)?;
+            let opened =
+                Self::open(&files.chains, counted.map(|(parts, _)| parts)).and_then(|set| {
+                    match counted {
+                        Some((_, rows)) if set.rows() as u64 != rows => {
+                            Err(StorageError::Inconsistent {
+                                dir: files.dir.clone(),
+                                problem: format!(
+                                    "{} counts {rows} rows, its parts hold {}",
+                                    files.checkpoint.display(),
+                                    set.rows()
+                                ),
+                            })
+                        }
+                        _ => Ok(set),
+                    }
+                });
+            match opened {
+                Err(_) if attempt < READ_ATTEMPTS && checkpointed(files)? != counted => {}
+                other => return other,
+            }
+        }
+    }
+
+    /// Rows in all parts.
+    fn rows(&self) -> usize {
+        self.parts.iter().map(Part::rows).sum()
+    }
+
+    /// The complete parts of `chains_dir`, the first `count` only when given (the others may
+    /// be beyond the checkpoint).
+    fn open(chains_dir: &Path, count: Option<u64>) -> Result<Self, StorageError> {
+        let mut listed = list_parts(chains_dir)?;
+        if let Some(count) = count {
+            listed.retain(|&(index, _)| index < count);
+            if listed.len() as u64 != count {
+                return Err(StorageError::Inconsistent {
+                    dir: chains_dir.to_path_buf(),
+                    problem: format!(
+                        "the checkpoint counts {count} parts, {} are there",
+                        listed.len()
+                    ),
+                });
+            }
+        }
         if listed.is_empty() {
             return Err(StorageError::NoChains {
                 dir: chains_dir.to_path_buf(),
@@ -267,6 +340,8 @@ type Visit<'a, E> = dyn FnMut(usize, &[Vec<f64>]) -> Result<(), E> + 'a;
 #[derive(Debug, Clone)]
 pub(super) struct Part {
     path: PathBuf,
+    /// The file as opened with its footer, whatever replaces the path later.
+    file: Arc<Mutex<File>>,
     metadata: FileMetadata,
     pub(super) schema: ArrowSchema,
 }
@@ -279,6 +354,7 @@ impl Part {
         let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(&path, e))?;
         Ok(Self {
             path,
+            file: Arc::new(Mutex::new(file)),
             metadata,
             schema,
         })
@@ -299,8 +375,12 @@ impl Part {
         })
     }
 
-    fn open_file(&self) -> Result<File, StorageError> {
-        File::open(&self.path).map_err(|e| StorageError::io("open", &self.path, e))
+    fn open_file(&self) -> Result<MutexGuard<'_, File>, StorageError> {
+        // A reader that panicked mid-read leaves nothing to repair: every read seeks first.
+        Ok(self
+            .file
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner()))
     }
 
     /// The column `name`, read row group by row group from the file, as values of `T`
@@ -388,7 +468,23 @@ impl ChainReader {
     /// As [`read_chains`], and [`StorageError::Inconsistent`] naming the part and row when the
     /// rows are not a complete grid of steps × ensembles × walkers.
     pub fn open(chains_dir: &Path) -> Result<Self, StorageError> {
-        let store = PartSet::open(chains_dir)?;
+        Self::of(chains_dir, PartSet::open(chains_dir, None)?)
+    }
+
+    /// Opens the parts of the store `files` that its checkpoint counts, never one written
+    /// after it: a consistent run while a fit writes it (the last checkpoint's chains),
+    /// and, once it finished, the whole run. Readers take no lock: they neither wait for the
+    /// fit nor hold it up. Without a checkpoint (a store copied without it), every part.
+    ///
+    /// # Errors
+    /// As [`ChainReader::open`]; [`StorageError::BadCheckpoint`] for an unreadable checkpoint;
+    /// [`StorageError::Inconsistent`] when the parts do not match the checkpoint, even after
+    /// reading again a run replaced while it was read.
+    pub fn open_at_checkpoint(files: &ChainFiles) -> Result<Self, StorageError> {
+        Self::of(&files.chains, PartSet::open_at_checkpoint(files)?)
+    }
+
+    fn of(chains_dir: &Path, store: PartSet) -> Result<Self, StorageError> {
         let inconsistent = |problem: String| StorageError::Inconsistent {
             dir: chains_dir.to_path_buf(),
             problem,

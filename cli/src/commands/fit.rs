@@ -5,14 +5,16 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
-use anyhow::{bail, Context};
+use anyhow::bail;
 use clap::Args;
 
 use slipbayes::diagnostics::problem_lines;
+use slipbayes::fit::run_dir::RUN_OUTPUT;
 use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides};
 use slipbayes::law::LawKind;
 use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, OneContact, Posterior};
+use slipbayes::output_dir::OutputDir;
 use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{CarryFit, Mixture, Parallelism, Updates};
 
@@ -318,8 +320,11 @@ fn fit_and_report(
         &run_file.sampler,
         &run.overrides(replace_earlier),
     );
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    // Locked first, so that a directory another fit holds is left as it is. Only --overwrite
+    // lets a run into a directory that is not ours: `demo` replaces an earlier run of its
+    // own, never a user's files. A refused directory keeps nothing (the lock goes with it).
     let lock = RunLock::acquire(out)?;
+    OutputDir::claim(out, RUN_OUTPUT, run.overwrite)?;
     interrupt::install();
     let mut observer =
         ProgressBarObserver::new(run.quiet, Duration::from_secs_f64(run.progress_every))

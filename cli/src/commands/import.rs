@@ -9,6 +9,7 @@ use clap::Args;
 
 use slipbayes::data::import::DEFAULT_MOMENT_ARM_M;
 use slipbayes::data::{import, Clock, ColumnMap, ColumnRef, Format, ImportOptions, IntervalChoice};
+use slipbayes::output_dir::claim_files;
 
 /// How to read an instrument file: format, columns by name and unit, intervals.
 #[derive(Debug, Args, Clone)]
@@ -100,6 +101,9 @@ pub(super) struct ImportCommandArgs {
     /// Output CSV.
     #[arg(long)]
     out: PathBuf,
+    /// Replace the output CSV if it exists.
+    #[arg(long)]
+    overwrite: bool,
     #[command(flatten)]
     import: ImportArgs,
 }
@@ -111,6 +115,7 @@ pub(super) fn run(args: &ImportCommandArgs) -> anyhow::Result<ExitCode> {
             args.out.display()
         );
     }
+    claim_files(&[&args.out], args.overwrite)?;
     let imported = import(&args.file, &args.import.options())?;
     imported
         .series

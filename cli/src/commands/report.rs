@@ -6,8 +6,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 
-use slipbayes::fit::run_dir::{CHAINS_DIR, FIGURES_DIR, SETTINGS_JSON};
+use slipbayes::fit::run_dir::{CHAINS_DIR, FIGURES_DIR, RUN_OUTPUT, SETTINGS_JSON};
 use slipbayes::fit::RunDir;
+use slipbayes::output_dir::{OutputDir, Ownership, MARKER};
 use slipbayes::report::{write_report, ReportFiles};
 
 /// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
@@ -22,6 +23,19 @@ pub(super) struct ReportArgs {
 
 pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     let dir = RunDir::new(&args.dir);
+    if let Ownership::Foreign { marked_as, .. } = OutputDir::ownership(dir.path(), &RUN_OUTPUT)? {
+        bail!(
+            "{} is not a run directory slipbayes wrote ({}): `report` writes report.html, \
+             report.md and figures/ only into the --out of a fit",
+            dir.path().display(),
+            match marked_as {
+                Some(kind) => format!("its {MARKER} marks it as a slipbayes {kind} directory"),
+                None => format!(
+                    "it has no {MARKER} marker, and no checkpoint, chains or run record of a fit"
+                ),
+            }
+        );
+    }
     if let Some(problem) = missing_chains(&dir) {
         bail!("{problem}");
     }

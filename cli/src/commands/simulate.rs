@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use slipbayes::data::write_atomically;
 use slipbayes::law::{Elastic, LawKind, LawParams, Scene};
+use slipbayes::output_dir::claim_files;
 use slipbayes::simulate::{simulate, SimulationSpec};
 
 use super::{law_name, positive};
@@ -93,7 +94,7 @@ pub(super) struct SimulateArgs {
     /// Output CSV path; the true values go to the same path with extension `.json`.
     #[arg(long)]
     out: PathBuf,
-    /// Replace existing output files.
+    /// Replace the output CSV and its `.json` if they exist (nothing else is touched).
     #[arg(long)]
     overwrite: bool,
 }
@@ -120,16 +121,7 @@ struct TruePeak {
 
 pub(super) fn run(args: &SimulateArgs) -> anyhow::Result<ExitCode> {
     let truth_path = args.out.with_extension("json");
-    if !args.overwrite {
-        for path in [&args.out, &truth_path] {
-            if path.exists() {
-                bail!(
-                    "{} already exists; pass --overwrite to replace it, or choose another --out",
-                    path.display()
-                );
-            }
-        }
-    }
+    claim_files(&[&args.out, &truth_path], args.overwrite)?;
     let scene = match args.scene {
         SceneArg::First => Scene::First,
         SceneArg::Repeat => Scene::Repeat,

@@ -8,8 +8,41 @@ use anyhow::Context;
 use clap::Args;
 
 use super::EXIT_MISCALIBRATED;
-use crate::validate::{run_sbc, summarise, write_report, GrossLimits, Replication, SbcSettings};
+use crate::validate::{
+    run_sbc, summarise, write_report, GrossLimits, Replication, SbcSettings, FITS_DIR,
+    REPLICATIONS_TABLE, SETTINGS_FILE,
+};
+use slipbayes::output_dir::{OutputDir, OutputKind};
 use slipbayes::sampler::Mixture;
+
+/// The output directory of `validate` ([`OutputDir::claim`]): what it writes there (the
+/// replications' table and scratch fits, the report, the hard cases, and the folder of
+/// per-replication records of earlier versions, which it converts and removes).
+const VALIDATION_OUTPUT: OutputKind = OutputKind {
+    name: "validation",
+    writes: &[
+        SETTINGS_FILE,
+        REPLICATIONS_TABLE,
+        "replications",
+        FITS_DIR,
+        "validation.json",
+        "validation.md",
+        "rank_histograms.svg",
+        "hard",
+    ],
+    writes_prefixed: &[],
+    written_before_markers: holds_validation,
+};
+
+/// Whether `dir`, which carries no marker, was written by a `validate` of a release that
+/// wrote none: its `settings.json` holds the settings of a validation, or it holds the hard
+/// cases' results.
+fn holds_validation(dir: &std::path::Path) -> bool {
+    let settings = std::fs::read(dir.join(SETTINGS_FILE))
+        .ok()
+        .is_some_and(|bytes| serde_json::from_slice::<SbcSettings>(&bytes).is_ok());
+    settings || dir.join("hard").join("hard_cases.json").is_file()
+}
 
 /// Simulation-based calibration (Talts et al. 2018): draw parameters from the model's priors,
 /// simulate a first and a repeat slide, fit them, and rank the truth among the posterior draws.
@@ -92,6 +125,7 @@ pub(super) struct ValidateArgs {
 }
 
 pub(super) fn run(args: &ValidateArgs) -> anyhow::Result<ExitCode> {
+    OutputDir::claim(&args.out, VALIDATION_OUTPUT, args.overwrite)?;
     if args.hard {
         return hard(args);
     }
@@ -120,6 +154,11 @@ pub(super) fn run_root(
         anyhow::bail!("validate --hard runs its cases in one process; run it without mpirun");
     }
     let settings = sbc_settings(args);
+    if let Err(e) = OutputDir::claim(&args.out, VALIDATION_OUTPUT, args.overwrite) {
+        // Nothing for the other ranks to run: they wait for the release.
+        cluster.broadcast_list(None);
+        return Err(e.into());
+    }
     let opened = if args.report_only {
         Ok(None)
     } else {

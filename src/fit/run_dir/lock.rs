@@ -9,8 +9,7 @@ use std::path::{Path, PathBuf};
 
 use crate::IoError;
 
-/// The lock file inside the run directory.
-pub const LOCK_FILE: &str = ".slipbayes.lock";
+pub use crate::output_dir::LOCK_FILE;
 
 /// Why a run directory could not be locked; each names the directory or the lock file.
 #[derive(Debug, thiserror::Error)]

@@ -15,7 +15,12 @@
 //! DIR/checkpoint.bin      the sampler state of the last checkpoint (MessagePack)
 //! DIR/report.html         the report (crate::report), with report.md and figures/*.svg
 //! DIR/.slipbayes.lock     held while a fit writes the directory ([`RunLock`])
+//! DIR/.slipbayes-run      the marker: slipbayes wrote this directory ([`RUN_OUTPUT`])
 //! ```
+//!
+//! Every command that writes a run directory claims it first ([`OutputDir::claim`](crate::output_dir::OutputDir::claim) with
+//! [`RUN_OUTPUT`]): a new, empty or marked directory, or a run of an earlier release, else
+//! only with `--overwrite`, and then only these files are written.
 //!
 //! A fit writes the first ten ([`crate::fit::run_fit`], [`crate::fit::fit_model`]); the
 //! report reads them back through the same types ([`FitSummary`], [`RunRecord`], [`Band`],
@@ -36,7 +41,8 @@ use std::path::{Path, PathBuf};
 use super::RunFile;
 use crate::data::write_atomically;
 use crate::model::{Band, SpecError};
-use crate::storage::{read_chains, ChainFiles, ChainReader, Chains, StorageError};
+use crate::output_dir::OutputKind;
+use crate::storage::{read_chains_at_checkpoint, ChainFiles, ChainReader, Chains, StorageError};
 use crate::IoError;
 
 pub(crate) use csv::summary_csv;
@@ -75,12 +81,108 @@ pub const CHAINS_DIR: &str = "chains";
 /// The sampler state of the last checkpoint (binary; earlier releases wrote
 /// `checkpoint.json`, which a resume still reads).
 pub const CHECKPOINT: &str = "checkpoint.bin";
+/// The JSON checkpoint of earlier releases, which a resume still reads.
+pub const LEGACY_CHECKPOINT: &str = "checkpoint.json";
+/// The folder of the folds' run directories (`slipbayes kfold`).
+pub const KFOLD_DIR: &str = "kfold";
+/// The folder of the data the Python `fit` was given as arrays.
+pub const DATA_DIR: &str = "data";
 /// The HTML report.
 pub const REPORT_HTML: &str = "report.html";
 /// The Markdown report.
 pub const REPORT_MD: &str = "report.md";
 /// The folder of the report's SVG figures.
 pub const FIGURES_DIR: &str = "figures";
+
+/// Every entry of a run directory that `fit`, `demo`, `report`, `kfold` and the Python `fit`
+/// write (the report's, the folds' of `kfold`, the lock, and the JSON checkpoint of earlier
+/// releases, which a resume replaces).
+const RUN_FILES: &[&str] = &[
+    MODEL_TOML,
+    SETTINGS_JSON,
+    SUMMARY_JSON,
+    SUMMARY_CSV,
+    PREDICTIVE_CSV,
+    CURVES_JSON,
+    TRUTH_JSON,
+    LOO_CSV,
+    KFOLD_CSV,
+    KFOLD_DIR,
+    CHAINS_DIR,
+    CHECKPOINT,
+    LEGACY_CHECKPOINT,
+    REPORT_HTML,
+    REPORT_MD,
+    FIGURES_DIR,
+    LOCK_FILE,
+];
+
+/// A run directory as an output directory
+/// ([`OutputDir::claim`](crate::output_dir::OutputDir::claim)): what every command that
+/// writes one claims it as.
+pub const RUN_OUTPUT: OutputKind = OutputKind {
+    name: "run",
+    writes: RUN_FILES,
+    // Chain parts being written: `part-000002.parquet.partial`.
+    writes_prefixed: &["part-"],
+    written_before_markers: holds_run_layout,
+};
+
+/// A run directory of the Python `fit`, which also writes the data given as arrays into
+/// `data/`: the same kind as [`RUN_OUTPUT`], so either front end continues the other's runs.
+pub const PYTHON_RUN_OUTPUT: OutputKind = OutputKind {
+    writes: PYTHON_RUN_FILES,
+    ..RUN_OUTPUT
+};
+
+const PYTHON_RUN_FILES: &[&str] = &[
+    MODEL_TOML,
+    SETTINGS_JSON,
+    SUMMARY_JSON,
+    SUMMARY_CSV,
+    PREDICTIVE_CSV,
+    CURVES_JSON,
+    TRUTH_JSON,
+    LOO_CSV,
+    KFOLD_CSV,
+    KFOLD_DIR,
+    CHAINS_DIR,
+    CHECKPOINT,
+    LEGACY_CHECKPOINT,
+    REPORT_HTML,
+    REPORT_MD,
+    FIGURES_DIR,
+    LOCK_FILE,
+    DATA_DIR,
+];
+
+/// Whether `dir`, which carries no marker, is a run directory of a release that wrote none,
+/// so that it stays resumable and reportable: it holds a checkpoint (`checkpoint.bin`, or the
+/// `checkpoint.json` of earlier releases), or a chain part (`chains/part-NNNNNN.parquet`), or
+/// a `settings.json` that is a run record (a JSON object with `slipbayes_version` and
+/// `settings`, which a fit writes last: the committed example report has no chains). A
+/// user's own `summary.json` or `report.html` is none of these.
+fn holds_run_layout(dir: &Path) -> bool {
+    let has_checkpoint = [CHECKPOINT, LEGACY_CHECKPOINT]
+        .iter()
+        .any(|name| dir.join(name).is_file());
+    let has_part = std::fs::read_dir(dir.join(CHAINS_DIR)).is_ok_and(|entries| {
+        entries.flatten().any(|e| {
+            e.file_name().to_str().is_some_and(|n| {
+                n.strip_prefix("part-")
+                    .and_then(|n| n.strip_suffix(".parquet"))
+                    .is_some_and(|digits| {
+                        !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit())
+                    })
+            })
+        })
+    });
+    let has_record = std::fs::read(dir.join(SETTINGS_JSON))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
+        .is_some_and(|v| v.get("slipbayes_version").is_some() && v.get("settings").is_some());
+    has_checkpoint || has_part || has_record
+}
 
 /// What went wrong reading or writing a file of a run directory; each names the file.
 #[derive(Debug, thiserror::Error)]
@@ -106,6 +208,18 @@ pub enum RunDirError {
         path: PathBuf,
         /// The cause and what to do.
         message: String,
+    },
+    /// The run was replaced while it was read (a fit with `--overwrite` began).
+    #[error(
+        "the run in {} changed while it was read ({problem}): a fit is writing it; read it \
+         again when the fit ends",
+        dir.display()
+    )]
+    Changed {
+        /// The run directory.
+        dir: PathBuf,
+        /// What no longer matches.
+        problem: String,
     },
     /// The chains could not be read.
     #[error("reading the chains of {}", dir.display())]
@@ -149,27 +263,69 @@ impl RunDir {
         }
     }
 
-    /// The chains, read back into memory.
+    /// The chains, read back into memory: those of the last checkpoint while a fit writes the
+    /// directory (see [`RunDir::chain_reader`]).
     ///
     /// # Errors
     /// [`RunDirError::Chains`] when they cannot be read.
     pub fn read_chains(&self) -> Result<Chains, RunDirError> {
-        read_chains(&self.file(CHAINS_DIR)).map_err(|source| RunDirError::Chains {
+        read_chains_at_checkpoint(&self.chain_files()).map_err(|source| RunDirError::Chains {
             dir: self.path.clone(),
             source,
         })
     }
 
-    /// The chains of a complete run, to be read one column or one row group at a time.
+    /// The chains of the run, to be read one column or one row group at a time: the parts
+    /// its checkpoint counts, so that a reader of a directory a fit is writing (`report`,
+    /// `slipbayes.load`) reads the last checkpoint's chains, whole, and never a part the fit
+    /// wrote after it; once the fit finished, every part.
     ///
     /// # Errors
     /// [`RunDirError::Chains`] when they cannot be opened or are not a complete grid of steps,
     /// ensembles and walkers.
     pub fn chain_reader(&self) -> Result<ChainReader, RunDirError> {
-        ChainReader::open(&self.file(CHAINS_DIR)).map_err(|source| RunDirError::Chains {
+        ChainReader::open_at_checkpoint(&self.chain_files()).map_err(|source| RunDirError::Chains {
             dir: self.path.clone(),
             source,
         })
+    }
+
+    /// The chains of the finished run that `summary` (its `summary.json`, read first) sums
+    /// up, checked to be that run's: as many steps, and the burn-in it chose in every part's
+    /// footer. A reader that read the summary of a run that a fit then began to replace
+    /// (`--overwrite`) gets [`RunDirError::Changed`] instead of the new run's chains.
+    ///
+    /// # Errors
+    /// [`RunDirError::Chains`] as [`RunDir::chain_reader`]; [`RunDirError::Changed`] when the
+    /// chains are not those of `summary`.
+    pub fn finished_chain_reader(&self, summary: &FitSummary) -> Result<ChainReader, RunDirError> {
+        let reader = self.chain_reader()?;
+        let sampler = &summary.sampler;
+        let changed = |problem: String| RunDirError::Changed {
+            dir: self.path.clone(),
+            problem,
+        };
+        if reader.steps() != sampler.steps {
+            return Err(changed(format!(
+                "{SUMMARY_JSON} sums up {} steps, the chains hold {}",
+                sampler.steps,
+                reader.steps()
+            )));
+        }
+        let metadata = reader.metadata().map_err(|source| RunDirError::Chains {
+            dir: self.path.clone(),
+            source,
+        })?;
+        // Runs of releases that wrote no footer metadata carry no burn-in to compare.
+        if let Some(burn_in) = metadata.map(|m| m.burn_in) {
+            if burn_in != Some(sampler.burn_in) {
+                return Err(changed(format!(
+                    "{SUMMARY_JSON} has burn-in {}, the chains {burn_in:?}",
+                    sampler.burn_in
+                )));
+            }
+        }
+        Ok(reader)
     }
 
     /// Writes `bytes` to the file `name` of the directory, atomically.

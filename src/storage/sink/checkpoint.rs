@@ -269,6 +269,15 @@ fn remove_json_checkpoint(files: &ChainFiles) -> Result<(), StorageError> {
     }
 }
 
+/// The parts and rows the checkpoint of `files` counts (what a reader may read while a fit
+/// writes: parts beyond it may still be removed by a resume), or `None` without a checkpoint.
+///
+/// # Errors
+/// [`StorageError::BadCheckpoint`] when it cannot be parsed; [`StorageError::Io`].
+pub(crate) fn checkpointed(files: &ChainFiles) -> Result<Option<(u64, u64)>, StorageError> {
+    Ok(read_checkpoint(files)?.map(|c| (c.header.parts, c.header.rows)))
+}
+
 /// Whether `files` hold a run of ours: `Some(finished)`, or `None` when they hold none.
 pub(super) fn existing_run(files: &ChainFiles) -> Result<Option<bool>, StorageError> {
     match read_checkpoint(files) {

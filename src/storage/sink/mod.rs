@@ -23,6 +23,7 @@ use super::{
     ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
 };
 use crate::data::atomic::sync_dir;
+pub(crate) use checkpoint::checkpointed;
 use checkpoint::{existing_run, remove_run};
 use writer::{Files, Job, RowGroup, Writer};
 
