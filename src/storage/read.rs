@@ -236,7 +236,9 @@ impl PartSet {
                 return Err(StorageError::Inconsistent {
                     dir: chains_dir.to_path_buf(),
                     problem: format!(
-                        "the checkpoint counts {count} parts, {} are there",
+                        "the checkpoint counts {count} parts, {} are there (a fit replacing \
+                         the run removes them: read it again once it has written its first \
+                         checkpoint)",
                         listed.len()
                     ),
                 });
