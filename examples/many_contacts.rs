@@ -7,13 +7,18 @@
 //! - the rough start (`Posterior::start`: each first slide fitted alone),
 //! - the sampler's start (`EnsembleSampler::new` under hierarchical updates: every walker
 //!   evaluated in full, around the rough start),
-//! - sweeps (one step: every block of every walker updated once), their mean.
+//! - sweeps (one step: every block of every walker updated once), their mean, and that mean
+//!   per contact.
 //!
-//! The optimiser's mode search and Laplace covariance are left out: their cost grows with the
-//! square of the dimension.
+//! The fit's mode search with its Laplace covariance (`initial_around_optimum` from the
+//! posterior's search start, as `slipbayes fit` starts) is timed only for campaigns of at most
+//! `--mode-up-to M` contacts (none by default): its finite-difference Hessian costs a number
+//! of evaluations that grows with the square of the dimension, hours at a thousand contacts.
 //!
-//! `cargo run --release --example many_contacts [-- N ...]` (default N = 10, 50, 120, 500 and
-//! 2,000: the last is 4,000 runs).
+//! `cargo run --release --example many_contacts [-- N ...] [--mode-up-to M] [--sweeps K]`
+//! (default N = 10, 50, 120, 500 and 2,000: the last is 4,000 runs; K = 3). Two runs that
+//! differ only in K differ only by K sweeps: the difference of their instruction counts
+//! (`perf stat -e instructions:u`) is the cost of the sweeps, whatever the machine's load.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -26,25 +31,37 @@ use slipbayes::fit::default_walkers;
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::Posterior;
+use slipbayes::optimize::initial_around_optimum;
 use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{
     CarryFit, EnsembleSampler, NullSink, SamplerConfig, Silent, Steps, Updates,
 };
 use slipbayes::simulate::{simulate, SimulationSpec};
 
-/// Sweeps timed per campaign.
+/// Sweeps timed per campaign, unless `--sweeps K` says otherwise.
 const SWEEPS: u64 = 3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut sizes = std::env::args()
-        .skip(1)
-        .map(|a| a.parse::<usize>())
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut sizes = Vec::new();
+    let (mut mode_up_to, mut sweeps) = (0, SWEEPS);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--mode-up-to" {
+            mode_up_to = args.next().ok_or("--mode-up-to needs a number")?.parse()?;
+        } else if a == "--sweeps" {
+            sweeps = args.next().ok_or("--sweeps needs a number")?.parse()?;
+        } else {
+            sizes.push(a.parse::<usize>()?);
+        }
+    }
     if sizes.is_empty() {
         sizes = vec![10, 50, 120, 500, 2000];
     }
-    println!("| contacts | runs | dimensions | posterior built (s) | rough start (s) | sampler's start (s) | per sweep (s) |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| contacts | runs | dimensions | posterior built (s) | rough start (s) | mode search (s) \
+         | sampler's start (s) | per sweep (s) | per sweep per contact (ms) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
     let dir = tempfile::tempdir()?;
     for contacts in sizes {
         let (run_file, data) = campaign(dir.path(), contacts)?;
@@ -61,6 +78,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         let config = SamplerConfig::new(walkers, 4, 1)?.with_updates(Updates::Hierarchical);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mode = if contacts <= mode_up_to {
+            let started = Instant::now();
+            let search = initial_around_optimum(
+                Target::blocked(&posterior),
+                posterior.search_start(),
+                walkers,
+                4,
+                &mut ChaCha8Rng::seed_from_u64(2),
+            );
+            let elapsed = started.elapsed().as_secs_f64();
+            match search {
+                Ok(_) => format!("{elapsed:.2}"),
+                Err(e) => format!("failed after {elapsed:.2}: {e}"),
+            }
+        } else {
+            "not run".to_string()
+        };
         // Around the rough start, each walker redrawn until the density takes it (a contact
         // near stick-slip refuses some).
         let mut derived = vec![0.0; posterior.derived_names().len()];
@@ -83,12 +117,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut sampler = EnsembleSampler::new(Target::blocked(&posterior), config, initial)?;
         let sampler_start = started.elapsed().as_secs_f64();
         let started = Instant::now();
-        sampler.run(Steps::Fixed(SWEEPS), &mut NullSink, &mut Silent)?;
-        let per_sweep = started.elapsed().as_secs_f64() / SWEEPS as f64;
+        sampler.run(Steps::Fixed(sweeps), &mut NullSink, &mut Silent)?;
+        let per_sweep = started.elapsed().as_secs_f64() / sweeps.max(1) as f64;
         println!(
-            "| {contacts} | {} | {} | {built:.2} | {rough:.2} | {sampler_start:.2} | {per_sweep:.3} |",
+            "| {contacts} | {} | {} | {built:.2} | {rough:.2} | {mode} | {sampler_start:.2} \
+             | {per_sweep:.3} | {:.3} |",
             2 * contacts,
-            posterior.dim()
+            posterior.dim(),
+            1e3 * per_sweep / contacts as f64
         );
     }
     Ok(())
