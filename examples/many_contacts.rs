@@ -16,9 +16,10 @@
 //! of evaluations that grows with the square of the dimension, hours at a thousand contacts.
 //!
 //! `cargo run --release --example many_contacts [-- N ...] [--mode-up-to M] [--sweeps K]`
-//! (default N = 10, 50, 120, 500 and 2,000: the last is 4,000 runs; K = 3). Two runs that
-//! differ only in K differ only by K sweeps: the difference of their instruction counts
-//! (`perf stat -e instructions:u`) is the cost of the sweeps, whatever the machine's load.
+//! (default N = 10, 50, 120, 500 and 2,000: the last is 4,000 runs; K = 3). The last column is
+//! the process's CPU time over the sweeps per sweep per contact: run on one thread
+//! (`RAYON_NUM_THREADS=1`), it is the sweeps' own work, which the machine's load moves far less
+//! than the wall time.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -59,9 +60,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!(
         "| contacts | runs | dimensions | posterior built (s) | rough start (s) | mode search (s) \
-         | sampler's start (s) | per sweep (s) | per sweep per contact (ms) |"
+         | sampler's start (s) | per sweep (s) | per sweep per contact (ms) \
+         | CPU per sweep per contact (ms) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let dir = tempfile::tempdir()?;
     for contacts in sizes {
         let (run_file, data) = campaign(dir.path(), contacts)?;
@@ -116,18 +118,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let started = Instant::now();
         let mut sampler = EnsembleSampler::new(Target::blocked(&posterior), config, initial)?;
         let sampler_start = started.elapsed().as_secs_f64();
-        let started = Instant::now();
+        let (started, cpu) = (Instant::now(), cpu_seconds());
         sampler.run(Steps::Fixed(sweeps), &mut NullSink, &mut Silent)?;
         let per_sweep = started.elapsed().as_secs_f64() / sweeps.max(1) as f64;
+        let cpu_per_sweep = match (cpu, cpu_seconds()) {
+            (Some(a), Some(b)) => {
+                let sweeps_contacts = sweeps.max(1) as f64 * contacts as f64;
+                format!("{:.3}", 1e3 * (b - a) / sweeps_contacts)
+            }
+            _ => "unknown".to_string(),
+        };
         println!(
             "| {contacts} | {} | {} | {built:.2} | {rough:.2} | {mode} | {sampler_start:.2} \
-             | {per_sweep:.3} | {:.3} |",
+             | {per_sweep:.3} | {:.3} | {cpu_per_sweep} |",
             2 * contacts,
             posterior.dim(),
             1e3 * per_sweep / contacts as f64
         );
     }
     Ok(())
+}
+
+/// CPU time of this process so far (user and system, all threads), where `/proc` says it.
+/// On one thread (`RAYON_NUM_THREADS=1`) the difference over the sweeps is their own work,
+/// which other processes on the machine lengthen far less than the wall time.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The fields after the command's name (in parentheses, which may hold spaces).
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i)?.parse::<f64>().ok();
+    // utime and stime, fields 14 and 15 of proc(5), in clock ticks of 1/100 s on Linux.
+    Some((ticks(11)? + ticks(12)?) / 100.0)
 }
 
 /// The model file and simulated data of a campaign of `contacts` contacts, written into
