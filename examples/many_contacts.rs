@@ -7,13 +7,19 @@
 //! - the rough start (`Posterior::start`: each first slide fitted alone),
 //! - the sampler's start (`EnsembleSampler::new` under hierarchical updates: every walker
 //!   evaluated in full, around the rough start),
-//! - sweeps (one step: every block of every walker updated once), their mean.
+//! - sweeps (one step: every block of every walker updated once), their mean, and that mean
+//!   per contact.
 //!
-//! The optimiser's mode search and Laplace covariance are left out: their cost grows with the
-//! square of the dimension.
+//! The fit's mode search with its Laplace covariance (`initial_around_optimum` from the
+//! posterior's search start, as `slipbayes fit` starts) is timed only for campaigns of at most
+//! `--mode-up-to M` contacts (none by default): its finite-difference Hessian costs a number
+//! of evaluations that grows with the square of the dimension, hours at a thousand contacts.
 //!
-//! `cargo run --release --example many_contacts [-- N ...]` (default N = 10, 50, 120, 500 and
-//! 2,000: the last is 4,000 runs).
+//! `cargo run --release --example many_contacts [-- N ...] [--mode-up-to M] [--sweeps K]`
+//! (default N = 10, 50, 120, 500 and 2,000: the last is 4,000 runs; K = 3). The last column is
+//! the process's CPU time over the sweeps per sweep per contact: run on one thread
+//! (`RAYON_NUM_THREADS=1`), it is the sweeps' own work, which the machine's load moves far less
+//! than the wall time.
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -26,25 +32,38 @@ use slipbayes::fit::default_walkers;
 use slipbayes::law::{LawParams, Scene};
 use slipbayes::model::data::RunData;
 use slipbayes::model::Posterior;
+use slipbayes::optimize::initial_around_optimum;
 use slipbayes::run_file::RunFile;
 use slipbayes::sampler::{
     CarryFit, EnsembleSampler, NullSink, SamplerConfig, Silent, Steps, Updates,
 };
 use slipbayes::simulate::{simulate, SimulationSpec};
 
-/// Sweeps timed per campaign.
+/// Sweeps timed per campaign, unless `--sweeps K` says otherwise.
 const SWEEPS: u64 = 3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut sizes = std::env::args()
-        .skip(1)
-        .map(|a| a.parse::<usize>())
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut sizes = Vec::new();
+    let (mut mode_up_to, mut sweeps) = (0, SWEEPS);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--mode-up-to" {
+            mode_up_to = args.next().ok_or("--mode-up-to needs a number")?.parse()?;
+        } else if a == "--sweeps" {
+            sweeps = args.next().ok_or("--sweeps needs a number")?.parse()?;
+        } else {
+            sizes.push(a.parse::<usize>()?);
+        }
+    }
     if sizes.is_empty() {
         sizes = vec![10, 50, 120, 500, 2000];
     }
-    println!("| contacts | runs | dimensions | posterior built (s) | rough start (s) | sampler's start (s) | per sweep (s) |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| contacts | runs | dimensions | posterior built (s) | rough start (s) | mode search (s) \
+         | sampler's start (s) | per sweep (s) | per sweep per contact (ms) \
+         | CPU per sweep per contact (ms) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let dir = tempfile::tempdir()?;
     for contacts in sizes {
         let (run_file, data) = campaign(dir.path(), contacts)?;
@@ -61,6 +80,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         let config = SamplerConfig::new(walkers, 4, 1)?.with_updates(Updates::Hierarchical);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let mode = if contacts <= mode_up_to {
+            let started = Instant::now();
+            let search = initial_around_optimum(
+                Target::blocked(&posterior),
+                posterior.search_start(),
+                walkers,
+                4,
+                &mut ChaCha8Rng::seed_from_u64(2),
+            );
+            let elapsed = started.elapsed().as_secs_f64();
+            match search {
+                Ok(_) => format!("{elapsed:.2}"),
+                Err(e) => format!("failed after {elapsed:.2}: {e}"),
+            }
+        } else {
+            "not run".to_string()
+        };
         // Around the rough start, each walker redrawn until the density takes it (a contact
         // near stick-slip refuses some).
         let mut derived = vec![0.0; posterior.derived_names().len()];
@@ -82,16 +118,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let started = Instant::now();
         let mut sampler = EnsembleSampler::new(Target::blocked(&posterior), config, initial)?;
         let sampler_start = started.elapsed().as_secs_f64();
-        let started = Instant::now();
-        sampler.run(Steps::Fixed(SWEEPS), &mut NullSink, &mut Silent)?;
-        let per_sweep = started.elapsed().as_secs_f64() / SWEEPS as f64;
+        let (started, cpu) = (Instant::now(), cpu_seconds());
+        sampler.run(Steps::Fixed(sweeps), &mut NullSink, &mut Silent)?;
+        let per_sweep = started.elapsed().as_secs_f64() / sweeps.max(1) as f64;
+        let cpu_per_sweep = match (cpu, cpu_seconds()) {
+            (Some(a), Some(b)) => {
+                let sweeps_contacts = sweeps.max(1) as f64 * contacts as f64;
+                format!("{:.3}", 1e3 * (b - a) / sweeps_contacts)
+            }
+            _ => "unknown".to_string(),
+        };
         println!(
-            "| {contacts} | {} | {} | {built:.2} | {rough:.2} | {sampler_start:.2} | {per_sweep:.3} |",
+            "| {contacts} | {} | {} | {built:.2} | {rough:.2} | {mode} | {sampler_start:.2} \
+             | {per_sweep:.3} | {:.3} | {cpu_per_sweep} |",
             2 * contacts,
-            posterior.dim()
+            posterior.dim(),
+            1e3 * per_sweep / contacts as f64
         );
     }
     Ok(())
+}
+
+/// CPU time of this process so far (user and system, all threads), where `/proc` says it.
+/// On one thread (`RAYON_NUM_THREADS=1`) the difference over the sweeps is their own work,
+/// which other processes on the machine lengthen far less than the wall time.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The fields after the command's name (in parentheses, which may hold spaces).
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i)?.parse::<f64>().ok();
+    // utime and stime, fields 14 and 15 of proc(5), in clock ticks of 1/100 s on Linux.
+    Some((ticks(11)? + ticks(12)?) / 100.0)
 }
 
 /// The model file and simulated data of a campaign of `contacts` contacts, written into

@@ -31,6 +31,7 @@ targets=(
   "import-speed|reports/import-speed.md: 10^6-point instrument exports against a plain CSV|5 min|yes"
   "convergence|reports/convergence.md: time, memory and verdict of the demo, the quick path and campaigns|15 min|yes"
   "campaigns|reports/campaigns.md: campaigns of 2 to 50 contacts until converged|5 min|yes"
+  "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
   "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|30 min|partly (wall times)"
@@ -161,6 +162,33 @@ run() {
       "One-material campaigns of N contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`, with contact-to-contact spread in F_d, k and t0), each fitted with the default settings until converged by the strict standard, one fit after the other: \`bash benches/campaign_scaling.sh DIR 2 5 10 20 50\`. τ_max is in steps (sweeps: one step updates every block once); wall time and peak RSS are those of the whole command (start, sampling, summary, report). Targets: 10 contacts in at most 60 s and 300 MB, 50 contacts in at most 5 min and 1 GB." \
       "$scratch/campaigns/table.md"
     stamp "$target" "$load" "$start" reports/campaigns.md
+    ;;
+  campaign-scaling)
+    # The same measuring program built against this checkout and against PREVIOUS (a commit,
+    # 4873b0b by default: before proposals of independent blocks were made in place), the
+    # latter in a scratch worktree.
+    local previous=${PREVIOUS:-4873b0b} prev=$scratch/campaign-scaling-previous
+    cargo build --release --locked -p slipbayes --example many_contacts --quiet
+    rm -rf "$scratch/campaign-scaling"
+    git worktree remove --force "$prev" 2> /dev/null || rm -rf "$prev"
+    git worktree add --detach "$prev" "$previous" > /dev/null
+    cp examples/many_contacts.rs "$prev/examples/"
+    # Seeded with this checkout's build: only the library itself is rebuilt.
+    [ -d "$scratch/campaign-scaling-target/release" ] || {
+      mkdir -p "$scratch/campaign-scaling-target"
+      cp -a target/release "$scratch/campaign-scaling-target/"
+    }
+    CARGO_TARGET_DIR=$scratch/campaign-scaling-target \
+      cargo build --manifest-path "$prev/Cargo.toml" --release --locked -p slipbayes \
+      --example many_contacts --quiet
+    MODE_UP_TO=50 bash benches/campaigns.sh "$scratch/campaign-scaling" \
+      "$scratch/campaign-scaling-target/release/examples/many_contacts" \
+      target/release/examples/many_contacts 50 200 1000
+    git worktree remove --force "$prev"
+    assemble reports/campaign-scaling.md "Campaigns of hundreds to thousands of contacts: cost per contact" \
+      "A one-material campaign of N contacts (a 201-point first slide and a 51-point repeat slide per contact, simulated in memory as \`data/make_campaign.py\` makes them) from loading to sampling, by \`examples/many_contacts.rs\` built against this commit (new) and against $previous (previous), each size run by both in turn, twice: \`MODE_UP_TO=50 bash benches/campaigns.sh DIR PREVIOUS NEW 50 200 1000\`. Parts: the posterior built from the data, the rough start (each first slide fitted alone), the fit's mode search with its Laplace covariance (\`initial_around_optimum\`, timed at 50 contacts only: its cost grows faster than the square of the dimension), the sampler's start under hierarchical updates (every walker evaluated in full) and the mean of 3 sweeps (one sweep updates every block of every walker once); peak RSS of the whole process. Target: time per sweep per contact at 1,000 contacts within 1.5× of that at 50. Every run is on one thread: wall times move with the machine's load (see the header); the process's CPU time over the sweeps (last column) much less." \
+      "$scratch/campaign-scaling/table.md" "$scratch/campaign-scaling/ratios.md"
+    stamp "$target" "$load" "$start" reports/campaign-scaling.md
     ;;
   moves)
     build

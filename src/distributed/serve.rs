@@ -104,6 +104,7 @@ impl Cluster {
                 state_stride: cstride,
                 slots: &slots,
                 proposals: &proposals,
+                rows: None,
                 derived: &mut derived,
                 cache: &mut cache,
                 evals: &mut evals,

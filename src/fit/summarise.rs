@@ -387,9 +387,13 @@ fn check_reported(
             "no quantities to report: give at least one".into(),
         ));
     }
-    let known = |column: &str| {
-        param_names.iter().any(|n| n == column) || derived_names.iter().any(|n| n == column)
-    };
+    // A set: a campaign of thousands of contacts reports thousands of quantities.
+    let columns: HashSet<&str> = param_names
+        .iter()
+        .chain(derived_names)
+        .map(String::as_str)
+        .collect();
+    let known = |column: &str| columns.contains(column);
     let mut seen = HashSet::new();
     for q in quantities {
         // The kind decides the list a quantity is reported in; its column may be a

@@ -441,9 +441,21 @@ impl Ensemble {
         for (k, &w) in active.iter().enumerate() {
             let rng = &mut s.walker_rngs[w];
             let x = &s.positions[w * ndim..(w + 1) * ndim];
-            let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
             // After the move's draws, from the same stream.
             accept_u[k] = rng.random();
+            if out.in_place {
+                // An independent block (no followers): its coordinates written into the
+                // walker's row of the mirror, which holds the walker's point elsewhere.
+                let b = block.expect("only a block's proposals are made in place");
+                debug_assert!(followers.is_none() && carry.is_none());
+                out.rows[k] = out.row_base + w;
+                let m = &mut out.mirror[w * ndim..(w + 1) * ndim];
+                for (&i, &y) in b.coords.iter().zip(&sub_out[k * dim..(k + 1) * dim]) {
+                    m[i] = y;
+                }
+                continue;
+            }
+            let o = &mut out.proposals[k * ndim..(k + 1) * ndim];
             if let Some(b) = block {
                 o.copy_from_slice(x);
                 for (&i, &y) in b.coords.iter().zip(&sub_out[k * dim..(k + 1) * dim]) {

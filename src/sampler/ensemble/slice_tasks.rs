@@ -43,7 +43,10 @@ pub(crate) struct SliceTask<'a> {
     cache0: Vec<f64>,
     context: &'a SliceContext,
     rng: &'a mut ChaCha8Rng,
+    /// Where the points are evaluated: the proposal's own buffer, or the walker's row of the
+    /// mirror for an independent block, which holds the walker's point outside the block.
     out: &'a mut [f64],
+    in_place: bool,
     derived: &'a mut [f64],
     cache: &'a mut [f64],
     eval: &'a mut Eval,
@@ -100,8 +103,11 @@ impl SliceTask<'_> {
             &mut *self.cache,
             &mut *self.eval,
         );
+        let in_place = self.in_place;
         let mut ln_f = |t: f64| -> Result<f64, String> {
-            y.copy_from_slice(x);
+            if !in_place {
+                y.copy_from_slice(x);
+            }
             for (&i, &e) in coords.iter().zip(&eta) {
                 y[i] = x[i] + t * e;
             }
@@ -213,11 +219,30 @@ impl Ensemble {
         let positions = &positions[..];
         // Each active walker's stream, taken out of the ensemble's (the halves are disjoint).
         let mut rngs: Vec<Option<&mut ChaCha8Rng>> = walker_rngs.iter_mut().map(Some).collect();
+        let ProposalBuffers {
+            proposals,
+            derived,
+            cache,
+            in_place,
+            mirror,
+            rows: mirror_rows,
+            row_base,
+            ..
+        } = out;
+        // Each active walker's row of the mirror, likewise, when the proposals are made there.
+        let mut rows: Vec<Option<&mut [f64]>> = if in_place {
+            for (r, &w) in mirror_rows.iter_mut().zip(active) {
+                *r = row_base + w;
+            }
+            mirror.chunks_exact_mut(ndim).map(Some).collect()
+        } else {
+            Vec::new()
+        };
         active
             .iter()
-            .zip(out.proposals.chunks_exact_mut(ndim))
-            .zip(out.derived.chunks_exact_mut(sd))
-            .zip(out.cache.chunks_exact_mut(sc))
+            .zip(proposals.chunks_exact_mut(ndim))
+            .zip(derived.chunks_exact_mut(sd))
+            .zip(cache.chunks_exact_mut(sc))
             .zip(evals.iter_mut())
             .map(|((((&w, o), d), c), e)| SliceTask {
                 walker: w,
@@ -227,7 +252,11 @@ impl Ensemble {
                 cache0: c[..nc].to_vec(),
                 context,
                 rng: rngs[w].take().expect("each active walker once"),
-                out: o,
+                out: match rows.get_mut(w) {
+                    Some(row) => row.take().expect("each active walker once"),
+                    None => o,
+                },
+                in_place,
                 derived: &mut d[..nd],
                 cache: &mut c[..nc],
                 eval: e,

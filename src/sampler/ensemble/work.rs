@@ -6,6 +6,12 @@
 //! derived values, which the block's update brings up to date. A proposal of an independent
 //! block carries only the block's own entries of them, compactly: its update reads and writes
 //! nothing else, and its acceptance writes back only those.
+//!
+//! Nor does a proposal of an independent block copy its walker's whole point: it is made in
+//! place, in a mirror of the walkers' points kept for the run of independent blocks, by
+//! writing the block's coordinates into its walker's row, and the row is put back to the
+//! walker's point once the proposal is settled. So a proposal costs the block's size, not
+//! the dimension, and a sweep over many blocks does not grow as their square.
 
 use super::{Ensemble, Fatal, HalfStep};
 use crate::density::{Eval, IndependentBlocks, OwnEntries};
@@ -29,6 +35,17 @@ pub(crate) struct Work {
     /// that chunking works without any).
     pub derived_stride: usize,
     pub state_stride: usize,
+    /// The walkers' points, `ensembles × walkers × ndim`, in which the proposals of an
+    /// independent block are made in place (see the module's documentation).
+    pub mirror: Vec<f64>,
+    /// Whether `mirror` holds the walkers' points (but for no block's proposal): set when it
+    /// is copied from them, cleared whenever an update of another kind may move them.
+    pub mirror_fresh: bool,
+    /// Whether the current half-step proposes in `mirror` (an independent block's update).
+    pub in_place: bool,
+    /// For each proposal, its row in `mirror` when the half-step proposes in place,
+    /// `ensembles × half`.
+    pub rows: Vec<usize>,
 }
 
 impl Work {
@@ -46,7 +63,24 @@ impl Work {
             evals: vec![Eval::Finite(0.0); ensembles * half],
             derived_stride: nderived.max(1),
             state_stride: state_len.max(1),
+            mirror: Vec::new(),
+            mirror_fresh: false,
+            in_place: false,
+            rows: vec![0; ensembles * half],
         }
+    }
+
+    /// Copies every ensemble's walkers' points into the mirror in which the proposals of an
+    /// independent block are made, unless it holds them already.
+    pub fn refresh_mirror<'p>(&mut self, positions: impl Iterator<Item = &'p [f64]>) {
+        if self.mirror_fresh {
+            return;
+        }
+        self.mirror.clear();
+        for p in positions {
+            self.mirror.extend_from_slice(p);
+        }
+        self.mirror_fresh = true;
     }
 
     /// Makes room in each proposal for `derived` derived values and `state` entries of state.
@@ -62,21 +96,40 @@ impl Work {
         ndim: usize,
     ) -> impl Iterator<Item = (ProposalBuffers<'_>, &mut [crate::density::Eval])> {
         let (ds, ss) = (self.derived_stride, self.state_stride);
+        let ensembles = self.evals.len() / half.max(1);
+        // The mirror is empty until a run of independent blocks needs it.
+        let walkers_len = self.mirror.len() / ensembles.max(1);
+        let mirrors: Box<dyn Iterator<Item = &mut [f64]>> = if self.in_place {
+            Box::new(self.mirror.chunks_exact_mut(walkers_len.max(1)))
+        } else {
+            Box::new(std::iter::repeat_with(|| &mut [][..]))
+        };
+        let in_place = self.in_place;
         self.proposals
             .chunks_exact_mut(half * ndim)
             .zip(self.derived.chunks_exact_mut(half * ds))
             .zip(self.cache.chunks_exact_mut(half * ss))
+            .zip(self.rows.chunks_exact_mut(half))
+            .zip(mirrors)
+            .enumerate()
             .zip(self.evals.chunks_exact_mut(half))
-            .map(move |(((proposals, derived), cache), evals)| {
-                let buffers = ProposalBuffers {
-                    proposals,
-                    derived,
-                    cache,
-                    derived_stride: ds,
-                    state_stride: ss,
-                };
-                (buffers, evals)
-            })
+            .map(
+                move |((e, ((((proposals, derived), cache), rows), mirror)), evals)| {
+                    let buffers = ProposalBuffers {
+                        proposals,
+                        derived,
+                        cache,
+                        derived_stride: ds,
+                        state_stride: ss,
+                        in_place,
+                        mirror,
+                        rows,
+                        row_base: e * walkers_len / ndim.max(1),
+                        ndim,
+                    };
+                    (buffers, evals)
+                },
+            )
     }
 }
 
@@ -87,9 +140,28 @@ pub(crate) struct ProposalBuffers<'w> {
     pub cache: &'w mut [f64],
     pub derived_stride: usize,
     pub state_stride: usize,
+    /// Whether the proposals are made in place, in `mirror` (an independent block's update).
+    pub in_place: bool,
+    /// The ensemble's walkers' points, `walkers × ndim`, when `in_place`.
+    pub mirror: &'w mut [f64],
+    /// Each proposal's row in [`Work::mirror`] (of every ensemble), when `in_place`.
+    pub rows: &'w mut [usize],
+    /// The row in [`Work::mirror`] of the ensemble's first walker.
+    pub row_base: usize,
+    pub ndim: usize,
 }
 
 impl ProposalBuffers<'_> {
+    /// The point of proposal `k`, that of walker `w`.
+    pub fn point(&self, k: usize, w: usize) -> &[f64] {
+        let ndim = self.ndim;
+        if self.in_place {
+            &self.mirror[w * ndim..(w + 1) * ndim]
+        } else {
+            &self.proposals[k * ndim..(k + 1) * ndim]
+        }
+    }
+
     /// The derived values and state of proposal `k`, `derived` and `state` of them.
     pub fn carried(&mut self, k: usize, derived: usize, state: usize) -> (&mut [f64], &mut [f64]) {
         let (ds, ss) = (self.derived_stride, self.state_stride);
@@ -174,7 +246,7 @@ impl Ensemble {
     pub fn accept(
         &mut self,
         h: usize,
-        out: &ProposalBuffers,
+        out: &mut ProposalBuffers,
         evals: &[Eval],
         settle: Settle,
     ) -> Result<(), Fatal> {
@@ -187,7 +259,6 @@ impl Ensemble {
             HalfStep::Slice { evaluations } => evaluations,
             _ => active.len() as u64,
         };
-        let proposals = &*out.proposals;
         if let Some(k) = evals.iter().position(|e| matches!(e, Eval::Fatal(_))) {
             let message = match &evals[k] {
                 Eval::Fatal(m) => m.clone(),
@@ -195,7 +266,7 @@ impl Ensemble {
             };
             return Err(Fatal {
                 walker: active[k],
-                position: proposals[k * ndim..(k + 1) * ndim].to_vec(),
+                position: out.point(k, active[k]).to_vec(),
                 message,
             });
         }
@@ -207,7 +278,7 @@ impl Ensemble {
         {
             return Err(Fatal {
                 walker: active[k],
-                position: proposals[k * ndim..(k + 1) * ndim].to_vec(),
+                position: out.point(k, active[k]).to_vec(),
                 message: format!(
                     "the log-density refuses ({:?}) a point its conditional density allows",
                     evals[k]
@@ -234,6 +305,17 @@ impl Ensemble {
                     }
                 },
                 Eval::Fatal(_) => {}
+            }
+        }
+        // A proposal made in place is put back to its walker's point, moved or not.
+        if let (true, Settle::Own { coords, .. }) = (out.in_place, settle) {
+            let (active, _) = Self::halves(&self.perm, h);
+            for &w in active {
+                let (x, m) = (
+                    &self.s.positions[w * ndim..(w + 1) * ndim],
+                    &mut out.mirror[w * ndim..(w + 1) * ndim],
+                );
+                coords.iter().for_each(|&i| m[i] = x[i]);
             }
         }
         Ok(())
@@ -271,7 +353,7 @@ impl Ensemble {
         let (ds, ss) = (out.derived_stride, out.state_stride);
         let (x, y) = (
             &mut self.s.positions[w * ndim..(w + 1) * ndim],
-            &out.proposals[k * ndim..(k + 1) * ndim],
+            out.point(k, w),
         );
         match settle {
             // Element loops: `copy_from_slice` of a few values is a libc call.

@@ -130,8 +130,8 @@ fn splitter(shares: Option<(&dyn Shares, usize)>) -> &dyn Shares {
 /// One item of a batch in item order: its point, derived values, cache and outcome.
 type ItemMut<'w> = (&'w [f64], &'w mut [f64], &'w mut [f64], &'w mut Eval);
 
-/// One item of a batch: its point, derived values, cache and outcome.
-type EvalItem<'w> = (((&'w [f64], &'w mut [f64]), &'w mut [f64]), &'w mut Eval);
+/// One item of a batch: its derived values, cache and outcome.
+type EvalItem<'w> = ((&'w mut [f64], &'w mut [f64]), &'w mut Eval);
 
 /// The evaluation of one item in this process: the sampler's density behind the batch's kind.
 type LocalEval<'b> = dyn Fn(EvalKind<'b>, &[f64], &mut [f64], &mut [f64]) -> Result<f64, LogDensityError>
@@ -152,7 +152,10 @@ pub(crate) struct Batch<'b> {
     pub(crate) state_stride: usize,
     /// Positions of the items in the buffers below (which hold skipped slots too).
     pub(crate) slots: &'b [usize],
+    /// The points, `ndim` values each: the slot's row, or when `rows` is given, row
+    /// `rows[slot]` (proposals made in place, in a mirror of the walkers' points).
     pub(crate) proposals: &'b [f64],
+    pub(crate) rows: Option<&'b [usize]>,
     pub(crate) derived: &'b mut [f64],
     pub(crate) cache: &'b mut [f64],
     pub(crate) evals: &'b mut [Eval],
@@ -219,8 +222,7 @@ impl Batch<'_> {
 
     /// The point of item `k`.
     pub fn point(&self, k: usize) -> &[f64] {
-        let s = self.slots[k];
-        &self.proposals[s * self.ndim..(s + 1) * self.ndim]
+        point_of(self.proposals, self.rows, self.ndim, self.slots[k])
     }
 
     #[cfg(any(test, feature = "mpi"))]
@@ -303,7 +305,7 @@ impl Batch<'_> {
             .enumerate()
         {
             if wanted.next_if_eq(&&s).is_some() {
-                let x = &proposals[s * ndim..(s + 1) * ndim];
+                let x = point_of(proposals, self.rows, ndim, s);
                 items.push((x, &mut d[..nderived], &mut c[..cache_len], e));
             }
         }
@@ -397,28 +399,37 @@ impl Batch<'_> {
         let (kind, ndim, nderived, cache_len) =
             (self.kind, self.ndim, self.nderived, self.cache_len);
         let local = self.local;
-        let eval = |(s, (((x, d), c), e)): (usize, EvalItem)| {
+        let (proposals, rows) = (self.proposals, self.rows);
+        let eval = |(s, ((d, c), e)): (usize, EvalItem)| {
             if wanted[s] {
+                let x = point_of(proposals, rows, ndim, s);
                 *e = sort(local(kind, x, &mut d[..nderived], &mut c[..cache_len]));
             }
         };
         let (dstride, cstride) = (self.derived_stride, self.state_stride);
+        let slots = self.evals.len();
         if self.parallel {
-            self.proposals
-                .par_chunks(ndim)
-                .zip(self.derived.par_chunks_mut(dstride))
+            self.derived
+                .par_chunks_mut(dstride)
+                .take(slots)
                 .zip(self.cache.par_chunks_mut(cstride))
                 .zip(self.evals.par_iter_mut())
                 .enumerate()
                 .for_each(eval);
         } else {
-            self.proposals
-                .chunks(ndim)
-                .zip(self.derived.chunks_mut(dstride))
+            self.derived
+                .chunks_mut(dstride)
+                .take(slots)
                 .zip(self.cache.chunks_mut(cstride))
                 .zip(self.evals.iter_mut())
                 .enumerate()
                 .for_each(eval);
         }
     }
+}
+
+/// The point of slot `s` in `proposals`: its own row, or row `rows[s]`.
+fn point_of<'p>(proposals: &'p [f64], rows: Option<&[usize]>, ndim: usize, s: usize) -> &'p [f64] {
+    let r = rows.map_or(s, |rows| rows[s]);
+    &proposals[r * ndim..(r + 1) * ndim]
 }

@@ -42,7 +42,17 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             evals,
             derived_stride,
             state_stride,
+            mirror,
+            in_place,
+            rows,
+            ..
         } = &mut self.work;
+        // An independent block's proposals are made in place, in the mirror of the walkers.
+        let (proposals, rows) = if *in_place {
+            (&mirror[..], Some(&rows[..]))
+        } else {
+            (&proposals[..], None)
+        };
         let n = half * skip.iter().filter(|&&s| !s).count();
         let threads = rayon::current_num_threads();
         // Exact draws move no followers and cost less: timed apart from the moves.
@@ -79,6 +89,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             state_stride: *state_stride,
             slots: &slots,
             proposals,
+            rows,
             derived,
             cache,
             evals,

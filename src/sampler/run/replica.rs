@@ -327,6 +327,8 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
             ens.s.slice_updates = 0;
         }
         // An independent block is updated by the moves alone: no exact draw, no followers.
+        // The walkers were just set from the request: the proposals' mirror is stale.
+        self.work.mirror_fresh = false;
         let blocks = std::mem::take(&mut self.blocks);
         let mut fatal = None;
         for b in blocks_of_share(&request.blocks(), shares, r) {

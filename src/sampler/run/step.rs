@@ -77,6 +77,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         while b < blocks.len() {
             if let Some((run, own)) = independent_run(blocks, b) {
                 b = run.end;
+                self.work.mirror_fresh = false;
                 if self.splits_runs() && run.len() >= 2 {
                     self.update_run(blocks, run)?;
                 } else {
@@ -224,6 +225,21 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         }
         let plan = self.half_step_plan(block, exact);
         self.work.carry(plan.carried.0, plan.carried.1);
+        // An independent block proposes in place, in the mirror of the walkers' points; any
+        // other update may move every coordinate, so the mirror is copied afresh before the
+        // next independent block.
+        self.work.in_place = matches!(plan.settle, Settle::Own { .. });
+        if self.work.in_place {
+            let ndim = self.ndim;
+            self.work
+                .refresh_mirror(self.ensembles.iter().map(|e| &e.s.positions[..]));
+            debug_assert_eq!(
+                self.work.mirror.len(),
+                self.ensembles.len() * self.config.walkers() * ndim
+            );
+        } else {
+            self.work.mirror_fresh = false;
+        }
         for h in 0..2 {
             self.draw_half_step(h, block, exact, &plan);
             let moves = self.config.moves();
@@ -239,14 +255,14 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 self.evaluate(block.map(|b| b.0), exact, &plan);
             }
             let half = self.config.walkers() / 2;
-            for ((ens, p), (out, evals)) in self
+            for ((ens, p), (mut out, evals)) in self
                 .ensembles
                 .iter_mut()
                 .zip(self.pending.iter_mut())
                 .zip(self.work.per_ensemble(half, self.ndim))
             {
                 if p.is_none() {
-                    *p = ens.accept(h, &out, evals, plan.settle).err();
+                    *p = ens.accept(h, &mut out, evals, plan.settle).err();
                 }
             }
         }
