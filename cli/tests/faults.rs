@@ -31,9 +31,9 @@ use slipbayes::fit::RunDir;
 use slipbayes::sampler::SamplerState;
 use slipbayes::storage::{read_chains, Chains, ParquetSink};
 
-/// Steps of the test fit, and its checkpoint interval: ten checkpoints in a second's run.
+/// Steps of the test fit, and its checkpoint interval: twenty checkpoints in a second's run.
 const STEPS: u64 = 200;
-const CHECKPOINT_EVERY: u64 = 20;
+const CHECKPOINT_EVERY: u64 = 10;
 /// Kills, and how many run at once (the machine's two cores).
 const KILLS: usize = 100;
 const AT_ONCE: usize = 2;
@@ -231,12 +231,12 @@ fn same_bits(a: &Chains, b: &Chains, rows: usize) -> bool {
 }
 
 /// When, in an uninterrupted run, each phase begins (from the spawn): the first checkpoint,
-/// the first summary written, the report (once PSIS-LOO, the last of the run files, is
-/// written), and the exit.
+/// the summaries (once the last part is written), the report (once PSIS-LOO, the last of the
+/// run files, is written), and the exit.
 #[derive(Debug)]
 struct Timeline {
     checkpoint: Duration,
-    summary: Duration,
+    summaries: Duration,
     report: Duration,
     exit: Duration,
 }
@@ -245,7 +245,8 @@ impl Timeline {
     fn watch(mut cmd: Command, dir: &Path) -> Self {
         let started = Instant::now();
         let mut child = cmd.spawn().expect("spawn");
-        let (mut checkpoint, mut summary, mut report) = (None, None, None);
+        let (mut checkpoint, mut summaries, mut report) = (None, None, None);
+        let last_part = last_part();
         loop {
             let now = started.elapsed();
             let seen = |slot: &mut Option<Duration>, path: PathBuf| {
@@ -254,7 +255,7 @@ impl Timeline {
                 }
             };
             seen(&mut checkpoint, dir.join(CHECKPOINT));
-            seen(&mut summary, dir.join(SUMMARY_JSON));
+            seen(&mut summaries, dir.join(CHAINS_DIR).join(&last_part));
             seen(&mut report, dir.join(LOO_CSV));
             if let Some(status) = child.try_wait().expect("wait") {
                 assert!(status.success(), "the reference run failed");
@@ -266,32 +267,60 @@ impl Timeline {
         let phase = |t: Option<Duration>, what| t.unwrap_or_else(|| panic!("no {what} seen"));
         Self {
             checkpoint: phase(checkpoint, "checkpoint"),
-            summary: phase(summary, "summary"),
+            summaries: phase(summaries, "last part"),
             report: phase(report, "loo.csv"),
             exit,
         }
     }
 
-    /// `n` instants drawn from `rng`: a fifth in the start, two fifths while sampling (with
-    /// its checkpoints and the summaries' work on the chains), a fifth while the summaries
-    /// and run files are written, a fifth in the report.
-    fn instants(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<Duration> {
+    /// `n` instants drawn from `rng`, each as a delay after the file that opens its phase
+    /// appears in the killed run's own directory (so that a run slower or faster than this
+    /// one, on a busy machine, is still killed in the phase drawn): a fifth in the start, two
+    /// fifths while sampling (with its checkpoints), a fifth in the summaries and run files, a
+    /// fifth in the report (but for its last tenth, which a run a little faster than this one
+    /// would not reach).
+    fn instants(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<KillAt> {
+        let checkpoint = Some(CHECKPOINT.to_owned());
+        let last_part = Some(format!("{CHAINS_DIR}/{}", last_part()));
         let spans = [
-            (Duration::ZERO, self.checkpoint, n / 5),
-            (self.checkpoint, self.summary, n - 3 * (n / 5)),
-            (self.summary, self.report, n / 5),
-            (self.report, self.exit, n / 5),
+            (None, self.checkpoint, n / 5),
+            (
+                checkpoint,
+                self.summaries - self.checkpoint,
+                n - 3 * (n / 5),
+            ),
+            (last_part, self.report - self.summaries, n / 5),
+            (
+                Some(LOO_CSV.to_owned()),
+                (self.exit - self.report).mul_f64(0.9),
+                n / 5,
+            ),
         ];
         spans
-            .iter()
-            .flat_map(|&(from, to, k)| {
-                let span = to.saturating_sub(from).as_secs_f64();
+            .into_iter()
+            .flat_map(|(after, span, k)| {
                 (0..k)
-                    .map(|_| from + Duration::from_secs_f64(rng.random::<f64>() * span))
+                    .map(|_| KillAt {
+                        after: after.clone(),
+                        delay: span.mul_f64(rng.random::<f64>()),
+                    })
                     .collect::<Vec<_>>()
             })
             .collect()
     }
+}
+
+/// The last part of the test fit's chains.
+fn last_part() -> String {
+    format!("part-{:06}.parquet", STEPS / CHECKPOINT_EVERY - 1)
+}
+
+/// When to kill a fit: `delay` after the file `after` (relative to the run directory)
+/// appears, or after the spawn.
+#[derive(Debug, Clone)]
+struct KillAt {
+    after: Option<String>,
+    delay: Duration,
 }
 
 /// Where a fault found the run, by what its directory held.
@@ -521,15 +550,21 @@ enum Resumed {
     Restarted,
 }
 
-/// Runs a fit into `dir` and kills it with SIGKILL `after` its spawn; whether it was still
-/// running then.
-fn kill_after(model: &Path, dir: &Path, after: Duration) -> bool {
-    let started = Instant::now();
+/// Runs a fit into `dir` and kills it with SIGKILL `at` the instant given; whether it was
+/// still running then.
+fn kill_at(model: &Path, dir: &Path, at: &KillAt) -> bool {
+    let mut started = Instant::now();
     let mut child: Child = fit(model, dir, false)
         .stderr(Stdio::null())
         .spawn()
         .expect("spawn");
-    thread::sleep(after.saturating_sub(started.elapsed()));
+    if let Some(file) = &at.after {
+        while !dir.join(file).exists() && child.try_wait().expect("wait").is_none() {
+            thread::sleep(Duration::from_micros(200));
+        }
+        started = Instant::now();
+    }
+    thread::sleep(at.delay.saturating_sub(started.elapsed()));
     let running = child.try_wait().expect("wait").is_none();
     child.kill().expect("SIGKILL"); // std's kill is SIGKILL
     child.wait().expect("wait");
@@ -549,10 +584,14 @@ fn a_fit_killed_at_100_instants_resumes_bit_identical_and_leaves_no_torn_file() 
                 let (reference, model, instants, tmp) = (&reference, &model, &instants, tmp.path());
                 s.spawn(move || {
                     let mut results = Vec::new();
-                    for (k, &at) in instants.iter().enumerate().skip(w).step_by(AT_ONCE) {
+                    for (k, at) in instants.iter().enumerate().skip(w).step_by(AT_ONCE) {
                         let dir = tmp.join(format!("kill-{k}"));
-                        let what = format!("kill {k} at {:.3} s", at.as_secs_f64());
-                        let running = kill_after(model, &dir, at);
+                        let what = format!(
+                            "kill {k}, {:.3} s after {}",
+                            at.delay.as_secs_f64(),
+                            at.after.as_deref().unwrap_or("the spawn")
+                        );
+                        let running = kill_at(model, &dir, at);
                         let scratch = tmp.join(format!("scratch-{w}"));
                         let phase = if running {
                             check_no_torn_file(reference, &dir, &scratch, &what).0
@@ -714,9 +753,12 @@ fn a_full_disk_or_a_read_only_directory_stops_a_fit_clearly_and_it_resumes_bit_i
 
     let mount = Mount::tmpfs(&tmp.path().join("ro-killed"), "64m");
     let dir = mount.0.join("run");
-    let mid = (timeline.checkpoint + timeline.summary) / 2;
+    let mid = KillAt {
+        after: Some(CHECKPOINT.to_owned()),
+        delay: (timeline.summaries - timeline.checkpoint) / 2,
+    };
     assert!(
-        kill_after(&model, &dir, mid),
+        kill_at(&model, &dir, &mid),
         "the fit ended before it was killed"
     );
     let before = files_of(&dir);
