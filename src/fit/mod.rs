@@ -392,7 +392,8 @@ pub fn kept_rows(
 
 /// Runs (or resumes) a fit of `target`'s density into `dir` and writes its summaries; see
 /// the [module documentation](self). `start` is where the optimiser starts (ignored when
-/// resuming). `observer` receives the sampler's progress unless `settings.quiet`. The
+/// resuming, unless the run is started over because it was killed before its first
+/// checkpoint). `observer` receives the sampler's progress unless `settings.quiet`. The
 /// sampler evaluates as `parallelism` says (in this process by default); the chains and every
 /// file are the same either way.
 ///
