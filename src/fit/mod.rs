@@ -20,6 +20,9 @@
 //!    it ([`initial_around_optimum`], stream [`INIT_STREAM`] of the seed), and samples.
 //!    Resumed run: reopens the store at its last checkpoint and continues the sampler from the
 //!    saved state, so the chains end identical to an uninterrupted run with the same seed.
+//!    A run killed before its first checkpoint starts over; one killed after its chains were
+//!    complete (while its summaries or report were written) samples no more and only redoes
+//!    what follows.
 //!    [`Steps::Fixed`] counts the *total* steps of the run, resumed or not.
 //! 3. Reads the chains back, discards the burn-in the [`RunReport`] suggests (⌈2 τ_max⌉
 //!    clamped to half the run), keeps every later step, summarises every quantity,
@@ -48,7 +51,7 @@ use crate::sampler::{
     CarryFit, EnsembleSampler, Move, Observer, Parallelism, RunReport, SamplerConfig, SamplerError,
     SamplerState, Steps, StopReason, StopRule, Updates, DEFAULT_ENSEMBLES, DEFAULT_SEED,
 };
-use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions};
+use crate::storage::{ChainDescription, ChainReader, ParquetSink, SinkOptions, StorageError};
 
 pub use crate::run_file::{RunFile, SamplerSpec};
 pub use error::FitError;
@@ -389,7 +392,8 @@ pub fn kept_rows(
 
 /// Runs (or resumes) a fit of `target`'s density into `dir` and writes its summaries; see
 /// the [module documentation](self). `start` is where the optimiser starts (ignored when
-/// resuming). `observer` receives the sampler's progress unless `settings.quiet`. The
+/// resuming, unless the run is started over because it was killed before its first
+/// checkpoint). `observer` receives the sampler's progress unless `settings.quiet`. The
 /// sampler evaluates as `parallelism` says (in this process by default); the chains and every
 /// file are the same either way.
 ///
@@ -420,10 +424,27 @@ pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
     let param_names = density.param_names();
     let derived_names = density.derived_names();
     let plan = summarise::SummaryPlan::new(&param_names, &derived_names, spec)?;
-    let (mut sampler, mut sink, steps) = if resume {
-        resumed_sampler(target, settings, dir)?
+    let (mut sampler, mut sink, steps, finished) = if resume {
+        match resumed_sampler(target, settings, dir) {
+            Err(FitError::Storage {
+                source: StorageError::NoCheckpoint { .. },
+                ..
+            }) if dir.file(run_dir::CHAINS_DIR).is_dir() => {
+                // Killed before its first checkpoint: nothing was saved to continue from, and
+                // whatever parts it left hold the first steps of this very run. Starting over
+                // with the same seed is what the uninterrupted run did.
+                let restart = FitSettings {
+                    overwrite: true,
+                    ..settings.clone()
+                };
+                let (sampler, sink, steps) = fresh_sampler(target, start, &restart, dir)?;
+                (sampler, sink, steps, false)
+            }
+            resumed => resumed?,
+        }
     } else {
-        fresh_sampler(target, start, settings, dir)?
+        let (sampler, sink, steps) = fresh_sampler(target, start, settings, dir)?;
+        (sampler, sink, steps, false)
     };
     sampler.set_parallelism(parallelism);
     sink.describe(chain_description(density, spec, settings));
@@ -450,7 +471,7 @@ pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
         started,
         param_names: &param_names,
     };
-    let (mut report, mut summary) = fit.run(steps, observer)?;
+    let (mut report, mut summary) = fit.run(steps, finished, observer)?;
     report.steps_run = fit.sampler.step() - first_step;
     summary.sampler.steps_run = report.steps_run;
     summary.sampler.stopped_by = report.stopped_by;
@@ -469,20 +490,22 @@ pub fn run_fit<'a, D: LogDensity + ?Sized + 'a>(
     })
 }
 
-/// A sampler, its sink and the steps to run, resumed from the checkpoint in `dir`.
+/// A sampler, its sink, the steps to run, and whether the run had finished sampling, resumed
+/// from the checkpoint in `dir`. A finished run (killed while its summaries or report were
+/// written) runs no more steps: its chains are complete and only what follows is redone.
 fn resumed_sampler<'a, D: LogDensity + ?Sized>(
     target: Target<'a, D>,
     settings: &FitSettings,
     dir: &RunDir,
-) -> Result<(EnsembleSampler<'a, D>, ParquetSink, Steps), FitError> {
+) -> Result<(EnsembleSampler<'a, D>, ParquetSink, Steps, bool), FitError> {
     let config = settings.sampler_config()?;
     let param_names = target.density().param_names();
     let derived_names = target.density().derived_names();
     let shown = dir.path().display();
     let files = dir.chain_files();
     let storage = |context: String| move |source| FitError::Storage { context, source };
-    let (sink, state): (ParquetSink, SamplerState) =
-        ParquetSink::resume(&files).map_err(storage(format!("resuming from {shown}")))?;
+    let (sink, state, finished): (ParquetSink, SamplerState, bool) =
+        ParquetSink::resume_finished(&files).map_err(storage(format!("resuming from {shown}")))?;
     sink.check_columns(&param_names, &derived_names)
         .map_err(storage(format!("resuming from {shown}")))?;
     let mismatch = |problem: String| FitError::ResumeMismatch {
@@ -518,6 +541,7 @@ fn resumed_sampler<'a, D: LogDensity + ?Sized>(
         })?;
     drop(chains);
     let steps = match settings.steps {
+        _ if finished => Steps::Fixed(0),
         Steps::Fixed(total) if total < state.step => {
             return Err(mismatch(format!(
                 "the chains already hold {} steps, more than the {total} steps asked for",
@@ -532,7 +556,7 @@ fn resumed_sampler<'a, D: LogDensity + ?Sized>(
             context: format!("resuming the sampler from {shown}"),
             source,
         })?;
-    Ok((sampler, sink, steps))
+    Ok((sampler, sink, steps, finished))
 }
 
 /// A sampler started around the mode found from `start`, with a fresh sink in `dir`, and the
@@ -596,15 +620,28 @@ struct Sampling<'f, 's, D: LogDensity + ?Sized> {
 
 impl<D: LogDensity + ?Sized> Sampling<'_, '_, D> {
     /// Samples `steps` and summarises; under a stopping rule, samples on until the summary
-    /// agrees that the chains converged (or the budget ends). Returns the last run's report
-    /// and the summary.
+    /// agrees that the chains converged (or the budget ends). A run that had `finished`
+    /// sampling before it was resumed only summarises: it stopped where it stopped. Returns
+    /// the last run's report and the summary.
     fn run(
         &mut self,
         steps: Steps,
+        finished: bool,
         observer: &mut dyn Observer,
     ) -> Result<(RunReport, FitSummary), FitError> {
         let mut report = self.run_steps(steps, observer)?;
         let mut summary = self.summarise(&report)?;
+        if finished {
+            if let Steps::UntilConverged(_) = self.settings.steps {
+                // Why the original run stopped is not saved; a time cap reads as a step cap.
+                report.stopped_by = if summary.sampler.converged {
+                    StopReason::Converged
+                } else {
+                    StopReason::StepCap
+                };
+            }
+            return Ok((report, summary));
+        }
         // The sampler's own rule sees only the parameters' thinned history; the summary judges
         // every reported quantity on every post-burn-in draw. Until it agrees, and while the
         // budget lasts, the run goes on by half its length again.

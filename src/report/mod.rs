@@ -32,8 +32,9 @@ mod plots;
 mod truth;
 mod units;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use crate::data::atomic::is_temporary_name;
 use crate::fit::run_dir::{FIGURES_DIR, REPORT_HTML, REPORT_MD};
 use crate::fit::{RunDir, RunDirError};
 
@@ -107,11 +108,29 @@ pub fn write_report(dir: &RunDir) -> Result<ReportFiles, ReportError> {
     })
 }
 
+/// Removes the temporaries a report killed while writing its figures left in `figures_dir`
+/// (the run directory's own are removed when its fit is resumed).
+fn remove_temporaries(figures_dir: &Path) -> Result<(), ReportError> {
+    let io = |action, path: &Path| {
+        let path = path.to_path_buf();
+        move |e| RunDirError::from(crate::IoError::new(action, path, e))
+    };
+    for entry in std::fs::read_dir(figures_dir).map_err(io("list", figures_dir))? {
+        let entry = entry.map_err(io("list", figures_dir))?;
+        let path = entry.path();
+        if entry.file_name().to_str().is_some_and(is_temporary_name) {
+            std::fs::remove_file(&path).map_err(io("remove", &path))?;
+        }
+    }
+    Ok(())
+}
+
 /// Writes every figure of `blocks` into `dir/figures/`, each atomically; their paths in order.
 fn write_figures(dir: &RunDir, blocks: &[Block]) -> Result<Vec<PathBuf>, ReportError> {
     let figures_dir = dir.file(FIGURES_DIR);
     std::fs::create_dir_all(&figures_dir)
         .map_err(|e| RunDirError::from(crate::IoError::new("create", &figures_dir, e)))?;
+    remove_temporaries(&figures_dir)?;
     let mut figures = Vec::new();
     for block in blocks {
         if let Block::Figure { file, svg, .. } = block {

@@ -284,17 +284,24 @@ pub(super) fn rewrite_footer(
     bytes.extend_from_slice(&length.to_le_bytes());
     bytes.extend_from_slice(MAGIC);
 
-    fs::copy(path, scratch).map_err(|e| StorageError::io("copy", path, e))?;
-    let mut copy = OpenOptions::new()
-        .write(true)
-        .open(scratch)
-        .map_err(|e| StorageError::io("open", scratch, e))?;
-    copy.set_len(footer.start)
-        .and_then(|()| copy.seek(SeekFrom::End(0)))
-        .and_then(|_| copy.write_all(&bytes))
-        .and_then(|()| copy.sync_all())
-        .map_err(|e| StorageError::io("write", scratch, e))?;
-    drop(copy);
+    let copied = (|| {
+        fs::copy(path, scratch).map_err(|e| StorageError::io("copy", path, e))?;
+        let mut copy = OpenOptions::new()
+            .write(true)
+            .open(scratch)
+            .map_err(|e| StorageError::io("open", scratch, e))?;
+        copy.set_len(footer.start)
+            .and_then(|()| copy.seek(SeekFrom::End(0)))
+            .and_then(|_| copy.write_all(&bytes))
+            .and_then(|()| copy.sync_all())
+            .map_err(|e| StorageError::io("write", scratch, e))
+    })();
+    if let Err(e) = copied {
+        // A failed copy (a full disk) must not keep holding a part's worth of space; the part
+        // itself is untouched.
+        let _ = fs::remove_file(scratch);
+        return Err(e);
+    }
     fs::rename(scratch, path).map_err(|e| StorageError::io("rename", scratch, e))
 }
 

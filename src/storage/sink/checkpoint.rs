@@ -67,6 +67,31 @@ impl ParquetSink {
     /// [`StorageError::SchemaMismatch`] or [`StorageError::Inconsistent`] when the kept parts
     /// do not match the checkpoint; [`StorageError::Io`] on file-system errors.
     pub fn resume<S: DeserializeOwned>(files: &ChainFiles) -> Result<(Self, S), StorageError> {
+        match Self::reopen(files, false)? {
+            (sink, state, false) => Ok((sink, state)),
+            (_, _, true) => Err(StorageError::AlreadyFinished {
+                dir: files.dir.clone(),
+            }),
+        }
+    }
+
+    /// Like [`ParquetSink::resume`], but a finished run is reopened too (`true` says it was):
+    /// its chains are complete, and a process killed while it wrote what follows them (the
+    /// summaries, the report) is continued from there. Recording nothing more and calling
+    /// [`ParquetSink::finish`] again leaves the same files.
+    ///
+    /// # Errors
+    /// As [`ParquetSink::resume`], without [`StorageError::AlreadyFinished`].
+    pub fn resume_finished<S: DeserializeOwned>(
+        files: &ChainFiles,
+    ) -> Result<(Self, S, bool), StorageError> {
+        Self::reopen(files, true)
+    }
+
+    fn reopen<S: DeserializeOwned>(
+        files: &ChainFiles,
+        finished_ok: bool,
+    ) -> Result<(Self, S, bool), StorageError> {
         let dir = files.dir.as_path();
         let checkpoint_path = files.checkpoint.clone();
         let Some(CheckpointFile {
@@ -78,7 +103,7 @@ impl ParquetSink {
                 dir: dir.to_path_buf(),
             });
         };
-        if checkpoint.finished {
+        if checkpoint.finished && !finished_ok {
             return Err(StorageError::AlreadyFinished {
                 dir: dir.to_path_buf(),
             });
@@ -137,6 +162,7 @@ impl ParquetSink {
             )));
         }
 
+        let finished = checkpoint.finished;
         let sink = Self::start(
             files,
             checkpoint.param_names,
@@ -149,7 +175,7 @@ impl ParquetSink {
                 state: stored,
             },
         )?;
-        Ok((sink, state))
+        Ok((sink, state, finished))
     }
 }
 

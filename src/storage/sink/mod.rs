@@ -399,10 +399,15 @@ impl ParquetSink {
             });
         };
         let mut files = writer.stop()?;
-        if let Some(rows) = rest {
-            files.write_rows(rows)?;
+        let closed = match rest {
+            Some(rows) => files.write_rows(rows),
+            None => Ok(()),
         }
-        files.close_part(self.steps, &self.footer)?;
+        .and_then(|()| files.close_part(self.steps, &self.footer));
+        if let Err(e) = closed {
+            files.abandon_part();
+            return Err(e);
+        }
         if self.footer.burn_in.is_some() {
             let chains_dir = &self.files.chains;
             for index in 0..files.durable_parts {

@@ -1,9 +1,9 @@
 //! The writer thread of a sink: row groups encoded, parts written and closed.
 
 use std::fs::{self, File};
-use std::io::BufWriter;
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::{mpsc, Arc};
+use std::sync::{mpsc, Arc, OnceLock};
 use std::thread::{self, JoinHandle};
 
 use polars_arrow::array::Array;
@@ -22,8 +22,53 @@ use crate::data::atomic::sync_dir;
 pub(super) struct OpenPart {
     index: u64,
     path: PathBuf,
-    writer: FileWriter<BufWriter<File>>,
+    writer: FileWriter<BufWriter<PartFile>>,
     rows: u64,
+    /// The first I/O error of the file, shared with its [`PartFile`].
+    io_error: Arc<OnceLock<io::Error>>,
+}
+
+impl OpenPart {
+    /// The error of a failed Parquet write: the file's own I/O error when there was one, which
+    /// the Parquet writer may report only as its consequence (a footer cut short by a full
+    /// disk reads "invalid thrift"), else the Parquet error.
+    fn failed(&self, err: impl std::fmt::Display) -> StorageError {
+        match self.io_error.get() {
+            Some(e) => StorageError::io("write", &self.path, copy_of(e)),
+            None => StorageError::parquet(&self.path, err),
+        }
+    }
+}
+
+/// The file of a part, keeping its first I/O error for [`OpenPart::failed`].
+struct PartFile {
+    file: File,
+    error: Arc<OnceLock<io::Error>>,
+}
+
+impl PartFile {
+    fn keep(&self, e: io::Error) -> io::Error {
+        let _ = self.error.set(copy_of(&e));
+        e
+    }
+}
+
+impl Write for PartFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.file.write(buf).map_err(|e| self.keep(e))
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.flush().map_err(|e| self.keep(e))
+    }
+}
+
+/// An I/O error of the same cause (`io::Error` is not `Clone`).
+fn copy_of(e: &io::Error) -> io::Error {
+    match e.raw_os_error() {
+        Some(code) => io::Error::from_raw_os_error(code),
+        None => io::Error::new(e.kind(), e.to_string()),
+    }
 }
 
 /// The file side of a sink: the part being written, what is durable, the last state. The
@@ -84,7 +129,10 @@ impl Writer {
             .spawn(move || {
                 let mut files = files;
                 for job in queue {
-                    files.run(job)?;
+                    if let Err(e) = files.run(job) {
+                        files.abandon_part();
+                        return Err(e);
+                    }
                 }
                 Ok(files)
             })
@@ -141,9 +189,8 @@ impl Files {
                 &self.schema,
             )?),
         };
-        let path = part.path.clone();
         let batch = RecordBatchT::try_new(rows.rows, Arc::clone(&self.schema), rows.arrays)
-            .map_err(|e| StorageError::parquet(&path, e))?;
+            .map_err(|e| part.failed(e))?;
         let encodings = vec![vec![Encoding::Plain]; self.schema.len()];
         let groups = RowGroupIterator::try_new(
             std::iter::once(Ok(batch)),
@@ -151,39 +198,55 @@ impl Files {
             part.writer.options(),
             encodings,
         )
-        .map_err(|e| StorageError::parquet(&path, e))?;
+        .map_err(|e| part.failed(e))?;
         for group in groups {
-            let group = group.map_err(|e| StorageError::parquet(&path, e))?;
-            part.writer
-                .write(group)
-                .map_err(|e| StorageError::parquet(&path, e))?;
+            let group = group.map_err(|e| part.failed(e))?;
+            part.writer.write(group).map_err(|e| part.failed(e))?;
         }
         part.rows += rows.rows as u64;
         Ok(())
     }
 
+    /// Removes the part being written after a failed write: a resume rewrites its rows from
+    /// the last checkpoint anyway, and on a full disk its space is what the user must get back.
+    pub(super) fn abandon_part(&mut self) {
+        if let Some(part) = self.part.take() {
+            drop(part.writer);
+            // Best effort: a `.partial` left behind is never read and a resume removes it.
+            let _ = fs::remove_file(&part.path);
+        }
+    }
+
     /// Makes the open part, which ends before step `steps`, complete and durable under its
     /// final name in `chains/`.
     pub(super) fn close_part(&mut self, steps: u64, footer: &Footer) -> Result<(), StorageError> {
-        let Some(mut part) = self.part.take() else {
+        let Some(part) = &mut self.part else {
             return Ok(());
         };
-        let path = part.path;
         let pairs = footer.key_values(self.part_first_step..steps);
-        part.writer
-            .end(Some(pairs))
-            .map_err(|e| StorageError::parquet(&path, e))?;
-        let file = part
+        part.writer.end(Some(pairs)).map_err(|e| part.failed(e))?;
+        // Left in `self.part` until here, so that a failure above removes it.
+        let part = self.part.take().expect("checked above");
+        let path = part.path;
+        let synced = part
             .writer
             .into_inner()
             .into_inner()
-            .map_err(|e| StorageError::io("write", &path, e.into_error()))?;
-        file.sync_all()
-            .map_err(|e| StorageError::io("sync", &path, e))?;
-        drop(file);
+            .map_err(|e| StorageError::io("write", &path, e.into_error()))
+            .and_then(|f| {
+                f.file
+                    .sync_all()
+                    .map_err(|e| StorageError::io("sync", &path, e))
+            });
         let chains_dir = &self.files.chains;
         let target = chains_dir.join(part_name(part.index));
-        fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))?;
+        let renamed = synced.and_then(|()| {
+            fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))
+        });
+        if let Err(e) = renamed {
+            let _ = fs::remove_file(&path);
+            return Err(e);
+        }
         sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         self.durable_parts += 1;
         self.durable_rows += part.rows;
@@ -196,18 +259,32 @@ impl Files {
 fn open_part(dir: &Path, index: u64, schema: &ArrowSchema) -> Result<OpenPart, StorageError> {
     let path = dir.join(partial_name(index));
     let file = File::create(&path).map_err(|e| StorageError::io("create", &path, e))?;
+    let io_error = Arc::new(OnceLock::new());
+    let file = PartFile {
+        file,
+        error: Arc::clone(&io_error),
+    };
     let options = WriteOptions {
         statistics: StatisticsOptions::default(),
         version: Version::V2,
         compression: CompressionOptions::Snappy,
         data_page_size: None,
     };
-    let writer = FileWriter::try_new(BufWriter::new(file), schema.clone(), options)
-        .map_err(|e| StorageError::parquet(&path, e))?;
+    let writer = match FileWriter::try_new(BufWriter::new(file), schema.clone(), options) {
+        Ok(writer) => writer,
+        Err(e) => {
+            let _ = fs::remove_file(&path);
+            return Err(match io_error.get() {
+                Some(io) => StorageError::io("write", &path, copy_of(io)),
+                None => StorageError::parquet(&path, e),
+            });
+        }
+    };
     Ok(OpenPart {
         index,
         path,
         writer,
         rows: 0,
+        io_error,
     })
 }
