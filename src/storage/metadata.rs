@@ -251,10 +251,10 @@ pub fn read_part_metadata(path: &Path) -> Result<Option<ChainMetadata>, StorageE
     }))
 }
 
-/// Replaces the slipbayes keys of the footer of the complete part `path` with `pairs`
-/// (other keys, such as the Arrow schema, stay): the part is copied to `scratch`, the copy
-/// cut where its footer starts and given the new footer, made durable and renamed over the
-/// part. A kill leaves the part with its old footer or its new one, and at most `scratch`,
+/// Writes to `scratch` the complete part `path` with the slipbayes keys of its footer replaced
+/// by `pairs` (other keys, such as the Arrow schema, stay): the part is copied, the copy cut
+/// where its footer starts, given the new footer and made durable. The caller renames it over
+/// the part (once the checkpoint accepts both versions); a kill leaves at most `scratch`,
 /// which the caller treats as a leftover.
 ///
 /// # Errors
@@ -295,7 +295,7 @@ pub(super) fn rewrite_footer(
         .and_then(|()| copy.sync_all())
         .map_err(|e| StorageError::io("write", scratch, e))?;
     drop(copy);
-    fs::rename(scratch, path).map_err(|e| StorageError::io("rename", scratch, e))
+    Ok(())
 }
 
 /// The closing bytes of a Parquet file.

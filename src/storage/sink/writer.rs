@@ -14,6 +14,7 @@ use polars_parquet::write::{
     WriteOptions,
 };
 
+use super::super::seal::Seal;
 use super::super::{part_name, partial_name, ChainFiles, StorageError};
 use super::{Footer, Written};
 use crate::data::atomic::sync_dir;
@@ -40,6 +41,8 @@ pub(super) struct Files {
     pub(super) durable_parts: u64,
     pub(super) durable_rows: u64,
     pub(super) last_state: Option<Vec<u8>>,
+    /// The seals a checkpoint records for the durable parts (see [`Files::write_checkpoint`]).
+    pub(super) part_seals: Vec<Vec<Seal>>,
 }
 
 /// Rows taken out of the buffer as Arrow arrays: one row group.
@@ -181,12 +184,14 @@ impl Files {
         file.sync_all()
             .map_err(|e| StorageError::io("sync", &path, e))?;
         drop(file);
+        let seal = Seal::of_file(&path)?;
         let chains_dir = &self.files.chains;
         let target = chains_dir.join(part_name(part.index));
         fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))?;
         sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         self.durable_parts += 1;
         self.durable_rows += part.rows;
+        self.part_seals.push(vec![seal]);
         self.part_first_step = steps;
         Ok(())
     }
