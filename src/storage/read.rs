@@ -374,8 +374,39 @@ impl Part {
     /// Reads the footer of the part at `path`.
     pub(super) fn open(path: PathBuf) -> Result<Self, StorageError> {
         let mut file = File::open(&path).map_err(|e| StorageError::io("open", &path, e))?;
+        crate::data::parquet_footer::check_footer(&mut file)
+            .map_err(|problem| StorageError::parquet(&path, problem))?;
+        let size = file
+            .metadata()
+            .map_err(|e| StorageError::io("inspect", &path, e))?
+            .len();
         let metadata = read_metadata(&mut file).map_err(|e| StorageError::parquet(&path, e))?;
         let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(&path, e))?;
+        // A damaged footer may claim anything: its counts and byte ranges are checked here,
+        // once, so that reading never indexes or allocates by an unchecked number.
+        let grouped: usize = metadata.row_groups.iter().map(|g| g.num_rows()).sum();
+        if grouped != metadata.num_rows {
+            return Err(StorageError::parquet(
+                &path,
+                format!(
+                    "the footer counts {} rows but its row groups {grouped}",
+                    metadata.num_rows
+                ),
+            ));
+        }
+        for (g, group) in metadata.row_groups.iter().enumerate() {
+            for range in group.byte_ranges_iter() {
+                if range.start > range.end || range.end > size {
+                    return Err(StorageError::parquet(
+                        &path,
+                        format!(
+                            "row group {g} places a column at bytes {}..{} of a file of {size}",
+                            range.start, range.end
+                        ),
+                    ));
+                }
+            }
+        }
         Ok(Self {
             path,
             metadata,
@@ -393,7 +424,7 @@ impl Part {
     pub(super) fn step_range(&self) -> Result<std::ops::Range<u64>, StorageError> {
         let steps = self.column::<u64>(STEP_COLUMN)?;
         Ok(match (steps.first(), steps.last()) {
-            (Some(&first), Some(&last)) => first..last + 1,
+            (Some(&first), Some(&last)) => first..last.saturating_add(1),
             _ => 0..0,
         })
     }
@@ -458,6 +489,16 @@ impl Part {
             .ok_or_else(|| StorageError::parquet(path, "column of unexpected type"))?;
         if typed.null_count() > 0 {
             return Err(StorageError::parquet(path, "column holds nulls"));
+        }
+        if typed.len() != group.num_rows() {
+            return Err(StorageError::parquet(
+                path,
+                format!(
+                    "row group {g} of column {name:?} holds {} values, its footer says {}",
+                    typed.len(),
+                    group.num_rows()
+                ),
+            ));
         }
         Ok(typed.values().to_vec())
     }
