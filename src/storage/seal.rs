@@ -157,17 +157,16 @@ pub const JSON_CHECKSUM_KEY: &str = "checksum";
 const JSON_SEAL_OPEN: &str = ",\n  \"checksum\": \"crc32:";
 const JSON_SEAL_CLOSE: &str = "\"\n}\n";
 
-/// A pretty-printed JSON object (`{ ... \n}`, as `serde_json::to_vec_pretty` writes it) with
-/// a last key `"checksum": "crc32:XXXXXXXX"`, the CRC-32 of the text before that key. The file
-/// stays ordinary JSON for every other reader.
+/// A JSON object (pretty-printed or on one line) with a last key
+/// `"checksum": "crc32:XXXXXXXX"`, the CRC-32 of the text before that key. The file stays
+/// ordinary JSON for every other reader.
 ///
 /// # Panics
-/// When `json` is not a pretty-printed, non-empty JSON object (a bug of the caller).
+/// When `json` is not a non-empty JSON object (a bug of the caller).
 pub fn seal_json(json: &[u8]) -> Vec<u8> {
     let text = json.strip_suffix(b"\n").unwrap_or(json);
-    let body = text
-        .strip_suffix(b"\n}")
-        .expect("a pretty-printed, non-empty JSON object");
+    let body = text.strip_suffix(b"}").expect("a non-empty JSON object");
+    let body = body.strip_suffix(b"\n").unwrap_or(body);
     let mut sealed = body.to_vec();
     sealed.extend_from_slice(JSON_SEAL_OPEN.as_bytes());
     sealed.extend_from_slice(format!("{:08x}", crc32(body)).as_bytes());
