@@ -13,6 +13,7 @@ use slipbayes::model::{ModelSpec, OneContact};
 use slipbayes::plot::check::{check_svg, elements, Element};
 use slipbayes::report::write_report;
 use slipbayes::sampler::{Parallelism, Silent};
+use slipbayes::storage::seal_json;
 
 fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
@@ -229,7 +230,9 @@ fn data_provenance_is_rendered_when_present() {
          "points_read": 358, "points_used": 358, "dropped_invalid": 0,
          "window_s": null, "binning": null, "conversions": []}
     ]);
-    fs::write(&path, serde_json::to_string_pretty(&summary).unwrap()).unwrap();
+    // Sealed as a fit seals it: an edit without its checksum would be refused as corrupted.
+    let sealed = |s: &serde_json::Value| seal_json(serde_json::to_string(s).unwrap().as_bytes());
+    fs::write(&path, sealed(&summary)).unwrap();
     write_report(&RunDir::new(&copy)).unwrap();
     let md = fs::read_to_string(copy.join("report.md")).unwrap();
     assert!(md.contains("## Data\n"), "{md}");
@@ -244,7 +247,7 @@ fn data_provenance_is_rendered_when_present() {
 
     // A malformed fragment is an error naming the file and the key.
     summary["data"] = serde_json::json!([{"run": 3}]);
-    fs::write(&path, serde_json::to_string(&summary).unwrap()).unwrap();
+    fs::write(&path, sealed(&summary)).unwrap();
     let err = write_report(&RunDir::new(&copy)).unwrap_err().to_string();
     // `data` is part of the summary's schema: the error names the file and the position.
     assert!(

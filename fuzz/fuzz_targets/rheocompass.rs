@@ -1,30 +1,9 @@
-//! Any bytes through the RheoCompass reader and the column mapping: an error or a series,
-//! never a panic, and a series that satisfies the importer's promises.
+//! Any bytes through the Anton Paar RheoCompass reader and the column mapping.
+//! An error naming the file or a result that keeps the reader's promises, never a panic
+//! (tests/hostile/mod.rs, shared with the seeded mutation tests of tests/hostile_inputs.rs).
 #![no_main]
 
-mod common;
+#[path = "../../tests/hostile/mod.rs"]
+mod hostile;
 
-use std::path::Path;
-
-use libfuzzer_sys::fuzz_target;
-use slipbayes::data::import::import_bytes;
-use slipbayes::data::{Format, ImportOptions, IntervalChoice};
-
-fuzz_target!(|data: &[u8]| {
-    // The first byte picks the options, so one corpus explores all of them.
-    let (choice, bytes) = data.split_first().map_or((0, data), |(c, rest)| (*c, rest));
-    let options = ImportOptions {
-        format: Some(Format::Rheocompass),
-        drop_invalid: choice & 1 == 1,
-        intervals: match choice >> 1 & 3 {
-            0 => IntervalChoice::All,
-            1 => IntervalChoice::Numbers(vec![1]),
-            2 => IntervalChoice::Numbers(vec![2]),
-            _ => IntervalChoice::Numbers(vec![1, 2]),
-        },
-        ..ImportOptions::default()
-    };
-    if let Ok(imported) = import_bytes(bytes, Path::new("fuzz.txt"), &options) {
-        common::check(&imported);
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| hostile::fuzz("rheocompass", data));

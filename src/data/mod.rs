@@ -18,6 +18,8 @@ pub mod atomic;
 mod blocks;
 pub mod import;
 pub mod labels;
+#[cfg(any(feature = "parquet", feature = "tabular"))]
+pub(crate) mod parquet_footer;
 pub mod rheocompass;
 pub mod rspace;
 mod table;

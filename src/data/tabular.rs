@@ -145,6 +145,8 @@ pub fn read_csv(text: &str, encoding: Encoding, path: &Path) -> Result<Table, Da
 /// # Errors
 /// [`DataError::Unsupported`] naming the file when it is not a readable Parquet file.
 pub(crate) fn read_parquet(bytes: &[u8], path: &Path) -> Result<Table, DataError> {
+    super::parquet_footer::check_footer(&mut Cursor::new(bytes))
+        .map_err(|problem| unsupported(path, format!("not a readable Parquet file: {problem}")))?;
     let frame = ParquetReader::new(Cursor::new(bytes))
         .finish()
         .map_err(|_| {

@@ -251,10 +251,10 @@ pub fn read_part_metadata(path: &Path) -> Result<Option<ChainMetadata>, StorageE
     }))
 }
 
-/// Replaces the slipbayes keys of the footer of the complete part `path` with `pairs`
-/// (other keys, such as the Arrow schema, stay): the part is copied to `scratch`, the copy
-/// cut where its footer starts and given the new footer, made durable and renamed over the
-/// part. A kill leaves the part with its old footer or its new one, and at most `scratch`,
+/// Writes to `scratch` the complete part `path` with the slipbayes keys of its footer replaced
+/// by `pairs` (other keys, such as the Arrow schema, stay): the part is copied, the copy cut
+/// where its footer starts, given the new footer and made durable. The caller renames it over
+/// the part (once the checkpoint accepts both versions); a kill leaves at most `scratch`,
 /// which the caller treats as a leftover.
 ///
 /// # Errors
@@ -296,13 +296,12 @@ pub(super) fn rewrite_footer(
             .and_then(|()| copy.sync_all())
             .map_err(|e| StorageError::io("write", scratch, e))
     })();
-    if let Err(e) = copied {
+    if copied.is_err() {
         // A failed copy (a full disk) must not keep holding a part's worth of space; the part
         // itself is untouched.
         let _ = fs::remove_file(scratch);
-        return Err(e);
     }
-    fs::rename(scratch, path).map_err(|e| StorageError::io("rename", scratch, e))
+    copied
 }
 
 /// The closing bytes of a Parquet file.

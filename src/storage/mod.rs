@@ -50,6 +50,7 @@
 
 pub mod metadata;
 mod read;
+mod seal;
 mod sink;
 
 use crate::data::atomic as io;
@@ -59,7 +60,11 @@ pub use crate::sampler::sink::{ChainSink, StepView};
 pub use metadata::{
     read_part_metadata, ChainDescription, ChainMetadata, ColumnInfo, ColumnKind, ColumnUnit,
 };
-pub use read::{read_chains, read_chains_at_checkpoint, ChainReader, Chains};
+pub use read::{
+    read_chains, read_chains_at_checkpoint, verify_run, verify_sealed_json, ChainReader, Chains,
+    Integrity,
+};
+pub use seal::{seal_json, JSON_CHECKSUM_KEY};
 pub use sink::{ParquetSink, SinkOptions, Written, ROW_GROUP_BYTES};
 
 /// Name of the index column holding the ensemble number.
@@ -208,6 +213,46 @@ pub enum StorageError {
         /// The decoding error.
         #[source]
         source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The checkpoint does not match the checksum it carries: it was changed after it was
+    /// written.
+    #[error(
+        "checkpoint {} is corrupted: {problem}; it cannot be trusted: restore it from a backup \
+         or start a new run with --overwrite",
+        path.display()
+    )]
+    CorruptCheckpoint {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// What does not match.
+        problem: String,
+    },
+    /// A complete part does not match the length and checksum its checkpoint recorded.
+    #[error(
+        "chain part {} is corrupted: {problem} ({} recorded it when it was written); its draws \
+         cannot be trusted: restore the file from a backup or fit again with --overwrite",
+        path.display(),
+        checkpoint.display()
+    )]
+    CorruptPart {
+        /// The part.
+        path: PathBuf,
+        /// The checkpoint that sealed it.
+        checkpoint: PathBuf,
+        /// What does not match.
+        problem: String,
+    },
+    /// A file the run sealed (`summary.json`) does not match its checksum, or lost it.
+    #[error(
+        "{} is corrupted: {problem}; it cannot be trusted: restore it from a backup or fit \
+         again with --overwrite",
+        path.display()
+    )]
+    CorruptFile {
+        /// The file.
+        path: PathBuf,
+        /// What does not match.
+        problem: String,
     },
     /// The sampler state cannot be serialised.
     #[error("cannot serialise the sampler state for the checkpoint: {0}")]

@@ -15,10 +15,97 @@ use polars_parquet::read::{
 use polars_utils::mmap::{MemReader, MemSlice};
 
 use super::metadata::{read_part_metadata, ChainMetadata};
-use super::sink::{checkpointed, list_parts};
+use super::seal::{unseal_json, Unsealed};
+use super::sink::{checkpointed, list_parts, read_checkpoint};
 use super::{
-    ChainFiles, StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
+    part_name, ChainFiles, StorageError, ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN,
+    WALKER_COLUMN,
 };
+
+/// Whether the files of a run were proved to be the ones written (see [`verify_run`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Integrity {
+    /// The checkpoint matched its checksum, and every part it counts its recorded length and
+    /// checksum.
+    Verified,
+    /// Nothing proves the files intact; why (a run of an earlier release, written without
+    /// checksums; no checkpoint).
+    Unverified {
+        /// Why, as a sentence fragment naming the file.
+        reason: String,
+    },
+}
+
+/// Checks the chain store of a run against its checkpoint: the checkpoint against its own
+/// checksum, then every complete part it counts against the length and checksum it recorded.
+/// A run of an earlier release (a checkpoint without checksums) is [`Integrity::Unverified`],
+/// not refused.
+///
+/// # Errors
+/// [`StorageError::CorruptCheckpoint`] or [`StorageError::CorruptPart`] naming the file and
+/// what to do; [`StorageError::BadCheckpoint`] for a checkpoint of an unknown format;
+/// [`StorageError::Io`] when a file cannot be read.
+pub fn verify_run(files: &ChainFiles) -> Result<Integrity, StorageError> {
+    let Some(checkpoint) = read_checkpoint(files)? else {
+        return Ok(Integrity::Unverified {
+            reason: format!("there is no checkpoint {}", files.checkpoint.display()),
+        });
+    };
+    if !checkpoint.sealed() {
+        return Ok(Integrity::Unverified {
+            reason: format!(
+                "{} was written by an earlier release, without checksums",
+                files.checkpoint.display()
+            ),
+        });
+    }
+    for index in 0..checkpoint.parts() {
+        let path = files.chains.join(part_name(index));
+        checkpoint.check_part(&files.checkpoint, index, &path)?;
+    }
+    // Parts numbered beyond the checkpoint (a fit writing, or one killed since) are neither
+    // verified nor read: readers read the parts the checkpoint counts, and a resume removes
+    // the rest.
+    Ok(Integrity::Verified)
+}
+
+/// Checks the text of a JSON file a run seals (`summary.json`, written with
+/// [`super::seal_json`]) at `path`: a seal must match; a file without one is
+/// [`Integrity::Unverified`] when the run's checkpoint carries no checksums either (an earlier
+/// release wrote both), and refused when it does (the seal was cut off or damaged).
+///
+/// # Errors
+/// [`StorageError::CorruptFile`] naming `path`; the errors of reading the checkpoint.
+pub fn verify_sealed_json(
+    files: &ChainFiles,
+    path: &Path,
+    text: &str,
+) -> Result<Integrity, StorageError> {
+    let corrupt = |problem: String| StorageError::CorruptFile {
+        path: path.to_path_buf(),
+        problem,
+    };
+    match unseal_json(text) {
+        Unsealed::Verified(_) => Ok(Integrity::Verified),
+        Unsealed::Mismatch { recorded, found } => Err(corrupt(format!(
+            "its checksum is {found:08x}, it recorded {recorded:08x}"
+        ))),
+        Unsealed::Absent(_) => match read_checkpoint(files)? {
+            Some(checkpoint) if checkpoint.sealed() => Err(corrupt(format!(
+                "its checksum (its last key, {:?}) is missing or damaged, and {} says the run \
+                 wrote one",
+                super::JSON_CHECKSUM_KEY,
+                files.checkpoint.display()
+            ))),
+            _ => Ok(Integrity::Unverified {
+                reason: format!(
+                    "{} was written by an earlier release, without a checksum",
+                    path.display()
+                ),
+            }),
+        },
+    }
+}
 
 /// The chains of a run, in memory, row by row in file order (step, then ensemble, then walker).
 #[derive(Debug, Clone, PartialEq)]
@@ -352,8 +439,39 @@ impl Part {
     /// Reads the footer of the part at `path`.
     pub(super) fn open(path: PathBuf) -> Result<Self, StorageError> {
         let mut file = File::open(&path).map_err(|e| StorageError::io("open", &path, e))?;
+        crate::data::parquet_footer::check_footer(&mut file)
+            .map_err(|problem| StorageError::parquet(&path, problem))?;
+        let size = file
+            .metadata()
+            .map_err(|e| StorageError::io("inspect", &path, e))?
+            .len();
         let metadata = read_metadata(&mut file).map_err(|e| StorageError::parquet(&path, e))?;
         let schema = infer_schema(&metadata).map_err(|e| StorageError::parquet(&path, e))?;
+        // A damaged footer may claim anything: its counts and byte ranges are checked here,
+        // once, so that reading never indexes or allocates by an unchecked number.
+        let grouped: usize = metadata.row_groups.iter().map(|g| g.num_rows()).sum();
+        if grouped != metadata.num_rows {
+            return Err(StorageError::parquet(
+                &path,
+                format!(
+                    "the footer counts {} rows but its row groups {grouped}",
+                    metadata.num_rows
+                ),
+            ));
+        }
+        for (g, group) in metadata.row_groups.iter().enumerate() {
+            for range in group.byte_ranges_iter() {
+                if range.start > range.end || range.end > size {
+                    return Err(StorageError::parquet(
+                        &path,
+                        format!(
+                            "row group {g} places a column at bytes {}..{} of a file of {size}",
+                            range.start, range.end
+                        ),
+                    ));
+                }
+            }
+        }
         Ok(Self {
             path,
             file: Arc::new(Mutex::new(file)),
@@ -372,7 +490,7 @@ impl Part {
     pub(super) fn step_range(&self) -> Result<std::ops::Range<u64>, StorageError> {
         let steps = self.column::<u64>(STEP_COLUMN)?;
         Ok(match (steps.first(), steps.last()) {
-            (Some(&first), Some(&last)) => first..last + 1,
+            (Some(&first), Some(&last)) => first..last.saturating_add(1),
             _ => 0..0,
         })
     }
@@ -442,6 +560,16 @@ impl Part {
         if typed.null_count() > 0 {
             return Err(StorageError::parquet(path, "column holds nulls"));
         }
+        if typed.len() != group.num_rows() {
+            return Err(StorageError::parquet(
+                path,
+                format!(
+                    "row group {g} of column {name:?} holds {} values, its footer says {}",
+                    typed.len(),
+                    group.num_rows()
+                ),
+            ));
+        }
         Ok(typed.values().to_vec())
     }
 }
@@ -458,6 +586,7 @@ impl Part {
 pub struct ChainReader {
     dir: PathBuf,
     store: PartSet,
+    integrity: Integrity,
     ensembles: usize,
     walkers: usize,
     steps: u64,
@@ -546,7 +675,27 @@ impl ChainReader {
             store,
             ensembles,
             walkers,
+            integrity: Integrity::Unverified {
+                reason: format!("{} was opened without its checkpoint", chains_dir.display()),
+            },
         })
+    }
+
+    /// Opens the chains of the store `files` after checking them against its checkpoint
+    /// ([`verify_run`]); [`ChainReader::integrity`] says whether they were proved intact.
+    ///
+    /// # Errors
+    /// As [`verify_run`] and [`ChainReader::open`].
+    pub fn open_run(files: &ChainFiles) -> Result<Self, StorageError> {
+        let integrity = verify_run(files)?;
+        let mut reader = Self::open_at_checkpoint(files)?;
+        reader.integrity = integrity;
+        Ok(reader)
+    }
+
+    /// Whether the chains were proved to be the ones written ([`ChainReader::open_run`]).
+    pub fn integrity(&self) -> &Integrity {
+        &self.integrity
     }
 
     /// The directory the parts are read from.

@@ -10,6 +10,7 @@ use slipbayes::fit::run_dir::{CHAINS_DIR, FIGURES_DIR, RUN_OUTPUT, SETTINGS_JSON
 use slipbayes::fit::RunDir;
 use slipbayes::output_dir::{OutputDir, Ownership, MARKER};
 use slipbayes::report::{write_report, ReportFiles};
+use slipbayes::storage::{verify_run, Integrity};
 
 /// Rebuild `report.html`, `report.md` and `figures/` of a finished run from its files
 /// (summary.json, settings.json, model.toml, predictive.csv, curves.json, truth.json,
@@ -38,6 +39,10 @@ pub(super) fn run(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(problem) = missing_chains(&dir) {
         bail!("{problem}");
+    }
+    // A corrupted file is refused by the readers; a run that cannot be verified is said to be.
+    if let Ok(Integrity::Unverified { reason }) = verify_run(&dir.chain_files()) {
+        eprintln!("note: {reason}; the run's files are read unverified");
     }
     write_and_print(&dir)?;
     Ok(ExitCode::SUCCESS)

@@ -42,7 +42,10 @@ use super::RunFile;
 use crate::data::write_atomically;
 use crate::model::{Band, SpecError};
 use crate::output_dir::OutputKind;
-use crate::storage::{read_chains_at_checkpoint, ChainFiles, ChainReader, Chains, StorageError};
+use crate::storage::{
+    read_chains_at_checkpoint, seal_json, verify_run, verify_sealed_json, ChainFiles,
+    ChainReader, Chains, Integrity, StorageError,
+};
 use crate::IoError;
 
 pub(crate) use csv::summary_csv;
@@ -221,6 +224,9 @@ pub enum RunDirError {
         /// What no longer matches.
         problem: String,
     },
+    /// A file of the run does not match the checksum the run recorded for it.
+    #[error(transparent)]
+    Corrupt(StorageError),
     /// The chains could not be read.
     #[error("reading the chains of {}", dir.display())]
     Chains {
@@ -263,16 +269,19 @@ impl RunDir {
         }
     }
 
-    /// The chains, read back into memory: those of the last checkpoint while a fit writes the
-    /// directory (see [`RunDir::chain_reader`]).
+    /// The chains, read back into memory after checking them against the checkpoint: those
+    /// of the last checkpoint while a fit writes the directory (see [`RunDir::chain_reader`]).
     ///
     /// # Errors
-    /// [`RunDirError::Chains`] when they cannot be read.
+    /// [`RunDirError::Chains`] when they cannot be read or do not match their checksums.
     pub fn read_chains(&self) -> Result<Chains, RunDirError> {
-        read_chains_at_checkpoint(&self.chain_files()).map_err(|source| RunDirError::Chains {
-            dir: self.path.clone(),
-            source,
-        })
+        let files = self.chain_files();
+        verify_run(&files)
+            .and_then(|_| read_chains_at_checkpoint(&files))
+            .map_err(|source| RunDirError::Chains {
+                dir: self.path.clone(),
+                source,
+            })
     }
 
     /// The chains of the run, to be read one column or one row group at a time: the parts
@@ -284,7 +293,7 @@ impl RunDir {
     /// [`RunDirError::Chains`] when they cannot be opened or are not a complete grid of steps,
     /// ensembles and walkers.
     pub fn chain_reader(&self) -> Result<ChainReader, RunDirError> {
-        ChainReader::open_at_checkpoint(&self.chain_files()).map_err(|source| RunDirError::Chains {
+        ChainReader::open_run(&self.chain_files()).map_err(|source| RunDirError::Chains {
             dir: self.path.clone(),
             source,
         })
@@ -353,22 +362,34 @@ impl RunDir {
     /// # Errors
     /// [`RunDirError::Io`] naming the file.
     pub fn write_summary(&self, summary: &FitSummary) -> Result<(), RunDirError> {
-        let mut json = serde_json::to_vec_pretty(summary).map_err(|e| RunDirError::Parse {
+        let json = serde_json::to_vec_pretty(summary).map_err(|e| RunDirError::Parse {
             path: self.file(SUMMARY_JSON),
             message: format!("cannot serialise the summary: {e}"),
         })?;
-        json.push(b'\n');
-        self.write(SUMMARY_JSON, &json)?;
+        self.write(SUMMARY_JSON, &seal_json(&json))?;
         self.write(SUMMARY_CSV, summary_csv(summary).as_bytes())?;
         Ok(())
     }
 
-    /// `summary.json`.
+    /// `summary.json`, checked against its checksum.
     ///
     /// # Errors
-    /// [`RunDirError::Read`] or [`RunDirError::Parse`] naming the file and line.
+    /// [`RunDirError::Read`] or [`RunDirError::Parse`] naming the file and line;
+    /// [`RunDirError::Corrupt`] when it does not match its checksum.
     pub fn read_summary(&self) -> Result<FitSummary, RunDirError> {
-        parse_json(&self.file(SUMMARY_JSON), &self.read(SUMMARY_JSON)?)
+        Ok(self.read_summary_verified()?.0)
+    }
+
+    /// `summary.json` and whether it was proved to be the one written.
+    ///
+    /// # Errors
+    /// As [`RunDir::read_summary`].
+    pub fn read_summary_verified(&self) -> Result<(FitSummary, Integrity), RunDirError> {
+        let path = self.file(SUMMARY_JSON);
+        let text = self.read(SUMMARY_JSON)?;
+        let integrity =
+            verify_sealed_json(&self.chain_files(), &path, &text).map_err(RunDirError::Corrupt)?;
+        Ok((parse_json(&path, &text)?, integrity))
     }
 
     /// Removes the summaries of an earlier run, which must not survive next to new chains.

@@ -1,5 +1,11 @@
 //! The checkpoint of a chain store (binary, or the JSON of earlier releases), resuming a run
 //! from it, and clearing an earlier run.
+//!
+//! Since format 3 the checkpoint is sealed (see [`super::super::seal`]): a CRC-32 of its body
+//! ends the file, and it records the length and CRC-32 of every complete part it counts, so
+//! that a resume, a report or a load refuses a corrupted checkpoint or part instead of reading
+//! it. Checkpoints of formats 2 and 1 carry no checksum: their runs are still read, as
+//! unverified.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -8,13 +14,15 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use super::super::read::{chains_schema, check_schema, Part};
+use super::super::seal::{seal_bytes, unseal_bytes, Seal, Unsealed};
 use super::super::{is_leftover_name, part_name, ChainFiles, StorageError};
 use super::{list_files, list_parts, validate_names, Files, ParquetSink, Resumed};
 use crate::data::atomic::{sync_dir, write_atomically};
 
-/// Tag of the checkpoint format, checked on resume: version 2 is binary (MessagePack), version
-/// 1 the JSON of earlier releases, still read.
-const CHECKPOINT_FORMAT: &str = "slipbayes-chains/2";
+/// Tag of the checkpoint format, checked on resume: version 3 is binary (MessagePack) and
+/// sealed, version 2 the same unsealed, version 1 the JSON of earlier releases; all are read.
+const CHECKPOINT_FORMAT: &str = "slipbayes-chains/3";
+const UNSEALED_CHECKPOINT_FORMAT: &str = "slipbayes-chains/2";
 const JSON_CHECKPOINT_FORMAT: &str = "slipbayes-chains/1";
 /// Where earlier releases wrote their JSON checkpoint, beside the binary one.
 const JSON_CHECKPOINT: &str = "checkpoint.json";
@@ -34,12 +42,19 @@ struct CheckpointHeader {
     /// One past the largest step recorded in those parts: where a resumed run continues.
     steps: u64,
     finished: bool,
+    /// For each of the `parts` complete parts, the seals it may have (length and CRC-32): one,
+    /// or two while a finishing run rewrites the parts' footers (before and after). Empty in
+    /// formats 1 and 2.
+    #[serde(default)]
+    part_seals: Vec<Vec<Seal>>,
 }
 
 /// A checkpoint: binary, `header` then the state, both MessagePack.
 #[derive(Debug)]
-struct CheckpointFile {
+pub(in super::super) struct CheckpointFile {
     header: CheckpointHeader,
+    /// Whether the file was sealed and matched its seal (format 3).
+    sealed: bool,
     /// The sampler state in MessagePack (named fields); `None` when none was given yet. A JSON
     /// checkpoint's state is converted on reading.
     state: Option<Vec<u8>>,
@@ -97,6 +112,7 @@ impl ParquetSink {
         let Some(CheckpointFile {
             header: checkpoint,
             state: stored,
+            sealed,
         }) = read_checkpoint(files)?
         else {
             return Err(StorageError::NoCheckpoint {
@@ -146,10 +162,26 @@ impl ParquetSink {
         }
         let expected = chains_schema(&checkpoint.param_names, &checkpoint.derived_names);
         let mut rows = 0u64;
+        let mut part_seals = Vec::with_capacity(checkpoint.parts as usize);
         for index in 0..checkpoint.parts {
             let path = chains_dir.join(part_name(index));
-            let part = Part::open(path.clone())?;
-            check_schema(&path, &part.schema, &expected)?;
+            // A checkpoint of an earlier release vouches for no part: the parts it counts are
+            // sealed as found, so the resumed run's checkpoint vouches for them from here on.
+            let seal = if sealed {
+                check_part_seal(&checkpoint_path, &checkpoint, index, &path)
+            } else {
+                Seal::of_file(&path)
+            };
+            // A part of another run is reported as such; any other mismatch as corruption.
+            let part = match (Part::open(path.clone()), seal) {
+                (Ok(part), seal) => {
+                    check_schema(&path, &part.schema, &expected)?;
+                    part_seals.push(vec![seal?]);
+                    part
+                }
+                (Err(_), Err(corrupt)) => return Err(corrupt),
+                (Err(unreadable), Ok(_)) => return Err(unreadable),
+            };
             rows += part.rows() as u64;
         }
         if rows != checkpoint.rows {
@@ -173,6 +205,7 @@ impl ParquetSink {
                 rows: checkpoint.rows,
                 steps: checkpoint.steps,
                 state: stored,
+                part_seals,
             },
         )?;
         Ok((sink, state, finished))
@@ -190,6 +223,7 @@ impl Files {
             rows: self.durable_rows,
             steps,
             finished,
+            part_seals: self.part_seals.clone(),
         };
         let path = &self.files.checkpoint;
         let mut bytes =
@@ -197,14 +231,17 @@ impl Files {
         if let Some(state) = &self.last_state {
             bytes.extend_from_slice(state);
         }
-        write_atomically(path, &bytes).map_err(|e| StorageError::io("write", path, e))?;
+        write_atomically(path, &seal_bytes(bytes))
+            .map_err(|e| StorageError::io("write", path, e))?;
         remove_json_checkpoint(&self.files)
     }
 }
 
 /// Reads the checkpoint of `files` (or, without one, the JSON checkpoint an earlier release
 /// wrote beside it); `None` when there is neither.
-fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, StorageError> {
+pub(in super::super) fn read_checkpoint(
+    files: &ChainFiles,
+) -> Result<Option<CheckpointFile>, StorageError> {
     let path = &files.checkpoint;
     let bad = |path: &Path, source: Box<dyn std::error::Error + Send + Sync>| {
         StorageError::BadCheckpoint {
@@ -212,15 +249,35 @@ fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, Storage
             source,
         }
     };
+    let corrupt = |problem: String| StorageError::CorruptCheckpoint {
+        path: path.to_path_buf(),
+        problem,
+    };
     let checkpoint = match read_if_present(path)? {
         Some(bytes) => {
-            let mut reader = std::io::Cursor::new(&bytes[..]);
-            let header: CheckpointHeader =
-                rmp_serde::from_read(&mut reader).map_err(|e| bad(path, e.into()))?;
-            let state = &bytes[reader.position() as usize..];
+            let (body, sealed) = match unseal_bytes(&bytes) {
+                Unsealed::Verified(body) => (body, true),
+                Unsealed::Absent(body) => (body, false),
+                Unsealed::Mismatch { recorded, found } => {
+                    return Err(corrupt(format!(
+                        "its checksum is {found:08x}, it recorded {recorded:08x}"
+                    )))
+                }
+            };
+            let mut reader = std::io::Cursor::new(body);
+            let header: CheckpointHeader = rmp_serde::from_read(&mut reader).map_err(|e| {
+                if sealed {
+                    bad(path, e.into())
+                } else {
+                    // Unsealed and unreadable: a truncated or damaged file of any format.
+                    corrupt(format!("{e} (or it was written by another version)"))
+                }
+            })?;
+            let state = &body[reader.position() as usize..];
             CheckpointFile {
                 header,
                 state: (!state.is_empty()).then(|| state.to_vec()),
+                sealed,
             }
         }
         None => {
@@ -249,20 +306,96 @@ fn read_checkpoint(files: &ChainFiles) -> Result<Option<CheckpointFile>, Storage
             return Ok(Some(CheckpointFile {
                 header: json.header,
                 state,
+                sealed: false,
             }));
         }
     };
-    if checkpoint.header.format != CHECKPOINT_FORMAT {
-        return Err(bad(
-            path,
-            format!(
-                "format {:?}, expected {CHECKPOINT_FORMAT:?}",
-                checkpoint.header.format
-            )
-            .into(),
-        ));
+    let header = &checkpoint.header;
+    match (header.format.as_str(), checkpoint.sealed) {
+        (CHECKPOINT_FORMAT, true) | (UNSEALED_CHECKPOINT_FORMAT, false) => {}
+        (CHECKPOINT_FORMAT, false) => {
+            return Err(corrupt(format!(
+                "format {CHECKPOINT_FORMAT:?} ends with a checksum, this file does not: it was \
+                 cut short or damaged"
+            )))
+        }
+        (UNSEALED_CHECKPOINT_FORMAT, true) => {
+            return Err(corrupt(format!(
+                "format {UNSEALED_CHECKPOINT_FORMAT:?} carries no checksum, this file does"
+            )))
+        }
+        _ => {
+            return Err(bad(
+                path,
+                format!(
+                    "format {:?}, expected {CHECKPOINT_FORMAT:?}",
+                    checkpoint.header.format
+                )
+                .into(),
+            ))
+        }
+    }
+    if checkpoint.sealed && header.part_seals.len() as u64 != header.parts {
+        return Err(corrupt(format!(
+            "it counts {} parts but seals {}",
+            header.parts,
+            header.part_seals.len()
+        )));
     }
     Ok(Some(checkpoint))
+}
+
+impl CheckpointFile {
+    /// Whether the file was sealed (format 3) and matched its seal.
+    pub(in super::super) fn sealed(&self) -> bool {
+        self.sealed
+    }
+
+    /// Complete parts the checkpoint counts.
+    pub(in super::super) fn parts(&self) -> u64 {
+        self.header.parts
+    }
+
+    /// Checks part `index` at `path` against its seal in the checkpoint at `checkpoint_path`
+    /// (which must be sealed), returning the seal found.
+    pub(in super::super) fn check_part(
+        &self,
+        checkpoint_path: &Path,
+        index: u64,
+        path: &Path,
+    ) -> Result<Seal, StorageError> {
+        check_part_seal(checkpoint_path, &self.header, index, path)
+    }
+}
+
+/// Checks the part at `path`, number `index`, against the seals `header` records for it.
+fn check_part_seal(
+    checkpoint_path: &Path,
+    header: &CheckpointHeader,
+    index: u64,
+    path: &Path,
+) -> Result<Seal, StorageError> {
+    let found = Seal::of_file(path)?;
+    let accepted = usize::try_from(index)
+        .ok()
+        .and_then(|i| header.part_seals.get(i))
+        .map_or(&[][..], Vec::as_slice);
+    if accepted.contains(&found) {
+        return Ok(found);
+    }
+    let recorded = accepted
+        .iter()
+        .map(|s| format!("{} bytes with checksum {:08x}", s.bytes, s.crc32))
+        .collect::<Vec<_>>()
+        .join(" or ");
+    Err(StorageError::CorruptPart {
+        path: path.to_path_buf(),
+        checkpoint: checkpoint_path.to_path_buf(),
+        problem: format!(
+            "{} bytes with checksum {:08x} where {recorded} was written",
+            found.bytes, found.crc32
+        ),
+    })
 }
 
 fn read_if_present(path: &Path) -> Result<Option<Vec<u8>>, StorageError> {
@@ -310,7 +443,9 @@ pub(super) fn existing_run(files: &ChainFiles) -> Result<Option<bool>, StorageEr
         Ok(Some(c)) => return Ok(Some(c.header.finished)),
         Ok(None) => {}
         // An unreadable checkpoint still marks a run; only --overwrite may remove it.
-        Err(StorageError::BadCheckpoint { .. }) => return Ok(Some(false)),
+        Err(StorageError::BadCheckpoint { .. } | StorageError::CorruptCheckpoint { .. }) => {
+            return Ok(Some(false))
+        }
         Err(e) => return Err(e),
     }
     let has_parts = !list_parts(&files.chains)?.is_empty();

@@ -18,12 +18,14 @@ use serde::Serialize;
 
 use super::metadata::{column_infos, key_values, rewrite_footer, ChainDescription, ColumnInfo};
 use super::read::{chains_schema, Part};
+use super::seal::Seal;
 use super::{
     parse_part_name, part_name, partial_name, ChainFiles, ChainSink, StepView, StorageError,
     ENSEMBLE_COLUMN, LOG_DENSITY_COLUMN, STEP_COLUMN, WALKER_COLUMN,
 };
 use crate::data::atomic::sync_dir;
 pub(crate) use checkpoint::checkpointed;
+pub(super) use checkpoint::read_checkpoint;
 use checkpoint::{existing_run, remove_run};
 use writer::{Files, Job, RowGroup, Writer};
 
@@ -255,6 +257,7 @@ impl ParquetSink {
             durable_parts: resumed.parts,
             durable_rows: resumed.rows,
             last_state: resumed.state,
+            part_seals: resumed.part_seals,
         })?;
         Ok(Self {
             files: files.clone(),
@@ -409,12 +412,35 @@ impl ParquetSink {
             return Err(e);
         }
         if self.footer.burn_in.is_some() {
+            // Every part is copied with its new footer first; a checkpoint accepting either
+            // version of each part is written before any is replaced, so that the parts stay
+            // verifiable whenever a kill interrupts the replacing.
             let chains_dir = &self.files.chains;
-            for index in 0..files.durable_parts {
-                let path = chains_dir.join(part_name(index));
-                let steps = Part::open(path.clone())?.step_range()?;
-                let pairs = self.footer.key_values(steps);
-                rewrite_footer(&path, &self.files.dir.join(partial_name(index)), pairs)?;
+            let mut copies = Vec::new();
+            let copied = (|| {
+                for index in 0..files.durable_parts {
+                    let path = chains_dir.join(part_name(index));
+                    let steps = Part::open(path.clone())?.step_range()?;
+                    let pairs = self.footer.key_values(steps);
+                    let copy = self.files.dir.join(partial_name(index));
+                    rewrite_footer(&path, &copy, pairs)?;
+                    let seal = Seal::of_file(&copy)?;
+                    files.part_seals[index as usize].push(seal);
+                    copies.push((index as usize, copy, path, seal));
+                }
+                files.write_checkpoint(false, self.steps)
+            })();
+            if let Err(e) = copied {
+                // A full disk while copying: the copies made so far would only hold space; the
+                // parts and the last checkpoint are untouched.
+                for (_, copy, _, _) in &copies {
+                    let _ = fs::remove_file(copy);
+                }
+                return Err(e);
+            }
+            for (index, copy, path, seal) in copies {
+                fs::rename(&copy, &path).map_err(|e| StorageError::io("rename", &copy, e))?;
+                files.part_seals[index] = vec![seal];
             }
             sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         }
@@ -439,6 +465,7 @@ struct Resumed {
     rows: u64,
     steps: u64,
     state: Option<Vec<u8>>,
+    part_seals: Vec<Vec<Seal>>,
 }
 
 impl ChainSink for ParquetSink {

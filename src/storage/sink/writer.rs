@@ -14,6 +14,7 @@ use polars_parquet::write::{
     WriteOptions,
 };
 
+use super::super::seal::Seal;
 use super::super::{part_name, partial_name, ChainFiles, StorageError};
 use super::{Footer, Written};
 use crate::data::atomic::sync_dir;
@@ -85,6 +86,8 @@ pub(super) struct Files {
     pub(super) durable_parts: u64,
     pub(super) durable_rows: u64,
     pub(super) last_state: Option<Vec<u8>>,
+    /// The seals a checkpoint records for the durable parts (see [`Files::write_checkpoint`]).
+    pub(super) part_seals: Vec<Vec<Seal>>,
 }
 
 /// Rows taken out of the buffer as Arrow arrays: one row group.
@@ -240,16 +243,22 @@ impl Files {
             });
         let chains_dir = &self.files.chains;
         let target = chains_dir.join(part_name(part.index));
-        let renamed = synced.and_then(|()| {
-            fs::rename(&path, &target).map_err(|e| StorageError::io("rename", &path, e))
+        let renamed = synced.and_then(|()| Seal::of_file(&path)).and_then(|seal| {
+            fs::rename(&path, &target)
+                .map(|()| seal)
+                .map_err(|e| StorageError::io("rename", &path, e))
         });
-        if let Err(e) = renamed {
-            let _ = fs::remove_file(&path);
-            return Err(e);
-        }
+        let seal = match renamed {
+            Ok(seal) => seal,
+            Err(e) => {
+                let _ = fs::remove_file(&path);
+                return Err(e);
+            }
+        };
         sync_dir(chains_dir).map_err(|e| StorageError::io("sync directory", chains_dir, e))?;
         self.durable_parts += 1;
         self.durable_rows += part.rows;
+        self.part_seals.push(vec![seal]);
         self.part_first_step = steps;
         Ok(())
     }

@@ -1,0 +1,9 @@
+//! Any JSON as the Python package's model dict, through the conversion it calls.
+//! An error naming the file or a result that keeps the reader's promises, never a panic
+//! (tests/hostile/mod.rs, shared with the seeded mutation tests of tests/hostile_inputs.rs).
+#![no_main]
+
+#[path = "../../tests/hostile/mod.rs"]
+mod hostile;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| hostile::fuzz("model_dict", data));
