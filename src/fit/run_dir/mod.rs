@@ -43,8 +43,8 @@ use crate::data::write_atomically;
 use crate::model::{Band, SpecError};
 use crate::output_dir::OutputKind;
 use crate::storage::{
-    read_chains_at_checkpoint, seal_json, verify_run, verify_sealed_json, ChainFiles,
-    ChainReader, Chains, Integrity, StorageError,
+    read_chains_at_checkpoint, seal_json, verify_run, verify_sealed_json, ChainFiles, ChainReader,
+    Chains, Integrity, StorageError,
 };
 use crate::IoError;
 
