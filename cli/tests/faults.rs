@@ -28,6 +28,7 @@ use slipbayes::fit::run_dir::{
     PREDICTIVE_CSV, REPORT_HTML, REPORT_MD, SETTINGS_JSON, SUMMARY_CSV, SUMMARY_JSON, TRUTH_JSON,
 };
 use slipbayes::fit::RunDir;
+use slipbayes::output_dir::MARKER;
 use slipbayes::sampler::SamplerState;
 use slipbayes::storage::{read_chains, Chains, ParquetSink};
 
@@ -203,11 +204,13 @@ fn files_of(dir: &Path) -> BTreeMap<String, Vec<u8>> {
     files
 }
 
-/// `summary.json` without what describes one invocation (its wall time, the steps it ran).
+/// `summary.json` without what describes one invocation (its wall time, the steps it ran) and
+/// its checksum, which covers them.
 fn summary_of(dir: &Path) -> Value {
     let mut v: Value =
         serde_json::from_slice(&fs::read(dir.join(SUMMARY_JSON)).expect("summary.json"))
             .expect("summary.json parses");
+    v.as_object_mut().expect("an object").remove("checksum");
     let sampler = v["sampler"].as_object_mut().expect("sampler");
     sampler.remove("wall_s");
     sampler.remove("steps_run");
@@ -275,10 +278,10 @@ impl Timeline {
 
     /// `n` instants drawn from `rng`, each as a delay after the file that opens its phase
     /// appears in the killed run's own directory (so that a run slower or faster than this
-    /// one, on a busy machine, is still killed in the phase drawn): a fifth in the start, two
-    /// fifths while sampling (with its checkpoints), a fifth in the summaries and run files, a
-    /// fifth in the report (but for its last tenth, which a run a little faster than this one
-    /// would not reach).
+    /// one, on a busy machine, is still killed in the phase drawn): a fifth in the start, three
+    /// tenths while sampling, a tenth right after a part is renamed into `chains/` (while its
+    /// checkpoint is written), a fifth in the summaries and run files, a fifth in the report
+    /// (but for its last tenth, which a run a little faster than this one would not reach).
     fn instants(&self, n: usize, rng: &mut ChaCha8Rng) -> Vec<KillAt> {
         let checkpoint = Some(CHECKPOINT.to_owned());
         let last_part = Some(format!("{CHAINS_DIR}/{}", last_part()));
@@ -287,7 +290,7 @@ impl Timeline {
             (
                 checkpoint,
                 self.summaries - self.checkpoint,
-                n - 3 * (n / 5),
+                n - 3 * (n / 5) - n / 10,
             ),
             (last_part, self.report - self.summaries, n / 5),
             (
@@ -296,7 +299,7 @@ impl Timeline {
                 n / 5,
             ),
         ];
-        spans
+        let mut instants: Vec<KillAt> = spans
             .into_iter()
             .flat_map(|(after, span, k)| {
                 (0..k)
@@ -306,7 +309,20 @@ impl Timeline {
                     })
                     .collect::<Vec<_>>()
             })
-            .collect()
+            .collect();
+        // A tenth within a millisecond of a part's rename into `chains/`: while its checkpoint
+        // is written. That window is a few milliseconds long, so instants spread over the
+        // sampling alone would land in it by chance only, and less often the faster the
+        // machine.
+        let parts = STEPS / CHECKPOINT_EVERY;
+        instants.extend((0..n / 10).map(|_| KillAt {
+            after: Some(format!(
+                "{CHAINS_DIR}/part-{:06}.parquet",
+                rng.random_range(1..parts - 1)
+            )),
+            delay: Duration::from_micros(rng.random_range(0..1000)),
+        }));
+        instants
     }
 }
 
@@ -417,6 +433,15 @@ fn check_no_torn_file(
                 assert!(pid.is_some(), "{}", at("no pid"));
             }
             CHECKPOINT => {} // read below, by resuming a copy
+            MARKER => {
+                // Written once, whole, before anything else: the marker of a run directory.
+                let text = text();
+                assert!(
+                    text.contains("kind = \"run\"\n") && text.ends_with('\n'),
+                    "{}",
+                    at("not a complete marker")
+                );
+            }
             _ if name.starts_with(&format!("{FIGURES_DIR}/")) && file.ends_with(".svg") => {
                 let text = text();
                 assert!(

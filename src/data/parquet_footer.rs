@@ -55,6 +55,22 @@ pub(crate) fn check_footer(file: &mut (impl Read + Seek)) -> Result<(), String> 
             .ok_or_else(|| format!("its footer claims {n} {what} in a file of {size} bytes"))
     };
     count("rows", metadata.num_rows)?;
+    // polars decodes the Arrow schema it finds under this key and indexes its first 4 (and,
+    // after a continuation marker, 8) bytes unchecked; any real schema is far longer than 16
+    // base64 characters (12 bytes).
+    let arrow_schema = metadata
+        .key_value_metadata
+        .iter()
+        .flatten()
+        .find(|kv| kv.key == "ARROW:schema");
+    if let Some(value) = arrow_schema.and_then(|kv| kv.value.as_deref()) {
+        if value.len() < 16 {
+            return Err(format!(
+                "its footer's Arrow schema is {} characters long, too short to be one",
+                value.len()
+            ));
+        }
+    }
     for (g, group) in metadata.row_groups.iter().enumerate() {
         count(&format!("rows in row group {g}"), group.num_rows)?;
         for (c, chunk) in group.columns.iter().enumerate() {
