@@ -52,6 +52,7 @@ pub mod metadata;
 mod read;
 mod seal;
 mod sink;
+mod verify;
 
 use crate::data::atomic as io;
 use std::path::{Path, PathBuf};
@@ -60,12 +61,10 @@ pub use crate::sampler::sink::{ChainSink, StepView};
 pub use metadata::{
     read_part_metadata, ChainDescription, ChainMetadata, ColumnInfo, ColumnKind, ColumnUnit,
 };
-pub use read::{
-    read_chains, read_chains_at_checkpoint, verify_run, verify_sealed_json, ChainReader, Chains,
-    Integrity,
-};
+pub use read::{read_chains, read_chains_at_checkpoint, ChainReader, Chains};
 pub use seal::{seal_json, JSON_CHECKSUM_KEY};
 pub use sink::{ParquetSink, SinkOptions, Written, ROW_GROUP_BYTES};
+pub use verify::{verify_run, verify_sealed_json, Integrity};
 
 /// Name of the index column holding the ensemble number.
 pub const ENSEMBLE_COLUMN: &str = "ensemble";

@@ -97,28 +97,36 @@ pub const REPORT_MD: &str = "report.md";
 /// The folder of the report's SVG figures.
 pub const FIGURES_DIR: &str = "figures";
 
-/// Every entry of a run directory that `fit`, `demo`, `report`, `kfold` and the Python `fit`
+/// The entries of a run directory that `fit`, `demo`, `report`, `kfold` and the Python `fit`
 /// write (the report's, the folds' of `kfold`, the lock, and the JSON checkpoint of earlier
-/// releases, which a resume replaces).
-const RUN_FILES: &[&str] = &[
-    MODEL_TOML,
-    SETTINGS_JSON,
-    SUMMARY_JSON,
-    SUMMARY_CSV,
-    PREDICTIVE_CSV,
-    CURVES_JSON,
-    TRUTH_JSON,
-    LOO_CSV,
-    KFOLD_CSV,
-    KFOLD_DIR,
-    CHAINS_DIR,
-    CHECKPOINT,
-    LEGACY_CHECKPOINT,
-    REPORT_HTML,
-    REPORT_MD,
-    FIGURES_DIR,
-    LOCK_FILE,
-];
+/// releases, which a resume replaces), then `extra`.
+macro_rules! run_files {
+    ($($extra:expr),*) => {
+        &[
+            MODEL_TOML,
+            SETTINGS_JSON,
+            SUMMARY_JSON,
+            SUMMARY_CSV,
+            PREDICTIVE_CSV,
+            CURVES_JSON,
+            TRUTH_JSON,
+            LOO_CSV,
+            KFOLD_CSV,
+            KFOLD_DIR,
+            CHAINS_DIR,
+            CHECKPOINT,
+            LEGACY_CHECKPOINT,
+            REPORT_HTML,
+            REPORT_MD,
+            FIGURES_DIR,
+            LOCK_FILE,
+            $($extra),*
+        ]
+    };
+}
+
+/// Every entry of a run directory that the command line writes.
+const RUN_FILES: &[&str] = run_files!();
 
 /// A run directory as an output directory
 /// ([`OutputDir::claim`](crate::output_dir::OutputDir::claim)): what every command that
@@ -138,26 +146,7 @@ pub const PYTHON_RUN_OUTPUT: OutputKind = OutputKind {
     ..RUN_OUTPUT
 };
 
-const PYTHON_RUN_FILES: &[&str] = &[
-    MODEL_TOML,
-    SETTINGS_JSON,
-    SUMMARY_JSON,
-    SUMMARY_CSV,
-    PREDICTIVE_CSV,
-    CURVES_JSON,
-    TRUTH_JSON,
-    LOO_CSV,
-    KFOLD_CSV,
-    KFOLD_DIR,
-    CHAINS_DIR,
-    CHECKPOINT,
-    LEGACY_CHECKPOINT,
-    REPORT_HTML,
-    REPORT_MD,
-    FIGURES_DIR,
-    LOCK_FILE,
-    DATA_DIR,
-];
+const PYTHON_RUN_FILES: &[&str] = run_files!(DATA_DIR);
 
 /// Whether `dir`, which carries no marker, is a run directory of a release that wrote none,
 /// so that it stays resumable and reportable: it holds a checkpoint (`checkpoint.bin`, or the
