@@ -36,6 +36,7 @@ targets=(
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
   "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|30 min|partly (wall times)"
   "mpi|reports/mpi.md: fits over MPI ranks, time per sweep and memory per rank|20 min|yes"
+  "robustness|reports/robustness.md: a fit killed at 100 instants, a full disk, a read-only directory; inputs tried per parser by the seeded mutation tests (run as root: it mounts tmpfs)|3 min|no"
   "structure|reports/structure.md: the shape of src/ (largest files, long functions, the core trait, pub items) against 361f0fe|5 s|no"
 )
 
@@ -233,6 +234,33 @@ run() {
     stamp "$target" "$load" "$start" reports/mpi.md
     # Back to the default build, which the other targets and the tests use.
     build
+    ;;
+  robustness)
+    local log=$scratch/robustness.log table=$scratch/robustness.md
+    mkdir -p "$scratch"
+    {
+      cargo test --release --locked -p slipbayes-cli --test faults -- --nocapture --test-threads=1
+      cargo test --release --locked -p slipbayes --test hostile_inputs -- --nocapture
+    } > "$log" 2>&1
+    {
+      echo '## Faults at any instant'
+      echo
+      echo '`cargo test --release -p slipbayes-cli --test faults -- --nocapture` (as root):'
+      echo
+      grep -E '^(100 kills|disk full)' "$log" | sed 's/^/- /'
+      echo
+      echo '## Hostile inputs: the seeded mutation tests'
+      echo
+      echo '`cargo test --release -p slipbayes --test hostile_inputs -- --nocapture`: each target over its seeds (`fuzz/seeds/`), every truncation, seeded mutations and the inputs of `tests/fuzz-regressions/`; a panic or a refusal that does not name the file fails the test.'
+      echo
+      echo '| target | inputs | failures |'
+      echo '|---|---|---|'
+      sed -nE 's/^([a-z_]+): ([0-9]+) inputs, ([0-9]+) failures$/| \1 | \2 | \3 |/p' "$log"
+    } > "$table"
+    assemble reports/robustness.md "Nothing lost: faults at any instant and hostile inputs" \
+      "A real \`slipbayes fit\` killed with SIGKILL at 100 instants over its life (start, sampling, checkpoint writes, summaries, report), its run directory checked after each kill (no file half written, chains a bit-identical prefix of an uninterrupted run's) and resumed (the stale lock taken over, the chains bit-identical to an uninterrupted run's); the same fit on a tmpfs that fills at 12 sizes and on a directory turned read-only; then every parser fed mutated inputs. The phase of each kill is what the directory held after it. The runs of cargo-fuzz itself are in [hostile-inputs.md](hostile-inputs.md)." \
+      "$table"
+    stamp "$target" "$load" "$start" reports/robustness.md
     ;;
   structure)
     local table=$scratch/structure.md
