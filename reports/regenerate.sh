@@ -247,7 +247,7 @@ run() {
       echo
       echo '`cargo test --release -p slipbayes-cli --test faults -- --nocapture` (as root):'
       echo
-      grep -E '^(100 kills|disk full)' "$log" | sed 's/^/- /'
+      grep -oE '(100 kills|disk full).*' "$log" | sed 's/^/- /'
       echo
       echo '## Hostile inputs: the seeded mutation tests'
       echo
