@@ -36,8 +36,11 @@ create_exception!(
      line, column, key or parameter at fault and what to change."
 );
 
-/// How often a running fit hands its progress to Python and looks for Ctrl-C.
-const POLL: Duration = Duration::from_millis(200);
+/// How often a running fit looks for Ctrl-C and for its end.
+const POLL: Duration = Duration::from_millis(20);
+/// How often it hands its progress to Python after the first time, which is as soon as there
+/// is progress (a short fit may sample for less than this: its callback still sees it under way).
+const PROGRESS_EVERY: Duration = Duration::from_millis(200);
 
 /// The error and its causes in one message, as the command line prints them.
 fn error(e: &dyn std::error::Error) -> PyErr {
@@ -413,6 +416,7 @@ fn fit(
     };
     let command = vec!["python: slipbayes.fit".to_owned()];
     let mut interrupt: Option<PyErr> = None;
+    let mut last_progress: Option<std::time::Instant> = None;
     let result = std::thread::scope(|scope| -> PyResult<_> {
         let worker = scope.spawn(|| {
             pool.install(|| {
@@ -444,8 +448,12 @@ fn fit(
                 interrupt.get_or_insert(e);
                 continue;
             }
+            if last_progress.is_some_and(|t| t.elapsed() < PROGRESS_EVERY) {
+                continue;
+            }
             let latest = shared.latest.lock().ok().and_then(|p| *p);
             if let (Some(callback), Some(p)) = (&progress, latest) {
+                last_progress = Some(std::time::Instant::now());
                 if let Err(e) = callback.call1(
                     py,
                     (

@@ -180,14 +180,16 @@ def test_ctrl_c_stops_after_a_checkpoint_and_resumes(tmp_path, fitted):
     out = tmp_path / "run"
     lines = []
 
-    def progress(step, *_):
-        # One SIGINT, as Ctrl-C sends, once the sampler is under way.
-        if step >= 20 and not lines:
+    def progress(step, last_step, *_):
+        # One SIGINT, as Ctrl-C sends, while the sampler is under way (the first progress
+        # reaches Python within a poll of the first step).
+        if step < last_step and not lines:
             lines.append(step)
             os.kill(os.getpid(), signal.SIGINT)
 
     with pytest.raises(KeyboardInterrupt, match="resume=True"):
         slipbayes.fit(one_contact(), seed=SEED, steps=STEPS, out=out, progress=progress)
+    assert lines, "no progress reached Python while the sampler ran"
     assert not (out / "summary.json").exists() and (out / "checkpoint.bin").exists()
     resumed = slipbayes.fit(one_contact(), seed=SEED, steps=STEPS, out=out, resume=True,
                             progress=False)
