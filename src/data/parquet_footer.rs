@@ -16,20 +16,28 @@ use polars_parquet_format::FileMetaData;
 /// only make the decoder reserve memory the file cannot fill.
 const MAX_VALUES_PER_BYTE: u64 = 4096;
 
-/// Reads the footer of the Parquet file `file` and checks every count and byte range in it
-/// against the file's size. Returns what is wrong, as a phrase, when a reader must not go on.
-pub(crate) fn check_footer(file: &mut (impl Read + Seek)) -> Result<(), String> {
-    let size = file
-        .seek(SeekFrom::End(0))
-        .map_err(|e| format!("cannot read it: {e}"))?;
-    let no_footer = || "no Parquet footer at the end".to_owned();
+/// Why a Parquet footer could not be read ([`read_footer`]).
+pub(crate) enum FooterError {
+    /// The file could not be read.
+    Io(std::io::Error),
+    /// It holds no footer, or one that does not decode: what is wrong, as a phrase.
+    Invalid(String),
+}
+
+/// The footer of the Parquet file `file`, decoded: where its metadata starts, the metadata,
+/// and the file's size. Shared by the check below and by the chain store's footer rewrite.
+pub(crate) fn read_footer(
+    file: &mut (impl Read + Seek),
+) -> Result<(u64, FileMetaData, u64), FooterError> {
+    let size = file.seek(SeekFrom::End(0)).map_err(FooterError::Io)?;
+    let no_footer = || FooterError::Invalid("no Parquet footer at the end".to_owned());
     if size < 12 {
         return Err(no_footer());
     }
     let mut tail = [0u8; 8];
     file.seek(SeekFrom::End(-8))
         .and_then(|_| file.read_exact(&mut tail))
-        .map_err(|e| format!("cannot read it: {e}"))?;
+        .map_err(FooterError::Io)?;
     if &tail[4..] != b"PAR1" {
         return Err(no_footer());
     }
@@ -41,12 +49,22 @@ pub(crate) fn check_footer(file: &mut (impl Read + Seek)) -> Result<(), String> 
     let mut bytes = vec![0u8; length as usize];
     file.seek(SeekFrom::Start(start))
         .and_then(|_| file.read_exact(&mut bytes))
-        .map_err(|e| format!("cannot read it: {e}"))?;
+        .map_err(FooterError::Io)?;
     // The bound the Parquet reader itself uses against a hostile footer.
     let max_size = bytes.len() * 2 + 1024;
     let metadata =
         FileMetaData::read_from_in_protocol(&mut TCompactInputProtocol::new(&bytes[..], max_size))
-            .map_err(|e| format!("its footer is unreadable: {e}"))?;
+            .map_err(|e| FooterError::Invalid(format!("its footer is unreadable: {e}")))?;
+    Ok((start, metadata, size))
+}
+
+/// Reads the footer of the Parquet file `file` and checks every count and byte range in it
+/// against the file's size. Returns what is wrong, as a phrase, when a reader must not go on.
+pub(crate) fn check_footer(file: &mut (impl Read + Seek)) -> Result<(), String> {
+    let (_, metadata, size) = read_footer(file).map_err(|e| match e {
+        FooterError::Io(e) => format!("cannot read it: {e}"),
+        FooterError::Invalid(problem) => problem,
+    })?;
     let max_values = size.saturating_mul(MAX_VALUES_PER_BYTE);
     let count = |what: &str, n: i64| -> Result<u64, String> {
         u64::try_from(n)

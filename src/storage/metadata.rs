@@ -14,11 +14,12 @@
 //! [`ParquetSink::finish`]: super::ParquetSink::finish
 
 use std::fs::{self, File, OpenOptions};
-use std::io::{Read, Seek, SeekFrom, Write};
+use std::io::{Seek, SeekFrom, Write};
 use std::path::Path;
 
+use crate::data::parquet_footer::{read_footer, FooterError};
 use polars_parquet::write::{KeyValue, ThriftFileMetadata};
-use polars_parquet_format::thrift::protocol::{TCompactInputProtocol, TCompactOutputProtocol};
+use polars_parquet_format::thrift::protocol::TCompactOutputProtocol;
 use serde::{Deserialize, Serialize};
 
 pub use crate::density::ColumnUnit;
@@ -316,36 +317,10 @@ struct Footer {
 impl Footer {
     fn read(path: &Path) -> Result<Self, StorageError> {
         let mut file = File::open(path).map_err(|e| StorageError::io("open", path, e))?;
-        let size = file
-            .seek(SeekFrom::End(0))
-            .map_err(|e| StorageError::io("read", path, e))?;
-        let not_parquet = || StorageError::parquet(path, "no Parquet footer at the end");
-        let mut tail = [0u8; 8];
-        if size < 12 {
-            return Err(not_parquet());
-        }
-        file.seek(SeekFrom::End(-8))
-            .and_then(|_| file.read_exact(&mut tail))
-            .map_err(|e| StorageError::io("read", path, e))?;
-        if &tail[4..] != MAGIC {
-            return Err(not_parquet());
-        }
-        let length = u64::from(u32::from_le_bytes([tail[0], tail[1], tail[2], tail[3]]));
-        let start = size
-            .checked_sub(8 + length)
-            .filter(|&s| s >= 4)
-            .ok_or_else(not_parquet)?;
-        let mut bytes = vec![0u8; length as usize];
-        file.seek(SeekFrom::Start(start))
-            .and_then(|_| file.read_exact(&mut bytes))
-            .map_err(|e| StorageError::io("read", path, e))?;
-        // The bound the Parquet reader itself uses against a hostile footer.
-        let max_size = bytes.len() * 2 + 1024;
-        let metadata = ThriftFileMetadata::read_from_in_protocol(&mut TCompactInputProtocol::new(
-            bytes.as_slice(),
-            max_size,
-        ))
-        .map_err(|e| StorageError::parquet(path, e))?;
+        let (start, metadata, _) = read_footer(&mut file).map_err(|e| match e {
+            FooterError::Io(e) => StorageError::io("read", path, e),
+            FooterError::Invalid(problem) => StorageError::parquet(path, problem),
+        })?;
         Ok(Self { start, metadata })
     }
 }
