@@ -596,7 +596,7 @@ fn start_around_optimum_of_rosenbrock() {
     // Laplace covariance at (1, 1) of (1-x)²/20 + 5 (y - x²)²: H = [[0.1+40, -20], [-20, 10]].
     let det = 40.1 * 10.0 - 400.0;
     let truth = [10.0 / det, 20.0 / det, 20.0 / det, 40.1 / det];
-    for (c, t) in start.optimum.covariance.iter().zip(truth) {
+    for (c, t) in start.optimum.covariance.to_dense(2).iter().zip(truth) {
         assert!((c - t).abs() < 1e-4 * t.abs(), "{c} vs {t}");
     }
     // The start is usable as it is.

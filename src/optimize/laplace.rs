@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
+use super::by_blocks::{ArrowheadFactor, ByBlocks, BY_BLOCKS_FROM};
 use super::lbfgs::{lbfgs, LbfgsOptions, Objective};
 use super::nelder_mead::{nelder_mead, NelderMeadOptions};
 use super::probe::Probe;
@@ -61,7 +62,7 @@ pub fn laplace_covariance<F: FnMut(&[f64]) -> f64>(
 
 /// The steps of the second differences: ε^(1/4) balances truncation (h²) against rounding
 /// (ε/h²).
-fn hessian_steps(mode: &[f64]) -> Vec<f64> {
+pub(super) fn hessian_steps(mode: &[f64]) -> Vec<f64> {
     mode.iter()
         .map(|x| f64::EPSILON.powf(0.25) * x.abs().max(1.0))
         .collect()
@@ -146,12 +147,32 @@ pub struct Optimum {
     pub x: Vec<f64>,
     /// Log-density there.
     pub log_density: f64,
-    /// Covariance of the Laplace approximation (row-major `ndim × ndim`).
-    pub covariance: Vec<f64>,
+    /// Covariance of the Laplace approximation.
+    pub covariance: Covariance,
     /// Whether the Hessian was positive definite (otherwise a fallback spread was used).
     pub positive_definite: bool,
     /// Log-density evaluations spent (optimisation and Hessian).
     pub evaluations: usize,
+}
+
+/// The covariance of a Laplace approximation: dense, or by independent blocks for a density
+/// searched by them ([`BY_BLOCKS_FROM`]), whose dense covariance would take O(d²) memory.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Covariance {
+    /// Row-major `ndim × ndim`.
+    Dense(Vec<f64>),
+    /// The Cholesky factor of its inverse, an arrowhead.
+    Arrowhead(ArrowheadFactor),
+}
+
+impl Covariance {
+    /// Row-major `ndim × ndim` (computed from the factor of an arrowhead: O(d²) memory).
+    pub fn to_dense(&self, ndim: usize) -> Vec<f64> {
+        match self {
+            Self::Dense(c) => c.clone(),
+            Self::Arrowhead(factor) => factor.to_dense(ndim),
+        }
+    }
 }
 
 /// Initial walkers and how they were found.
@@ -186,13 +207,16 @@ impl<D: LogDensity + ?Sized> Objective for Minus<'_, '_, D> {
 }
 
 /// Most rounds of L-BFGS and Nelder–Mead in [`find_mode`].
-const MODE_ROUNDS: usize = 6;
+pub(super) const MODE_ROUNDS: usize = 6;
 
 /// A round of [`find_mode`] that raises the log-density by less than this ends the search.
-const MODE_ROUND_GAIN: f64 = 1e-3;
+pub(super) const MODE_ROUND_GAIN: f64 = 1e-3;
 
 /// The mode of `density` from `start` (rounds of L-BFGS, each with a Nelder–Mead polish) and the covariance
-/// of the Laplace approximation there.
+/// of the Laplace approximation there. A density of at least [`BY_BLOCKS_FROM`] coordinates
+/// seen through blocks, independent blocks among them, is searched by those blocks instead
+/// (damped Newton steps on its arrowhead curvature, [`ArrowheadFactor`]), at a cost
+/// linear in their number.
 ///
 /// # Errors
 /// [`OptimizeError::Shape`] for a start of the wrong length, [`OptimizeError::StartNotFinite`]
@@ -209,6 +233,11 @@ pub fn find_mode<'d, D: LogDensity + ?Sized + 'd>(
             expected: n,
             got: start.len(),
         });
+    }
+    if n >= BY_BLOCKS_FROM {
+        if let Some(by_blocks) = target.blocked_density().and_then(ByBlocks::new) {
+            return by_blocks.find_mode(start);
+        }
     }
     let probe = Probe::new(target);
     if !probe.value(start).is_finite() {
@@ -251,7 +280,7 @@ pub fn find_mode<'d, D: LogDensity + ?Sized + 'd>(
     Ok(Optimum {
         x: mode,
         log_density: -neg,
-        covariance,
+        covariance: Covariance::Dense(covariance),
         positive_definite,
         evaluations: probe.evaluations(),
     })
@@ -303,10 +332,7 @@ fn walkers_around<D: LogDensity + ?Sized, R: Rng>(
     let mode = &optimum.x;
     let n = mode.len();
     let probe = Probe::new(Target::joint(density));
-    let eig = SymmetricEigen::new(DMatrix::from_row_slice(n, n, &optimum.covariance));
-    // Σ = V Λ Vᵀ, so x = mode + V Λ^{1/2} z with z standard normal.
-    let root =
-        &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
+    let spread = Spread::of(&optimum.covariance, n);
     let mut z = DVector::<f64>::zeros(n);
     let mut all = Vec::with_capacity(ensembles);
     for e in 0..ensembles {
@@ -320,7 +346,7 @@ fn walkers_around<D: LogDensity + ?Sized, R: Rng>(
                 // identify) refuses many Laplace draws: narrow the spread as refusals mount,
                 // halving it every tenth of the attempts.
                 let shrink = 0.5_f64.powi((attempts * 10 / MAX_DRAW_ATTEMPTS) as i32);
-                let d = (&root * &z) * shrink;
+                let d = spread.draw(&z) * shrink;
                 let x: Vec<f64> = mode.iter().zip(d.iter()).map(|(m, d)| m + d).collect();
                 if probe.value(&x).is_finite() {
                     break x;
@@ -347,6 +373,34 @@ fn walkers_around<D: LogDensity + ?Sized, R: Rng>(
         all.push(ens);
     }
     Ok(all)
+}
+
+/// How a draw from `N(0, Σ)` is made from a standard normal `z`.
+enum Spread<'o> {
+    /// `Σ = V Λ Vᵀ`, so `V Λ^{1/2} z`.
+    Root(DMatrix<f64>),
+    /// `L⁻ᵀ z` with `L Lᵀ = Σ⁻¹`.
+    Arrowhead(&'o ArrowheadFactor),
+}
+
+impl<'o> Spread<'o> {
+    fn of(covariance: &'o Covariance, n: usize) -> Self {
+        match covariance {
+            Covariance::Dense(c) => {
+                let eig = SymmetricEigen::new(DMatrix::from_row_slice(n, n, c));
+                let root = eig.eigenvalues.map(|l| l.max(0.0).sqrt());
+                Self::Root(&eig.eigenvectors * DMatrix::from_diagonal(&root))
+            }
+            Covariance::Arrowhead(factor) => Self::Arrowhead(factor),
+        }
+    }
+
+    fn draw(&self, z: &DVector<f64>) -> DVector<f64> {
+        match self {
+            Self::Root(root) => root * z,
+            Self::Arrowhead(factor) => factor.draw(z),
+        }
+    }
 }
 
 /// Where to search for the mode that the first walkers are drawn around: a starting point,

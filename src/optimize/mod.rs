@@ -3,6 +3,8 @@
 //!
 //! - [`mod@lbfgs`]: limited-memory BFGS on central finite-difference gradients.
 //! - [`mod@nelder_mead`]: the simplex method, for functions that refuse some points.
+//! - [`by_blocks`](ArrowheadFactor): the same for a density of many independent blocks, at
+//!   a cost linear in their number.
 //! - [`laplace`]: the mode ([`find_mode`]), the covariance of the Laplace approximation
 //!   ([`laplace_covariance`]) and walkers drawn from it ([`laplace_walkers`],
 //!   [`initial_around_optimum`]).
@@ -10,14 +12,16 @@
 //! Like the sampler, this part sees a model only through [`crate::density::LogDensity`] (or
 //! a plain function of `&[f64]`) and knows nothing of friction.
 
+mod by_blocks;
 pub mod laplace;
 pub mod lbfgs;
 pub mod nelder_mead;
 mod probe;
 
+pub use by_blocks::{ArrowheadFactor, BY_BLOCKS_FROM};
 pub use laplace::{
-    find_mode, initial_around_optimum, laplace_covariance, laplace_walkers, Optimum, SearchMap,
-    SearchStart, Start, FALLBACK_SPREAD, MAX_DRAW_ATTEMPTS,
+    find_mode, initial_around_optimum, laplace_covariance, laplace_walkers, Covariance, Optimum,
+    SearchMap, SearchStart, Start, FALLBACK_SPREAD, MAX_DRAW_ATTEMPTS,
 };
 pub use lbfgs::{lbfgs, LbfgsOptions, Objective};
 pub use nelder_mead::{nelder_mead, NelderMeadOptions};
