@@ -10,10 +10,12 @@
 //! - sweeps (one step: every block of every walker updated once), their mean, and that mean
 //!   per contact.
 //!
-//! The fit's mode search with its Laplace covariance (`initial_around_optimum` from the
-//! posterior's search start, as `slipbayes fit` starts) is timed only for campaigns of at most
-//! `--mode-up-to M` contacts (none by default): its finite-difference Hessian costs a number
-//! of evaluations that grows with the square of the dimension, hours at a thousand contacts.
+//! - the fit's mode search with its Laplace covariance and the walkers drawn from it
+//!   (`initial_around_optimum` from the posterior's search start, as `slipbayes fit` starts;
+//!   by the contacts' blocks from 64 coordinates on, at a cost linear in the contacts);
+//!   `--mode-up-to M` times it only for campaigns of at most M contacts, for a build whose
+//!   search is the dense one (its Hessian's evaluations grow with the square of the
+//!   dimension: hours at a thousand contacts).
 //!
 //! `cargo run --release --example many_contacts [-- N ...] [--mode-up-to M] [--sweeps K]`
 //! (default N = 10, 50, 120, 500 and 2,000: the last is 4,000 runs; K = 3). The last column is
@@ -44,7 +46,7 @@ const SWEEPS: u64 = 3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sizes = Vec::new();
-    let (mut mode_up_to, mut sweeps) = (0, SWEEPS);
+    let (mut mode_up_to, mut sweeps) = (usize::MAX, SWEEPS);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         if a == "--mode-up-to" {

@@ -166,9 +166,9 @@ run() {
     ;;
   campaign-scaling)
     # The same measuring program built against this checkout and against PREVIOUS (a commit,
-    # 4873b0b by default: before proposals of independent blocks were made in place), the
-    # latter in a scratch worktree.
-    local previous=${PREVIOUS:-4873b0b} prev=$scratch/campaign-scaling-previous
+    # 55f7854 by default: before the mode search by blocks), the latter in a scratch
+    # worktree.
+    local previous=${PREVIOUS:-55f7854} prev=$scratch/campaign-scaling-previous
     cargo build --release --locked -p slipbayes --example many_contacts --quiet
     rm -rf "$scratch/campaign-scaling"
     git worktree remove --force "$prev" 2> /dev/null || rm -rf "$prev"
@@ -187,7 +187,7 @@ run() {
       target/release/examples/many_contacts 50 200 1000
     git worktree remove --force "$prev"
     assemble reports/campaign-scaling.md "Campaigns of hundreds to thousands of contacts: cost per contact" \
-      "A one-material campaign of N contacts (a 201-point first slide and a 51-point repeat slide per contact, simulated in memory as \`data/make_campaign.py\` makes them) from loading to sampling, by \`examples/many_contacts.rs\` built against this commit (new) and against $previous (previous), each size run by both in turn, twice: \`MODE_UP_TO=50 bash benches/campaigns.sh DIR PREVIOUS NEW 50 200 1000\`. Parts: the posterior built from the data, the rough start (each first slide fitted alone), the fit's mode search with its Laplace covariance (\`initial_around_optimum\`, timed at 50 contacts only: its cost grows faster than the square of the dimension), the sampler's start under hierarchical updates (every walker evaluated in full) and the mean of 3 sweeps (one sweep updates every block of every walker once); peak RSS of the whole process. Target: time per sweep per contact at 1,000 contacts within 1.5× of that at 50. Every run is on one thread: wall times move with the machine's load (see the header); the process's CPU time over the sweeps (last column) much less." \
+      "A one-material campaign of N contacts (a 201-point first slide and a 51-point repeat slide per contact, simulated in memory as \`data/make_campaign.py\` makes them) from loading to sampling, by \`examples/many_contacts.rs\` built against this commit (new) and against $previous (previous), each size run by both in turn, twice: \`MODE_UP_TO=50 bash benches/campaigns.sh DIR PREVIOUS NEW 50 200 1000\`. Parts: the posterior built from the data, the rough start (each first slide fitted alone), the fit's mode search with its Laplace covariance and the walkers drawn from it (\`initial_around_optimum\`; the previous build's, dense, timed at 50 contacts only: its cost grows faster than the square of the dimension), the sampler's start under hierarchical updates (every walker evaluated in full) and the mean of 3 sweeps (one sweep updates every block of every walker once); peak RSS of the whole process. Targets: time per sweep per contact at 1,000 contacts within 1.5× of that at 50; the start (rough start, mode search, sampler's start) linear in the contacts. Every run is on one thread: wall times move with the machine's load (see the header); the process's CPU time over the sweeps (last column) much less." \
       "$scratch/campaign-scaling/table.md" "$scratch/campaign-scaling/ratios.md"
     stamp "$target" "$load" "$start" reports/campaign-scaling.md
     ;;

@@ -81,16 +81,50 @@ pub(super) fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportErr
     Ok(blocks)
 }
 
-fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
-    let chains = &ctx.inputs.chains;
-    let mut panels = Vec::new();
-    for q in ctx
+/// Trace panels a report draws at most: beyond them (a campaign of 200 contacts has 600
+/// parameters, 100 figures of traces), those of the materials and the worst mixed.
+pub(super) const TRACED_PARAMETERS: usize = 36;
+
+/// The parameters whose traces are drawn: every one up to [`TRACED_PARAMETERS`]; beyond, the
+/// materials' (their groups are no contact's or run's) and then the lowest bulk ESS of the
+/// rest, in the summary's order; with the sentence that says so.
+fn traced<'a>(ctx: &'a Context<'a>) -> (Vec<&'a QuantitySummary>, Option<String>) {
+    let all: Vec<&QuantitySummary> = ctx
         .inputs
         .summary
         .parameters
         .iter()
         .filter(|q| q.name != "sigma")
-    {
+        .collect();
+    if all.len() <= TRACED_PARAMETERS {
+        return (all, None);
+    }
+    let material = |q: &QuantitySummary| ctx.materials.contains(&q.group);
+    let mut rest: Vec<usize> = (0..all.len()).filter(|&k| !material(all[k])).collect();
+    rest.sort_by(|&a, &b| {
+        all[a]
+            .stats
+            .ess_bulk
+            .total_cmp(&all[b].stats.ess_bulk)
+            .then(a.cmp(&b))
+    });
+    let room = TRACED_PARAMETERS.saturating_sub(all.len() - rest.len());
+    let mut keep: Vec<usize> = (0..all.len()).filter(|&k| material(all[k])).collect();
+    keep.extend(rest.into_iter().take(room));
+    keep.sort_unstable();
+    let sentence = format!(
+        "{} parameters: the traces below are of {} of them, the materials' and those of the lowest bulk ESS (the slowest to mix); every parameter's R̂ and ESS are in the table above and in summary.csv.",
+        all.len(),
+        keep.len()
+    );
+    (keep.into_iter().map(|k| all[k]).collect(), Some(sentence))
+}
+
+fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
+    let chains = &ctx.inputs.chains;
+    let mut panels = Vec::new();
+    let (quantities, sentence) = traced(ctx);
+    for q in quantities {
         let u = DisplayUnit::of_si(&q.unit);
         let Ok(mut panel) =
             trace_panel(chains, &q.column, format!("{}{}", label(q), u.suffix()), &u)
@@ -100,7 +134,7 @@ fn trace_blocks(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         panel.ranks = rank_counts(ctx, &q.column);
         panels.push(panel);
     }
-    let mut blocks = Vec::new();
+    let mut blocks: Vec<Block> = sentence.into_iter().map(Block::Paragraph).collect();
     let figures = panels.len().div_ceil(TRACES_PER_FIGURE);
     let s = &ctx.inputs.summary.sampler;
     let shown = chains.walkers().min(TRACE_WALKERS);

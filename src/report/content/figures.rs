@@ -12,7 +12,15 @@ pub(super) fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             "Each run: data (open circles; at most 500 points shown), the posterior median of the model and its 50 % and 95 % posterior predictive bands (model plus noise) in the instrument's time. First and fast slides also in interface time τ = t − F/(kv), with the elastic part of the machine removed as in the paper's Fig. 1(b): the data are moved to their interface time with the posterior median k, and the law F(τ) is redrawn from 200 posterior draws.".into(),
         ),
     ];
+    let shown = shown_contacts(ctx);
+    if let Some(shown) = &shown {
+        blocks.push(Block::Paragraph(shown.sentence.clone()));
+    }
+    let drawn = |contact: &str| shown.as_ref().is_none_or(|s| s.contacts.contains(contact));
     for (i, run) in ctx.runs.iter().enumerate() {
+        if !drawn(&run.contact) {
+            continue;
+        }
         let file = format!("fit-{}.svg", run.name);
         let svg = fit_figure(run, ctx.predictive[i], ctx.curves[i]);
         let caption = match run.scene {
@@ -41,7 +49,7 @@ pub(super) fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
             contacts.push(&r.contact);
         }
     }
-    for contact in contacts {
+    for contact in contacts.into_iter().filter(|c| drawn(c)) {
         let slides: Vec<(&RunView, &Band, &InterfaceCurve)> = ctx
             .slides()
             .filter(|(_, r)| r.contact == contact)
@@ -61,6 +69,81 @@ pub(super) fn fit_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
         ));
     }
     Ok(blocks)
+}
+
+/// Contacts whose figures a report draws when it has more than this many: each contact's
+/// figures are about 0.5 MB of SVG, and 200 contacts made a report of 105 MB that a browser
+/// opens slowly and nobody reads to the end.
+pub(super) const FIGURED_CONTACTS: usize = 12;
+
+/// The contacts a report of many contacts draws, and the sentence that says which.
+pub(super) struct ShownContacts {
+    pub contacts: std::collections::HashSet<String>,
+    pub sentence: String,
+}
+
+/// With more than [`FIGURED_CONTACTS`] contacts, which to draw: the half whose data fall
+/// outside their 95 % posterior predictive band most often (a contact the model does not
+/// describe is what a scientist must see), and the other half spread evenly over the rest in
+/// model order (what a typical contact looks like). `None`: every contact is drawn.
+pub(super) fn shown_contacts(ctx: &Context) -> Option<ShownContacts> {
+    let mut order: Vec<&str> = Vec::new();
+    for r in &ctx.runs {
+        if !order.contains(&r.contact.as_str()) {
+            order.push(&r.contact);
+        }
+    }
+    if order.len() <= FIGURED_CONTACTS {
+        return None;
+    }
+    // Per contact, the largest fraction of any of its runs' points outside the band.
+    let outside = |contact: &str| {
+        ctx.runs
+            .iter()
+            .zip(&ctx.predictive)
+            .filter(|(r, _)| r.contact == contact)
+            .map(|(_, band)| fraction_outside(band))
+            .fold(0.0, f64::max)
+    };
+    let mut by_misfit: Vec<(usize, f64)> = order
+        .iter()
+        .enumerate()
+        .map(|(k, c)| (k, outside(c)))
+        .collect();
+    by_misfit.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    let worst: Vec<(usize, f64)> = by_misfit[..FIGURED_CONTACTS / 2].to_vec();
+    let rest: Vec<usize> = (0..order.len())
+        .filter(|k| worst.iter().all(|(w, _)| w != k))
+        .collect();
+    let spread = FIGURED_CONTACTS - worst.len();
+    let typical: Vec<usize> = (0..spread)
+        .map(|j| rest[j * (rest.len() - 1) / (spread - 1).max(1)])
+        .collect();
+    let named = |list: &mut dyn Iterator<Item = String>| list.collect::<Vec<_>>().join(", ");
+    let sentence = format!(
+        "{} contacts: the figures below are of {FIGURED_CONTACTS} of them, the {} whose data fall outside their 95 % posterior predictive band most often ({}; about 5 % of the points of a contact the model describes fall outside it) and {spread} spread evenly over the others in model order ({}). Every contact's parameters are in summary.csv and in the forest plot.",
+        order.len(),
+        worst.len(),
+        named(&mut worst.iter().map(|&(k, f)| format!("{} {:.0} %", order[k], 100.0 * f))),
+        named(&mut typical.iter().map(|&k| order[k].to_owned())),
+    );
+    let contacts = worst
+        .iter()
+        .map(|&(k, _)| k)
+        .chain(typical)
+        .map(|k| order[k].to_owned())
+        .collect();
+    Some(ShownContacts { contacts, sentence })
+}
+
+/// The fraction of a run's observations outside its 95 % posterior predictive band.
+fn fraction_outside(band: &Band) -> f64 {
+    let [low, .., high] = &band.predictive_n;
+    let n = band.observed_n.len();
+    let out = (0..n)
+        .filter(|&i| !(low[i]..=high[i]).contains(&band.observed_n[i]))
+        .count();
+    out as f64 / n.max(1) as f64
 }
 
 pub(super) fn peak_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
@@ -229,15 +312,22 @@ pub(super) fn materials_section(
         });
     }
     if !panels.is_empty() {
+        let many = panels
+            .iter()
+            .any(|p| p.rows.iter().filter(|r| !r.material).count() > FOREST_LISTED_ROWS);
+        let caterpillar = if many {
+            " A panel of more than 40 contacts or runs is a caterpillar plot instead: the contacts side by side, sorted by their median, each a vertical 95 % bar under its 50 % bar, and each material a black line at its median over the light band of its 95 % interval."
+        } else {
+            ""
+        };
         blocks.push(figure(
             "forest.svg".to_owned(),
-            "Forest plot: for each quantity, per material (black) and per contact or run (grey), \
+            format!("Forest plot: for each quantity, per material (black) and per contact or run (grey), \
              the 50 % interval as a thick bar, the 95 % interval as a thin bar and the median as \
              a white dot; the numbers beside each row are the median and the 95 % interval (where \
              an interval is narrower than the dot, it is narrower than the figure can show). F_d \
              and F_peak are not material parameters; their material rows are the mean of the \
-             material's contacts and the mean of its first slides, per draw."
-                .to_owned(),
+             material's contacts and the mean of its first slides, per draw.{caterpillar}"),
             forest_figure(&panels),
         ));
     }

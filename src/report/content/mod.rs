@@ -21,7 +21,7 @@ use super::inputs::{coverage_95, RunInputs};
 use super::plots::{
     corner_figure, distance_figure, fit_figure, forest_figure, peak_density, peak_density_figure,
     peak_t0_figure, trace_figure, trace_stride, velocity_text, CornerColumn, CornerData,
-    ForestPanel, ForestRow, PeakDraws, RankCounts, RunView, TracePanel,
+    ForestPanel, ForestRow, PeakDraws, RankCounts, RunView, TracePanel, FOREST_LISTED_ROWS,
 };
 use super::truth::Truths;
 use super::units::{significant, DisplayUnit};

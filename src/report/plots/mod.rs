@@ -71,7 +71,7 @@ fn scaled(v: &[f64], factor: f64) -> Vec<f64> {
 
 pub(crate) use corner::{corner_figure, CornerColumn, CornerData};
 pub(crate) use fit::{distance_figure, fit_figure, overlay_figure};
-pub(crate) use forest::{forest_figure, ForestPanel, ForestRow};
+pub(crate) use forest::{forest_figure, ForestPanel, ForestRow, FOREST_LISTED_ROWS};
 pub(crate) use peak::{peak_density, peak_density_figure, peak_t0_figure, PeakDraws};
 pub(crate) use trace::{trace_figure, trace_stride, RankCounts, TracePanel};
 
