@@ -517,7 +517,7 @@ fn comparison_pairs(spec: &SummarySpec) -> Result<Vec<Pair>, FitError> {
 
 /// What the summaries may hold in memory at once, beyond the row groups being read: as many
 /// quantities are summarised in parallel as fit in it (at least one).
-const SUMMARY_MEMORY_BYTES: usize = 12 << 20;
+const SUMMARY_MEMORY_BYTES: usize = 96 << 20;
 
 /// The value of a row from the row group's chunks of an operand's columns.
 type Row<'a> = dyn Fn(&[Vec<f64>], usize) -> f64 + Sync + 'a;

@@ -12,7 +12,9 @@
 //! CRC-32 (IEEE 802.3) and not a cryptographic hash: the threat is a disk, a copy or an
 //! editor, not an adversary, and a CRC-32 detects every error burst of up to 32 bits, so
 //! every change of one byte (or of four consecutive bytes) is detected with certainty, not
-//! with high probability; it needs no dependency and reads at disk speed.
+//! with high probability. It is computed with carry-less multiplication where the processor
+//! has it (`crc32fast`, several GB/s): a run of 200 contacts holds 4.8 GB of chains, which a
+//! table read one byte at a time checked in 12 s at every reading of the run.
 
 use std::fs::File;
 use std::io::Read;
@@ -22,46 +24,21 @@ use serde::{Deserialize, Serialize};
 
 use super::StorageError;
 
-/// The CRC-32 lookup table (reflected polynomial 0xEDB88320), built at compile time.
-const TABLE: [u32; 256] = {
-    let mut table = [0u32; 256];
-    let mut n = 0;
-    while n < 256 {
-        let mut c = n as u32;
-        let mut k = 0;
-        while k < 8 {
-            c = if c & 1 == 1 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-            k += 1;
-        }
-        table[n] = c;
-        n += 1;
-    }
-    table
-};
-
 /// A running CRC-32 (IEEE 802.3, as zlib and `cksum -a crc32b` compute it).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Crc32(u32);
+#[derive(Debug, Clone)]
+pub(crate) struct Crc32(crc32fast::Hasher);
 
 impl Crc32 {
     pub(crate) fn new() -> Self {
-        Self(!0)
+        Self(crc32fast::Hasher::new())
     }
 
     pub(crate) fn update(&mut self, bytes: &[u8]) {
-        let mut c = self.0;
-        for &b in bytes {
-            c = TABLE[((c ^ u32::from(b)) & 0xff) as usize] ^ (c >> 8);
-        }
-        self.0 = c;
+        self.0.update(bytes);
     }
 
     pub(crate) fn value(self) -> u32 {
-        !self.0
+        self.0.finalize()
     }
 }
 

@@ -156,6 +156,10 @@ pub(super) fn peak_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     let mut density: Vec<PeakDraws> = Vec::new();
     let mut versus_t0: Vec<(String, Vec<(String, PeakVsT0)>)> = Vec::new();
     let mut rows = Vec::new();
+    // A report of many contacts draws the panels of the contacts its fit section draws (the
+    // table lists every run).
+    let shown = shown_contacts(ctx);
+    let drawn = |contact: &str| shown.as_ref().is_none_or(|s| s.contacts.contains(contact));
     for material in &ctx.materials {
         let mut v = Vec::new();
         for (i, run) in ctx.slides().filter(|(_, r)| &r.material == material) {
@@ -166,13 +170,15 @@ pub(super) fn peak_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
                 continue;
             };
             let s = &q.stats;
-            density.push((
-                format!("{} ({material})", run.name),
-                peak_density(&values),
-                [s.ci_low, s.median, s.ci_high],
-            ));
-            if let Some(curve) = ctx.peaks_vs_t0[i] {
-                v.push((run.name.clone(), curve.clone()));
+            if drawn(&run.contact) {
+                density.push((
+                    format!("{} ({material})", run.name),
+                    peak_density(&values),
+                    [s.ci_low, s.median, s.ci_high],
+                ));
+                if let Some(curve) = ctx.peaks_vs_t0[i] {
+                    v.push((run.name.clone(), curve.clone()));
+                }
             }
             let cell = |name: &str| {
                 ctx.find(name, &run.name)
@@ -223,7 +229,7 @@ pub(super) fn peak_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {
     ));
     blocks.push(figure(
         "peak-density.svg".to_owned(),
-        "Posterior density of the peak static friction per run and, where a material has several first slides, of their mean per draw: the shade is the 95 % interval, the dashed line the median.".to_owned(),
+        format!("Posterior density of the peak static friction per run and, where a material has several first slides, of their mean per draw: the shade is the 95 % interval, the dashed line the median.{}", if shown.is_some() { " Runs of the contacts whose fits are drawn above only." } else { "" }),
         peak_density_figure(&density),
     ));
     if !versus_t0.is_empty() {
