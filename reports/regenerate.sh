@@ -31,6 +31,7 @@ targets=(
   "import-speed|reports/import-speed.md: 10^6-point instrument exports against a plain CSV|5 min|yes"
   "convergence|reports/convergence.md: time, memory and verdict of the demo, the quick path and campaigns|15 min|yes"
   "campaigns|reports/campaigns.md: campaigns of 2 to 50 contacts until converged|5 min|yes"
+  "campaign-fit|reports/campaign-fit.md: a campaign of 200 contacts fitted until converged: where the time goes, the verdict, the truths covered|15 min|yes"
   "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
@@ -163,6 +164,15 @@ run() {
       "One-material campaigns of N contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`, with contact-to-contact spread in F_d, k and t0), each fitted with the default settings until converged by the strict standard, one fit after the other: \`bash benches/campaign_scaling.sh DIR 2 5 10 20 50\`. τ_max is in steps (sweeps: one step updates every block once); wall time and peak RSS are those of the whole command (start, sampling, summary, report). Targets: 10 contacts in at most 60 s and 300 MB, 50 contacts in at most 5 min and 1 GB." \
       "$scratch/campaigns/table.md"
     stamp "$target" "$load" "$start" reports/campaigns.md
+    ;;
+  campaign-fit)
+    build
+    rm -rf "$scratch/campaign-fit"
+    python3 benches/campaign_fit.py "$scratch/campaign-fit" 200 > /dev/null
+    assemble reports/campaign-fit.md "Campaigns fitted until converged" \
+      "A one-material campaign of 200 contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`) fitted by \`slipbayes fit campaign.toml\` with the default settings until converged by the strict standard (R̂ < 1.01 between ensembles, bulk and tail ESS > 400 on every post-burn-in draw of every reported quantity, τ trusted): \`python3 benches/campaign_fit.py DIR 200\`. The start is everything before the first step (the rough start, the mode search, the sampler's start); sampling as the fit reports it; then the summaries of every quantity, PSIS-LOO, the predictive bands and the report. The truths are the simulation's; a 95 % interval should hold its truth 95 % of the time, so about 950 of 1,002 (binomial sd 7). Target: converged in at most 10 minutes on the 2 cores." \
+      "$scratch/campaign-fit/table.md"
+    stamp "$target" "$load" "$start" reports/campaign-fit.md
     ;;
   campaign-scaling)
     # The same measuring program built against this checkout and against PREVIOUS (a commit,

@@ -102,7 +102,7 @@ pub(super) fn shown_contacts(ctx: &Context) -> Option<ShownContacts> {
             .iter()
             .zip(&ctx.predictive)
             .filter(|(r, _)| r.contact == contact)
-            .map(|(_, band)| fraction_outside(band))
+            .map(|(_, band)| 1.0 - coverage_95(band))
             .fold(0.0, f64::max)
     };
     let mut by_misfit: Vec<(usize, f64)> = order
@@ -134,16 +134,6 @@ pub(super) fn shown_contacts(ctx: &Context) -> Option<ShownContacts> {
         .map(|k| order[k].to_owned())
         .collect();
     Some(ShownContacts { contacts, sentence })
-}
-
-/// The fraction of a run's observations outside its 95 % posterior predictive band.
-fn fraction_outside(band: &Band) -> f64 {
-    let [low, .., high] = &band.predictive_n;
-    let n = band.observed_n.len();
-    let out = (0..n)
-        .filter(|&i| !(low[i]..=high[i]).contains(&band.observed_n[i]))
-        .count();
-    out as f64 / n.max(1) as f64
 }
 
 pub(super) fn peak_section(ctx: &Context) -> Result<Vec<Block>, ReportError> {

@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""Campaigns of N contacts fitted by `slipbayes fit` with the default settings, until converged
+by the strict standard: where the time goes (the start, the sampling, the summaries, LOO and
+the report), peak RSS, the verdict, and the truths counted inside their 95 % intervals.
+
+    python3 benches/campaign_fit.py OUT_DIR N [N ...]
+
+Each campaign is made by `data/make_campaign.py --contacts N` (a 201-point first slide and a
+51-point repeat slide per contact, one material) into OUT_DIR/cN, and fitted into
+OUT_DIR/cN/run under GNU time. The phases come from the fit's own lines: its progress lines
+(every 2 s, each saying how long the sampler has run) put the sampler's start on the clock,
+and its closing `sampler:` line says how long the sampling took; what follows is summaries,
+PSIS-LOO, predictive bands and the report. The truths are the simulation's (`truth.json`):
+each contact's F_d and k, each first slide's t0, each run's σ, and the material's α and a/F_d.
+Writes OUT_DIR/table.md and prints it.
+"""
+import json
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def coverage(run):
+    """Truths inside their 95 % interval, per kind: {kind: [inside, total]}."""
+    s = json.loads((run / "summary.json").read_text())
+    q = {(p["name"], p["group"]): p for p in s["parameters"] + s["derived"]}
+    by = {}
+
+    def check(name, group, value, kind):
+        p = q.get((name, group))
+        if p is not None:
+            counts = by.setdefault(kind, [0, 0])
+            counts[0] += p["ci_low"] <= value <= p["ci_high"]
+            counts[1] += 1
+
+    seen = set()
+    for r in json.loads((run / "truth.json").read_text()):
+        sim, name = r["simulation"], r["run"]
+        contact = name.rsplit("-", 1)[0]
+        if contact not in seen:
+            seen.add(contact)
+            check("F_d", contact, sim["params"]["f_d_n"], "F_d")
+            check("k", contact, sim["stiffness_n_per_m"], "k")
+            alpha, ratio = sim["params"]["alpha_per_m"], sim["params"]["a_n"] / sim["params"]["f_d_n"]
+        if sim["scene"] == "first":
+            check("t0", name, sim["params"]["t0_s"], "t0")
+        check("sigma", name, sim["noise_sd_n"], "σ")
+    check("alpha", "M", alpha, "α")
+    check("a_over_F_d", "M", ratio, "a/F_d")
+    return by
+
+
+def fit(out, n):
+    """Makes and fits the campaign of n contacts; returns the table's row."""
+    d = out / f"c{n}"
+    if not (d / "campaign.toml").exists():
+        subprocess.run([sys.executable, str(ROOT / "data/make_campaign.py"), "--contacts", str(n),
+                        "--out", str(d), "--binary", str(ROOT / "target/release/slipbayes")],
+                       check=True, stdout=subprocess.DEVNULL)
+    run = d / "run"
+    cmd = ["/usr/bin/time", "-f", "peak RSS %M kB", str(ROOT / "target/release/slipbayes"), "fit",
+           "campaign.toml", "--out", "run", "--overwrite", "--progress-every", "2"]
+    began = time.monotonic()
+    sampler_began, peak = None, 0
+    proc = subprocess.Popen(cmd, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    for line in proc.stderr:
+        m = re.search(r"(?:(\d+)m)?(\d+)s elapsed", line)
+        if m and sampler_began is None:
+            sampler_began = time.monotonic() - began - 60 * int(m.group(1) or 0) - int(m.group(2))
+        rss = re.search(r"peak RSS (\d+) kB", line)
+        if rss:
+            peak = int(rss.group(1))
+    stdout = proc.stdout.read()
+    if proc.wait() != 0:
+        raise SystemExit(f"the fit of {n} contacts failed: {stdout[-2000:]}")
+    total = time.monotonic() - began
+    s = re.search(r"sampler: (\d+) ensembles × (\d+) walkers × (\d+) steps \(burn-in (\d+)\), "
+                  r"acceptance [\d.]+, τ_max ([\d.]+), (\d+) evaluations, ([\d.]+) s; converged: (\w+)", stdout)
+    steps, tau, evaluations, sampled, converged = s.group(3), s.group(5), int(s.group(6)), float(s.group(7)), s.group(8)
+    summary = json.loads((run / "summary.json").read_text())
+    quantities = summary["parameters"] + summary["derived"]
+    ess = min(min(q["ess_bulk"], q["ess_tail"]) for q in quantities)
+    rhat = max(q["r_hat"] for q in quantities)
+    start = sampler_began if sampler_began is not None else float("nan")
+    after = total - start - sampled
+    cov = coverage(run)
+    inside, all_ = sum(c[0] for c in cov.values()), sum(c[1] for c in cov.values())
+    kinds = "; ".join(f"{k} {a}/{b}" for k, (a, b) in cov.items())
+    return (f"| {n:,} | {converged} | {total:,.0f} | {start:,.0f} | {sampled:,.0f} | {after:,.0f} | {steps} "
+            f"| {tau} | {evaluations:,} | {rhat:.4f} | {ess:,.0f} | {peak / 1024:,.0f} "
+            f"| {inside}/{all_} ({100 * inside / all_:.1f} %): {kinds} |")
+
+
+def main():
+    out = Path(sys.argv[1])
+    sizes = [int(n) for n in sys.argv[2:]] or [200]
+    out.mkdir(parents=True, exist_ok=True)
+    rows = ["| contacts | converged | wall (s) | start (s) | sampling (s) | summaries, LOO, report (s) "
+            "| steps | τ_max (steps) | evaluations | highest R̂ | lowest ESS (bulk or tail) | peak RSS (MB) "
+            "| truths inside their 95 % interval |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for n in sizes:
+        rows.append(fit(out, n))
+        print(rows[-1], file=sys.stderr)
+    (out / "table.md").write_text("\n".join(rows) + "\n")
+    print("\n".join(rows))
+
+
+if __name__ == "__main__":
+    main()
