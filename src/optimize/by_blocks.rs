@@ -359,7 +359,8 @@ impl<'d> ByBlocks<'d> {
             let after = self.round(&mut x, value);
             let gain = after - value;
             value = after;
-            if !(gain >= ROUND_GAIN) {
+            // NaN (no finite value) ends the rounds too.
+            if gain.is_nan() || gain < ROUND_GAIN {
                 break;
             }
         }

@@ -345,7 +345,7 @@ mod tests {
                 )
                 .collect(),
         };
-        let height = |svg: &str| -> f64 {
+        let height = |svg: &str| -> u32 {
             let at = svg.find("height=\"").unwrap() + 8;
             svg[at..].split('"').next().unwrap().parse().unwrap()
         };
