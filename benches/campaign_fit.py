@@ -66,16 +66,21 @@ def fit(out, n):
            "campaign.toml", "--out", "run", "--overwrite", "--progress-every", "2"]
     began = time.monotonic()
     sampler_began, peak = None, 0
-    proc = subprocess.Popen(cmd, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    for line in proc.stderr:
-        m = re.search(r"(?:(\d+)m)?(\d+)s elapsed", line)
-        if m and sampler_began is None:
-            sampler_began = time.monotonic() - began - 60 * int(m.group(1) or 0) - int(m.group(2))
-        rss = re.search(r"peak RSS (\d+) kB", line)
-        if rss:
-            peak = int(rss.group(1))
-    stdout = proc.stdout.read()
-    if proc.wait() != 0:
+    # The fit's standard output (a table of every quantity) goes to a file: a pipe read only at
+    # the end would fill and stop the fit.
+    printed = d / "fit.out"
+    with printed.open("w") as out_file:
+        proc = subprocess.Popen(cmd, cwd=d, stdout=out_file, stderr=subprocess.PIPE, text=True)
+        for line in proc.stderr:
+            m = re.search(r"(?:(\d+)m)?(\d+)s elapsed", line)
+            if m and sampler_began is None:
+                sampler_began = time.monotonic() - began - 60 * int(m.group(1) or 0) - int(m.group(2))
+            rss = re.search(r"peak RSS (\d+) kB", line)
+            if rss:
+                peak = int(rss.group(1))
+        status = proc.wait()
+    stdout = printed.read_text()
+    if status != 0:
         raise SystemExit(f"the fit of {n} contacts failed: {stdout[-2000:]}")
     total = time.monotonic() - began
     s = re.search(r"sampler: (\d+) ensembles × (\d+) walkers × (\d+) steps \(burn-in (\d+)\), "
