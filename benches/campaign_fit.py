@@ -7,10 +7,12 @@ the report), peak RSS, the verdict, and the truths counted inside their 95 % int
 
 Each campaign is made by `data/make_campaign.py --contacts N` (a 201-point first slide and a
 51-point repeat slide per contact, one material) into OUT_DIR/cN, and fitted into
-OUT_DIR/cN/run under GNU time. The phases come from the fit's own lines: its progress lines
-(every 2 s, each saying how long the sampler has run) put the sampler's start on the clock,
-and its closing `sampler:` line says how long the sampling took; what follows is summaries,
-PSIS-LOO, predictive bands and the report. The truths are the simulation's (`truth.json`):
+OUT_DIR/cN/run under GNU time. The phases come from the fit's progress lines (every 2 s, each
+with its step), timed as they arrive: the sampler's pace is the median of steps per second
+between consecutive lines, the sampling is the run's steps at that pace, the start is what
+came before the first line's steps, and the rest (the summaries, and those of a run that
+samples on when a summary finds it not yet converged, PSIS-LOO, the predictive bands, the
+report) is what is left of the wall time. The truths are the simulation's (`truth.json`):
 each contact's F_d and k, each first slide's t0, each run's σ, and the material's α and a/F_d.
 Writes OUT_DIR/table.md and prints it.
 """
@@ -65,16 +67,16 @@ def fit(out, n):
     cmd = ["/usr/bin/time", "-f", "peak RSS %M kB", str(ROOT / "target/release/slipbayes"), "fit",
            "campaign.toml", "--out", "run", "--overwrite", "--progress-every", "2"]
     began = time.monotonic()
-    sampler_began, peak = None, 0
+    lines, peak = [], 0
     # The fit's standard output (a table of every quantity) goes to a file: a pipe read only at
     # the end would fill and stop the fit.
     printed = d / "fit.out"
     with printed.open("w") as out_file:
         proc = subprocess.Popen(cmd, cwd=d, stdout=out_file, stderr=subprocess.PIPE, text=True)
         for line in proc.stderr:
-            m = re.search(r"(?:(\d+)m)?(\d+)s elapsed", line)
-            if m and sampler_began is None:
-                sampler_began = time.monotonic() - began - 60 * int(m.group(1) or 0) - int(m.group(2))
+            m = re.match(r"progress: step (\d+)/", line)
+            if m:
+                lines.append((time.monotonic() - began, int(m.group(1))))
             rss = re.search(r"peak RSS (\d+) kB", line)
             if rss:
                 peak = int(rss.group(1))
@@ -85,17 +87,22 @@ def fit(out, n):
     total = time.monotonic() - began
     s = re.search(r"sampler: (\d+) ensembles × (\d+) walkers × (\d+) steps \(burn-in (\d+)\), "
                   r"acceptance [\d.]+, τ_max ([\d.]+), (\d+) evaluations, ([\d.]+) s; converged: (\w+)", stdout)
-    steps, tau, evaluations, sampled, converged = s.group(3), s.group(5), int(s.group(6)), float(s.group(7)), s.group(8)
+    steps, tau, evaluations, converged = s.group(3), s.group(5), int(s.group(6)), s.group(8)
     summary = json.loads((run / "summary.json").read_text())
     quantities = summary["parameters"] + summary["derived"]
     ess = min(min(q["ess_bulk"], q["ess_tail"]) for q in quantities)
     rhat = max(q["r_hat"] for q in quantities)
-    start = sampler_began if sampler_began is not None else float("nan")
-    after = total - start - sampled
+    # The sampler's pace: the median of steps per second between consecutive progress lines
+    # (a pause for the summaries of a run that samples on is one interval among many).
+    rates = sorted((b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(lines, lines[1:]) if b[1] > a[1])
+    rate = rates[len(rates) // 2]
+    start = lines[0][0] - lines[0][1] / rate
+    sampling = int(steps) / rate
+    after = total - start - sampling
     cov = coverage(run)
     inside, all_ = sum(c[0] for c in cov.values()), sum(c[1] for c in cov.values())
     kinds = "; ".join(f"{k} {a}/{b}" for k, (a, b) in cov.items())
-    return (f"| {n:,} | {converged} | {total:,.0f} | {start:,.0f} | {sampled:,.0f} | {after:,.0f} | {steps} "
+    return (f"| {n:,} | {converged} | {total:,.0f} | {start:,.0f} | {sampling:,.0f} | {after:,.0f} | {steps} "
             f"| {tau} | {evaluations:,} | {rhat:.4f} | {ess:,.0f} | {peak / 1024:,.0f} "
             f"| {inside}/{all_} ({100 * inside / all_:.1f} %): {kinds} |")
 
