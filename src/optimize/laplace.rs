@@ -207,10 +207,10 @@ impl<D: LogDensity + ?Sized> Objective for Minus<'_, '_, D> {
 }
 
 /// Most rounds of L-BFGS and Nelder–Mead in [`find_mode`].
-pub(super) const MODE_ROUNDS: usize = 6;
+const MODE_ROUNDS: usize = 6;
 
 /// A round of [`find_mode`] that raises the log-density by less than this ends the search.
-pub(super) const MODE_ROUND_GAIN: f64 = 1e-3;
+const MODE_ROUND_GAIN: f64 = 1e-3;
 
 /// The mode of `density` from `start` (rounds of L-BFGS, each with a Nelder–Mead polish) and the covariance
 /// of the Laplace approximation there. A density of at least [`BY_BLOCKS_FROM`] coordinates
@@ -250,26 +250,7 @@ pub fn find_mode<'d, D: LogDensity + ?Sized + 'd>(
     // run can stop far below the mode (an SBC draw: −675 where the mode is at +1,939, reached
     // by a second round), so the pair is repeated until a round gains less than
     // `MODE_ROUND_GAIN`.
-    let polish = NelderMeadOptions {
-        initial_step: 1e-3,
-        max_evals: 30 * n,
-        restarts: 1,
-        ..NelderMeadOptions::default()
-    };
-    let mut mode = start.to_vec();
-    let mut neg = f64::INFINITY;
-    for _ in 0..MODE_ROUNDS {
-        let (near, _) = lbfgs(Minus(&probe), &mode, &LbfgsOptions::default());
-        let (polished, value, _) = nelder_mead(|x| -probe.value(x), &near, &polish);
-        let gain = neg - value;
-        if value < neg {
-            (mode, neg) = (polished, value);
-        }
-        // NaN when no round has found a finite density: nothing to build on.
-        if gain.is_nan() || gain <= MODE_ROUND_GAIN {
-            break;
-        }
-    }
+    let (mode, neg) = climb(|| Minus(&probe), |x| -probe.value(x), start, f64::INFINITY);
     if !neg.is_finite() {
         return Err(OptimizeError::NoFiniteMode {
             at: mode,
@@ -284,6 +265,39 @@ pub fn find_mode<'d, D: LogDensity + ?Sized + 'd>(
         positive_definite,
         evaluations: probe.evaluations(),
     })
+}
+
+/// The minimum of `minus` (minus a log-density) from `start`, where it is `at_start` (+∞ to
+/// take the first round's point whatever it gains), and its value there: rounds of L-BFGS
+/// on the finite differences of `objective()`, each polished by Nelder–Mead on `minus`, until
+/// a round gains less than [`MODE_ROUND_GAIN`]. The dense search's, and each block's
+/// conditional mode in the search by blocks.
+pub(super) fn climb<O: Objective>(
+    mut objective: impl FnMut() -> O,
+    mut minus: impl FnMut(&[f64]) -> f64,
+    start: &[f64],
+    at_start: f64,
+) -> (Vec<f64>, f64) {
+    let polish = NelderMeadOptions {
+        initial_step: 1e-3,
+        max_evals: 30 * start.len(),
+        restarts: 1,
+        ..NelderMeadOptions::default()
+    };
+    let (mut mode, mut neg) = (start.to_vec(), at_start);
+    for _ in 0..MODE_ROUNDS {
+        let (near, _) = lbfgs(objective(), &mode, &LbfgsOptions::default());
+        let (polished, value, _) = nelder_mead(&mut minus, &near, &polish);
+        let gain = neg - value;
+        if value < neg {
+            (mode, neg) = (polished, value);
+        }
+        // NaN when no round has found a finite density: nothing to build on.
+        if gain.is_nan() || gain <= MODE_ROUND_GAIN {
+            break;
+        }
+    }
+    (mode, neg)
 }
 
 /// `ensembles × walkers` walkers drawn from the Laplace approximation `N(mode, Σ)` of

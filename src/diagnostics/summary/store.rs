@@ -23,8 +23,9 @@ pub struct Limits {
 
 impl Limits {
     /// 2²¹ draws per run (32 MB for the run being sorted): a quantity of up to 16,000 steps
-    /// of 128 walkers is summarised in memory, which at 200 contacts took a third of the time
-    /// of the external sort's runs of 2¹⁶ draws (to the same bits); a longer one merges runs.
+    /// of 128 walkers is summarised in memory, to the same bits as through working files and
+    /// without writing and merging them (a campaign reports thousands of quantities); a
+    /// longer one merges runs.
     pub const DEFAULT: Limits = Limits { run_draws: 1 << 21 };
 
     /// Bytes the summary of one quantity holds at its peak, roughly, for walkers of `steps`

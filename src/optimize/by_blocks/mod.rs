@@ -21,14 +21,20 @@
 //! step that does not raise the log-density is retried with more damping (a shorter step
 //! along a direction closer to the gradient's), one that does lowers the damping again.
 
+mod factor;
+#[cfg(test)]
+mod tests;
+
+use std::cell::RefCell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use nalgebra::{Cholesky, DMatrix, DVector, SymmetricEigen};
+use nalgebra::{Cholesky, DMatrix};
 use rayon::prelude::*;
 
-use super::laplace::{hessian_steps, Covariance, Optimum, MODE_ROUNDS, MODE_ROUND_GAIN};
-use super::lbfgs::{lbfgs, LbfgsOptions};
-use super::nelder_mead::{nelder_mead, NelderMeadOptions};
+pub use factor::ArrowheadFactor;
+use factor::{diagonal, positive_part, FactorBlock};
+
+use super::laplace::{climb, hessian_steps, Covariance, Optimum};
 use super::OptimizeError;
 use crate::density::{sort, BlockUpdate, BlockedDensity, Eval, IndependentBlocks, OwnEntries};
 
@@ -416,13 +422,14 @@ impl<'d> ByBlocks<'d> {
                 |scratch, j| {
                     let coords = &self.blocks[j].coords;
                     let start: Vec<f64> = coords.iter().map(|&i| x[i]).collect();
-                    let (best, _) = climb(
-                        |y: &[f64]| {
-                            coords.iter().zip(y).for_each(|(&i, &v)| scratch[i] = v);
-                            -self.terms(j, &base, scratch)
-                        },
-                        &start,
-                    );
+                    // One point for both of the climb's uses: its L-BFGS and its polish.
+                    let point = RefCell::new(&mut *scratch);
+                    let minus = |y: &[f64]| {
+                        let mut point = point.borrow_mut();
+                        coords.iter().zip(y).for_each(|(&i, &v)| point[i] = v);
+                        -self.terms(j, &base, &point)
+                    };
+                    let (best, _) = climb(|| &minus, &minus, &start, minus(&start));
                     coords.iter().for_each(|&i| scratch[i] = x[i]);
                     best
                 },
@@ -434,14 +441,13 @@ impl<'d> ByBlocks<'d> {
         }
         if !self.shared.is_empty() {
             let start: Vec<f64> = self.shared.iter().map(|&i| y[i]).collect();
-            let mut point = y.clone();
-            let (best, _) = climb(
-                |s: &[f64]| {
-                    self.shared.iter().zip(s).for_each(|(&i, &v)| point[i] = v);
-                    -self.value(&point)
-                },
-                &start,
-            );
+            let point = RefCell::new(y.clone());
+            let minus = |s: &[f64]| {
+                let mut point = point.borrow_mut();
+                self.shared.iter().zip(s).for_each(|(&i, &v)| point[i] = v);
+                -self.value(&point)
+            };
+            let (best, _) = climb(|| &minus, &minus, &start, minus(&start));
             self.shared.iter().zip(best).for_each(|(&i, v)| y[i] = v);
         }
         let after = self.value(&y);
@@ -615,31 +621,6 @@ impl<'d> ByBlocks<'d> {
     }
 }
 
-/// The minimum of `minus` (minus a log-density) from `start`, and its value there, as the
-/// dense search finds it: rounds of L-BFGS, each polished by Nelder–Mead, until a round gains
-/// less than [`MODE_ROUND_GAIN`]. For the few coordinates of one block.
-fn climb(mut minus: impl FnMut(&[f64]) -> f64, start: &[f64]) -> (Vec<f64>, f64) {
-    let polish = NelderMeadOptions {
-        initial_step: 1e-3,
-        max_evals: 30 * start.len(),
-        restarts: 1,
-        ..NelderMeadOptions::default()
-    };
-    let mut best = (start.to_vec(), minus(start));
-    for _ in 0..MODE_ROUNDS {
-        let (near, _) = lbfgs(&mut minus, &best.0, &LbfgsOptions::default());
-        let (polished, value, _) = nelder_mead(&mut minus, &near, &polish);
-        let gain = best.1 - value;
-        if value < best.1 {
-            best = (polished, value);
-        }
-        if gain.is_nan() || gain <= MODE_ROUND_GAIN {
-            break;
-        }
-    }
-    best
-}
-
 /// The steps of the gradient's central differences: ε^(1/3) balances truncation (h²) against
 /// rounding (ε/h). The curvature's, ε^(1/4) ([`hessian_steps`]), are too long for a gradient
 /// that must vanish at the mode: on the demo the Newton steps stopped 0.4 below its
@@ -658,430 +639,5 @@ fn slope(fp: f64, fm: f64, f0: f64, h: f64) -> f64 {
         (true, false) => (fp - f0) / h,
         (false, true) => (f0 - fm) / h,
         (false, false) => 0.0,
-    }
-}
-
-/// A diagonal matrix.
-fn diagonal(values: impl ExactSizeIterator<Item = f64>) -> DMatrix<f64> {
-    DMatrix::from_diagonal(&DVector::from_iterator(values.len(), values))
-}
-
-/// `m` (the curvature of `coords`) with every eigenvalue without positive curvature (at most
-/// 1e-12 of the largest) replaced: the eigenvector gets the fallback curvature spread along
-/// it as the coordinates' fallbacks are.
-fn positive_part(
-    m: &DMatrix<f64>,
-    coords: &[usize],
-    fallback: impl Fn(usize) -> f64,
-) -> DMatrix<f64> {
-    let n = coords.len();
-    let eig = SymmetricEigen::new(m.clone());
-    let lmax = eig.eigenvalues.iter().copied().fold(0.0f64, f64::max);
-    let values = DVector::from_iterator(
-        n,
-        eig.eigenvalues.iter().enumerate().map(|(k, &l)| {
-            if l > lmax * 1e-12 && l > 0.0 {
-                l
-            } else {
-                let v = eig.eigenvectors.column(k);
-                let variance: f64 = (0..n).map(|a| v[a] * v[a] / fallback(coords[a])).sum();
-                1.0 / variance
-            }
-        }),
-    );
-    &eig.eigenvectors * DMatrix::from_diagonal(&values) * eig.eigenvectors.transpose()
-}
-
-/// The Cholesky factor `L` (`K = L Lᵀ`) of an arrowhead curvature, the shared coordinates
-/// last: each block's own factor `L_j`, its coupling `M_j = L_j⁻¹ K_jS`, and the factor of the
-/// Schur complement `K_SS − Σ_j M_jᵀ M_j`. Solving with it and drawing from `N(0, K⁻¹)` cost
-/// O(blocks).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ArrowheadFactor {
-    shared: Vec<usize>,
-    blocks: Vec<FactorBlock>,
-    schur: DMatrix<f64>,
-}
-
-#[derive(Debug, Clone, PartialEq)]
-struct FactorBlock {
-    coords: Vec<usize>,
-    l: DMatrix<f64>,
-    m: DMatrix<f64>,
-}
-
-impl FactorBlock {
-    /// The factor of a block's curvature `own` and its coupling `cross` to the shared
-    /// coordinates; `None` when `own` is not positive definite.
-    fn new(coords: &[usize], own: DMatrix<f64>, cross: &DMatrix<f64>) -> Option<Self> {
-        let l = Cholesky::new(own)?.l();
-        let m = l.solve_lower_triangular(cross)?;
-        Some(Self {
-            coords: coords.to_vec(),
-            l,
-            m,
-        })
-    }
-}
-
-impl ArrowheadFactor {
-    /// `K⁻¹ g`.
-    fn solve(&self, g: &[f64]) -> Vec<f64> {
-        // L y = g, block by block, then the Schur complement's rows.
-        let ys: Vec<DVector<f64>> = self
-            .blocks
-            .iter()
-            .map(|b| {
-                let gj = DVector::from_iterator(b.coords.len(), b.coords.iter().map(|&i| g[i]));
-                b.l.solve_lower_triangular(&gj)
-                    .expect("a Cholesky factor is invertible")
-            })
-            .collect();
-        let mut rhs = DVector::from_iterator(self.shared.len(), self.shared.iter().map(|&i| g[i]));
-        for (b, y) in self.blocks.iter().zip(&ys) {
-            rhs -= b.m.transpose() * y;
-        }
-        let y_shared = self
-            .schur
-            .solve_lower_triangular(&rhs)
-            .expect("a Cholesky factor is invertible");
-        let mut out = vec![0.0; g.len()];
-        self.back_substitute(&y_shared, |j| ys[j].clone(), &mut out);
-        out
-    }
-
-    /// `L⁻ᵀ z`, a draw from `N(0, K⁻¹)` when `z` is standard normal (`z` indexed by
-    /// coordinate).
-    pub(crate) fn draw(&self, z: &DVector<f64>) -> DVector<f64> {
-        let z_shared = DVector::from_iterator(self.shared.len(), self.shared.iter().map(|&i| z[i]));
-        let mut out = vec![0.0; z.len()];
-        self.back_substitute(
-            &z_shared,
-            |j| {
-                let b = &self.blocks[j];
-                DVector::from_iterator(b.coords.len(), b.coords.iter().map(|&i| z[i]))
-            },
-            &mut out,
-        );
-        DVector::from_vec(out)
-    }
-
-    /// `Lᵀ u = y` for `u`, into `out` by coordinate: the shared rows `y_S` first, then each
-    /// block's rows `y_j`.
-    fn back_substitute(
-        &self,
-        y_shared: &DVector<f64>,
-        y_block: impl Fn(usize) -> DVector<f64>,
-        out: &mut [f64],
-    ) {
-        let u_shared = self
-            .schur
-            .tr_solve_lower_triangular(y_shared)
-            .expect("a Cholesky factor is invertible");
-        for (a, &i) in self.shared.iter().enumerate() {
-            out[i] = u_shared[a];
-        }
-        for (j, b) in self.blocks.iter().enumerate() {
-            let rhs = y_block(j) - &b.m * &u_shared;
-            let u =
-                b.l.tr_solve_lower_triangular(&rhs)
-                    .expect("a Cholesky factor is invertible");
-            for (a, &i) in b.coords.iter().enumerate() {
-                out[i] = u[a];
-            }
-        }
-    }
-
-    /// The covariance `K⁻¹`, row-major `n × n`, column by column (O(n²) memory: for tests
-    /// and small densities).
-    pub fn to_dense(&self, n: usize) -> Vec<f64> {
-        let mut cov = vec![0.0; n * n];
-        let mut e = vec![0.0; n];
-        for c in 0..n {
-            e[c] = 1.0;
-            let column = self.solve(&e);
-            e[c] = 0.0;
-            for (r, v) in column.into_iter().enumerate() {
-                cov[r * n + c] = v;
-            }
-        }
-        cov
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::density::{LogDensity, Target};
-    use crate::optimize::laplace::find_mode;
-    use crate::optimize::probe::Probe;
-    use crate::run_file::RunFile;
-
-    /// The demo's posterior: two materials' shared parameters and four contacts, each an
-    /// independent block.
-    fn demo() -> crate::model::Posterior {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        RunFile::load(&root.join("models/demo.toml"))
-            .unwrap()
-            .posterior()
-            .unwrap()
-    }
-
-    /// `−∇² ln p` at `x` from the dense central differences (every pair of coordinates).
-    fn dense_curvature(posterior: &crate::model::Posterior, x: &[f64]) -> DMatrix<f64> {
-        let n = x.len();
-        let h = hessian_steps(x);
-        let d = Probe::new(Target::blocked(posterior)).second_differences(x, &h);
-        let mut k = DMatrix::zeros(n, n);
-        for i in 0..n {
-            let [fp, fm] = d.axis[i];
-            k[(i, i)] = -(fp - 2.0 * d.at_x + fm) / (h[i] * h[i]);
-            for j in 0..i {
-                let [pp, pm, mp, mm] = d.pairs[i][j];
-                k[(i, j)] = -(pp - pm - mp + mm) / (4.0 * h[i] * h[j]);
-                k[(j, i)] = k[(i, j)];
-            }
-        }
-        k
-    }
-
-    /// The arrowhead curvature of `local` as a dense matrix.
-    fn assembled(by: &ByBlocks<'_>, local: &Local, n: usize) -> DMatrix<f64> {
-        let mut k = DMatrix::zeros(n, n);
-        for (a, &i) in by.shared.iter().enumerate() {
-            for (c, &j) in by.shared.iter().enumerate() {
-                k[(i, j)] = local.shared[(a, c)];
-            }
-        }
-        for (b, c) in by.blocks.iter().zip(&local.blocks) {
-            for (a, &i) in b.coords.iter().enumerate() {
-                for (e, &j) in b.coords.iter().enumerate() {
-                    k[(i, j)] = c.own[(a, e)];
-                }
-                for (e, &j) in by.shared.iter().enumerate() {
-                    k[(i, j)] = c.cross[(a, e)];
-                    k[(j, i)] = c.cross[(a, e)];
-                }
-            }
-        }
-        k
-    }
-
-    /// Every entry of the curvature by blocks is the dense finite differences' (those between
-    /// two blocks are zero there too), to the rounding of differences of the whole
-    /// log-density, on the scale `√(K_ii K_jj)` of each entry.
-    #[test]
-    fn the_curvature_by_blocks_is_the_dense_one() {
-        let posterior = demo();
-        let by = ByBlocks::new(&posterior).expect("the demo has independent contacts");
-        assert!(by.blocks.len() >= 4 && !by.shared.is_empty());
-        let x = posterior.start().to_vec();
-        let n = x.len();
-        let local = by.local(&x).unwrap();
-        assert!(local.finite);
-        let ours = assembled(&by, &local, n);
-        let dense = dense_curvature(&posterior, &x);
-        let h = gradient_steps(&x);
-        for i in 0..n {
-            for j in 0..n {
-                let scale = (dense[(i, i)].abs() * dense[(j, j)].abs()).sqrt();
-                let diff = (ours[(i, j)] - dense[(i, j)]).abs();
-                assert!(
-                    diff <= 1e-6 * scale,
-                    "K[{i}, {j}]: {} by blocks, {} dense",
-                    ours[(i, j)],
-                    dense[(i, j)]
-                );
-            }
-            // The gradient: central differences of the whole log-density.
-            let mut y = x.clone();
-            y[i] = x[i] + h[i];
-            let fp = posterior
-                .log_density(&y, &mut vec![0.0; posterior.derived_names().len()])
-                .unwrap();
-            y[i] = x[i] - h[i];
-            let fm = posterior
-                .log_density(&y, &mut vec![0.0; posterior.derived_names().len()])
-                .unwrap();
-            let g = (fp - fm) / (2.0 * h[i]);
-            assert!(
-                (local.gradient[i] - g).abs()
-                    <= 1e-6 * dense[(i, i)].abs().sqrt() * (1.0 + g.abs()),
-                "gradient {i}: {} and {g}",
-                local.gradient[i]
-            );
-        }
-    }
-
-    /// The factor solves with the curvature it factors, and its draws have its inverse as
-    /// their covariance: `Σ_i draw(e_i) draw(e_i)ᵀ = K⁻¹`.
-    #[test]
-    fn the_factor_inverts_the_curvature_and_draws_from_its_inverse() {
-        let posterior = demo();
-        let by = ByBlocks::new(&posterior).unwrap();
-        let x = posterior.start().to_vec();
-        let n = x.len();
-        let local = by.local(&x).unwrap();
-        let k = assembled(&by, &local, n);
-        // Damped enough to be positive definite wherever the start is.
-        let scale = by.damping_scale(&local);
-        let mut lambda = 1.0;
-        let factor = loop {
-            match by.factor(&local, Some((lambda, &scale))) {
-                Some(factor) => break factor,
-                None => lambda *= 10.0,
-            }
-        };
-        let mut damped = k.clone();
-        for i in 0..n {
-            damped[(i, i)] += lambda * scale[i];
-        }
-        let cov = DMatrix::from_row_slice(n, n, &factor.to_dense(n));
-        let identity = &cov * &damped;
-        for i in 0..n {
-            for j in 0..n {
-                let want = if i == j { 1.0 } else { 0.0 };
-                assert!(
-                    (identity[(i, j)] - want).abs() < 1e-8,
-                    "(Σ K)[{i}, {j}] = {}",
-                    identity[(i, j)]
-                );
-            }
-        }
-        let mut outer = DMatrix::zeros(n, n);
-        for i in 0..n {
-            let mut e = DVector::zeros(n);
-            e[i] = 1.0;
-            let d = factor.draw(&e);
-            outer += &d * d.transpose();
-        }
-        for i in 0..n {
-            for j in 0..n {
-                let scale = (cov[(i, i)] * cov[(j, j)]).sqrt();
-                assert!(
-                    (outer[(i, j)] - cov[(i, j)]).abs() < 1e-10 * scale,
-                    "draws' covariance [{i}, {j}]"
-                );
-            }
-        }
-    }
-
-    /// A campaign of `contacts` contacts of one material (a first slide and a repeat slide
-    /// each, simulated with contact-to-contact spread in F_d, k and t0), as
-    /// `data/make_campaign.py` makes them.
-    fn campaign(contacts: usize) -> crate::model::Posterior {
-        use crate::law::{LawParams, Scene};
-        use crate::simulate::{simulate, SimulationSpec};
-        let dir = tempfile::tempdir().unwrap();
-        let mut model = String::from("[[material]]\nname = \"M\"\n");
-        let mut runs = String::new();
-        let mut series = Vec::new();
-        for c in 1..=contacts {
-            let spread = |sd: f64, z: f64| (sd * z).exp();
-            let z = |k: usize| ((c * 7 + k * 3) % 11) as f64 / 5.0 - 1.0;
-            let f_d = 10e-3 * spread(0.15, z(0));
-            let (k, t0) = (1.2e4 * spread(0.2, z(1)), 15.0 * spread(0.5, z(2)));
-            let params = LawParams::new(0.92e6, 0.62 * f_d, f_d, t0).unwrap();
-            model += &format!("\n[[contact]]\nname = \"c{c}\"\nmaterial = \"M\"\n");
-            for (scene, label, duration_s, interval_s, after_first_s) in [
-                (Scene::First, "first", 20_000.0, 100.0, None),
-                (Scene::Repeat, "repeat", 2_000.0, 40.0, Some(20_000.0)),
-            ] {
-                runs += &format!(
-                    "\n[[run]]\nname = \"c{c}-{label}\"\ncontact = \"c{c}\"\ndata = \"c{c}-{label}.csv\"\n\
-                     velocity_m_per_s = 1e-9\nscene = \"{label}\"\n"
-                );
-                let spec = SimulationSpec {
-                    scene,
-                    params,
-                    stiffness_n_per_m: Some(k),
-                    law: Default::default(),
-                    rigid: false,
-                    velocity_m_per_s: 1e-9,
-                    duration_s,
-                    interval_s,
-                    noise_sd_n: 1e-4,
-                    seed: 10 * c as u64 + u64::from(scene == Scene::Repeat),
-                    f_end_n: None,
-                    after_first_s,
-                    normal_force_n: None,
-                    normal_noise_sd_n: 0.0,
-                };
-                series.push(simulate(&spec).unwrap().series);
-            }
-        }
-        let path = dir.path().join("campaign.toml");
-        std::fs::write(&path, model + &runs).unwrap();
-        let run_file = RunFile::load(&path).unwrap();
-        let data = series
-            .into_iter()
-            .enumerate()
-            .map(|(i, s)| crate::model::data::RunData::for_series(&run_file.model, i, s).unwrap())
-            .collect();
-        crate::model::Posterior::from_data(&run_file.model, run_file.blocking(), data).unwrap()
-    }
-
-    /// On a campaign of six contacts, from the rough start, the search by blocks ends at the
-    /// dense search's mode, within a hundredth of a posterior standard deviation in every
-    /// coordinate, with the same covariance to a few parts in a thousand.
-    #[test]
-    fn the_mode_by_blocks_is_the_dense_mode() {
-        let posterior = campaign(6);
-        let by = ByBlocks::new(&posterior).unwrap();
-        let start = posterior.start().to_vec();
-        let n = start.len();
-        let ours = by.find_mode(&start).unwrap();
-        let dense = find_mode(Target::joint(&posterior), &start).unwrap();
-        assert!(ours.positive_definite && dense.positive_definite);
-        let (c_ours, c_dense) = (ours.covariance.to_dense(n), dense.covariance.to_dense(n));
-        assert!(
-            ours.log_density >= dense.log_density - 1e-6,
-            "{} < {}",
-            ours.log_density,
-            dense.log_density
-        );
-        for i in 0..n {
-            let sd = c_dense[i * n + i].sqrt();
-            assert!(
-                (ours.x[i] - dense.x[i]).abs() < 1e-2 * sd,
-                "coordinate {i}: {} and {} (sd {sd})",
-                ours.x[i],
-                dense.x[i]
-            );
-            for j in 0..n {
-                let scale = (c_dense[i * n + i] * c_dense[j * n + j]).sqrt();
-                assert!(
-                    (c_ours[i * n + j] - c_dense[i * n + j]).abs() < 5e-3 * scale,
-                    "covariance [{i}, {j}]: {} and {}",
-                    c_ours[i * n + j],
-                    c_dense[i * n + j]
-                );
-            }
-        }
-        println!(
-            "evaluations: by blocks {} (of a block's terms or in full), dense {}",
-            ours.evaluations, dense.evaluations
-        );
-    }
-
-    /// On the demo, whose fast PTFE slide puts the dense search's mode on a kink of the
-    /// log-density (a gradient of 2·10⁴ along that slide's t0 there), the search by blocks
-    /// ends at the smooth mode beside it, within half a unit of log-density.
-    #[test]
-    fn on_the_demo_the_mode_by_blocks_is_within_half_a_unit_of_the_dense_one() {
-        let posterior = demo();
-        let start = posterior.start().to_vec();
-        let ours = ByBlocks::new(&posterior)
-            .unwrap()
-            .find_mode(&start)
-            .unwrap();
-        let dense = find_mode(Target::joint(&posterior), &start).unwrap();
-        assert!(ours.positive_definite);
-        assert!(
-            (ours.log_density - dense.log_density).abs() < 0.5,
-            "{} and {}",
-            ours.log_density,
-            dense.log_density
-        );
     }
 }
