@@ -120,7 +120,7 @@ def main():
         "and report included), written by `python3 benches/convergence.py DIR --out "
         "reports/convergence.md`. \"Converged\" is slipbayes' strict verdict on every "
         "post-burn-in draw: every reported quantity with R̂ < 1.01 between ensembles and ESS "
-        "bulk and tail > 400, chains longer than 50 τ. Campaigns are one material's contacts, "
+        "bulk and tail > 400, τ trusted (1,600 post-burn-in walker-steps per τ). Campaigns are one material's contacts, "
         "each a 201-point first slide and a 51-point repeat slide (`data/make_campaign.py`). "
         "The peak beyond the record, the hard case of convergence, is in "
         "[validation/hard/hard_cases.md](validation/hard/hard_cases.md).",

@@ -350,7 +350,7 @@ fn main() {
          Every fit uses the fit's defaults: moves {}, updates `{}` (joint where the density \
          declares no blocks), walkers by `slipbayes::fit::default_walkers` (max(32, 4·d + 4, \
          2·f + 4)), {} ensembles, seed {}, run until converged by the strict standard (R̂ < \
-         1.01, bulk and tail ESS > 400 for every parameter, chains longer than 50 τ; cap \
+         1.01, bulk and tail ESS > 400 for every parameter, τ trusted; cap \
          {} steps). Evaluations count every log-density call (slice sampling of an exact block \
          included). z is (ours − reference) / √(MCSE_ours² + MCSE_ref²); our MCSE is taken \
          over the 4 independent ensembles (the per-step average of an ensemble's walkers as \

@@ -31,6 +31,7 @@ targets=(
   "import-speed|reports/import-speed.md: 10^6-point instrument exports against a plain CSV|5 min|yes"
   "convergence|reports/convergence.md: time, memory and verdict of the demo, the quick path and campaigns|15 min|yes"
   "campaigns|reports/campaigns.md: campaigns of 2 to 50 contacts until converged|5 min|yes"
+  "stopping|reports/stopping.md: fits until converged against a previous build, recomputed by ArviZ and against long reference runs|30 min|partly (wall times)"
   "campaign-fit|reports/campaign-fit.md: a campaign of 200 contacts fitted until converged: where the time goes, the verdict, the truths covered|15 min|yes"
   "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
@@ -173,6 +174,27 @@ run() {
       "A one-material campaign of 200 contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`) fitted by \`slipbayes fit campaign.toml\` with the default settings until converged by the strict standard (R̂ < 1.01 between ensembles, bulk and tail ESS > 400 on every post-burn-in draw of every reported quantity, τ trusted): \`python3 benches/campaign_fit.py DIR 200\`. The start is everything before the first step (the rough start, the mode search, the sampler's start), the sampling the run's steps at the pace its progress lines show, and the rest the summaries of every quantity, PSIS-LOO, the predictive bands and the report (see the script). The truths are the simulation's; a 95 % interval should hold its truth 95 % of the time, so about 950 of 1,002 (binomial sd 7). Target: converged in at most 10 minutes on the 2 cores." \
       "$scratch/campaign-fit/table.md"
     stamp "$target" "$load" "$start" reports/campaign-fit.md
+    ;;
+  stopping)
+    # This checkout's binary against PREVIOUS's (786b0af by default: before τ was pooled over
+    # the walkers), the latter built in a scratch worktree.
+    local previous=${PREVIOUS:-786b0af} prev=$scratch/stopping-previous
+    build
+    git worktree remove --force "$prev" 2> /dev/null || rm -rf "$prev"
+    git worktree add --detach "$prev" "$previous" > /dev/null
+    [ -d "$scratch/stopping-target/release" ] || {
+      mkdir -p "$scratch/stopping-target"
+      cp -a target/release "$scratch/stopping-target/"
+    }
+    CARGO_TARGET_DIR=$scratch/stopping-target \
+      cargo build --manifest-path "$prev/Cargo.toml" --release --locked -p slipbayes-cli --quiet
+    git worktree remove --force "$prev"
+    rm -rf "$scratch/stopping"
+    python3 benches/stopping.py "$scratch/stopping" --before "$scratch/stopping-target/release/slipbayes"
+    assemble reports/stopping.md "When a fit stops" \
+      "Every model configuration a model file allows (the one-contact quick path, the demo's two materials, the demo with \`aging = \"absolute\"\`, the demo with t0 pooled, a 10-contact campaign made by \`data/make_campaign.py\`) fitted until converged with the default settings by this commit (after) and by $previous (before: τ by emcee's estimator per ensemble, trusted on 50 τ; the moves half Student-t, half differential evolution), one after the other: \`python3 benches/stopping.py DIR --before PREVIOUS_BINARY\`. Sampling is the summary's \`wall_s\`; end to end is the whole command (start, sampling, summaries, PSIS-LOO, predictive bands, report). The second table recomputes every run of this build with ArviZ from its chains on disk (ESS bulk and tail with every walker a chain; R̂ between ensembles, each ensemble's draws in step order, as the strict standard defines it; R̂ with every walker a chain for information), and holds each against a reference run of the same model ten times longer than the longest of its seeds (seed 1000): the largest |mean − reference| over the parameters in combined Monte-Carlo standard errors, and the rule's τ_max against the pooled τ_max of the reference's coordinates after its burn-in. Targets: one contact converged in at most 0.5 s of sampling and 1 s end to end; the demo in at most 5 s end to end, t0 pooled in at most 8 s." \
+      "$scratch/stopping/stopping.md"
+    stamp "$target" "$load" "$start" reports/stopping.md
     ;;
   campaign-scaling)
     # The same measuring program built against this checkout and against PREVIOUS (a commit,

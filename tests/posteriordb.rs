@@ -1,7 +1,7 @@
 //! The generic sampler against posteriordb's reference posteriors (long Stan runs, 10 chains ×
 //! 1,000 draws): each posterior fitted with the fit's defaults (default moves, updates, walker
 //! rule, 4 ensembles, seed; run until converged by the strict standard: R̂ < 1.01, bulk and
-//! tail ESS > 400, chains > 50 τ) must converge, and every posterior mean and sd must lie
+//! tail ESS > 400, τ trusted) must converge, and every posterior mean and sd must lie
 //! within [`K_MCSE`] combined Monte-Carlo standard errors of the reference's. The densities
 //! are in `tests/posteriordb_models/`, the references in `tests/reference/posteriordb/`.
 //! Slow in debug builds: run with `cargo test --release --test posteriordb`.

@@ -165,9 +165,9 @@ fn a_second_fit_into_a_locked_run_directory_names_the_holder() {
 #[test]
 fn strict_not_converged_has_its_own_exit_code() {
     let dir = tempfile::tempdir().unwrap();
-    // 100 steps cannot be longer than 50 τ.
+    // 40 steps cannot trust a τ of several steps (12.5 τ after the burn-in).
     let out = quick_fit(&dir.path().join("fit"))
-        .args(["--steps", "100", "--quiet", "--strict"])
+        .args(["--steps", "40", "--quiet", "--strict"])
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));

@@ -3,8 +3,8 @@
 //! Pure functions over draws already in memory: no printing, no randomness, no knowledge of
 //! friction or of how the draws were produced.
 //!
-//! - [`autocorr`]: emcee's integrated autocorrelation time (what the sampler uses for burn-in,
-//!   thinning and stopping).
+//! - [`autocorr`]: the integrated autocorrelation time: emcee's, and the pooled form over
+//!   walkers that the sampler (burn-in, thinning, stopping) and the summary use.
 //! - [`arviz`]: ArviZ's rank-normalised split R-hat, bulk/tail/mean ESS, MCSE, HDI and
 //!   quantiles over independent chains, numerically identical to arviz 0.23.
 //! - [`summary`]: the summary of an ensemble run: R-hat *between independent ensembles*, ESS
@@ -48,7 +48,8 @@ pub use arviz::{
     quantile, rhat, MIN_CHAINS_RHAT, MIN_DRAWS, TAIL_PROBS,
 };
 pub use autocorr::{
-    integrated_time, mean_acf, AutocorrTime, DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR,
+    integrated_time, mean_acf, pooled_integrated_time, tau_trusted_length, AutocorrTime,
+    DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR, TAU_MIN_FACTOR, TAU_REFERENCE_WALKERS,
 };
 pub use error::DiagnosticsError;
 pub use loo::{compare, psis_loo, Compared, Loo, LooError, MIN_LOO_DRAWS};

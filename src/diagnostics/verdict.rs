@@ -10,8 +10,10 @@ use super::summary::Summary;
 pub const RHAT_MAX: f64 = 1.01;
 /// Smallest bulk and tail ESS of a converged quantity (ArviZ's threshold).
 pub const ESS_MIN: f64 = 400.0;
-/// Chains must be longer than this many autocorrelation times for τ to be trusted (emcee's
-/// `tol`).
+/// The precision asked of τ, as emcee's `tol`: chains longer than this many autocorrelation
+/// times on [`TAU_REFERENCE_WALKERS`](super::TAU_REFERENCE_WALKERS) walkers, or as many
+/// walker-steps per τ pooled over any number of walkers
+/// ([`tau_trusted_length`](super::tau_trusted_length)).
 pub const TAU_FACTOR: f64 = 50.0;
 /// Acceptance fraction below which a walker is reported as stuck.
 pub const STUCK_ACCEPTANCE: f64 = 0.01;
@@ -68,8 +70,8 @@ pub enum Problem {
         /// The ESS.
         ess: f64,
     },
-    /// The quantity's autocorrelation time cannot be trusted (fewer than [`TAU_FACTOR`] τ of
-    /// post-burn-in steps per walker).
+    /// The quantity's autocorrelation time cannot be trusted (fewer post-burn-in steps per
+    /// walker than [`tau_trusted_length`](super::tau_trusted_length) τ).
     TauUnreliable {
         /// The quantity.
         quantity: String,
@@ -81,14 +83,17 @@ pub enum Problem {
         /// The quantity.
         quantity: String,
     },
-    /// The chains are shorter than [`TAU_FACTOR`] τ_max: τ, and the burn-in taken
-    /// from it, cannot be trusted.
+    /// The chains are shorter than [`tau_trusted_length`](super::tau_trusted_length)
+    /// τ_max: τ, and the burn-in taken from it, cannot be trusted.
     ChainsTooShort {
-        /// Steps τ was estimated on: the whole chains, or what follows their first quarter
-        /// or half when the start's transient dominated τ over the whole chains.
+        /// Steps in the chains.
         steps: u64,
         /// The longest autocorrelation time (steps).
         tau_max: f64,
+        /// The steps, burn-in included, that τ_max needs to be trusted over this many walkers
+        /// (0 in summaries written before it was recorded).
+        #[serde(default)]
+        needed: u64,
     },
     /// No autocorrelation time could be estimated at all.
     NoAutocorrelationTime {
@@ -155,16 +160,19 @@ impl std::fmt::Display for Problem {
             ),
             Self::TauUnreliable { quantity, tau } => write!(
                 f,
-                "{quantity}: autocorrelation time {tau:.1} steps is unreliable (fewer than {TAU_FACTOR} τ of post-burn-in steps per walker); run longer"
+                "{quantity}: autocorrelation time {tau:.1} steps is unreliable (too few post-burn-in steps per walker for its precision); run longer"
             ),
             Self::TauUndefined { quantity } => write!(
                 f,
                 "{quantity}: autocorrelation time undefined (a walker never moved)"
             ),
-            Self::ChainsTooShort { steps, tau_max } => write!(
+            Self::ChainsTooShort {
+                steps,
+                tau_max,
+                needed,
+            } => write!(
                 f,
-                "τ was estimated on {steps} steps, fewer than {TAU_FACTOR} τ_max = {:.0} steps: the autocorrelation time, and the burn-in taken from it, are unreliable; run longer",
-                TAU_FACTOR * tau_max
+                "τ_max {tau_max:.1} steps needs {needed} steps of chains to be trusted, burn-in included, and they have {steps}: the autocorrelation time, and the burn-in taken from it, are unreliable; run longer"
             ),
             Self::NoAutocorrelationTime { steps } => write!(
                 f,
@@ -186,8 +194,13 @@ impl std::fmt::Display for Problem {
 /// The problems of a run of `steps` steps (the first `burn_in` discarded) in a few lines: one
 /// per kind of problem, naming the quantities it affects and, where it can be estimated, the
 /// length of run that would fix it (ESS grows in proportion to the post-burn-in draws; τ needs
-/// [`TAU_FACTOR`] τ of them).
-pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<String> {
+/// [`tau_trusted_length`](super::tau_trusted_length) τ of them over `walkers` walkers in all).
+pub fn problem_lines(
+    problems: &[Problem],
+    steps: u64,
+    burn_in: u64,
+    walkers: usize,
+) -> Vec<String> {
     let kept = steps.saturating_sub(burn_in).max(1) as f64;
     let listed = |v: &[&str]| {
         const SHOWN: usize = 6;
@@ -245,10 +258,11 @@ pub fn problem_lines(problems: &[Problem], steps: u64, burn_in: u64) -> Vec<Stri
         _ => None,
     });
     if !tau.is_empty() {
+        let length = super::tau_trusted_length(walkers, TAU_FACTOR);
         lines.push(format!(
-            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {TAU_FACTOR} τ of post-burn-in steps) for {}; about {:.0} steps would do",
+            "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {length:.1} τ of post-burn-in steps) for {}; about {:.0} steps would do",
             listed(&tau),
-            (burn_in as f64 + TAU_FACTOR * longest).ceil()
+            (burn_in as f64 + length * longest).ceil()
         ));
     }
     let (undefined, _) = of_kind(problems, f64::max, |p| {
@@ -405,15 +419,17 @@ mod tests {
         let mut problems = vec![Problem::ChainsTooShort {
             steps: 1000,
             tau_max: 96.0,
+            needed: 1200,
         }];
         for (q, ess, tau) in [("a", 300.0, 40.0), ("b", 200.0, 96.0), ("c", 800.0, 10.0)] {
             let s = summary(Some(1.001), ess, 900.0, Some(tau));
             problems.extend(quantity_problems(q, &s, 4));
         }
-        let lines = problem_lines(&problems, 1000, 200);
+        // 32 walkers in all: τ is trusted on 50 τ, as emcee's rule.
+        let lines = problem_lines(&problems, 1000, 200, 32);
         assert_eq!(lines.len(), 3, "{lines:#?}");
         assert!(
-            lines[0].starts_with("τ was estimated on 1000 steps"),
+            lines[0].starts_with("τ_max 96.0 steps needs 1200 steps"),
             "{lines:#?}"
         );
         // ESS 200 on 800 kept steps: 1600 kept steps, 1800 in all.

@@ -608,8 +608,9 @@ impl Selection {
             Some(t) => {
                 if !t.reliable {
                     problems.push(Problem::ChainsTooShort {
-                        steps: total - t.from_step,
+                        steps: total,
                         tau_max: t.max,
+                        needed: t.needed_steps,
                     });
                 }
                 t.burn_in

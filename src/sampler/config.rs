@@ -349,16 +349,20 @@ pub enum Steps {
     UntilConverged(StopRule),
 }
 
-/// emcee-style stopping rule, checked every `check_every` steps: the chains are longer than
-/// `tau_factor · τ_max`, every coordinate's τ (averaged over the ensembles) changed by less
-/// than `tau_rel_change` since the last check,
+/// emcee-style stopping rule, checked every `check_every` steps and more often early on
+/// ([`StopRule::due`]): the chains are long enough to trust τ_max at the precision
+/// `tau_factor` asks ([`tau_trusted_length`](crate::diagnostics::tau_trusted_length) τ_max
+/// for the walkers of all ensembles), every coordinate's τ (pooled over the walkers of all
+/// ensembles) changed by less than `tau_rel_change` since the last check,
 /// and (with two or more ensembles) R̂ between ensembles is below `rhat_max` for every
 /// parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StopRule {
     /// Steps between checks.
     pub check_every: u64,
-    /// Required chain length in units of τ_max (emcee: 50).
+    /// The precision asked of τ, as emcee's required chain length in units of τ_max on 32
+    /// walkers (emcee: 50); with more walkers τ is pooled over them and trusted on shorter
+    /// chains ([`tau_trusted_length`](crate::diagnostics::tau_trusted_length)).
     pub tau_factor: f64,
     /// Largest relative change of τ between checks (emcee: 0.01).
     pub tau_rel_change: f64,
@@ -369,7 +373,8 @@ pub struct StopRule {
 }
 
 impl StopRule {
-    /// emcee's defaults (check every 100 steps, 50 τ, 1 %), R̂ < 1.01, capped at `max_steps`.
+    /// emcee's defaults (check every 100 steps, the precision of 50 τ on 32 walkers, 1 %),
+    /// R̂ < 1.01, capped at `max_steps`.
     pub fn new(max_steps: u64) -> Self {
         Self {
             check_every: 100,
@@ -378,6 +383,17 @@ impl StopRule {
             rhat_max: crate::diagnostics::RHAT_MAX,
             max_steps,
         }
+    }
+
+    /// Whether the rule is checked after `step`: every `check_every` steps, and before that
+    /// every tenth of the steps run so far (in multiples of 10, at least every 10), so that a
+    /// run whose τ is a few steps stops within about a tenth of the length it needs rather
+    /// than at the next `check_every`. Every multiple of `check_every` (100 by default) is
+    /// checked.
+    pub fn due(&self, step: u64) -> bool {
+        let early = step / 100 * 10;
+        let interval = early.clamp(self.check_every.min(10), self.check_every);
+        step % interval == 0
     }
 
     pub(crate) fn validate(&self) -> Result<(), SamplerError> {

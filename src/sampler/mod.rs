@@ -22,7 +22,7 @@
 //!   so a seed gives bit-identical chains on any number of threads. A slice update, whose
 //!   evaluations depend on its own draws, runs each walker's whole procedure as one parallel
 //!   task reading only the fixed complement and drawing only from the walker's stream.
-//! - Run control ([`Steps`]): fixed steps, or emcee's stopping rule (longer than 50 τ_max, τ
+//! - Run control ([`Steps`]): fixed steps, or emcee's stopping rule (τ_max trusted, τ
 //!   settled to 1 %, plus R̂ between ensembles) with a cap; the [`RunReport`] gives τ, burn-in
 //!   (≈ 2 τ_max), thinning (≈ τ_min/2), R̂, acceptance, rejections and evaluation counts.
 //! - Draws go to a [`ChainSink`] (contract in [`sink`]); the complete [`SamplerState`] is

@@ -31,7 +31,8 @@ pub struct Progress {
     /// Largest split R̂ between the ensembles at that check (after its burn-in); `None` before
     /// the first check or with a single ensemble.
     pub r_hat_max: Option<f64>,
-    /// Estimated time to the end (the fixed end, or 50 τ_max when converging).
+    /// Estimated time to the end (the fixed end, or the length that trusts τ_max when
+    /// converging).
     pub eta: Option<Duration>,
 }
 

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use rayon::prelude::*;
 
 use super::history::RowHistory;
-use crate::diagnostics::{integrated_time, rhat_by, Problem, DEFAULT_WINDOW_FACTOR};
+use crate::diagnostics::{pooled_integrated_time, rhat_by, Problem, DEFAULT_WINDOW_FACTOR};
 
 /// Why the run stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -41,15 +41,23 @@ pub struct EnsembleReport {
 /// Integrated autocorrelation times, in steps, and what follows from them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TauReport {
-    /// τ per ensemble (outer) and parameter (inner).
-    pub per_ensemble: Vec<Vec<f64>>,
+    /// τ per parameter, pooled over every walker of every ensemble
+    /// ([`pooled_integrated_time`]).
+    #[serde(default)]
+    pub per_parameter: Vec<f64>,
     /// Largest τ.
     pub max: f64,
     /// Smallest τ.
     pub min: f64,
-    /// Whether the steps τ was estimated on are more than 50 τ_max, so that τ can be
-    /// trusted.
+    /// Whether the steps after the burn-in are more than
+    /// [`tau_trusted_length`](crate::diagnostics::tau_trusted_length) τ_max for the walkers
+    /// of all ensembles, so that τ can be trusted (the summary judges each quantity's τ on
+    /// the same draws).
     pub reliable: bool,
+    /// The steps in all that τ_max needs to be trusted: the burn-in, then the trusted length
+    /// (0 in reports written before it was recorded).
+    #[serde(default)]
+    pub needed_steps: u64,
     /// The step from which τ was estimated: 0 (the whole chains), or a quarter or half of the
     /// way in when the start's transient would otherwise dominate τ.
     #[serde(default)]
@@ -120,7 +128,7 @@ fn map_indices<T: Send>(n: usize, parallel: bool, f: impl Fn(usize) -> T + Sync 
 /// carries its transient in every autocorrelation estimate over the whole chain (a
 /// Lotka–Volterra posterior of `tests/posteriordb.rs`: τ 334 steps over the whole chain, 19
 /// after its first quarter), so a rule that only looked from step 0 would run hundreds of τ
-/// longer than needed. The first window that is long enough (more than 50 τ of its own) wins,
+/// longer than needed. The first window that is long enough for its own τ wins,
 /// and the burn-in is at least its start: the kept draws are the ones τ was measured on.
 pub(crate) const TAU_WINDOWS: [f64; 3] = [0.0, 0.25, 0.5];
 
@@ -133,69 +141,84 @@ fn window_start(history: &RowHistory, steps: u64, fraction: f64) -> (usize, u64)
     (row, history.step_of(row))
 }
 
-/// τ (in steps) per ensemble and parameter from the history rows from `first_row` on; `None`
-/// when they are too few or a series is constant. The (ensemble, parameter) pairs are
-/// independent, so they are computed in parallel when `parallel`.
+/// τ (in steps) per parameter, pooled over the walkers of every ensemble (each about its
+/// ensemble's mean), from the history
+/// rows from `first_row` on; `None` when they are too few or a parameter never moved. The
+/// parameters are independent, so they are computed in parallel when `parallel`.
 fn tau_from_rows(
     history: &RowHistory,
     ndim: usize,
     first_row: usize,
     parallel: bool,
-) -> Option<Vec<Vec<f64>>> {
+) -> Option<Vec<f64>> {
     let thin = history.thin as f64;
     let walkers = history.width / ndim;
-    let ensembles = history.data.len();
-    let flat = map_indices(ensembles * ndim, parallel, |i| {
-        let (e, p) = (i / ndim, i % ndim);
-        let buf = &history.data[e][first_row * history.width..];
-        let series: Vec<Vec<f64>> = (0..walkers)
-            .map(|w| history.column(buf, w * ndim + p))
+    let per_parameter = map_indices(ndim, parallel, |p| {
+        let series: Vec<Vec<f64>> = history
+            .data
+            .iter()
+            .flat_map(|ensemble| {
+                let buf = &ensemble[first_row * history.width..];
+                (0..walkers).map(move |w| history.column(buf, w * ndim + p))
+            })
             .collect();
         let refs: Vec<&[f64]> = series.iter().map(Vec::as_slice).collect();
-        integrated_time(&refs, DEFAULT_WINDOW_FACTOR)
+        pooled_integrated_time(&refs, walkers, DEFAULT_WINDOW_FACTOR)
             .ok()
             .filter(|t| t.tau.is_finite())
             // Thinning by m ≪ τ scales the integrated time by 1/m.
             .map(|t| t.tau * thin)
     });
-    let flat: Option<Vec<f64>> = flat.into_iter().collect();
-    Some(flat?.chunks(ndim).map(<[f64]>::to_vec).collect())
+    per_parameter.into_iter().collect()
 }
 
 /// τ on each of the [`TAU_WINDOWS`] of a history of `steps` steps: the window's first step
-/// and its τ per ensemble and parameter (`None` where it cannot be estimated).
+/// and its τ per parameter (`None` where it cannot be estimated).
 pub(crate) fn tau_windows(
     history: &RowHistory,
     ndim: usize,
     steps: u64,
     parallel: bool,
-) -> Vec<(u64, Option<Vec<Vec<f64>>>)> {
+) -> Vec<(u64, Option<Vec<f64>>)> {
     TAU_WINDOWS
         .iter()
-        .map(|&f| {
-            let (row, from_step) = window_start(history, steps, f);
-            (from_step, tau_from_rows(history, ndim, row, parallel))
-        })
+        .map(|&f| tau_window(history, ndim, steps, f, parallel))
         .collect()
 }
 
-/// τ report from per-ensemble τ estimated on the steps from `from_step` to `steps`; the
-/// burn-in is at least `min_burn_in` steps.
+/// τ on the window that starts at `fraction` of a history of `steps` steps: the window's first
+/// step and its τ per parameter (`None` where it cannot be estimated).
+pub(crate) fn tau_window(
+    history: &RowHistory,
+    ndim: usize,
+    steps: u64,
+    fraction: f64,
+    parallel: bool,
+) -> (u64, Option<Vec<f64>>) {
+    let (row, from_step) = window_start(history, steps, fraction);
+    (from_step, tau_from_rows(history, ndim, row, parallel))
+}
+
+/// τ report from the τ per parameter estimated on the steps from `from_step` to `steps`,
+/// trusted on more than `tau_factor` τ_max steps; the burn-in is at least `min_burn_in`
+/// steps.
 pub(crate) fn tau_report(
-    per_ensemble: Vec<Vec<f64>>,
+    per_parameter: Vec<f64>,
     from_step: u64,
     steps: u64,
     tau_factor: f64,
     min_burn_in: u64,
 ) -> TauReport {
-    let all = per_ensemble.iter().flatten().copied();
+    let all = per_parameter.iter().copied();
     let max = all.clone().fold(f64::NEG_INFINITY, f64::max);
     let min = all.fold(f64::INFINITY, f64::min);
+    let burn_in = from_step.max((2.0 * max).ceil() as u64).max(min_burn_in);
     TauReport {
-        reliable: steps.saturating_sub(from_step) as f64 > tau_factor * max,
-        burn_in: from_step.max((2.0 * max).ceil() as u64).max(min_burn_in),
+        reliable: steps.saturating_sub(burn_in) as f64 > tau_factor * max,
+        needed_steps: burn_in + (tau_factor * max).ceil() as u64,
+        burn_in,
         from_step,
-        per_ensemble,
+        per_parameter,
         max,
         min,
     }
@@ -204,7 +227,7 @@ pub(crate) fn tau_report(
 /// The report of the first window long enough for its τ (more than `tau_factor` τ_max
 /// steps); when none is, the window closest to it, whose τ says how much longer to run.
 pub(crate) fn chosen_tau_report(
-    windows: Vec<(u64, Option<Vec<Vec<f64>>>)>,
+    windows: Vec<(u64, Option<Vec<f64>>)>,
     steps: u64,
     tau_factor: f64,
     min_burn_in: u64,
@@ -261,8 +284,8 @@ pub(crate) fn rhat_from_history(
 mod tests {
     use super::*;
 
-    fn window(from: u64, tau: f64) -> (u64, Option<Vec<Vec<f64>>>) {
-        (from, Some(vec![vec![tau, tau / 2.0]; 2]))
+    fn window(from: u64, tau: f64) -> (u64, Option<Vec<f64>>) {
+        (from, Some(vec![tau, tau / 2.0]))
     }
 
     #[test]

@@ -398,7 +398,7 @@ fn print_summary(outcome: &FitOutcome) {
         "sampler: {} ensembles × {} walkers × {} steps (burn-in {}), acceptance {:.3}, τ_max {:.1}, {} evaluations, {:.1} s; converged: {}",
         m.ensembles, m.walkers, m.steps, m.burn_in, m.acceptance, m.tau_max.unwrap_or(f64::NAN), m.log_density_evals, m.wall_s, m.converged
     );
-    for line in problem_lines(&m.problems, m.steps, m.burn_in) {
+    for line in problem_lines(&m.problems, m.steps, m.burn_in, m.walkers * m.ensembles) {
         println!("  problem: {line}");
     }
     for d in &s.data {

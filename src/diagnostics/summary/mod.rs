@@ -63,7 +63,7 @@ pub use store::{Limits, Workspace};
 use super::arviz::{
     eti_at, hdi_scan, hdi_span, median_at, mquantile_at, Autocov, EssRows, TAIL_PROBS,
 };
-use super::autocorr::{time_of_acf, AcfSum, DEFAULT_WINDOW_FACTOR};
+use super::autocorr::{pooled_time_of_acf, PooledAcf, DEFAULT_WINDOW_FACTOR};
 use super::error::{check_prob, DiagnosticsError};
 use draws::Moments;
 use ranks::{rank_scores, Scores};
@@ -119,11 +119,12 @@ pub struct Summary {
     /// ESS of the mean, walkers as chains.
     #[serde(deserialize_with = "nullable")]
     pub ess_mean: f64,
-    /// emcee's integrated autocorrelation time of the draws, in draws (ACF averaged over all
-    /// walkers of all ensembles); `None` when a walker is constant (stuck), which leaves it
-    /// undefined.
+    /// The pooled integrated autocorrelation time of the draws, in draws, over all walkers of
+    /// all ensembles ([`pooled_integrated_time`](crate::diagnostics::pooled_integrated_time));
+    /// `None` when every draw is the same value, which leaves it undefined.
     pub tau: Option<f64>,
-    /// Whether `tau` is trustworthy: draws per walker at least 50 τ.
+    /// Whether `tau` is trustworthy: draws per walker at least
+    /// [`tau_trusted_length`](crate::diagnostics::tau_trusted_length) τ for this many walkers.
     pub tau_reliable: Option<bool>,
 }
 
@@ -185,16 +186,15 @@ pub fn summarize_draws(
     let inc = hdi_span(x.len(), hdi_prob)?;
 
     // τ, walker by walker; the draws sorted in runs.
-    let mut acf = Some(AcfSum::new(x.steps));
+    let mut acf = PooledAcf::new(x.steps, x.walkers);
     x.each_walker(|_, s| {
-        if let Some(a) = acf.as_mut() {
-            if a.push(s).is_none() {
-                acf = None;
-            }
-        }
+        acf.push(s);
         Ok(())
     })?;
-    let autocorr = acf.map(|a| time_of_acf(&a.finish(), DEFAULT_WINDOW_FACTOR));
+    let chains = x.ensembles * x.walkers;
+    let autocorr = acf
+        .finish()
+        .map(|rho| pooled_time_of_acf(&rho, DEFAULT_WINDOW_FACTOR, chains));
     let m = x.moments()?;
     let runs = x.sorted_runs(|_| true, |v| v)?;
     let order = order_statistics(x, &runs, &[ci_prob])?;

@@ -6,7 +6,8 @@ use rand_chacha::ChaCha8Rng;
 use super::*;
 use crate::diagnostics::arviz::{eti_sorted, hdi_sorted, mean, median_of_sorted, sorted, var};
 use crate::diagnostics::{
-    ess_bulk, ess_mean, ess_tail, integrated_time, mcse_mean, mcse_sd, rhat, DEFAULT_WINDOW_FACTOR,
+    ess_bulk, ess_mean, ess_tail, mcse_mean, mcse_sd, pooled_integrated_time, rhat,
+    DEFAULT_WINDOW_FACTOR,
 };
 
 /// Draws walker-major: a random walk that repeats its value (a rejected move) about half
@@ -78,7 +79,7 @@ fn arviz_summary(data: &[f64], shape: (usize, usize, usize), ci: f64, hdi: f64) 
     let s = sorted(data);
     let (ci_low, ci_high) = eti_sorted(&s, ci);
     let (hdi_low, hdi_high) = hdi_sorted(&s, hdi).expect("enough draws for the HDI");
-    let tau = integrated_time(&walkers, DEFAULT_WINDOW_FACTOR).ok();
+    let tau = pooled_integrated_time(&walkers, w, DEFAULT_WINDOW_FACTOR).ok();
     Summary {
         mean: mean(data),
         sd: var(data, 1).sqrt(),

@@ -97,7 +97,8 @@ pub struct SamplerSummary {
     pub tau_max: Option<f64>,
     /// Smallest one.
     pub tau_min: Option<f64>,
-    /// Whether the chains are longer than 50 τ_max.
+    /// Whether τ_max is trusted: the post-burn-in chains are longer than
+    /// [`tau_trusted_length`](crate::diagnostics::tau_trusted_length) τ_max.
     pub tau_reliable: bool,
     /// Log-density evaluations (all runs).
     pub log_density_evals: u64,

@@ -16,7 +16,7 @@ pub(super) fn diagnostics_section(ctx: &Context) -> Result<Vec<Block>, ReportErr
                 format!("acceptance fraction (all walkers): {:.3}", s.acceptance)
             },
             format!(
-                "autocorrelation time τ: max {} steps, min {} steps, reliable (chains longer than 50 τ): {}",
+                "autocorrelation time τ: max {} steps, min {} steps, trusted (post-burn-in chains of 1,600 walker-steps per τ): {}",
                 s.tau_max.map_or_else(|| "–".into(), |t| significant(t, 3)),
                 s.tau_min.map_or_else(|| "–".into(), |t| significant(t, 3)),
                 if s.tau_reliable { "yes" } else { "no" }

@@ -91,7 +91,12 @@ pub(super) fn glance(ctx: &Context, comparisons: &[MaterialComparison]) -> Vec<B
         )
     };
     // One line per kind of problem; every single one is listed under Diagnostics.
-    let lines = problem_lines(problems, sampler.steps, sampler.burn_in);
+    let lines = problem_lines(
+        problems,
+        sampler.steps,
+        sampler.burn_in,
+        sampler.walkers * sampler.ensembles,
+    );
     let mut blocks = vec![
         heading(1, "glance", "At a glance"),
         Block::Verdict {

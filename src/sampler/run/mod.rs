@@ -249,8 +249,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         observer: &mut O,
     ) -> Option<StopReason> {
         if let Some(rule) = rule {
-            if self.step % rule.check_every == 0 && self.check_stop(rule, observer.shows_progress())
-            {
+            if rule.due(self.step) && self.check_stop(rule, observer.shows_progress()) {
                 return Some(StopReason::Converged);
             }
         }

@@ -11,7 +11,7 @@ use super::super::report::{
 use super::step::CARRY_TUNE_STEPS;
 use super::EnsembleSampler;
 use crate::density::LogDensity;
-use crate::diagnostics::{stuck_walkers, Problem, RHAT_MAX, TAU_FACTOR};
+use crate::diagnostics::{stuck_walkers, tau_trusted_length, Problem, RHAT_MAX, TAU_FACTOR};
 
 impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
     /// Updates of each walker per step by the moves: one per block (and one more for a block
@@ -57,7 +57,10 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         };
         let done = self.step - first;
         let target = match (tau_factor, tau_max) {
-            (Some(f), Some(t)) => ((f * t).ceil() as u64).clamp(self.step, last),
+            (Some(f), Some(t)) => {
+                let length = tau_trusted_length(self.total_walkers(), f) * t;
+                (length.ceil() as u64).clamp(self.step, last)
+            }
             (Some(_), None) => last,
             _ => last,
         };
@@ -104,14 +107,15 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         let tau = chosen_tau_report(
             tau_windows(&self.history, self.ndim, steps, parallel),
             steps,
-            TAU_FACTOR,
+            tau_trusted_length(self.total_walkers(), TAU_FACTOR),
             self.min_burn_in(),
         );
         match &tau {
             None => problems.push(Problem::NoAutocorrelationTime { steps }),
             Some(t) if !t.reliable => problems.push(Problem::ChainsTooShort {
-                steps: steps - t.from_step,
+                steps,
                 tau_max: t.max,
+                needed: t.needed_steps,
             }),
             Some(_) => {}
         }

@@ -1,28 +1,31 @@
 //! The stopping rule: long enough in units of τ, τ settled, and R̂ between the ensembles
-//! below its bound, judged on several windows of the chains.
+//! below its bound, judged on several windows of the chains. τ is pooled over the walkers
+//! of every ensemble, so "long enough" depends on how many walkers there are
+//! ([`tau_trusted_length`]).
 
 use std::time::Instant;
 
 use super::super::config::StopRule;
 use super::super::moves::SLICE_ADAPT_STEPS;
-use super::super::report::{rhat_from_history, tau_windows};
+use super::super::report::{rhat_from_history, tau_window, TAU_WINDOWS};
 use super::step::{CARRY_FIT_STEPS, CARRY_TUNE_STEPS};
 use super::{EnsembleSampler, SHOWN_R_HAT_EVERY};
 use crate::density::LogDensity;
+use crate::diagnostics::tau_trusted_length;
 
 impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
     /// Applies the stopping rule and returns whether it holds. Each window
-    /// of `TAU_WINDOWS` is judged on its own τ: long enough (more than `tau_factor` τ_max
-    /// steps from its start), settled (τ changed by less than the rule allows since the last
-    /// check of the same window), and R̂ below the bound after the burn-in
+    /// of `TAU_WINDOWS` is judged on its own pooled τ: long enough (more than
+    /// [`tau_trusted_length`] τ_max steps from its start for the rule's `tau_factor` and the
+    /// walkers of all ensembles), settled (τ changed by less than the rule allows since the
+    /// last check of the same window), and R̂ below the bound after the burn-in
     /// max(start, 2 τ_max, the slice move's tuning). The first window that passes stops the run.
     /// Keeps τ_max of the window closest to being long enough for progress, and with
     /// `show_r_hat` its R̂.
     pub(super) fn check_stop(&mut self, rule: &StopRule, show_r_hat: bool) -> bool {
-        let windows = tau_windows(&self.history, self.ndim, self.step, self.config.parallel());
-        // Every coordinate's τ, averaged over the ensembles (each estimates the same τ, and
-        // the maximum change over ensembles × coordinates single estimates would mostly
-        // measure their noise), changed by less than the rule allows.
+        let length_factor = tau_trusted_length(self.total_walkers(), rule.tau_factor);
+        // The τ of each coordinate at the last check, as one row (a state saved before τ was
+        // pooled holds one row per ensemble: their mean is what is compared).
         let mean_tau = |t: &[Vec<f64>]| -> Vec<f64> {
             let mut m = vec![0.0; self.ndim];
             for e in t {
@@ -36,16 +39,32 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
         let mut met = false;
         // Whether this check already computed an R̂ that progress can show.
         let mut r_hat_computed = false;
-        for (i, (from_step, tau)) in windows.into_iter().enumerate() {
-            let previous = std::mem::replace(&mut self.last_tau[i], tau.clone());
+        for (i, &fraction) in TAU_WINDOWS.iter().enumerate() {
+            // A window far from long enough by its last τ is not estimated again yet: τ over
+            // every walker of a campaign's thousand coordinates costs more than the steps
+            // between early checks. What is skipped depends only on the chains, so a resumed
+            // run skips the same.
+            let far = self.last_tau[i].as_deref().is_some_and(|prev| {
+                let tmax = mean_tau(prev).into_iter().fold(f64::NEG_INFINITY, f64::max);
+                let from_step = (fraction * self.step as f64).floor() as u64;
+                let burn_in = self.window_burn_in(from_step, tmax);
+                (self.step.saturating_sub(burn_in) as f64) < 0.5 * length_factor * tmax
+            });
+            if far {
+                continue;
+            }
+            let (from_step, tau) = tau_window(
+                &self.history,
+                self.ndim,
+                self.step,
+                fraction,
+                self.config.parallel(),
+            );
+            let previous = std::mem::replace(&mut self.last_tau[i], tau.clone().map(|t| vec![t]));
             let Some(tau) = tau else {
                 continue;
             };
-            let tmax = tau
-                .iter()
-                .flatten()
-                .copied()
-                .fold(f64::NEG_INFINITY, f64::max);
+            let tmax = tau.iter().copied().fold(f64::NEG_INFINITY, f64::max);
             let length = (self.step - from_step) as f64;
             // The τ shown in progress is the one of the window closest to being long enough.
             if shown.is_none_or(|(l, _, _)| length / tmax > l) {
@@ -54,17 +73,18 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
             if met {
                 continue;
             }
-            let long_enough = length > rule.tau_factor * tmax;
+            // Counted after the burn-in, as the summary counts the draws it judges.
+            let burn_in = self.window_burn_in(from_step, tmax);
+            let long_enough = self.step.saturating_sub(burn_in) as f64 > length_factor * tmax;
             let settled = previous.is_some_and(|prev| {
                 mean_tau(&prev)
                     .iter()
-                    .zip(mean_tau(&tau))
+                    .zip(&tau)
                     .all(|(p, t)| ((t - p) / t).abs() < rule.tau_rel_change)
             });
             if !(long_enough && settled) {
                 continue;
             }
-            let burn_in = self.window_burn_in(from_step, tmax);
             let r_hat =
                 rhat_from_history(&self.history, self.ndim, burn_in, self.config.parallel());
             if let Some(r) = &r_hat {
@@ -96,6 +116,11 @@ impl<D: LogDensity + ?Sized> EnsembleSampler<'_, D> {
             self.shown_r_hat_at = Some(Instant::now());
         }
         met
+    }
+
+    /// The walkers of all ensembles, over which τ is pooled.
+    pub(super) fn total_walkers(&self) -> usize {
+        self.config.walkers() * self.config.ensembles()
     }
 
     /// The burn-in of a stopping-rule window that starts at `from_step` with τ_max `tmax`:
