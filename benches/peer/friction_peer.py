@@ -1,8 +1,18 @@
 #!/usr/bin/env python3
-"""The Python peer of `slipbayes bench`: emcee + numpy + scipy on the one-contact posterior.
+"""The Python ensemble peers of `slipbayes bench` on the one-contact posterior: emcee's stretch
+move, emcee's differential-evolution moves, and zeus' ensemble slice sampler, over numpy + scipy.
 
 Usage (run by `slipbayes bench`, which writes the problem file):
-    python benches/peer/friction_peer.py PROBLEM.json RESULT.json CHAINS.csv
+    python benches/peer/friction_peer.py PROBLEM.json RESULT.json CHAINS.csv [--sampler NAME]
+
+--sampler picks the peer (one per run of the script; the bench runs it once for each):
+    stretch     emcee, StretchMove(a=2) (the default);
+    de-snooker  emcee, moves=[(DEMove(), 0.8), (DESnookerMove(), 0.2)], as emcee's docs advise;
+    zeus        zeus (PyPI zeus-mcmc), ensemble slice sampling with its default moves and tuning.
+Every peer runs vectorised (vectorize=True: one numpy call evaluates a batch of points) and
+starts each ensemble from the problem's initial walkers. The log-density handed to the sampler
+counts the points it is asked for, every call included (the initial walkers; zeus' stepping-out
+and shrinking make several calls per step), and the result reports that count.
 
 It fits the IDENTICAL posterior to slipbayes' `Posterior` for one first slide
 (src/model/posterior.rs, src/law/):
@@ -24,9 +34,12 @@ matters near the posterior, where the log-densities are compared.
 
 The problem file gives the data file, velocity, coordinate names, prior bounds, points at
 which to report the log-density (compared with slipbayes'), the initial walkers of every
-ensemble and the number of steps. emcee runs each ensemble with StretchMove(a=2) and
-vectorize=True (one numpy call per half-ensemble), the fastest way to use it.
+ensemble, the number of steps and the seed. The result JSON holds the log-density at those
+points, the cost of one log-density (one point per call and vectorised), the sampling time and
+the log-density evaluations of each ensemble, and the versions; the chains CSV holds every
+walker at every step (`ensemble,walker,step,<coordinates>`).
 """
+import argparse
 import json
 import sys
 import time
@@ -191,18 +204,76 @@ class OneContact:
         return out
 
 
-def main():
-    problem_path, result_path, chains_path = sys.argv[1:4]
-    with open(problem_path) as fh:
-        problem = json.load(fh)
+SAMPLERS = ("stretch", "de-snooker", "zeus")
+
+
+class Counted:
+    """The log-density as the samplers see it, counting every point evaluated: a vectorised
+    call adds its number of points."""
+
+    def __init__(self, log_density):
+        self.log_density = log_density
+        self.points = 0
+
+    def __call__(self, u):
+        u = np.atleast_2d(u)
+        self.points += u.shape[0]
+        return self.log_density(u)
+
+
+def run_ensemble(sampler_name, log_density, walkers, steps):
+    """Runs one ensemble from `walkers` for `steps` steps; returns its chain (steps, walkers,
+    ndim) and its mean acceptance fraction (None for zeus, whose slice moves always move)."""
+    nwalkers, ndim = walkers.shape
+    if sampler_name == "zeus":
+        import zeus
+
+        sampler = zeus.EnsembleSampler(
+            nwalkers, ndim, log_density, vectorize=True, verbose=False
+        )
+        sampler.run_mcmc(walkers, steps, progress=False)
+        return sampler.get_chain(), None
     import emcee
+
+    if sampler_name == "stretch":
+        moves = emcee.moves.StretchMove(a=2.0)
+    else:
+        moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    sampler = emcee.EnsembleSampler(nwalkers, ndim, log_density, moves=moves, vectorize=True)
+    sampler.run_mcmc(walkers, steps, progress=False)
+    return sampler.get_chain(), float(np.mean(sampler.acceptance_fraction))
+
+
+def versions(sampler_name):
     import scipy
+
+    out = {"python": sys.version.split()[0], "numpy": np.__version__, "scipy": scipy.__version__}
+    if sampler_name == "zeus":
+        import zeus
+
+        out["zeus"] = zeus.__version__
+    else:
+        import emcee
+
+        out["emcee"] = emcee.__version__
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("problem")
+    parser.add_argument("result")
+    parser.add_argument("chains")
+    parser.add_argument("--sampler", choices=SAMPLERS, default="stretch")
+    args = parser.parse_args()
+    with open(args.problem) as fh:
+        problem = json.load(fh)
 
     post = OneContact(problem)
     points = np.array(problem["points"], dtype=float)
     lp = post.log_density(points)
 
-    # Cost of one log-density: one point per call (the usual emcee log_prob) and in batches of
+    # Cost of one log-density: one point per call (the usual log_prob) and in batches of
     # half an ensemble (what vectorize=True does), best of a few repetitions.
     initial = np.array(problem["initial"], dtype=float)
     batch = initial[0][: initial.shape[1] // 2]
@@ -220,22 +291,17 @@ def main():
     steps = int(problem["steps"])
     rows = []
     sampling = []
+    evaluations = []
     for e, walkers in enumerate(initial):
         np.random.seed(int(problem["seed"]) + e)
-        sampler = emcee.EnsembleSampler(
-            walkers.shape[0],
-            walkers.shape[1],
-            post.log_density,
-            moves=emcee.moves.StretchMove(a=2.0),
-            vectorize=True,
-        )
+        counted = Counted(post.log_density)
         t_start = time.perf_counter()
-        sampler.run_mcmc(walkers, steps, progress=False)
+        chain, acceptance = run_ensemble(args.sampler, counted, walkers, steps)
         sampling.append(time.perf_counter() - t_start)
-        chain = sampler.get_chain()  # (steps, walkers, ndim)
-        rows.append((e, chain, float(np.mean(sampler.acceptance_fraction))))
+        evaluations.append(counted.points)
+        rows.append((e, chain, acceptance))
 
-    with open(chains_path, "w") as fh:
+    with open(args.chains, "w") as fh:
         fh.write("ensemble,walker,step," + ",".join(problem["names"]) + "\n")
         for e, chain, _ in rows:
             for w in range(chain.shape[1]):
@@ -243,19 +309,16 @@ def main():
                     fh.write(f"{e},{w},{s}," + ",".join(repr(float(v)) for v in chain[s, w]) + "\n")
 
     result = {
+        "sampler": args.sampler,
         "log_density": [float(v) if np.isfinite(v) else None for v in lp],
         "seconds_per_eval_single": float(np.median(single)),
         "seconds_per_eval_vectorised": float(np.median(vectorised)),
         "sampling_s": sampling,
+        "evaluations": evaluations,
         "acceptance": [r[2] for r in rows],
-        "versions": {
-            "python": sys.version.split()[0],
-            "numpy": np.__version__,
-            "scipy": scipy.__version__,
-            "emcee": emcee.__version__,
-        },
+        "versions": versions(args.sampler),
     }
-    with open(result_path, "w") as fh:
+    with open(args.result, "w") as fh:
         json.dump(result, fh, indent=1)
 
 

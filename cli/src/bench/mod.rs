@@ -7,9 +7,11 @@
 //! - [`knobs`]: the error of the posterior medians and of the F_peak 95 % interval ends against
 //!   a long reference run and against the known truth, for each knob (data decimation,
 //!   walkers, chain length), against wall time; the Pareto front and the default.
-//! - [`peer`]: the same one-contact posterior fitted by emcee + numpy + scipy
-//!   (`benches/peer/friction_peer.py`), checked point by point and by its medians before any
-//!   speed ratio is quoted.
+//! - [`peer`]: the same one-contact posterior fitted by Python ensemble samplers over numpy +
+//!   scipy (`benches/peer/friction_peer.py`): emcee's stretch move, emcee's differential
+//!   evolution and snooker moves, zeus' ensemble slice sampling; each checked point by point
+//!   and by its medians before any ratio (ESS/s, ESS per 1,000 log-density evaluations) is
+//!   quoted.
 //! - [`nuts`]: the same posterior fitted by NumPyro's NUTS on JAX
 //!   (`benches/peer/friction_nuts.py`), gradients through the elastic solve, under the same
 //!   checks; skipped, with the reason reported, when JAX cannot be installed.
@@ -186,8 +188,10 @@ pub struct BenchSettings {
     pub fast_csv: PathBuf,
     /// Velocity of the first and repeat slides (m/s).
     pub velocity_m_per_s: f64,
-    /// The peer: how to run it, or `None` to leave it out (and the NUTS peer with it).
+    /// The peer: how to run it, or `None` to leave it out (and every other peer with it).
     pub peer: Option<peer::PeerCommand>,
+    /// The optional ensemble peers that run beside the emcee stretch peer (in its Python).
+    pub ensemble_peers: Vec<peer::EnsemblePeer>,
     /// Whether the NUTS peer runs too (in the emcee peer's Python).
     pub nuts: bool,
     /// The binary to run the memory probes with (normally the running `slipbayes`).
@@ -211,6 +215,7 @@ impl BenchSettings {
             fast_csv: "data/ptfe-c1-fast.csv".into(),
             velocity_m_per_s: 1e-9,
             peer: None,
+            ensemble_peers: Vec::new(),
             nuts: false,
             probe_binary: None,
             scratch,
@@ -233,8 +238,13 @@ pub struct BenchResults {
     pub throughput: Vec<throughput::Throughput>,
     /// Error against cost.
     pub knobs: knobs::KnobStudy,
-    /// The Python peer, when run.
+    /// Our sampler with `slipbayes fit`'s default moves on the peers' problem, when the peers
+    /// ran.
+    pub fit_moves: Option<throughput::MovesRun>,
+    /// The emcee stretch peer, when run.
     pub peer: Option<peer::PeerComparison>,
+    /// The optional ensemble peers asked for (each may have been skipped).
+    pub ensemble_peers: Vec<peer::PeerOutcome>,
     /// The NUTS peer, when asked for (it may have been skipped).
     pub nuts: Option<nuts::NutsOutcome>,
     /// Peak memory at two chain lengths, when probed.
@@ -283,9 +293,9 @@ pub fn run(
         settings.threads,
     )?;
 
-    let (peer, nuts) = match &settings.peer {
+    let (fit_moves, peer, ensemble_peers, nuts) = match &settings.peer {
         Some(command) => {
-            progress("the Python peer (emcee + numpy + scipy)");
+            progress("the Python peer (emcee stretch + numpy + scipy)");
             let ours = throughput::measure(
                 "one-contact (as the peer)",
                 &one_contact,
@@ -293,9 +303,30 @@ pub fn run(
                 plan.peer_steps,
                 settings.threads,
             )?;
+            progress("one-contact (as the peer) with `slipbayes fit`'s default moves");
+            let fit_moves = throughput::measure_moves(
+                &one_contact,
+                &ours,
+                slipbayes::fit::default_moves(),
+                settings.threads,
+            )?;
             let inputs = peer::PeerInputs::new(settings, &one_contact, &ours)?;
             let py = peer::python(command)?;
-            let emcee = peer::compare(&py, &inputs, &ours, &one_reference)?;
+            let emcee = peer::compare(
+                &py,
+                peer::EnsemblePeer::Stretch,
+                &inputs,
+                &ours,
+                &one_reference,
+            )?;
+            let ensemble_peers = settings
+                .ensemble_peers
+                .iter()
+                .map(|&sampler| {
+                    progress(&format!("the Python peer ({})", sampler.label()));
+                    peer::compare_optional(command, &py, sampler, &inputs, &ours, &one_reference)
+                })
+                .collect();
             let nuts = settings.nuts.then(|| {
                 progress("the NUTS peer (NumPyro on JAX)");
                 nuts::NutsOutcome::from(nuts::compare(
@@ -307,9 +338,9 @@ pub fn run(
                     &one_reference,
                 ))
             });
-            (Some(emcee), nuts)
+            (Some(fit_moves), Some(emcee), ensemble_peers, nuts)
         }
-        None => (None, None),
+        None => (None, None, Vec::new(), None),
     };
 
     let (_, demo) = load_posterior(&settings.demo_model)?;
@@ -342,7 +373,9 @@ pub fn run(
         cost,
         throughput: vec![one.summary, demo_throughput.summary],
         knobs,
+        fit_moves,
         peer,
+        ensemble_peers,
         nuts,
         memory,
     };

@@ -8,14 +8,13 @@
 //! or its run fails, the bench goes on and the report says why it was skipped.
 
 use std::path::Path;
-use std::process::Command;
 
 use serde::{Deserialize, Serialize};
 
 use super::chains::{median_error, min_ess, CoordStats};
 use super::peer::{
-    last_lines, median_checks, peer_err, pip_install, read_peer_chains, run_script,
-    LogDensityCheck, MedianCheck, PeerCommand, PeerInputs,
+    self, median_checks, peer_err, read_peer_chains, run_script, LogDensityCheck, MedianCheck,
+    PeerCommand, PeerInputs,
 };
 use super::throughput::{Measured, Reference};
 use super::BenchError;
@@ -188,37 +187,10 @@ struct ScriptResult {
 
 const IMPORT_CHECK: &str = "import jax, jaxlib, numpyro";
 
-fn imports(py: &Path) -> Result<(), String> {
-    match Command::new(py).args(["-c", IMPORT_CHECK]).output() {
-        Ok(o) if o.status.success() => Ok(()),
-        Ok(o) => Err(last_lines(&o.stderr)),
-        Err(e) => Err(e.to_string()),
-    }
-}
-
 /// Makes jax, jaxlib and numpyro importable by `py`: installs [`NUTS_PACKAGES`] into the
 /// bench's venv, or says what the given interpreter lacks.
 fn ensure_packages(command: &PeerCommand, py: &Path) -> Result<(), BenchError> {
-    if imports(py).is_ok() {
-        return Ok(());
-    }
-    match command {
-        PeerCommand::Venv(dir) => {
-            pip_install(py, dir, &NUTS_PACKAGES)?;
-            imports(py).map_err(|e| {
-                peer_err(format!(
-                    "`{IMPORT_CHECK}` fails after pip install into {}: {e}",
-                    dir.display()
-                ))
-            })
-        }
-        PeerCommand::Python(_) => Err(peer_err(format!(
-            "{} cannot `{IMPORT_CHECK}` (install {} into it, or leave --python out to use the \
-             bench's venv)",
-            py.display(),
-            NUTS_PACKAGES.join(" ")
-        ))),
-    }
+    peer::ensure_packages(command, py, IMPORT_CHECK, &NUTS_PACKAGES)
 }
 
 /// Runs the NUTS peer and compares it with our measured run and reference.

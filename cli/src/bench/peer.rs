@@ -1,7 +1,13 @@
-//! The Python peer: emcee + numpy + scipy fitting the same one-contact posterior
-//! (`benches/peer/friction_peer.py`), run from here with the same data, priors, initial
-//! walkers, walkers and steps. Before any ratio is quoted, its log-density must equal ours at
-//! many points and its medians must agree with ours within 3 Monte-Carlo standard errors.
+//! The Python ensemble peers fitting the same one-contact posterior over numpy + scipy
+//! (`benches/peer/friction_peer.py`, one run per [`EnsemblePeer`]): emcee's stretch move,
+//! emcee's differential-evolution and snooker moves, and zeus' ensemble slice sampler, each
+//! run from here with the same data, priors, initial walkers, walkers and steps. Before any
+//! ratio is quoted, a peer's log-density must equal ours at many points and its medians must
+//! agree with ours within 3 Monte-Carlo standard errors.
+//!
+//! The stretch peer is required whenever peers run; the other two are optional, like the NUTS
+//! peer: when their packages cannot be installed or their run fails, the bench goes on and the
+//! report says why they were skipped.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -28,7 +34,7 @@ const CHECK_POINTS: usize = 240;
 /// How to run the peer's Python.
 #[derive(Debug, Clone)]
 pub enum PeerCommand {
-    /// An interpreter that already has numpy, scipy and emcee.
+    /// An interpreter that already has numpy, scipy and emcee (and zeus for its peer).
     Python(PathBuf),
     /// A venv to create (if absent) with `python3 -m venv` and fill with pip.
     Venv(PathBuf),
@@ -36,6 +42,60 @@ pub enum PeerCommand {
 
 /// The peer's script, relative to the repository root.
 pub const PEER_SCRIPT: &str = "benches/peer/friction_peer.py";
+
+/// An ensemble sampler of [`PEER_SCRIPT`], which runs one per call (its `--sampler` option).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EnsemblePeer {
+    /// emcee's stretch move (a = 2): the peer of the headline's ESS/s ratio.
+    Stretch,
+    /// emcee's differential-evolution move (weight 0.8) and snooker move (0.2), as emcee's
+    /// documentation advises for posteriors the stretch move mixes slowly on.
+    DeSnooker,
+    /// zeus' ensemble slice sampler with its default moves (differential directions, the
+    /// scale tuned during the run).
+    Zeus,
+}
+
+impl EnsemblePeer {
+    /// The script's `--sampler` value.
+    pub fn option(self) -> &'static str {
+        match self {
+            Self::Stretch => "stretch",
+            Self::DeSnooker => "de-snooker",
+            Self::Zeus => "zeus",
+        }
+    }
+
+    /// Name in the report.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Stretch => "emcee stretch",
+            Self::DeSnooker => "emcee DE + snooker",
+            Self::Zeus => "zeus",
+        }
+    }
+
+    /// What the report says the peer does.
+    pub fn description(self) -> &'static str {
+        match self {
+            Self::Stretch => "emcee's stretch move (a = 2)",
+            Self::DeSnooker => {
+                "emcee's differential-evolution and snooker moves (`[(DEMove(), 0.8), \
+                 (DESnookerMove(), 0.2)]`, as emcee's documentation advises)"
+            }
+            Self::Zeus => "zeus' ensemble slice sampling (its default moves and tuning)",
+        }
+    }
+
+    /// The import its Python needs, and what to pip install when it fails.
+    fn requires(self) -> (&'static str, &'static [&'static str]) {
+        match self {
+            Self::Stretch | Self::DeSnooker => ("import numpy, scipy, emcee", &PEER_PACKAGES),
+            Self::Zeus => ("import numpy, scipy, zeus", &ZEUS_PACKAGES),
+        }
+    }
+}
 
 /// Agreement of one coordinate's median.
 #[derive(Debug, Clone, Serialize)]
@@ -107,10 +167,12 @@ pub fn median_checks(ours: &[CoordStats], peer: &[CoordStats]) -> (Vec<MedianChe
     (checks, agree)
 }
 
-/// Ours against the peer.
+/// Ours against one ensemble peer.
 #[derive(Debug, Clone, Serialize)]
 pub struct PeerComparison {
-    /// Versions of Python, numpy, scipy, emcee.
+    /// Which peer.
+    pub sampler: EnsemblePeer,
+    /// Versions of Python, numpy, scipy and emcee or zeus.
     pub versions: serde_json::Value,
     /// The peer's log-density against ours.
     #[serde(flatten)]
@@ -135,10 +197,18 @@ pub struct PeerComparison {
     pub ours_sampling_s: [f64; 2],
     /// The peer's sampling time (s, all ensembles).
     pub peer_sampling_s: f64,
+    /// Our log-density evaluations (the all-threads run, as the sampler counts them).
+    pub ours_evaluations: u64,
+    /// The peer's: every point its sampler asked the log-density for, all ensembles.
+    pub peer_evaluations: u64,
     /// Our smallest bulk ESS (same estimator, same burn-in).
     pub ours_ess_min: f64,
     /// The peer's.
     pub peer_ess_min: f64,
+    /// Our ESS per 1,000 log-density evaluations.
+    pub ours_ess_per_kilo_eval: f64,
+    /// The peer's.
+    pub peer_ess_per_kilo_eval: f64,
     /// Our ESS/s on one thread and on all.
     pub ours_ess_per_s: [f64; 2],
     /// The peer's ESS/s.
@@ -152,13 +222,35 @@ pub struct PeerComparison {
     pub quoted: bool,
 }
 
+/// An optional peer's comparison, or why it was skipped.
+#[derive(Debug, Clone, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum PeerOutcome {
+    /// It ran; its figures (boxed: far larger than the reason it was skipped).
+    Ran(Box<PeerComparison>),
+    /// It was not run, or failed; why.
+    Skipped {
+        /// Which peer.
+        sampler: EnsemblePeer,
+        /// What went wrong (the pip or Python error).
+        reason: String,
+    },
+}
+
 #[derive(Debug, Deserialize)]
 struct PeerResult {
     log_density: Vec<Option<f64>>,
     seconds_per_eval_single: f64,
     seconds_per_eval_vectorised: f64,
     sampling_s: Vec<f64>,
+    /// Points evaluated by each ensemble's sampler.
+    evaluations: Vec<u64>,
     versions: serde_json::Value,
+}
+
+/// ESS per 1,000 log-density evaluations.
+pub fn ess_per_kilo_eval(ess: f64, evaluations: u64) -> f64 {
+    1e3 * ess / evaluations as f64
 }
 
 pub(super) fn peer_err(message: impl Into<String>) -> BenchError {
@@ -196,6 +288,52 @@ pub fn python(command: &PeerCommand) -> Result<PathBuf, BenchError> {
 /// The emcee peer's packages (unpinned: it has been measured with several versions).
 pub const PEER_PACKAGES: [&str; 3] = ["numpy", "scipy", "emcee"];
 
+/// What the zeus peer adds to them (unpinned like emcee; its API has been stable across
+/// releases).
+pub const ZEUS_PACKAGES: [&str; 1] = ["zeus-mcmc"];
+
+/// Whether `py` can run `import_check` (Python statements); else the end of its error.
+fn imports(py: &Path, import_check: &str) -> Result<(), String> {
+    match Command::new(py).args(["-c", import_check]).output() {
+        Ok(o) if o.status.success() => Ok(()),
+        Ok(o) => Err(last_lines(&o.stderr)),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// Makes `import_check` work in `py`: installs `packages` into the bench's venv, or says what
+/// the given interpreter lacks.
+///
+/// # Errors
+/// [`BenchError::Peer`] naming the packages when they cannot be installed or imported.
+pub(super) fn ensure_packages(
+    command: &PeerCommand,
+    py: &Path,
+    import_check: &str,
+    packages: &[&str],
+) -> Result<(), BenchError> {
+    if imports(py, import_check).is_ok() {
+        return Ok(());
+    }
+    match command {
+        PeerCommand::Venv(dir) => {
+            pip_install(py, dir, packages)?;
+            imports(py, import_check).map_err(|e| {
+                peer_err(format!(
+                    "`{import_check}` fails after pip install into {}: {e}",
+                    dir.display()
+                ))
+            })
+        }
+        PeerCommand::Python(_) => Err(peer_err(format!(
+            "{} cannot `{import_check}` (install {} into it, or leave --python out to use the \
+             bench's venv)",
+            py.display(),
+            packages.join(" ")
+        ))),
+    }
+}
+
 /// `pip install` of `packages` into the venv at `dir` whose interpreter is `py`.
 pub(super) fn pip_install(py: &Path, dir: &Path, packages: &[&str]) -> Result<(), BenchError> {
     let what = || format!("pip install {} into {}", packages.join(" "), dir.display());
@@ -225,9 +363,21 @@ pub(super) fn last_lines(stderr: &[u8]) -> String {
 
 /// Runs `script` with `args` under `py` from the repository root.
 pub(super) fn run_script(py: &Path, script: &str, args: &[&Path]) -> Result<(), BenchError> {
+    run_script_with(py, script, args, &[])
+}
+
+/// Runs `script` with the paths `args`, then the `options`, under `py` from the repository
+/// root.
+fn run_script_with(
+    py: &Path,
+    script: &str,
+    args: &[&Path],
+    options: &[&str],
+) -> Result<(), BenchError> {
     let output = Command::new(py)
         .arg(script)
         .args(args)
+        .args(options)
         .output()
         .map_err(|e| peer_err(format!("running {} {script}: {e}", py.display())))?;
     if output.status.success() {
@@ -422,24 +572,26 @@ impl PeerInputs {
     }
 }
 
-/// Runs the emcee peer and compares it with our measured run and reference.
+/// Runs one ensemble peer and compares it with our measured run and reference.
 ///
 /// # Errors
 /// [`BenchError::Peer`] when the peer cannot be run or its output is unusable.
 pub fn compare(
     py: &Path,
+    sampler: EnsemblePeer,
     inputs: &PeerInputs,
     ours: &Measured,
     reference: &Reference,
 ) -> Result<PeerComparison, BenchError> {
     let t = &ours.summary;
     let problem_path = inputs.write("problem.json", &inputs.problem)?;
-    let result_path = inputs.dir.join("result.json");
-    let chains_path = inputs.dir.join("chains.csv");
-    run_script(
+    let result_path = inputs.dir.join(format!("{}-result.json", sampler.option()));
+    let chains_path = inputs.dir.join(format!("{}-chains.csv", sampler.option()));
+    run_script_with(
         py,
         PEER_SCRIPT,
         &[&problem_path, &result_path, &chains_path],
+        &["--sampler", sampler.option()],
     )?;
     let result: PeerResult = serde_json::from_str(
         &std::fs::read_to_string(&result_path).map_err(BenchError::io(&result_path))?,
@@ -455,9 +607,12 @@ pub fn compare(
         .map_err(|e| peer_err(format!("diagnostics of the peer's chains: {e}")))?;
     let (medians, medians_agree) = median_checks(&ours.stats, &peer_stats);
     let peer_sampling_s: f64 = result.sampling_s.iter().sum();
+    let peer_evaluations: u64 = result.evaluations.iter().sum();
     let peer_ess_min = min_ess(&peer_stats);
     let ours_ess_min = t.runs[1].ess_min;
+    let ours_evaluations = t.runs[1].evaluations;
     Ok(PeerComparison {
+        sampler,
         versions: result.versions,
         quoted: log_density.log_density_agrees && medians_agree,
         log_density,
@@ -471,13 +626,39 @@ pub fn compare(
         peer_us_per_eval_vectorised: result.seconds_per_eval_vectorised * 1e6,
         ours_sampling_s: [t.runs[0].sampling_s, t.runs[1].sampling_s],
         peer_sampling_s,
+        ours_evaluations,
+        peer_evaluations,
         ours_ess_min,
         peer_ess_min,
+        ours_ess_per_kilo_eval: ess_per_kilo_eval(ours_ess_min, ours_evaluations),
+        peer_ess_per_kilo_eval: ess_per_kilo_eval(peer_ess_min, peer_evaluations),
         ours_ess_per_s: [t.runs[0].ess_per_s, t.runs[1].ess_per_s],
         peer_ess_per_s: peer_ess_min / peer_sampling_s,
         ours_error: median_error(&ours.stats, &reference.stats),
         peer_error: median_error(&peer_stats, &reference.stats),
     })
+}
+
+/// Runs an optional peer (installing what it needs into the bench's venv first); a failure
+/// becomes the reason it was skipped.
+pub fn compare_optional(
+    command: &PeerCommand,
+    py: &Path,
+    sampler: EnsemblePeer,
+    inputs: &PeerInputs,
+    ours: &Measured,
+    reference: &Reference,
+) -> PeerOutcome {
+    let (import_check, packages) = sampler.requires();
+    ensure_packages(command, py, import_check, packages)
+        .and_then(|()| compare(py, sampler, inputs, ours, reference))
+        .map_or_else(
+            |e| PeerOutcome::Skipped {
+                sampler,
+                reason: e.to_string(),
+            },
+            |c| PeerOutcome::Ran(Box::new(c)),
+        )
 }
 
 #[cfg(test)]

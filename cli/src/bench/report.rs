@@ -7,8 +7,9 @@ use serde::Serialize;
 
 use super::knobs::{Knob, KnobRun};
 use super::nuts::{NutsComparison, NutsOutcome};
-use super::peer::{LogDensityCheck, PeerComparison};
+use super::peer::{LogDensityCheck, PeerComparison, PeerOutcome};
 use super::plot::{error_vs_time, ErrorPoint};
+use super::throughput::MovesRun;
 use super::{BenchError, BenchResults};
 use slipbayes::data::write_atomically;
 
@@ -230,6 +231,13 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
                  quoted."
             );
         }
+        best_peer_headline(
+            &mut s,
+            p,
+            r.fit_moves.as_ref(),
+            &r.ensemble_peers,
+            m.threads,
+        );
         nuts_headline(&mut s, r.nuts.as_ref(), p.ours_ess_per_s[1], m.threads);
     } else {
         let _ = writeln!(s, "- The peers were not run (`--no-peer`).");
@@ -336,6 +344,8 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
             m.threads,
             r.plan.one_contact_reference_steps,
             p,
+            r.fit_moves.as_ref(),
+            &r.ensemble_peers,
             r.nuts.as_ref(),
         );
     }
@@ -389,6 +399,135 @@ fn markdown_text(r: &BenchResults, command: &str) -> String {
          ![medians against the truth](speed-vs-error/median-vs-truth.svg)\n"
     );
     s
+}
+
+/// The issue's bar: our ESS per 1,000 log-density evaluations at least this many times the
+/// best Python ensemble sampler's.
+pub const EVALUATIONS_TARGET: f64 = 10.0;
+
+/// The Python ensemble peers that ran: the stretch peer, then the optional ones.
+fn ran_peers<'a>(
+    stretch: &'a PeerComparison,
+    others: &'a [PeerOutcome],
+) -> Vec<&'a PeerComparison> {
+    std::iter::once(stretch)
+        .chain(others.iter().filter_map(|o| match o {
+            PeerOutcome::Ran(c) => Some(c.as_ref()),
+            PeerOutcome::Skipped { .. } => None,
+        }))
+        .collect()
+}
+
+/// The best Python ensemble peers that passed the checks: by ESS per 1,000 evaluations, and by
+/// ESS/s (not always the same one).
+fn best_peers<'a>(
+    stretch: &'a PeerComparison,
+    others: &'a [PeerOutcome],
+) -> Option<(&'a PeerComparison, &'a PeerComparison)> {
+    let quoted: Vec<&PeerComparison> = ran_peers(stretch, others)
+        .into_iter()
+        .filter(|c| c.quoted)
+        .collect();
+    let by = |key: fn(&PeerComparison) -> f64| {
+        quoted
+            .iter()
+            .copied()
+            .max_by(|a, b| key(a).total_cmp(&key(b)))
+    };
+    Some((by(|c| c.peer_ess_per_kilo_eval)?, by(|c| c.peer_ess_per_s)?))
+}
+
+/// Our ratios to the best Python ensemble samplers, one line per configuration of ours:
+/// `slipbayes fit`'s default moves (the configuration the target is about) and the stretch
+/// move (emcee's own, so the ESS per evaluation isolates the moves).
+fn best_peer_lines(
+    s: &mut String,
+    stretch: &PeerComparison,
+    fit_moves: Option<&MovesRun>,
+    others: &[PeerOutcome],
+    threads: usize,
+) {
+    let Some((by_evals, by_time)) = best_peers(stretch, others) else {
+        let _ = writeln!(
+            s,
+            "- No Python ensemble sampler passed the checks below, so no ratio of ESS per \
+             1,000 evaluations is quoted."
+        );
+        return;
+    };
+    let mut ours = Vec::new();
+    if let Some(f) = fit_moves {
+        ours.push((
+            format!("`slipbayes fit`'s default moves ({})", f.moves),
+            f.ess_per_kilo_eval,
+            f.ess_per_s,
+            true,
+        ));
+    }
+    ours.push((
+        "the stretch move".to_owned(),
+        stretch.ours_ess_per_kilo_eval,
+        stretch.ours_ess_per_s[1],
+        fit_moves.is_none(),
+    ));
+    for (label, per_kilo, per_s, target) in ours {
+        let ratio = per_kilo / by_evals.peer_ess_per_kilo_eval;
+        let verdict = if !target {
+            String::new()
+        } else if ratio >= EVALUATIONS_TARGET {
+            format!(" Target ≥ {EVALUATIONS_TARGET}× the best Python ensemble sampler's: **met**.")
+        } else {
+            format!(
+                " Target ≥ {EVALUATIONS_TARGET}× the best Python ensemble sampler's: **missed** \
+                 (a factor {} short).",
+                g(EVALUATIONS_TARGET / ratio)
+            )
+        };
+        let _ = writeln!(
+            s,
+            "- slipbayes with {label}: ESS per 1,000 log-density evaluations {} against the best \
+             Python ensemble sampler's ({} {}): **{}×**; ESS/s on {threads} threads **{}×** the \
+             fastest's ({}).{verdict}",
+            g(per_kilo),
+            by_evals.sampler.label(),
+            g(by_evals.peer_ess_per_kilo_eval),
+            g(ratio),
+            g(per_s / by_time.peer_ess_per_s),
+            by_time.sampler.label(),
+        );
+    }
+}
+
+/// The headline's lines on the Python ensemble samplers: our ratios to the best, then why any
+/// optional peer is missing.
+fn best_peer_headline(
+    s: &mut String,
+    stretch: &PeerComparison,
+    fit_moves: Option<&MovesRun>,
+    others: &[PeerOutcome],
+    threads: usize,
+) {
+    best_peer_lines(s, stretch, fit_moves, others, threads);
+    for outcome in others {
+        match outcome {
+            PeerOutcome::Ran(c) if !c.quoted => {
+                let _ = writeln!(
+                    s,
+                    "- The {} peer did **not** pass the checks below, so no ratio is quoted \
+                     against it.",
+                    c.sampler.label()
+                );
+            }
+            PeerOutcome::Ran(_) => {}
+            PeerOutcome::Skipped { sampler, reason } => {
+                let _ = writeln!(
+                    s,
+                    "- The {} peer was **skipped**: {reason}",
+                    sampler.label()
+                );
+            }
+        }
+    }
 }
 
 /// The headline's NUTS line(s): our ESS/s over NUTS's, or why there is no ratio.
@@ -450,27 +589,54 @@ fn agree(ok: bool) -> &'static str {
     }
 }
 
-/// The side-by-side section: both peers' checks, then one table of every sampler.
+/// The side-by-side section: every peer's checks, then one table of every sampler.
 fn peer_section(
     s: &mut String,
     threads: usize,
     reference_steps: u64,
     p: &PeerComparison,
+    fit_moves: Option<&MovesRun>,
+    others: &[PeerOutcome],
     outcome: Option<&NutsOutcome>,
 ) {
     let nuts = match outcome {
         Some(NutsOutcome::Ran(n)) => Some(n),
         _ => None,
     };
+    let extras: Vec<&PeerComparison> = ran_peers(p, others).into_iter().skip(1).collect();
     let _ = writeln!(s, "\n## Side by side with the Python peers\n");
     let _ = writeln!(
         s,
         "`{}` (versions: {}) fits the one-contact posterior (`benches/peer/one_contact.toml`) \
-         with emcee's stretch move (a = 2, `vectorize=True`), one process, from the same \
-         initial walkers, with the same walkers and steps.",
+         with {}, `vectorize=True`, one process, from the same initial walkers, with the same \
+         walkers and steps.",
         super::peer::PEER_SCRIPT,
-        p.versions
+        p.versions,
+        p.sampler.description(),
     );
+    for outcome in others {
+        match outcome {
+            PeerOutcome::Ran(c) => {
+                let _ = writeln!(
+                    s,
+                    "The same script with `--sampler {}` (versions: {}) fits it with {}, \
+                     vectorised too, from the same walkers, with the same walkers and steps.",
+                    c.sampler.option(),
+                    c.versions,
+                    c.sampler.description(),
+                );
+            }
+            PeerOutcome::Skipped { sampler, reason } => {
+                let _ = writeln!(
+                    s,
+                    "The {} peer (`{} --sampler {}`) was skipped: {reason}",
+                    sampler.label(),
+                    super::peer::PEER_SCRIPT,
+                    sampler.option(),
+                );
+            }
+        }
+    }
     match outcome {
         Some(NutsOutcome::Ran(n)) => {
             let _ = writeln!(
@@ -507,10 +673,38 @@ fn peer_section(
     let _ = writeln!(
         s,
         "All chains go through the same estimator here (bulk ESS with every walker of every \
-         ensemble, or every NUTS chain, as a chain).\n"
+         ensemble, or every NUTS chain, as a chain). Log-density evaluations count every point \
+         a sampler asked for, the initial walkers' included: ours as our sampler counts them, \
+         the Python ensemble samplers' by a counter around the log-density they are given (a \
+         vectorised call adds its number of points; zeus' slice moves make several calls per \
+         step).\n"
     );
+    if let Some(f) = fit_moves {
+        let _ = writeln!(
+            s,
+            "slipbayes samples this problem twice, from {} initial walkers as the peers: \
+             with the stretch move (emcee's, so that per evaluation only the implementations \
+             differ) and with `slipbayes fit`'s default moves ({}; joint updates, as every run \
+             of this bench).\n",
+            if f.same_start {
+                "the same"
+            } else {
+                "NOT the same"
+            },
+            f.moves,
+        );
+    }
     log_density_line(s, 1, "emcee peer", &p.log_density);
     let mut item = 2;
+    for c in &extras {
+        log_density_line(
+            s,
+            item,
+            &format!("{} peer", c.sampler.label()),
+            &c.log_density,
+        );
+        item += 1;
+    }
     if let Some(n) = nuts {
         log_density_line(s, item, "NUTS peer", &n.log_density);
         let _ = writeln!(
@@ -528,9 +722,13 @@ fn peer_section(
     }
     let _ = writeln!(
         s,
-        "{item}. Medians (log-coordinates) within {} MCSE of ours: emcee **{}**{}.\n",
+        "{item}. Medians (log-coordinates) within {} MCSE of ours: emcee **{}**{}{}.\n",
         super::peer::MEDIAN_MCSE_FACTOR,
         agree(p.medians_agree),
+        extras
+            .iter()
+            .map(|c| format!(", {} **{}**", c.sampler.label(), agree(c.medians_agree)))
+            .collect::<String>(),
         nuts.map_or(String::new(), |n| n
             .runs
             .iter()
@@ -543,6 +741,10 @@ fn peer_section(
     );
     let mut header = "| coordinate | our median | emcee median | |Δ| / MCSE |".to_owned();
     let mut rule = "|---|---:|---:|---:|".to_owned();
+    for c in &extras {
+        let _ = write!(header, " {} median | |Δ| / MCSE |", c.sampler.label());
+        rule.push_str("---:|---:|");
+    }
     for run in nuts.iter().flat_map(|n| &n.runs) {
         let _ = write!(
             header,
@@ -561,13 +763,23 @@ fn peer_section(
             c.peer,
             g(c.z)
         );
+        for other in &extras {
+            let c = &other.medians[i];
+            let _ = write!(s, " {:.6} | {} |", c.peer, g(c.z));
+        }
         for run in nuts.iter().flat_map(|n| &n.runs) {
             let c = &run.medians[i];
             let _ = write!(s, " {:.6} | {} |", c.peer, g(c.z));
         }
         s.push('\n');
     }
-    samplers_table(s, threads, p, nuts);
+    samplers_table(s, threads, p, fit_moves, &extras, nuts);
+    let _ = writeln!(
+        s,
+        "\nAgainst the best Python ensemble sampler that passed the checks (by ESS per 1,000 \
+         evaluations, and by ESS/s):\n"
+    );
+    best_peer_lines(s, p, fit_moves, others, threads);
     let _ = write!(
         s,
         "\nError of the medians against our long one-contact reference run ({} steps, \
@@ -579,6 +791,15 @@ fn peer_section(
         g(p.peer_error),
         g(p.peer_sampling_s),
     );
+    for c in &extras {
+        let _ = write!(
+            s,
+            ", {} {} after {} s",
+            c.sampler.label(),
+            g(c.peer_error),
+            g(c.peer_sampling_s)
+        );
+    }
     for run in nuts.iter().flat_map(|n| &n.runs) {
         let _ = write!(
             s,
@@ -598,20 +819,25 @@ fn peer_section(
     }
 }
 
-/// Every sampler in one table: cost of a density, time, ESS, ESS/s and our ratio to it.
+/// Every sampler in one table: cost of a density, evaluations, time, ESS, ESS per 1,000
+/// evaluations, ESS/s and our stretch move's ratio to it. NUTS's script counts the gradients
+/// of its kept draws only, not of its warmup, so its row has no evaluation count.
 fn samplers_table(
     s: &mut String,
     threads: usize,
     p: &PeerComparison,
+    fit_moves: Option<&MovesRun>,
+    extras: &[&PeerComparison],
     nuts: Option<&NutsComparison>,
 ) {
     let ours = p.ours_ess_per_s[1];
     let _ = writeln!(
         s,
-        "\n| sampler | draws for the ESS | time per log-density (µs) | sampling s | min ESS | \
-         ESS/s | slipbayes ({threads} threads) ESS/s ÷ this |"
+        "\n| sampler | draws for the ESS | time per log-density (µs) | log-density evaluations | \
+         sampling s | min ESS | ESS per 1,000 evaluations | ESS/s | slipbayes stretch \
+         ({threads} threads) ESS/s ÷ this |"
     );
-    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|---:|---:|");
     let kept = p.steps - p.steps / 4;
     let ensemble_draws = format!(
         "{}×{} walkers × {} steps after {} burn-in",
@@ -620,39 +846,64 @@ fn samplers_table(
         kept,
         p.steps - kept
     );
-    let rows = [
+    let mut rows = vec![
         (
-            "slipbayes, 1 thread".to_owned(),
+            "slipbayes stretch, 1 thread".to_owned(),
             g(p.ours_us_per_eval),
+            p.ours_evaluations,
             p.ours_sampling_s[0],
             p.ours_ess_min,
             p.ours_ess_per_s[0],
         ),
         (
-            format!("slipbayes, {threads} threads"),
+            format!("slipbayes stretch, {threads} threads"),
             String::new(),
+            p.ours_evaluations,
             p.ours_sampling_s[1],
             p.ours_ess_min,
             p.ours_ess_per_s[1],
         ),
-        (
-            "emcee + numpy/scipy".to_owned(),
+    ];
+    if let Some(f) = fit_moves {
+        rows.push((
+            format!(
+                "slipbayes, `fit`'s default moves ({}), {} threads{}",
+                f.moves,
+                f.threads,
+                if f.same_start {
+                    ""
+                } else {
+                    " (NOT the same start)"
+                }
+            ),
+            String::new(),
+            f.evaluations,
+            f.sampling_s,
+            f.ess_min,
+            f.ess_per_s,
+        ));
+    }
+    for c in std::iter::once(p).chain(extras.iter().copied()) {
+        rows.push((
+            format!("{} + numpy/scipy", c.sampler.label()),
             format!(
                 "{} vectorised, {} single",
-                g(p.peer_us_per_eval_vectorised),
-                g(p.peer_us_per_eval_single)
+                g(c.peer_us_per_eval_vectorised),
+                g(c.peer_us_per_eval_single)
             ),
-            p.peer_sampling_s,
-            p.peer_ess_min,
-            p.peer_ess_per_s,
-        ),
-    ];
-    for (who, cost, secs, ess, per_s) in rows {
+            c.peer_evaluations,
+            c.peer_sampling_s,
+            c.peer_ess_min,
+            c.peer_ess_per_s,
+        ));
+    }
+    for (who, cost, evaluations, secs, ess, per_s) in rows {
         let _ = writeln!(
             s,
-            "| {who} | {ensemble_draws} | {cost} | {} | {} | {} | {} |",
+            "| {who} | {ensemble_draws} | {cost} | {evaluations} | {} | {} | {} | {} | {} |",
             g(secs),
             g(ess),
+            g(super::peer::ess_per_kilo_eval(ess, evaluations)),
             g(per_s),
             g(ours / per_s)
         );
@@ -663,8 +914,8 @@ fn samplers_table(
     {
         let _ = writeln!(
             s,
-            "| NumPyro NUTS, {} chain(s) | {}×{} draws after {} warmup | {} with gradient | {} \
-             (warmup {} + draws {}) | {} | {} | {} |",
+            "| NumPyro NUTS, {} chain(s) | {}×{} draws after {} warmup | {} with gradient |  | {} \
+             (warmup {} + draws {}) | {} |  | {} | {} |",
             run.chains,
             run.chains,
             n.plan.draws,
@@ -723,7 +974,7 @@ fn nuts_table(s: &mut String, n: &NutsComparison, threads: usize, ours_ess_per_s
 mod tests {
     use super::*;
     use crate::bench::nuts::{GradientCheck, NutsPlan, NutsRun};
-    use crate::bench::peer::MedianCheck;
+    use crate::bench::peer::{EnsemblePeer, MedianCheck};
 
     fn medians() -> Vec<MedianCheck> {
         vec![MedianCheck {
@@ -734,8 +985,11 @@ mod tests {
         }]
     }
 
+    /// ESS 250 from 50,000 evaluations in 100 s (5 per 1,000 evaluations, 2.5 per second)
+    /// against ours, 250 from 2,500 evaluations (100 per 1,000) in 1 s on 2 threads.
     fn emcee() -> PeerComparison {
         PeerComparison {
+            sampler: EnsemblePeer::Stretch,
             versions: serde_json::json!({"emcee": "3"}),
             log_density: LogDensityCheck::new(&[Some(1.0)], &[Some(1.0)]),
             medians: medians(),
@@ -748,14 +1002,31 @@ mod tests {
             peer_us_per_eval_vectorised: 3000.0,
             ours_sampling_s: [2.0, 1.0],
             peer_sampling_s: 100.0,
+            ours_evaluations: 2_500,
+            peer_evaluations: 50_000,
             ours_ess_min: 250.0,
             peer_ess_min: 250.0,
+            ours_ess_per_kilo_eval: 100.0,
+            peer_ess_per_kilo_eval: 5.0,
             ours_ess_per_s: [125.0, 250.0],
             peer_ess_per_s: 2.5,
             ours_error: 0.02,
             peer_error: 0.03,
             quoted: true,
         }
+    }
+
+    /// Another ensemble peer: `ess` from `evaluations` in `seconds`.
+    fn other(sampler: EnsemblePeer, ess: f64, evaluations: u64, seconds: f64) -> PeerOutcome {
+        PeerOutcome::Ran(Box::new(PeerComparison {
+            sampler,
+            peer_sampling_s: seconds,
+            peer_evaluations: evaluations,
+            peer_ess_min: ess,
+            peer_ess_per_kilo_eval: crate::bench::peer::ess_per_kilo_eval(ess, evaluations),
+            peer_ess_per_s: ess / seconds,
+            ..emcee()
+        }))
     }
 
     /// Two chains, 300 draws each, ESS 500 in 60 s of warmup and 40 s of draws.
@@ -793,15 +1064,18 @@ mod tests {
     #[test]
     fn nuts_is_a_row_of_the_samplers_table_with_our_ratio_to_it() {
         let mut s = String::new();
-        peer_section(&mut s, 2, 4000, &emcee(), Some(&nuts(true)));
+        peer_section(&mut s, 2, 4000, &emcee(), None, &[], Some(&nuts(true)));
         // 250 ESS/s against emcee's 2.5 and NUTS's 5 (warmup + draws); 2×300 draws.
-        assert!(s.contains("| emcee + numpy/scipy |"), "{s}");
-        assert!(s.contains("| 2.500 | 100 |"), "{s}");
+        assert!(s.contains("| emcee stretch + numpy/scipy |"), "{s}");
+        assert!(
+            s.contains("| 50000 | 100 | 250 | 5.000 | 2.500 | 100 |"),
+            "{s}"
+        );
         assert!(
             s.contains("| NumPyro NUTS, 2 chain(s) | 2×300 draws after 300 warmup |"),
             "{s}"
         );
-        assert!(s.contains("| 500 | 5.000 | 50.000 |"), "{s}");
+        assert!(s.contains("| 500 |  | 5.000 | 50.000 |"), "{s}");
         // The detail table: per draw 30,000 / 600 gradients, 250 / 12.5 on the draws alone.
         assert!(s.contains("| 30000 | 50.000 | 0 |"), "{s}");
         assert!(s.contains("| 12.500 | 20.000 |"), "{s}");
@@ -824,5 +1098,133 @@ mod tests {
         };
         assert!(line(Some(&skipped)).contains("**skipped**: pip install jax failed"));
         assert!(line(None).contains("`--no-nuts`"));
+    }
+
+    /// `slipbayes fit`'s moves: ESS 1,000 from 2,500 evaluations (400 per 1,000) in 2 s.
+    fn fit_moves() -> MovesRun {
+        MovesRun {
+            moves: "student-t 0.5, de 0.5".into(),
+            threads: 2,
+            sampling_s: 2.0,
+            evaluations: 2_500,
+            ess_min: 1000.0,
+            ess_per_s: 500.0,
+            ess_per_kilo_eval: 400.0,
+            same_start: true,
+        }
+    }
+
+    fn others() -> [PeerOutcome; 2] {
+        [
+            // 40 per 1,000 evaluations, 1 per second.
+            other(EnsemblePeer::DeSnooker, 200.0, 5_000, 200.0),
+            // 10 per 1,000 evaluations, 4 per second.
+            other(EnsemblePeer::Zeus, 400.0, 40_000, 100.0),
+        ]
+    }
+
+    #[test]
+    fn every_ensemble_peer_is_a_row_with_its_evaluations_and_our_ratios() {
+        let mut s = String::new();
+        peer_section(
+            &mut s,
+            2,
+            4000,
+            &emcee(),
+            Some(&fit_moves()),
+            &others(),
+            None,
+        );
+        let rows = [
+            "| emcee DE + snooker + numpy/scipy |",
+            "| 5000 | 200 | 200 | 40.000 | 1.000 | 250 |",
+            "| zeus + numpy/scipy |",
+            "| 40000 | 100 | 400 | 10.000 | 4.000 | 62.500 |",
+            // Our stretch move: 2,500 evaluations, 100 per 1,000.
+            "| 2500 | 1.000 | 250 | 100 | 250 | 1.000 |",
+            "| slipbayes, `fit`'s default moves (student-t 0.5, de 0.5), 2 threads |",
+            "| 2500 | 2.000 | 1000 | 400 | 500 | 0.500 |",
+        ];
+        for row in rows {
+            assert!(s.contains(row), "{row} in {s}");
+        }
+        assert!(s.contains("The same script with `--sampler zeus`"), "{s}");
+        assert!(s.contains("3. zeus peer: log-density"), "{s}");
+        assert!(
+            s.contains("emcee DE + snooker **agree**, zeus **agree**"),
+            "{s}"
+        );
+        assert!(
+            s.contains(
+                "| coordinate | our median | emcee median | |Δ| / MCSE | emcee DE + snooker median |"
+            ),
+            "{s}"
+        );
+        // The best by evaluations is DE + snooker (40), by time zeus (4 per second).
+        assert!(
+            s.contains(
+                "default moves (student-t 0.5, de 0.5): ESS per 1,000 log-density evaluations \
+                 400 against the best Python ensemble sampler's (emcee DE + snooker 40.000): \
+                 **10.000×**; ESS/s on 2 threads **125×** the fastest's (zeus). Target ≥ 10× \
+                 the best Python ensemble sampler's: **met**."
+            ),
+            "{s}"
+        );
+        assert!(
+            s.contains(
+                "- slipbayes with the stretch move: ESS per 1,000 log-density evaluations 100 \
+                 against the best Python ensemble sampler's (emcee DE + snooker 40.000): \
+                 **2.500×**; ESS/s on 2 threads **62.500×** the fastest's (zeus).\n"
+            ),
+            "{s}"
+        );
+    }
+
+    #[test]
+    fn the_headline_compares_with_the_best_peer_that_passed_and_names_the_skipped() {
+        let line = |fit: Option<&MovesRun>, others: &[PeerOutcome]| {
+            let mut s = String::new();
+            best_peer_headline(&mut s, &emcee(), fit, others, 2);
+            s
+        };
+        // Stretch alone, ours and the peer's: 100 against 5 per 1,000 evaluations; the target
+        // is then judged on our stretch move.
+        let alone = line(None, &[]);
+        assert!(
+            alone.contains(
+                "(emcee stretch 5.000): **20.000×**; ESS/s on 2 threads **100×** the fastest's \
+                 (emcee stretch). Target ≥ 10× the best Python ensemble sampler's: **met**."
+            ),
+            "{alone}"
+        );
+
+        let skipped = PeerOutcome::Skipped {
+            sampler: EnsemblePeer::Zeus,
+            reason: "pip install zeus-mcmc failed".into(),
+        };
+        let mut failed = other(EnsemblePeer::DeSnooker, 1e4, 1_000, 1.0);
+        if let PeerOutcome::Ran(c) = &mut failed {
+            c.quoted = false;
+        }
+        let s = line(Some(&fit_moves()), &[failed, skipped]);
+        // The DE peer's figures would win, but it did not pass the checks.
+        assert!(s.contains("(emcee stretch 5.000): **80.000×**"), "{s}");
+        assert!(
+            s.contains("The emcee DE + snooker peer did **not** pass"),
+            "{s}"
+        );
+        assert!(
+            s.contains("The zeus peer was **skipped**: pip install zeus-mcmc failed"),
+            "{s}"
+        );
+
+        // 40 per 1,000 evaluations: our stretch move is 2.5×, a factor 4 short of the target,
+        // which is judged on the fit's moves alone when they ran.
+        let s = line(None, &[others()[0].clone()]);
+        assert!(s.contains("(emcee DE + snooker 40.000): **2.500×**"), "{s}");
+        assert!(s.contains("**missed** (a factor 4.000 short)"), "{s}");
+        let s = line(Some(&fit_moves()), &[others()[0].clone()]);
+        assert_eq!(s.matches("Target").count(), 1, "{s}");
+        assert!(s.contains("**10.000×**") && s.contains("**met**"), "{s}");
     }
 }

@@ -15,7 +15,7 @@ use slipbayes::fit::INIT_STREAM;
 use slipbayes::model::Posterior;
 use slipbayes::optimize::initial_around_optimum;
 use slipbayes::sampler::{
-    EnsembleSampler, MemorySink, SamplerConfig, Silent, Steps, DEFAULT_ENSEMBLES,
+    EnsembleSampler, MemorySink, Move, SamplerConfig, Silent, Steps, DEFAULT_ENSEMBLES,
 };
 
 /// One run at one thread count.
@@ -27,6 +27,8 @@ pub struct ThreadRun {
     pub sampling_s: f64,
     /// Steps per second (one step moves every walker of every ensemble).
     pub steps_per_s: f64,
+    /// Log-density evaluations, the initial walkers' included, as the sampler counts them.
+    pub evaluations: u64,
     /// Log-density evaluations per second.
     pub evals_per_s: f64,
     /// Smallest bulk ESS over the sampled coordinates, after the burn-in.
@@ -99,7 +101,7 @@ pub struct Sampled {
     pub initial: Vec<Vec<Vec<f64>>>,
 }
 
-/// Samples `steps` steps of `posterior` in a pool of `threads` threads.
+/// Samples `steps` steps of `posterior` with stretch moves in a pool of `threads` threads.
 ///
 /// # Errors
 /// [`BenchError::Run`] when the start or the sampler fails.
@@ -110,6 +112,23 @@ pub fn sample(
     steps: u64,
     seed: u64,
     threads: usize,
+) -> Result<Sampled, BenchError> {
+    sample_with(posterior, walkers, ensembles, steps, seed, threads, None)
+}
+
+/// [`sample`] with a mixture of `moves` instead of the stretch move alone; the start depends
+/// on the seed only, so it is the same whatever the moves.
+///
+/// # Errors
+/// [`BenchError::Run`] when the start or the sampler fails.
+pub fn sample_with(
+    posterior: &Posterior,
+    walkers: usize,
+    ensembles: usize,
+    steps: u64,
+    seed: u64,
+    threads: usize,
+    moves: Option<Vec<(Move, f64)>>,
 ) -> Result<Sampled, BenchError> {
     let what = format!("{walkers} walkers, {steps} steps, {threads} threads, seed {seed}");
     let fail = |e: String| BenchError::run(what.clone())(e);
@@ -131,6 +150,10 @@ pub fn sample(
         let initial = start.walkers.clone();
         let config = SamplerConfig::new(walkers, ensembles, seed)
             .and_then(|c| c.with_checkpoint_every(None))
+            .and_then(|c| match moves {
+                Some(moves) => c.with_moves(moves),
+                None => Ok(c),
+            })
             .map_err(|e| fail(e.to_string()))?;
         let mut sampler = EnsembleSampler::new(posterior, config, start.walkers)
             .map_err(|e| fail(e.to_string()))?;
@@ -154,6 +177,7 @@ fn thread_run(threads: usize, s: &Sampled, steps: u64, ess_min: f64) -> ThreadRu
         threads,
         sampling_s: s.sampling_s,
         steps_per_s: steps as f64 / s.sampling_s,
+        evaluations: s.evaluations,
         evals_per_s: s.evaluations as f64 / s.sampling_s,
         ess_min,
         ess_per_s: ess_min / s.sampling_s,
@@ -207,6 +231,72 @@ pub fn measure(
         draws: parallel.draws,
         stats,
         initial: parallel.initial,
+    })
+}
+
+/// Our sampler with another mixture of moves, on all threads, from the same start and with the
+/// same walkers, steps, burn-in and estimator as a measured run.
+#[derive(Debug, Clone, Serialize)]
+pub struct MovesRun {
+    /// The moves and their weights.
+    pub moves: String,
+    /// Threads of the pool.
+    pub threads: usize,
+    /// Seconds of sampling.
+    pub sampling_s: f64,
+    /// Log-density evaluations, the initial walkers' included, as the sampler counts them.
+    pub evaluations: u64,
+    /// Smallest bulk ESS over the sampled coordinates, after the burn-in.
+    pub ess_min: f64,
+    /// `ess_min / sampling_s`.
+    pub ess_per_s: f64,
+    /// ESS per 1,000 log-density evaluations.
+    pub ess_per_kilo_eval: f64,
+    /// Whether its initial walkers are those of the measured run (and so of the peers).
+    pub same_start: bool,
+}
+
+/// Runs `moves` like `like` was run (walkers, ensembles, steps, seed), on `threads` threads.
+///
+/// # Errors
+/// [`BenchError::Run`] when the run fails or is too short for the ESS.
+pub fn measure_moves(
+    posterior: &Posterior,
+    like: &Measured,
+    moves: Vec<(Move, f64)>,
+    threads: usize,
+) -> Result<MovesRun, BenchError> {
+    let t = &like.summary;
+    let label = moves
+        .iter()
+        .map(|(m, w)| format!("{m} {w}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let run = sample_with(
+        posterior,
+        t.walkers,
+        t.ensembles,
+        t.steps,
+        BENCH_SEED,
+        threads,
+        Some(moves),
+    )?;
+    let stats = run
+        .draws
+        .stats(&posterior.param_names(), t.burn_in)
+        .map_err(BenchError::run(format!(
+            "ESS of the run with moves {label}"
+        )))?;
+    let ess_min = min_ess(&stats);
+    Ok(MovesRun {
+        threads,
+        sampling_s: run.sampling_s,
+        evaluations: run.evaluations,
+        ess_min,
+        ess_per_s: ess_min / run.sampling_s,
+        ess_per_kilo_eval: super::peer::ess_per_kilo_eval(ess_min, run.evaluations),
+        same_start: run.initial == like.initial,
+        moves: label,
     })
 }
 

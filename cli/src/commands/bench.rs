@@ -6,11 +6,12 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 
-use crate::bench::peer::PeerCommand;
+use crate::bench::peer::{EnsemblePeer, PeerCommand};
 use crate::bench::{memory, report, run, BenchSettings};
 
-/// Measure speed against error and compare with the Python peers (emcee + numpy + scipy;
-/// NumPyro's NUTS on JAX).
+/// Measure speed against error and compare with the Python peers (emcee's stretch and
+/// DE + snooker moves and zeus' ensemble slice sampler, over numpy + scipy; NumPyro's NUTS on
+/// JAX).
 ///
 /// Writes <out>/speed-vs-error.md and, in <out>/speed-vs-error/, SVG plots and results.json.
 /// Run it from the repository root (it reads models/, data/, benches/peer/).
@@ -29,17 +30,27 @@ pub(super) struct BenchArgs {
     /// Threads of the "all threads" runs (default: every logical CPU).
     #[arg(long)]
     threads: Option<usize>,
-    /// Python interpreter with numpy, scipy and emcee for the peer (and jax, jaxlib, numpyro
-    /// for the NUTS peer). Without it a venv is created at --venv (python3 -m venv, then pip
-    /// install numpy scipy emcee, and jax jaxlib numpyro at pinned versions).
+    /// Python interpreter with numpy, scipy and emcee for the peers (and zeus-mcmc for the zeus
+    /// peer, jax, jaxlib, numpyro for the NUTS peer). Without it a venv is created at --venv
+    /// (python3 -m venv, then pip install numpy scipy emcee, zeus-mcmc, and jax jaxlib numpyro
+    /// at pinned versions).
     #[arg(long)]
     python: Option<PathBuf>,
     /// Where to create the peer's venv when --python is not given.
     #[arg(long, default_value = "target/peer-venv")]
     venv: PathBuf,
-    /// Leave the peers out (emcee and NUTS).
+    /// Leave the peers out (emcee, zeus and NUTS).
     #[arg(long)]
     no_peer: bool,
+    /// Leave the emcee DE + snooker peer (emcee's differential-evolution and snooker moves)
+    /// out; it takes about as long as the emcee stretch peer.
+    #[arg(long)]
+    no_de_snooker: bool,
+    /// Leave the zeus peer (ensemble slice sampling, pip install zeus-mcmc into the venv) out;
+    /// its several log-densities per walker and step make it a few times as long as the emcee
+    /// peers.
+    #[arg(long)]
+    no_zeus: bool,
     /// Leave the NUTS peer (NumPyro on JAX, pip install jax jaxlib numpyro into the venv)
     /// out; it adds a few minutes to a full run.
     #[arg(long)]
@@ -86,8 +97,17 @@ pub(super) fn run_bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                 .context("locating the slipbayes binary for the memory probes")?,
         )
     };
+    let ensemble_peers = [
+        (EnsemblePeer::DeSnooker, args.no_de_snooker),
+        (EnsemblePeer::Zeus, args.no_zeus),
+    ]
+    .into_iter()
+    .filter(|&(_, left_out)| peer.is_some() && !left_out)
+    .map(|(sampler, _)| sampler)
+    .collect();
     let settings = BenchSettings {
         nuts: peer.is_some() && !args.no_nuts,
+        ensemble_peers,
         peer,
         probe_binary,
         ..BenchSettings::bundled(
