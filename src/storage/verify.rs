@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::seal::{unseal_json, Unsealed};
-use super::sink::read_checkpoint;
+use super::sink::{read_checkpoint, CheckpointFile};
 use super::{part_name, ChainFiles, StorageError};
 
 /// Whether the files of a run were proved to be the ones written (see [`verify_run`]).
@@ -32,7 +32,41 @@ pub enum Integrity {
 /// what to do; [`StorageError::BadCheckpoint`] for a checkpoint of an unknown format;
 /// [`StorageError::Io`] when a file cannot be read.
 pub fn verify_run(files: &ChainFiles) -> Result<Integrity, StorageError> {
-    let Some(checkpoint) = read_checkpoint(files)? else {
+    let mut attempt = 0;
+    loop {
+        attempt += 1;
+        let checkpoint = read_checkpoint(files)?;
+        match verify_against(files, checkpoint.as_ref()) {
+            // A fit replacing the run (a new run in the same directory) may rewrite a part
+            // between the reading of the checkpoint and that of the part, which then fails
+            // the old checkpoint's seal: verified again, it is checked against the checkpoint
+            // it belongs to. A part is corrupt only when the checkpoint did not change.
+            Err(e @ (StorageError::CorruptPart { .. } | StorageError::Io(_)))
+                if attempt < VERIFY_ATTEMPTS =>
+            {
+                let now = read_checkpoint(files)?;
+                let unchanged = match (&checkpoint, &now) {
+                    (Some(then), Some(now)) => then.same_chains(now),
+                    (None, None) => true,
+                    _ => false,
+                };
+                if unchanged {
+                    return Err(e);
+                }
+            }
+            other => return other,
+        }
+    }
+}
+
+/// Times [`verify_run`] reads a run replaced while it verifies it before it gives up.
+const VERIFY_ATTEMPTS: usize = 3;
+
+fn verify_against(
+    files: &ChainFiles,
+    checkpoint: Option<&CheckpointFile>,
+) -> Result<Integrity, StorageError> {
+    let Some(checkpoint) = checkpoint else {
         return Ok(Integrity::Unverified {
             reason: format!("there is no checkpoint {}", files.checkpoint.display()),
         });

@@ -351,6 +351,12 @@ impl CheckpointFile {
         self.sealed
     }
 
+    /// Whether `other` counts the same parts with the same seals: read twice, the same
+    /// checkpoint (or one that only moved the run's state on), not that of a run replacing it.
+    pub(in super::super) fn same_chains(&self, other: &Self) -> bool {
+        self.header.parts == other.header.parts && self.header.part_seals == other.header.part_seals
+    }
+
     /// Complete parts the checkpoint counts.
     pub(in super::super) fn parts(&self) -> u64 {
         self.header.parts

@@ -25,8 +25,8 @@ use super::{
 };
 use crate::data::atomic::sync_dir;
 pub(crate) use checkpoint::checkpointed;
-pub(super) use checkpoint::read_checkpoint;
 use checkpoint::{existing_run, remove_run};
+pub(super) use checkpoint::{read_checkpoint, CheckpointFile};
 use writer::{Files, Job, RowGroup, Writer};
 
 /// How a [`ParquetSink`] writes.
