@@ -28,6 +28,9 @@ enum Display {
         last_line: Option<Instant>,
         last_step: u64,
         until_converged: bool,
+        /// The latest step, when no line showed it: printed when the run ends, so that a
+        /// batch log ends on the step, τ and R̂ the run stopped at.
+        unprinted: Option<Progress>,
     },
 }
 
@@ -65,6 +68,7 @@ impl ProgressBarObserver {
                 last_line: None,
                 last_step: 0,
                 until_converged: false,
+                unprinted: None,
             }
         };
         Self {
@@ -160,32 +164,56 @@ impl Observer for ProgressBarObserver {
                 last_line,
                 last_step,
                 until_converged,
+                unprinted,
             } => {
                 if now.duration_since(last_line.unwrap_or(*started)) < *every {
+                    *unprinted = Some(*p);
                     return;
                 }
                 *last_line = Some(now);
-                let cap = if *until_converged { " (cap)" } else { "" };
-                eprintln!(
-                    "progress: step {}/{}{cap}, {} elapsed, {}",
-                    p.step,
-                    last_step,
-                    format_eta(now.duration_since(*started)),
-                    status(p)
+                *unprinted = None;
+                print_line(
+                    p,
+                    *last_step,
+                    *until_converged,
+                    now.duration_since(*started),
                 );
             }
         }
     }
 
     fn on_finish(&mut self, _report: Option<&RunReport>) {
-        if let Display::Bar(bar) = &self.display {
-            bar.finish_and_clear();
+        match &mut self.display {
+            Display::Hidden => {}
+            Display::Bar(bar) => bar.finish_and_clear(),
+            Display::Lines {
+                started,
+                last_step,
+                until_converged,
+                unprinted,
+                ..
+            } => {
+                if let Some(p) = unprinted.take() {
+                    print_line(&p, *last_step, *until_converged, started.elapsed());
+                }
+            }
         }
     }
 
     fn stop_requested(&mut self) -> bool {
         self.stop.load(Ordering::Relaxed)
     }
+}
+
+/// One progress line of a batch job (standard error not a terminal).
+fn print_line(p: &Progress, last_step: u64, until_converged: bool, elapsed: Duration) {
+    let cap = if until_converged { " (cap)" } else { "" };
+    eprintln!(
+        "progress: step {}/{last_step}{cap}, {} elapsed, {}",
+        p.step,
+        format_eta(elapsed),
+        status(p)
+    );
 }
 
 #[cfg(test)]

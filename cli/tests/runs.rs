@@ -51,7 +51,8 @@ fn a_fit_in_a_batch_job_prints_progress_lines_with_tau_and_r_hat() {
         last.contains("/3000 (cap), ") && last.contains("acc 0."),
         "{last}"
     );
-    // The stopping rule checks τ every 100 steps: from then on τ and R̂ are shown.
+    // The stopping rule's checks give τ and R̂; the last line is the step the run stopped at,
+    // after the check that stopped it.
     assert!(
         lines
             .iter()
