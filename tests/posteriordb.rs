@@ -8,15 +8,17 @@
 #![cfg(feature = "parquet")]
 
 mod posteriordb_models;
+#[path = "common/reference_tau.rs"]
+mod reference_tau;
 
 use posteriordb_models::models::{LotkaVolterra, OneComp};
 use posteriordb_models::{
     cases, compare, data, default_settings, density_reference, fit, ode_reference, Case, Reference,
     K_MCSE,
 };
+use reference_tau::reference_tau;
 use serde_json::Value;
-use slipbayes::diagnostics::{pooled_integrated_time, DEFAULT_WINDOW_FACTOR};
-use slipbayes::fit::{FitSettings, RunDir};
+use slipbayes::fit::FitSettings;
 use slipbayes::sampler::{Steps, StopReason};
 
 /// Largest error of the integrator against scipy's DOP853 at rtol 1e-13, relative to the
@@ -245,25 +247,6 @@ const TAU_RATIO: (f64, f64) = (0.6, 1.4);
 /// 0.60 of the long run's for seeds 1 and 2). Bulk and tail ESS, which rank the draws, are
 /// not led astray by them; the τ of the raw coordinate is.
 const TAU_UNKNOWABLE: &[&str] = &["one_comp_mm_elim_abs-one_comp_mm_elim_abs"];
-
-/// The pooled τ_max over the sampler's coordinates of the run in `dir`, on the second half of
-/// its steps: a fixed-length reference chooses its burn-in from its own τ, and an ensemble
-/// still arriving after it (one of Lotka–Volterra's did, for 70 steps) would inflate τ twenty
-/// times.
-fn reference_tau(dir: &std::path::Path) -> f64 {
-    let chains = RunDir::new(dir)
-        .read_chains()
-        .expect("the reference's chains");
-    let per_ensemble = chains.n_walkers();
-    let tau = |name: &String| {
-        let series = chains.series(name).expect("a coordinate");
-        let walkers: Vec<&[f64]> = series.iter().flatten().map(|w| &w[w.len() / 2..]).collect();
-        pooled_integrated_time(&walkers, per_ensemble, DEFAULT_WINDOW_FACTOR)
-            .expect("a τ")
-            .tau
-    };
-    chains.param_names.iter().map(tau).fold(0.0, f64::max)
-}
 
 /// The stopping rule is honest on every posterior: fits it stops from two seeds have every
 /// parameter's mean within [`K_MCSE`] combined MCSE of a run of the same posterior ten times

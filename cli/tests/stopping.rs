@@ -6,12 +6,14 @@
 //! same with ArviZ and more seeds (`reports/stopping.md`).
 #![cfg(feature = "parquet")]
 
+#[path = "../../tests/common/reference_tau.rs"]
+mod reference_tau;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use reference_tau::reference_tau;
 use serde_json::Value;
-use slipbayes::diagnostics::{pooled_integrated_time, DEFAULT_WINDOW_FACTOR};
-use slipbayes::fit::RunDir;
 
 const SEEDS: [u64; 2] = [1, 2];
 /// Combined Monte-Carlo standard errors a mean may differ by.
@@ -20,24 +22,6 @@ const K_MCSE: f64 = 4.0;
 /// 12.5 τ is 0.92 of the long-run value in median, 0.73–1.10 over windows
 /// (`reports/fit-defaults.md`).
 const TAU_RATIO: (f64, f64) = (0.6, 1.4);
-
-/// The pooled τ_max over the sampler's coordinates of the run in `dir`, on the second half of
-/// its steps: a fixed-length reference chooses its burn-in from its own τ, and an ensemble
-/// still arriving after it would inflate τ many times.
-fn reference_tau(dir: &Path) -> f64 {
-    let chains = RunDir::new(dir)
-        .read_chains()
-        .expect("the reference's chains");
-    let per_ensemble = chains.n_walkers();
-    let tau = |name: &String| {
-        let series = chains.series(name).expect("a coordinate");
-        let walkers: Vec<&[f64]> = series.iter().flatten().map(|w| &w[w.len() / 2..]).collect();
-        pooled_integrated_time(&walkers, per_ensemble, DEFAULT_WINDOW_FACTOR)
-            .expect("a τ")
-            .tau
-    };
-    chains.param_names.iter().map(tau).fold(0.0, f64::max)
-}
 
 fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
