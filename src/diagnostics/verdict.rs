@@ -100,7 +100,8 @@ pub enum Problem {
         /// Steps in the chains.
         steps: u64,
     },
-    /// The burn-in of 2 τ_max was more than half the run and was cut to half.
+    /// The burn-in of a τ_max that is not trusted was more than half the run and was cut to
+    /// half.
     BurnInCapped {
         /// The burn-in asked for (steps).
         burn_in: u64,

@@ -604,7 +604,7 @@ impl Selection {
     fn new(report: &RunReport, problems: &mut Vec<Problem>) -> Result<Self, FitError> {
         let total = report.total_steps;
         let half = total / 2;
-        let mut burn_in = match &report.tau {
+        let (mut burn_in, reliable) = match &report.tau {
             Some(t) => {
                 if !t.reliable {
                     problems.push(Problem::ChainsTooShort {
@@ -613,15 +613,20 @@ impl Selection {
                         needed: t.needed_steps,
                     });
                 }
-                t.burn_in
+                (t.burn_in, t.reliable)
             }
             None => {
                 // Without τ, the first half is discarded.
                 problems.push(Problem::NoAutocorrelationTime { steps: total });
-                half
+                (half, false)
             }
         };
-        if burn_in > half {
+        // A trusted τ already means more than its trusted length after the burn-in: a burn-in
+        // past half the run is then the steps the sampler spent tuning (a carried
+        // regression's fit, the slice move's μ), whose draws must not be kept however short
+        // what follows them. Only a burn-in of an untrusted τ is cut to half, as a
+        // best effort the verdict already refuses.
+        if burn_in > half && !reliable {
             problems.push(Problem::BurnInCapped {
                 burn_in,
                 used: half,
