@@ -24,8 +24,9 @@
 //!    complete (while its summaries or report were written) samples no more and only redoes
 //!    what follows.
 //!    [`Steps::Fixed`] counts the *total* steps of the run, resumed or not.
-//! 3. Reads the chains back, discards the burn-in the [`RunReport`] suggests (⌈2 τ_max⌉
-//!    clamped to half the run), keeps every later step, summarises every quantity,
+//! 3. Reads the chains back, discards the burn-in the [`RunReport`] suggests (at least
+//!    ⌈2 τ_max⌉ and the steps spent tuning; clamped to half the run only when τ is not
+//!    trusted), keeps every later step, summarises every quantity,
 //!    aggregate and comparison ([`crate::diagnostics::summarize`]), and judges convergence
 //!    with [`crate::diagnostics::verdict`]: R̂ between ensembles below
 //!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
@@ -46,6 +47,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::Provenance;
 use crate::density::{ColumnUnit, LogDensity, Quantity, Target};
+use crate::diagnostics::{Problem, ESS_MIN, TAU_FACTOR};
 use crate::optimize::{initial_around_optimum, SearchStart};
 use crate::sampler::{
     CarryFit, EnsembleSampler, Move, Observer, Parallelism, RunReport, SamplerConfig, SamplerError,
@@ -608,6 +610,32 @@ fn fresh_sampler<'a, D: LogDensity + ?Sized>(
     Ok((sampler, sink, settings.steps))
 }
 
+/// The further steps a run needs by its summary's own verdict, when every problem it names
+/// says how far it is from passing: a quantity whose τ is not yet trusted needs its trusted
+/// length of τ after the burn-in, an ESS below the standard's grows in proportion to the kept
+/// steps. A tenth more than that, since τ and ESS move as the chains grow. `None` when some
+/// problem does not say (an R̂, stuck walkers, no τ at all): the run then goes on by half its
+/// length. A derived quantity's τ a little longer than the parameters' (the sampler's rule
+/// sees only those) then costs the few steps it lacks rather than half the run again.
+fn steps_lacking(sampler: &SamplerSummary) -> Option<u64> {
+    let now = sampler.steps as f64;
+    let kept = sampler.kept_steps as f64;
+    let walkers = sampler.walkers * sampler.ensembles;
+    let trusted = crate::diagnostics::tau_trusted_length(walkers, TAU_FACTOR);
+    let mut needed = now;
+    for problem in &sampler.problems {
+        let steps = match problem {
+            Problem::TauUnreliable { tau, .. } => sampler.burn_in as f64 + trusted * tau,
+            Problem::ChainsTooShort { needed, .. } if *needed > 0 => *needed as f64,
+            Problem::Ess { ess, .. } if *ess > 0.0 => sampler.burn_in as f64 + kept * ESS_MIN / ess,
+            _ => return None,
+        };
+        needed = needed.max(steps);
+    }
+    let lack = (needed - now).max(0.0);
+    Some((lack + lack / 10.0).ceil() as u64)
+}
+
 /// A fit's sampling: the sampler, its sink, and what the summaries need.
 struct Sampling<'f, 's, D: LogDensity + ?Sized> {
     sampler: EnsembleSampler<'s, D>,
@@ -645,16 +673,17 @@ impl<D: LogDensity + ?Sized> Sampling<'_, '_, D> {
         }
         // The sampler's own rule sees only the parameters' thinned history; the summary judges
         // every reported quantity on every post-burn-in draw. Until it agrees, and while the
-        // budget lasts, the run goes on by half its length again.
+        // budget lasts, the run goes on by what the verdict lacks (`steps_lacking`).
         if let Steps::UntilConverged(rule) = steps {
             while !summary.sampler.converged
                 && report.stopped_by != StopReason::TimeCap
                 && self.sampler.step() < rule.max_steps
             {
                 let now = self.sampler.step();
-                // Half the run again: the summary's own verdict failed, so whatever it lacks
-                // (ESS, a trusted τ of some quantity) is likely a fraction of the run away.
-                let more = (now / 2).max(10).min(rule.max_steps - now);
+                let more = steps_lacking(&summary.sampler)
+                    .map_or(now / 2, |lack| lack.min(now / 2))
+                    .max(10)
+                    .min(rule.max_steps - now);
                 let chains = self.dir.chain_reader()?;
                 self.sampler
                     .restore_history(kept_rows_of(&chains, self.param_names, now))
@@ -796,5 +825,45 @@ impl<O: Observer + ?Sized> Observer for StopOnly<'_, O> {
 
     fn shows_progress(&self) -> bool {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sampler's section of a t0-pooled demo fit stopped by the sampler's rule at 140
+    /// steps, where the summary found F_peak's τ (7.57) a little longer than the parameters'.
+    fn stopped_at_140(problems: serde_json::Value) -> SamplerSummary {
+        serde_json::from_value(serde_json::json!({
+            "walkers": 32, "steps": 140, "ensembles": 4, "burn_in": 50, "kept_steps": 90,
+            "draws": 11520, "acceptance": 0.32, "tau_max": 7.2, "tau_min": 1.2,
+            "tau_reliable": true, "log_density_evals": 156288, "wall_s": 5.3,
+            "converged": false, "problems": problems, "rejections": {}, "seed": 2,
+            "stopped_by": "Converged", "steps_run": 140
+        }))
+        .expect("a sampler summary")
+    }
+
+    #[test]
+    fn a_run_goes_on_by_what_its_verdict_lacks() {
+        // 12.5 τ trusted on 128 walkers: 50 + 12.5 × 7.57 = 144.6 steps, 4.6 lacking, 5.1
+        // with the tenth more.
+        let tau = stopped_at_140(serde_json::json!([
+            {"kind": "tau_unreliable", "quantity": "F_peak[c1-first]", "tau": 7.57},
+            {"kind": "tau_unreliable", "quantity": "mu_s[c1-first]", "tau": 7.0}
+        ]));
+        assert_eq!(steps_lacking(&tau), Some(6));
+        // An ESS of 300 of 400 over 90 kept steps: 120 kept, 30 lacking, 33 with the tenth.
+        let ess = stopped_at_140(serde_json::json!([
+            {"kind": "ess", "quantity": "k[c1]", "which": "bulk", "ess": 300.0}
+        ]));
+        assert_eq!(steps_lacking(&ess), Some(33));
+        // An R̂ says nothing of how far it is from passing: half the run again.
+        let rhat = stopped_at_140(serde_json::json!([
+            {"kind": "tau_unreliable", "quantity": "F_peak[c1-first]", "tau": 7.57},
+            {"kind": "r_hat", "quantity": "k[c1]", "r_hat": 1.02}
+        ]));
+        assert_eq!(steps_lacking(&rhat), None);
     }
 }
