@@ -30,7 +30,7 @@
 //!    aggregate and comparison ([`crate::diagnostics::summarize`]), and judges convergence
 //!    with [`crate::diagnostics::verdict`]: R̂ between ensembles below
 //!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
-//!    [`ESS_MIN`](crate::diagnostics::ESS_MIN), τ reliable, no stuck walkers.
+//!    [`ESS_MIN`], τ reliable, no stuck walkers.
 //! 4. Writes `summary.json` and `summary.csv` atomically.
 mod curves;
 mod error;
