@@ -241,7 +241,7 @@ pub fn problem_lines(
     if !ess.is_empty() {
         // ESS grows in proportion to the post-burn-in draws.
         let need = if lowest.is_finite() && lowest > 0.0 {
-            let steps_needed = burn_in as f64 + kept * ESS_MIN / lowest;
+            let steps_needed = steps_for_ess(burn_in, kept, lowest);
             format!(
                 "; about {:.0} steps would reach ESS {ESS_MIN:.0}",
                 steps_needed.ceil()
@@ -263,7 +263,7 @@ pub fn problem_lines(
         lines.push(format!(
             "autocorrelation time not yet trusted (longest τ = {longest:.0} steps, fewer than {length:.1} τ of post-burn-in steps) for {}; about {:.0} steps would do",
             listed(&tau),
-            (burn_in as f64 + length * longest).ceil()
+            steps_for_tau(burn_in, walkers, longest).ceil()
         ));
     }
     let (undefined, _) = of_kind(problems, f64::max, |p| {
@@ -276,6 +276,34 @@ pub fn problem_lines(
         ));
     }
     lines
+}
+
+/// The run length, burn-in included, at which an ESS of `ess` over `kept` post-burn-in steps
+/// reaches [`ESS_MIN`]: ESS grows in proportion to the post-burn-in draws.
+fn steps_for_ess(burn_in: u64, kept: f64, ess: f64) -> f64 {
+    burn_in as f64 + kept * ESS_MIN / ess
+}
+
+/// The run length, burn-in included, at which a τ of `tau` steps is trusted over `walkers`
+/// walkers in all ([`tau_trusted_length`](super::tau_trusted_length) τ after the burn-in).
+fn steps_for_tau(burn_in: u64, walkers: usize, tau: f64) -> f64 {
+    burn_in as f64 + super::tau_trusted_length(walkers, TAU_FACTOR) * tau
+}
+
+impl Problem {
+    /// The run length, burn-in included, at which this problem would pass, for a run whose
+    /// first `burn_in` of `steps` steps are discarded, over `walkers` walkers in all; `None`
+    /// where the problem does not say (an R̂, stuck walkers, no τ at all). The same estimate
+    /// [`problem_lines`] shows.
+    pub fn steps_needed(&self, steps: u64, burn_in: u64, walkers: usize) -> Option<f64> {
+        let kept = steps.saturating_sub(burn_in).max(1) as f64;
+        match self {
+            Self::TauUnreliable { tau, .. } => Some(steps_for_tau(burn_in, walkers, *tau)),
+            Self::ChainsTooShort { needed, .. } if *needed > 0 => Some(*needed as f64),
+            Self::Ess { ess, .. } if *ess > 0.0 => Some(steps_for_ess(burn_in, kept, *ess)),
+            _ => None,
+        }
+    }
 }
 
 /// The quantities named by the problems `value` picks (each once, in order), and the

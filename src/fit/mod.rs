@@ -30,7 +30,7 @@
 //!    aggregate and comparison ([`crate::diagnostics::summarize`]), and judges convergence
 //!    with [`crate::diagnostics::verdict`]: R̂ between ensembles below
 //!    [`RHAT_MAX`](crate::diagnostics::RHAT_MAX), bulk and tail ESS above
-//!    [`ESS_MIN`], τ reliable, no stuck walkers.
+//!    [`ESS_MIN`](crate::diagnostics::ESS_MIN), τ reliable, no stuck walkers.
 //! 4. Writes `summary.json` and `summary.csv` atomically.
 mod curves;
 mod error;
@@ -47,7 +47,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::data::Provenance;
 use crate::density::{ColumnUnit, LogDensity, Quantity, Target};
-use crate::diagnostics::{Problem, ESS_MIN, TAU_FACTOR};
 use crate::optimize::{initial_around_optimum, SearchStart};
 use crate::sampler::{
     CarryFit, EnsembleSampler, Move, Observer, Parallelism, RunReport, SamplerConfig, SamplerError,
@@ -611,28 +610,17 @@ fn fresh_sampler<'a, D: LogDensity + ?Sized>(
 }
 
 /// The further steps a run needs by its summary's own verdict, when every problem it names
-/// says how far it is from passing: a quantity whose τ is not yet trusted needs its trusted
-/// length of τ after the burn-in, an ESS below the standard's grows in proportion to the kept
-/// steps. A tenth more than that, since τ and ESS move as the chains grow. `None` when some
+/// says how far it is from passing ([`Problem::steps_needed`](crate::diagnostics::Problem::steps_needed),
+/// the estimate the verdict's lines show). A tenth more than that, since τ and ESS move as the chains grow. `None` when some
 /// problem does not say (an R̂, stuck walkers, no τ at all): the run then goes on by half its
 /// length. A derived quantity's τ a little longer than the parameters' (the sampler's rule
 /// sees only those) then costs the few steps it lacks rather than half the run again.
 fn steps_lacking(sampler: &SamplerSummary) -> Option<u64> {
-    let now = sampler.steps as f64;
-    let kept = sampler.kept_steps as f64;
     let walkers = sampler.walkers * sampler.ensembles;
-    let trusted = crate::diagnostics::tau_trusted_length(walkers, TAU_FACTOR);
-    let mut needed = now;
-    for problem in &sampler.problems {
-        let steps = match problem {
-            Problem::TauUnreliable { tau, .. } => sampler.burn_in as f64 + trusted * tau,
-            Problem::ChainsTooShort { needed, .. } if *needed > 0 => *needed as f64,
-            Problem::Ess { ess, .. } if *ess > 0.0 => sampler.burn_in as f64 + kept * ESS_MIN / ess,
-            _ => return None,
-        };
-        needed = needed.max(steps);
-    }
-    let lack = (needed - now).max(0.0);
+    let needed = sampler.problems.iter().try_fold(0.0_f64, |most, p| {
+        Some(most.max(p.steps_needed(sampler.steps, sampler.burn_in, walkers)?))
+    })?;
+    let lack = (needed - sampler.steps as f64).max(0.0);
     Some((lack + lack / 10.0).ceil() as u64)
 }
 
