@@ -32,7 +32,7 @@ targets=(
   "convergence|reports/convergence.md: time, memory and verdict of the demo, the quick path and campaigns|15 min|yes"
   "campaigns|reports/campaigns.md: campaigns of 2 to 50 contacts until converged|5 min|yes"
   "stopping|reports/stopping.md: fits until converged against a previous build, recomputed by ArviZ and against long reference runs|30 min|partly (wall times)"
-  "campaign-fit|reports/campaign-fit.md: a campaign of 200 contacts fitted until converged: where the time goes, the verdict, the truths covered|15 min|yes"
+  "campaign-fit|reports/campaign-fit.md: campaigns of 200 and 1,000 contacts fitted until converged: where the time goes, the verdict, the truths covered|25 min|yes"
   "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
@@ -169,9 +169,9 @@ run() {
   campaign-fit)
     build
     rm -rf "$scratch/campaign-fit"
-    python3 benches/campaign_fit.py "$scratch/campaign-fit" 200 > /dev/null
+    python3 benches/campaign_fit.py "$scratch/campaign-fit" 200 1000 > /dev/null
     assemble reports/campaign-fit.md "Campaigns fitted until converged" \
-      "A one-material campaign of 200 contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`) fitted by \`slipbayes fit campaign.toml\` with the default settings until converged by the strict standard (R̂ < 1.01 between ensembles, bulk and tail ESS > 400 on every post-burn-in draw of every reported quantity, τ trusted): \`python3 benches/campaign_fit.py DIR 200\`. The start is everything before the first step (the rough start, the mode search, the sampler's start), the sampling the run's steps at the pace its progress lines show, and the rest the summaries of every quantity, PSIS-LOO, the predictive bands and the report (see the script). The truths are the simulation's; a 95 % interval should hold its truth 95 % of the time, so about 950 of 1,002 (binomial sd 7). Target: converged in at most 10 minutes on the 2 cores." \
+      "One-material campaigns of 200 and 1,000 contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`) fitted by \`slipbayes fit campaign.toml\` with the default settings until converged by the strict standard (R̂ < 1.01 between ensembles, bulk and tail ESS > 400 on every post-burn-in draw of every reported quantity, τ trusted): \`python3 benches/campaign_fit.py DIR 200 1000\`. The start is everything before the first step (the rough start, the mode search, the sampler's start), the sampling the run's steps at the pace its progress lines show, and the rest the summaries of every quantity, PSIS-LOO, the predictive bands and the report (see the script). The truths are the simulation's; a 95 % interval should hold its truth 95 % of the time, so about 952 of 1,002 (binomial sd 7) and 4,752 of 5,002 (sd 15). Targets: converged in at most 10 minutes on the 2 cores at 200 contacts, in at most an hour at 1,000." \
       "$scratch/campaign-fit/table.md"
     stamp "$target" "$load" "$start" reports/campaign-fit.md
     ;;

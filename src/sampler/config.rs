@@ -50,7 +50,7 @@ pub enum CarryFit {
     /// with the number of followers, and every follower's error adds to the block's
     /// acceptance ratio.
     Complement,
-    /// Fitted to the ensemble's own draws of the first
+    /// Fitted to every ensemble's draws of the first
     /// [`CARRY_FIT_STEPS`](super::CARRY_FIT_STEPS) steps (in two windows, the second using
     /// the first's fit), then fixed: precise whatever the number of followers, at the price
     /// of a burn-in that covers those steps.

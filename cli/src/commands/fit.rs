@@ -149,7 +149,7 @@ pub(super) struct RunArgs {
     updates: Option<Updates>,
     /// How hierarchical updates carry a shared block's followers: `complement` (a regression
     /// fitted to the complementary half at every half-step), `tuned` (fitted to the
-    /// ensemble's draws of the first 100 steps, then fixed) or `auto` (tuned where the
+    /// ensembles' draws of the first 100 steps, then fixed) or `auto` (tuned where the
     /// complement is smaller than the followers); default: the model file's, else auto.
     #[arg(long)]
     carry: Option<CarryFit>,

@@ -108,7 +108,7 @@ pub(crate) struct UpdateBlock<'a> {
     /// An exact block whose carried move is dropped after the tuning steps if it moved the
     /// block far less than the exact draw did (see `EnsembleSampler::keeps_carried_move`).
     pub carry_measured: bool,
-    /// The followers are carried by a regression tuned on the ensemble's own draws and then
+    /// The followers are carried by a regression tuned on the draws of every ensemble and then
     /// frozen ([`CarryTuning`]), not by one fitted to the complement.
     pub tuned_carry: bool,
     /// The evaluation of a move of the block may be split by independent block, when other
@@ -572,24 +572,5 @@ impl Ensemble {
                 &block.links.followers,
             )
         })
-    }
-
-    /// Gathers this step's walkers into the tuning of every tuned block, and when `freeze`
-    /// ends the window (see [`CarryTuning`]).
-    pub(crate) fn tune_carry(&mut self, blocks: &[UpdateBlock], freeze: bool) {
-        let ndim = self.ndim;
-        let EnsembleState {
-            positions,
-            carry_fits,
-            ..
-        } = &mut self.s;
-        for (tuning, b) in carry_fits.iter_mut().zip(blocks) {
-            if let Some(t) = tuning {
-                t.gather(positions, ndim, &b.coords, &b.links.followers);
-                if freeze {
-                    t.freeze();
-                }
-            }
-        }
     }
 }

@@ -1,5 +1,5 @@
 //! The followers of a block carried along when it moves, by their regression on the block:
-//! fitted to the complement at every half-step, or tuned on the ensemble's own draws and
+//! fitted to the complement at every half-step, or tuned on the draws of every ensemble and
 //! then frozen ([`CarryTuning`]).
 
 use serde::{Deserialize, Serialize};
@@ -14,7 +14,7 @@ use super::complement::Regression;
 /// alone.
 ///
 /// `B` is either fitted to the complement at every half-step (valid because the complement
-/// does not move during it), or fitted once to the ensemble's own draws of the tuning steps
+/// does not move during it), or fitted once to every ensemble's draws of the tuning steps
 /// and then fixed ([`CarryTuning`]): a fixed map is valid whatever it is, and draws of many
 /// steps estimate `B` far better than half the walkers of one step, whose errors in every
 /// follower add up in the block's acceptance ratio.
@@ -67,9 +67,10 @@ impl Followers {
     }
 }
 
-/// The followers' regression on a block fitted to an ensemble's own draws over the tuning
-/// steps, then frozen (see `Followers`): the cross moments being gathered, and the last
-/// frozen coefficients. Saved with the ensemble, so a resumed run continues the same tuning.
+/// The followers' regression on a block fitted to the draws of every ensemble over the
+/// tuning steps, then frozen (see `Followers`): the cross moments being gathered, and the
+/// last frozen coefficients. Each ensemble saves a copy, so a resumed run continues the same
+/// tuning.
 ///
 /// The moments are sums of deviations from the first draw gathered (a shift that keeps
 /// the sums of squares free of cancellation), over every walker of every step of a window.

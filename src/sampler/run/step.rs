@@ -47,9 +47,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
         };
         if result.is_ok() && step_no < CARRY_FIT_STEPS && blocks.iter().any(|b| b.tuned_carry) {
             let freeze = step_no + 1 == CARRY_FIT_STEPS / 2 || step_no + 1 == CARRY_FIT_STEPS;
-            for ens in &mut self.ensembles {
-                ens.tune_carry(&blocks, freeze);
-            }
+            self.tune_carry(&blocks, freeze);
         }
         self.blocks = blocks;
         result.map_err(|(e, f)| {
@@ -62,6 +60,31 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
                 message: f.message,
             }
         })
+    }
+
+    /// Gathers this step's walkers of every ensemble into the tuning of every tuned block,
+    /// and when `freeze` ends the window (see [`CarryTuning`](super::super::moves::CarryTuning)). The ensembles tune one
+    /// regression together and each keeps a copy: its error in every follower adds up in the
+    /// block's acceptance ratio (about followers / effective draws, in squared steps of the
+    /// block's sd), so a campaign of hundreds of contacts needs every draw there is. Only the
+    /// fixed map is shared; each ensemble's chain stays its own.
+    fn tune_carry(&mut self, blocks: &[UpdateBlock<'a>], freeze: bool) {
+        let ndim = self.ndim;
+        let mut fits = std::mem::take(&mut self.ensembles[0].s.carry_fits);
+        for (tuning, b) in fits.iter_mut().zip(blocks) {
+            if let Some(t) = tuning {
+                for ens in &self.ensembles {
+                    t.gather(&ens.s.positions, ndim, &b.coords, &b.links.followers);
+                }
+                if freeze {
+                    t.freeze();
+                }
+            }
+        }
+        for ens in &mut self.ensembles[1..] {
+            ens.s.carry_fits.clone_from(&fits);
+        }
+        self.ensembles[0].s.carry_fits = fits;
     }
 
     /// One update of every walker in each of `blocks` in turn. A run of independent blocks
@@ -377,7 +400,7 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
 pub const CARRY_TUNE_STEPS: u64 = 50;
 
 /// Steps over which a regression carrying a block's followers is tuned (where it is, see
-/// [`CarryFit`](crate::sampler::CarryFit)): fitted to the ensemble's draws of the first half of them
+/// [`CarryFit`](crate::sampler::CarryFit)): fitted to every ensemble's draws of the first half of them
 /// (while the complement's regression carries the followers), then refitted to those of
 /// the second half (carried by the first fit), then fixed. The suggested burn-in covers them.
 pub const CARRY_FIT_STEPS: u64 = 100;
