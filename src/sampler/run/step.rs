@@ -63,9 +63,10 @@ impl<'a, D: LogDensity + ?Sized> EnsembleSampler<'a, D> {
     }
 
     /// Gathers this step's walkers of every ensemble into the tuning of every tuned block,
-    /// and when `freeze` ends the window (see [`CarryTuning`](super::super::moves::CarryTuning)). The ensembles tune one
-    /// regression together and each keeps a copy: its error in every follower adds up in the
-    /// block's acceptance ratio (about followers / effective draws, in squared steps of the
+    /// and when `freeze` ends the window (see
+    /// [`CarryTuning`](super::super::moves::CarryTuning)). The ensembles tune one regression
+    /// together and each keeps a copy: its error in every follower adds up in the block's
+    /// acceptance ratio (about ½ × followers / effective draws per squared step of the
     /// block's sd), so a campaign of hundreds of contacts needs every draw there is. Only the
     /// fixed map is shared; each ensemble's chain stays its own.
     fn tune_carry(&mut self, blocks: &[UpdateBlock<'a>], freeze: bool) {
