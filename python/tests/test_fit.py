@@ -177,18 +177,29 @@ def test_the_gil_is_released_while_sampling(tmp_path):
 
 def test_ctrl_c_stops_after_a_checkpoint_and_resumes(tmp_path, fitted):
     idata, _ = fitted
-    out = tmp_path / "run"
-    lines = []
+    # The whole fit samples for about a second. On a loaded machine the sampler can finish
+    # its steps before the first progress reaches Python, or between the Ctrl-C and its
+    # next step. A fit that ended uninterrupted is tried again in a fresh directory; one
+    # Ctrl-C in three attempts must stop a fit.
+    for attempt in range(3):
+        out = tmp_path / f"run{attempt}"
+        lines = []
 
-    def progress(step, last_step, *_):
-        # One SIGINT, as Ctrl-C sends, while the sampler is under way (the first progress
-        # reaches Python within a poll of the first step).
-        if step < last_step and not lines:
-            lines.append(step)
-            os.kill(os.getpid(), signal.SIGINT)
+        def progress(step, last_step, *_):
+            # One SIGINT, as Ctrl-C sends, while the sampler is under way (the first progress
+            # reaches Python within a poll of the first step).
+            if step < last_step and not lines:
+                lines.append(step)
+                os.kill(os.getpid(), signal.SIGINT)
 
-    with pytest.raises(KeyboardInterrupt, match="resume=True"):
-        slipbayes.fit(one_contact(), seed=SEED, steps=STEPS, out=out, progress=progress)
+        try:
+            slipbayes.fit(one_contact(), seed=SEED, steps=STEPS, out=out, progress=progress)
+        except KeyboardInterrupt as interrupted:
+            assert "resume=True" in str(interrupted)
+            break
+        assert (out / "summary.json").exists(), "a fit that was not interrupted finished"
+    else:
+        pytest.fail("none of three fits was stopped by a Ctrl-C sent while it sampled")
     assert lines, "no progress reached Python while the sampler ran"
     assert not (out / "summary.json").exists() and (out / "checkpoint.bin").exists()
     resumed = slipbayes.fit(one_contact(), seed=SEED, steps=STEPS, out=out, resume=True,
