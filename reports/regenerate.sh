@@ -154,6 +154,7 @@ run() {
     ;;
   convergence)
     build
+    rm -rf "$scratch/convergence"
     python3 benches/convergence.py "$scratch/convergence" --out reports/convergence.md
     stamp "$target" "$load" "$start" reports/convergence.md
     ;;
