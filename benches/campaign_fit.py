@@ -56,6 +56,21 @@ def coverage(run):
     return by
 
 
+def phases(lines, steps, total):
+    """(start, sampling, rest) in seconds of a fit of `steps` steps that took `total` seconds,
+    from its progress lines [(seconds since launch, step)]: the sampler's pace is the median of
+    steps per second between consecutive lines (a pause for the summaries of a run that samples
+    on is one interval among many), the sampling is the steps at that pace, the start what came
+    before the first line's steps, the rest what is left."""
+    rates = sorted((b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(lines, lines[1:]) if b[1] > a[1])
+    if not rates:
+        raise SystemExit("fewer than two progress lines: run more steps or report more often")
+    rate = rates[len(rates) // 2]
+    start = lines[0][0] - lines[0][1] / rate
+    sampling = steps / rate
+    return start, sampling, total - start - sampling
+
+
 def fit(out, n):
     """Makes and fits the campaign of n contacts; returns the table's row."""
     d = out / f"c{n}"
@@ -92,13 +107,7 @@ def fit(out, n):
     quantities = summary["parameters"] + summary["derived"]
     ess = min(min(q["ess_bulk"], q["ess_tail"]) for q in quantities)
     rhat = max(q["r_hat"] for q in quantities)
-    # The sampler's pace: the median of steps per second between consecutive progress lines
-    # (a pause for the summaries of a run that samples on is one interval among many).
-    rates = sorted((b[1] - a[1]) / (b[0] - a[0]) for a, b in zip(lines, lines[1:]) if b[1] > a[1])
-    rate = rates[len(rates) // 2]
-    start = lines[0][0] - lines[0][1] / rate
-    sampling = int(steps) / rate
-    after = total - start - sampling
+    start, sampling, after = phases(lines, int(steps), total)
     cov = coverage(run)
     inside, all_ = sum(c[0] for c in cov.values()), sum(c[1] for c in cov.values())
     kinds = "; ".join(f"{k} {a}/{b}" for k, (a, b) in cov.items())

@@ -37,7 +37,7 @@ targets=(
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
   "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|30 min|partly (wall times)"
-  "mpi|reports/mpi.md: fits over MPI ranks, time per sweep and memory per rank, the same bits at 1,000 contacts|40 min|yes"
+  "mpi|reports/mpi.md: fits over MPI ranks, time per sweep and memory per rank, the same bits at 1,000 contacts, the projection to 10,000 contacts on 64 ranks|50 min|yes"
   "robustness|reports/robustness.md: a fit killed at 100 instants, a full disk, a read-only directory; inputs tried per parser by the seeded mutation tests (run as root: it mounts tmpfs)|3 min|no"
   "structure|reports/structure.md: the shape of src/ (largest files, long functions, the core trait, pub items) against 361f0fe|5 s|no"
 )
@@ -261,12 +261,18 @@ run() {
     python3 benches/mpi_memory.py "$scratch/mpi/memory" \
       --campaign long20="$scratch/mpi/long20/campaign.toml" \
       --campaign short50="$scratch/mpi/camp50/campaign.toml"
+    python3 data/make_campaign.py --contacts 200 --out "$scratch/mpi/camp200" > /dev/null
     python3 data/make_campaign.py --contacts 1000 --out "$scratch/mpi/camp1000" > /dev/null
     python3 benches/mpi_bits.py "$scratch/mpi/camp1000/campaign.toml" "$scratch/mpi/bits" \
       --steps 55 --ranks 1,2,4
-    assemble reports/mpi.md "Fits over MPI: time per sweep and memory per rank" \
-      "What the MPI build (\`--features mpi\`, docs/mpi.md) gains and costs on this machine. Time per sweep of a 50-contact campaign in one process and on MPI ranks, configurations interleaved so that a change of load touches all alike (\`python3 benches/mpi_sweep.py CAMPAIGN OUT\`: the difference of two fits' sampling times over the difference of their steps, which removes the start and the summaries; the MPI share is rank 0's time in MPI calls). Then the peak resident memory of each rank of a 10-step fit, for a campaign of long records (20 contacts, a 100,001-point first slide and a 10,001-point repeat slide each) and the 50-contact campaign (\`python3 benches/mpi_memory.py\`). The chains of every configuration are the same bits (\`cargo test --release -p slipbayes-cli --features mpi --test mpi\`), and so are those of a 1,000-contact campaign (made by \`data/make_campaign.py\`) fitted for 55 steps, past the first freeze of its carried regression, in one process and on 1, 2 and 4 ranks (\`python3 benches/mpi_bits.py CAMPAIGN OUT --steps 55 --ranks 1,2,4\`: every row and every value column compared as bits; wall times on 2 cores, the ranks oversubscribed)." \
-      "$scratch/mpi/sweep/table.md" "$scratch/mpi/memory/memory.md" "$scratch/mpi/bits/table.md"
+    python3 benches/mpi_projection.py "$scratch/mpi/projection" --steps 60 \
+      --campaign "$scratch/mpi/camp50/campaign.toml" \
+      --campaign "$scratch/mpi/camp200/campaign.toml" \
+      --campaign "$scratch/mpi/camp1000/campaign.toml"
+    assemble reports/mpi.md "Fits over MPI: time per sweep, memory per rank, and a projection" \
+      "What the MPI build (\`--features mpi\`, docs/mpi.md) gains and costs on this machine. Time per sweep of a 50-contact campaign in one process and on MPI ranks, configurations interleaved so that a change of load touches all alike (\`python3 benches/mpi_sweep.py CAMPAIGN OUT\`: the difference of two fits' sampling times over the difference of their steps, which removes the start and the summaries; the MPI share is rank 0's time in MPI calls). Then the peak resident memory of each rank of a 10-step fit, for a campaign of long records (20 contacts, a 100,001-point first slide and a 10,001-point repeat slide each) and the 50-contact campaign (\`python3 benches/mpi_memory.py\`). The chains of every configuration are the same bits (\`cargo test --release -p slipbayes-cli --features mpi --test mpi\`), and so are those of a 1,000-contact campaign (made by \`data/make_campaign.py\`) fitted for 55 steps, past the first freeze of its carried regression, in one process and on 1, 2 and 4 ranks (\`python3 benches/mpi_bits.py CAMPAIGN OUT --steps 55 --ranks 1,2,4\`: every row and every value column compared as bits; wall times on 2 cores, the ranks oversubscribed). Last, where a campaign fit's time and memory go at 50, 200 and 1,000 contacts on 1 and 2 ranks of one thread (60 steps each), and from the cost per contact the projection to 2,000 and 10,000 contacts on 64 ranks (\`python3 benches/mpi_projection.py OUT --campaign CAMPAIGN ...\`; its model and assumptions are stated with its table)." \
+      "$scratch/mpi/sweep/table.md" "$scratch/mpi/memory/memory.md" "$scratch/mpi/bits/table.md" \
+      "$scratch/mpi/projection/projection.md"
     stamp "$target" "$load" "$start" reports/mpi.md
     # Back to the default build, which the other targets and the tests use.
     build
