@@ -32,6 +32,7 @@ targets=(
   "convergence|reports/convergence.md: time, memory and verdict of the demo, the quick path and campaigns|15 min|yes"
   "campaigns|reports/campaigns.md: campaigns of 2 to 50 contacts until converged|5 min|yes"
   "stopping|reports/stopping.md: fits until converged against a previous build, recomputed by ArviZ and against long reference runs|30 min|partly (wall times)"
+  "watch|reports/watch.md: a slide replayed at 1000× while slipbayes watch follows it: F_peak's interval against the record seen|2 min|partly (wall times)"
   "campaign-fit|reports/campaign-fit.md: campaigns of 200 and 1,000 contacts fitted until converged: where the time goes, the verdict, the truths covered|25 min|yes"
   "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
@@ -166,6 +167,16 @@ run() {
       "One-material campaigns of N contacts (a 201-point first slide and a 51-point repeat slide per contact, made by \`data/make_campaign.py\`, with contact-to-contact spread in F_d, k and t0), each fitted with the default settings until converged by the strict standard, one fit after the other: \`bash benches/campaign_scaling.sh DIR 2 5 10 20 50\`. τ_max is in steps (sweeps: one step updates every block once); wall time and peak RSS are those of the whole command (start, sampling, summary, report). Targets: 10 contacts in at most 60 s and 300 MB, 50 contacts in at most 5 min and 1 GB." \
       "$scratch/campaigns/table.md"
     stamp "$target" "$load" "$start" reports/campaigns.md
+    ;;
+  watch)
+    build
+    rm -rf "$scratch/watch"
+    python3 benches/watch_replay.py "$scratch/watch/whole" > /dev/null
+    python3 benches/watch_replay.py "$scratch/watch/peak" --speed 100 --record-s 6000 > /dev/null
+    assemble reports/watch.md "Watching a slide while it is recorded" \
+      "\`slipbayes watch\` following an export that grows as an instrument writes it: the bundled PTFE first slide replayed into it (a row every 10 s of instrument time, in bursts of ten, each burst's last row written in two halves) until the export stops growing, by \`python3 benches/watch_replay.py DIR\`: first the whole record at 1000×, then its first 6,000 s at 100× (\`--speed 100 --record-s 6000\`), where the refits are closer together around the peak. Each row is one refit: how much of the record it saw, F_peak's posterior median and 95 % interval, the probability that the peak is inside the record, and the refit's wall time (its fit, report and forecast; refits after the first start from the previous posterior). The last row is the record replayed fitted once, cold, in a process of its own (\`slipbayes fit --first RECORD --seed 1\`), which the last refit must match. Wall times move with the machine's load (see the header)." \
+      "$scratch/watch/whole/table.md" "$scratch/watch/peak/table.md"
+    stamp "$target" "$load" "$start" reports/watch.md
     ;;
   campaign-fit)
     build

@@ -43,7 +43,7 @@ fn pages() -> Vec<PathBuf> {
 }
 
 /// The guide's chapters whose blocks the tests below run, one test each.
-const CHAPTERS: [&str; 16] = [
+const CHAPTERS: [&str; 17] = [
     "README.md",
     "docs/README.md",
     "docs/install.md",
@@ -55,6 +55,7 @@ const CHAPTERS: [&str; 16] = [
     "docs/comparing-materials.md",
     "docs/comparing-laws.md",
     "docs/campaigns.md",
+    "docs/watch.md",
     "docs/clusters.md",
     "docs/python.md",
     "docs/sampler.md",
@@ -936,6 +937,7 @@ chapter!(
 );
 chapter!(comparing_laws_commands_run, "docs/comparing-laws.md");
 chapter!(campaigns_commands_run, "docs/campaigns.md");
+chapter!(watch_commands_run, "docs/watch.md");
 chapter!(clusters_commands_run, "docs/clusters.md");
 chapter!(python_commands_run, "docs/python.md");
 chapter!(sampler_commands_run, "docs/sampler.md");

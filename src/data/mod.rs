@@ -16,6 +16,7 @@
 
 pub mod atomic;
 mod blocks;
+pub mod follow;
 pub mod import;
 pub mod labels;
 #[cfg(any(feature = "parquet", feature = "tabular"))]

@@ -38,6 +38,7 @@ pub mod kfold;
 mod model;
 pub mod run_dir;
 mod summarise;
+pub mod watch;
 
 use std::time::Instant;
 

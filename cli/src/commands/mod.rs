@@ -16,6 +16,8 @@ mod report;
 mod simulate;
 #[cfg(feature = "parquet")]
 mod validate;
+#[cfg(feature = "parquet")]
+mod watch;
 
 use std::process::ExitCode;
 
@@ -61,6 +63,8 @@ enum Command {
     Import(import::ImportCommandArgs),
     #[cfg(feature = "parquet")]
     Validate(validate::ValidateArgs),
+    #[cfg(feature = "parquet")]
+    Watch(watch::WatchArgs),
     #[cfg(feature = "parquet")]
     Bench(bench::BenchArgs),
     #[cfg(feature = "mpi")]
@@ -197,6 +201,8 @@ fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Import(args) => import::run(&args),
         #[cfg(feature = "parquet")]
         Command::Validate(args) => validate::run(&args),
+        #[cfg(feature = "parquet")]
+        Command::Watch(args) => watch::run(&args),
         #[cfg(feature = "parquet")]
         Command::Bench(args) => bench::run_bench(&args),
         Command::Reference => {

@@ -54,6 +54,7 @@ pub use curves::{Curves, InterfaceCurve, PeakVsT0, RunCurves, RunTruth};
 pub use kfold::{KFoldPoint, KFoldSummary, RunKFold, KFOLD_HEADER};
 pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use loo::{LooPoint, LooSummary, RunLoo, LOO_HEADER};
+pub(crate) use predictive::to_csv as predictive_csv;
 pub use predictive::PREDICTIVE_HEADER;
 pub(crate) use record::relative_path;
 pub use record::RunRecord;

@@ -11,7 +11,7 @@ use crate::model::Band;
 pub const PREDICTIVE_HEADER: &str = "run,time_s,observed_N,model_q025_N,model_median_N,model_q975_N,pred_q025_N,pred_q25_N,pred_q75_N,pred_q975_N";
 
 /// The text of `predictive.csv`: one row per band point, numbers in their shortest exact form.
-pub(super) fn to_csv(bands: &[Band]) -> String {
+pub(crate) fn to_csv(bands: &[Band]) -> String {
     let mut csv = format!("{PREDICTIVE_HEADER}\n");
     for b in bands {
         for j in 0..b.time_s.len() {

@@ -1,8 +1,13 @@
 //! Curves of single runs at posterior draws: model forces at the data times, the law of a
 //! slide (for curves the data do not sample), and the posterior and posterior predictive bands
-//! that `predictive.csv` holds.
+//! that `predictive.csv` holds, and the same bands beyond a record (a forecast).
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
 
 use super::layout::{SigmaSource, Source};
+use super::likelihood::RunModel;
 use super::Posterior;
 use crate::density::LogDensity;
 use crate::law::{LawError, ObservedSlide, Scene};
@@ -100,80 +105,170 @@ impl Posterior {
 
     /// Posterior (model) and posterior predictive (model plus noise) bands of every run at
     /// every `stride`-th data time, from `draws` (sampler coordinates). The noise of each draw
-    /// comes from a ChaCha8 stream seeded with `seed`, so the bands are reproducible.
+    /// comes from a ChaCha8 stream seeded with `seed`, so the bands are reproducible. A draw
+    /// at which the density or the law fails is left out (a short record's posterior can
+    /// reach parameters whose slide has no quasi-static solution where the record does not
+    /// look).
     ///
     /// # Errors
-    /// A law error at one of the draws (which a posterior draw cannot produce).
+    /// The law's error when it fails at every draw.
     pub fn predictive_bands(
         &self,
         draws: &[Vec<f64>],
         stride: usize,
         seed: u64,
     ) -> Result<Vec<Band>, LawError> {
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, StandardNormal};
         let stride = stride.max(1);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut derived = vec![0.0; self.sources.len()];
         // forces[run][draw][point], noisy[run][draw][point]
         let mut model: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(draws.len()); self.runs.len()];
         let mut noisy: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(draws.len()); self.runs.len()];
+        let mut failed = None;
         for x in draws {
             // Fills the derived values, σ of marginalised groups among them.
             if self.log_density(x, &mut derived).is_err() {
                 continue;
             }
-            let f_end = self.first_slide_ends(x)?;
-            for (i, r) in self.runs.iter().enumerate() {
-                let sigma = match r.sigma {
-                    SigmaSource::Coord(c) => x[c].exp(),
-                    SigmaSource::Marginal(g) => self
-                        .sources
-                        .iter()
-                        .position(|s| *s == Source::Sigma(g))
-                        .map_or(f64::NAN, |k| derived[k]),
-                };
-                let f = self.forces_every(x, &f_end, i, stride)?;
-                let z: Vec<f64> = f
-                    .iter()
-                    .map(|v| {
-                        let e: f64 = StandardNormal.sample(&mut rng);
-                        v + sigma * e
-                    })
-                    .collect();
+            let forces = self.first_slide_ends(x).and_then(|f_end| {
+                (0..self.runs.len())
+                    .map(|i| self.forces_every(x, &f_end, i, stride))
+                    .collect::<Result<Vec<_>, _>>()
+            });
+            let forces = match forces {
+                Ok(f) => f,
+                Err(e) => {
+                    failed = Some(e);
+                    continue;
+                }
+            };
+            for (i, (r, f)) in self.runs.iter().zip(forces).enumerate() {
+                noisy[i].push(with_noise(&f, self.run_sigma(x, r, &derived), &mut rng));
                 model[i].push(f);
-                noisy[i].push(z);
             }
         }
-        let quantiles = |sets: &[Vec<f64>], j: usize, p: f64| {
-            let mut column: Vec<f64> = sets.iter().map(|s| s[j]).collect();
-            column.sort_by(f64::total_cmp);
-            crate::diagnostics::quantile(&column, p).unwrap_or(f64::NAN)
-        };
+        if let (Some(e), true) = (failed, model.first().is_none_or(Vec::is_empty)) {
+            return Err(e);
+        }
         Ok(self
             .runs
             .iter()
             .enumerate()
             .map(|(i, r)| {
                 let idx: Vec<usize> = (0..r.data.n_obs).step_by(stride).collect();
-                let q = |sets: &[Vec<f64>], p: f64| {
-                    (0..idx.len())
-                        .map(|j| quantiles(sets, j, p))
-                        .collect::<Vec<f64>>()
-                };
-                Band {
-                    run: r.name.clone(),
-                    time_s: idx.iter().map(|&j| r.data.model_times[j]).collect(),
-                    observed_n: idx.iter().map(|&j| r.data.force[j]).collect(),
-                    model_n: [q(&model[i], 0.025), q(&model[i], 0.5), q(&model[i], 0.975)],
-                    predictive_n: [
-                        q(&noisy[i], 0.025),
-                        q(&noisy[i], 0.25),
-                        q(&noisy[i], 0.75),
-                        q(&noisy[i], 0.975),
-                    ],
-                }
+                band(
+                    &r.name,
+                    idx.iter().map(|&j| r.data.model_times[j]).collect(),
+                    idx.iter().map(|&j| r.data.force[j]).collect(),
+                    &model[i],
+                    &noisy[i],
+                )
             })
             .collect())
+    }
+
+    /// Posterior and posterior predictive bands of run `run` at `times` (instrument time,
+    /// increasing), which may lie beyond its record: what the rest of a slide still being
+    /// recorded will look like. Its observed forces are NaN; the noise as in
+    /// [`predictive_bands`](Self::predictive_bands).
+    ///
+    /// A draw whose slide has no quasi-static solution up to the last of `times` (it would
+    /// slip in stick-slip before) is left out.
+    ///
+    /// # Errors
+    /// The law's error when it fails at every draw.
+    pub fn forecast_band(
+        &self,
+        draws: &[Vec<f64>],
+        run: usize,
+        times: &[f64],
+        seed: u64,
+    ) -> Result<Band, LawError> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut derived = vec![0.0; self.sources.len()];
+        let r = &self.runs[run];
+        let (mut model, mut noisy) = (Vec::new(), Vec::new());
+        let mut failed = None;
+        for x in draws {
+            if self.log_density(x, &mut derived).is_err() {
+                continue;
+            }
+            let mut f = Vec::with_capacity(times.len());
+            let solved = self.first_slide_ends(x).and_then(|f_end| {
+                r.visit_forces_at(x, r.follows.and_then(|j| f_end[j]), times, |_, v| f.push(v))
+            });
+            if let Err(e) = solved {
+                failed = Some(e);
+                continue;
+            }
+            noisy.push(with_noise(&f, self.run_sigma(x, r, &derived), &mut rng));
+            model.push(f);
+        }
+        if let (Some(e), true) = (failed, model.is_empty()) {
+            return Err(e);
+        }
+        Ok(band(
+            &r.name,
+            times.to_vec(),
+            vec![f64::NAN; times.len()],
+            &model,
+            &noisy,
+        ))
+    }
+
+    /// The noise sd of run `r` at `x`, whose derived values (σ of marginalised groups among
+    /// them) are `derived`.
+    fn run_sigma(&self, x: &[f64], r: &RunModel, derived: &[f64]) -> f64 {
+        match r.sigma {
+            SigmaSource::Coord(c) => x[c].exp(),
+            SigmaSource::Marginal(g) => self
+                .sources
+                .iter()
+                .position(|s| *s == Source::Sigma(g))
+                .map_or(f64::NAN, |k| derived[k]),
+        }
+    }
+}
+
+/// `forces` plus Gaussian noise of sd `sigma`, one draw of `rng` per force.
+fn with_noise(forces: &[f64], sigma: f64, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    forces
+        .iter()
+        .map(|v| {
+            let e: f64 = StandardNormal.sample(rng);
+            v + sigma * e
+        })
+        .collect()
+}
+
+/// The band of run `run` at `time_s` from the model forces and noisy forces of each draw
+/// (`[draw][point]`): their pointwise quantiles.
+fn band(
+    run: &str,
+    time_s: Vec<f64>,
+    observed_n: Vec<f64>,
+    model: &[Vec<f64>],
+    noisy: &[Vec<f64>],
+) -> Band {
+    let q = |sets: &[Vec<f64>], p: f64| -> Vec<f64> {
+        (0..time_s.len())
+            .map(|j| {
+                let mut column: Vec<f64> = sets.iter().map(|s| s[j]).collect();
+                column.sort_by(f64::total_cmp);
+                crate::diagnostics::quantile(&column, p).unwrap_or(f64::NAN)
+            })
+            .collect()
+    };
+    Band {
+        run: run.to_owned(),
+        model_n: [q(model, 0.025), q(model, 0.5), q(model, 0.975)],
+        predictive_n: [
+            q(noisy, 0.025),
+            q(noisy, 0.25),
+            q(noisy, 0.75),
+            q(noisy, 0.975),
+        ],
+        time_s,
+        observed_n,
     }
 }
