@@ -62,9 +62,7 @@ impl Follower {
             Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
             Err(e) => return Err(e),
         };
-        // A row is complete once its newline is written; what follows the last one may be
-        // half a row.
-        let complete = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let complete = complete_lines(&bytes);
         bytes.truncate(complete);
         let head = &bytes[..complete.min(HEAD_BYTES)];
         let shared = head.len().min(self.head.len());
@@ -76,6 +74,24 @@ impl Follower {
         self.complete = complete;
         self.head = head.to_vec();
         Ok(Some(Snapshot { bytes, rewritten }))
+    }
+}
+
+/// The length of the complete lines of `bytes`: a row is complete once its newline is
+/// written, and what follows the last newline may be half a row. In UTF-16 (an export with a
+/// byte-order mark, as RheoCompass writes) a newline is two bytes at an even offset.
+fn complete_lines(bytes: &[u8]) -> usize {
+    let utf16_newline: Option<[u8; 2]> = match bytes {
+        [0xFF, 0xFE, ..] => Some([b'\n', 0]),
+        [0xFE, 0xFF, ..] => Some([0, b'\n']),
+        _ => None,
+    };
+    match utf16_newline {
+        Some(newline) => bytes
+            .chunks_exact(2)
+            .rposition(|unit| unit == newline)
+            .map_or(0, |i| 2 * i + 2),
+        None => bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1),
     }
 }
 
@@ -109,6 +125,22 @@ mod tests {
         let s = follower.poll().unwrap().unwrap();
         assert_eq!(s.bytes, b"time_s,force_N\n0,1\n10,2.5\n20,3\n");
         assert!(!s.rewritten);
+    }
+
+    #[test]
+    fn utf16_rows_end_at_a_whole_newline() {
+        let encode = |text: &str| -> Vec<u8> {
+            let mut bytes = vec![0xFF, 0xFE];
+            bytes.extend(text.encode_utf16().flat_map(u16::to_le_bytes));
+            bytes
+        };
+        let full = encode("Time\tForce\n0\t1\n10\t2");
+        let complete = encode("Time\tForce\n0\t1\n");
+        assert_eq!(complete_lines(&full), complete.len());
+        // A newline's first byte alone is half a row.
+        let mut half = complete.clone();
+        half.extend([b'1', 0, b'\n']);
+        assert_eq!(complete_lines(&half), complete.len());
     }
 
     #[test]
