@@ -17,7 +17,7 @@ use crate::model::{Band, Posterior};
 const WATCH_DRAWS: usize = 400;
 
 /// The start of a refit of `posterior` (the same model on more data) from an earlier fit's
-/// summary: each sampled coordinate `ln_NAME[GROUP]` at the log of NAME[GROUP]'s posterior
+/// summary: each sampled coordinate `ln_NAME[GROUP]` at the log of `NAME[GROUP]`'s posterior
 /// median. `None` when a coordinate is not of that form or not in the summary.
 pub fn warm_point(posterior: &Posterior, summary: &FitSummary) -> Option<Vec<f64>> {
     posterior
