@@ -657,6 +657,30 @@ pub(crate) fn quantile_at(n: usize, at: &dyn Fn(usize) -> f64, p: f64) -> f64 {
     }
 }
 
+/// Per point, the `probs` quantiles ([`quantile`]'s) over the rows of `values[row][point]`:
+/// `out[q][point]`, each column sorted once for all of `probs`. Non-finite values are
+/// skipped; a point with none left is NaN.
+pub(crate) fn pointwise_quantiles(
+    values: &[Vec<f64>],
+    points: usize,
+    probs: &[f64],
+) -> Vec<Vec<f64>> {
+    let mut out = vec![vec![f64::NAN; points]; probs.len()];
+    let mut column = Vec::with_capacity(values.len());
+    for j in 0..points {
+        column.clear();
+        column.extend(values.iter().map(|row| row[j]).filter(|v| v.is_finite()));
+        if column.is_empty() {
+            continue;
+        }
+        column.sort_by(f64::total_cmp);
+        for (q, &p) in probs.iter().enumerate() {
+            out[q][j] = quantile_sorted(&column, p);
+        }
+    }
+    out
+}
+
 /// The `p` quantile of pooled draws, numpy's default linear interpolation (type 7).
 ///
 /// # Errors

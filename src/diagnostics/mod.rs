@@ -42,11 +42,11 @@ pub mod summary;
 pub mod verdict;
 mod walkers;
 
-pub(crate) use arviz::rhat_by;
 pub use arviz::{
     equal_tailed_interval, ess_bulk, ess_mean, ess_tail, hdi, mcse_mean, mcse_quantile, mcse_sd,
     quantile, rhat, MIN_CHAINS_RHAT, MIN_DRAWS, TAIL_PROBS,
 };
+pub(crate) use arviz::{pointwise_quantiles, rhat_by};
 pub use autocorr::{
     integrated_time, mean_acf, pooled_integrated_time, tau_trusted_length, AutocorrTime,
     DEFAULT_WINDOW_FACTOR, MIN_STEPS_AUTOCORR, TAU_MIN_FACTOR, TAU_REFERENCE_WALKERS,

@@ -4,7 +4,7 @@
 
 use super::run_dir::{Curves, InterfaceCurve, PeakVsT0, RunCurves};
 use super::{FitError, FitSummary};
-use crate::diagnostics::quantile;
+use crate::diagnostics::{pointwise_quantiles, quantile};
 use crate::law::{Elastic, InterfaceLaw, LawError, Scene};
 use crate::model::{Band, Posterior};
 
@@ -59,26 +59,6 @@ pub(super) fn redraw(
         t0_span: T0_SPAN,
         runs: out,
     })
-}
-
-/// Per grid point, the `probs` quantiles over the rows of `values[draw][point]`:
-/// `out[q][point]`. Rows holding a NaN at a point are skipped there.
-pub(crate) fn pointwise_quantiles(
-    values: &[Vec<f64>],
-    points: usize,
-    probs: &[f64],
-) -> Vec<Vec<f64>> {
-    let mut out = vec![vec![f64::NAN; points]; probs.len()];
-    let mut column = Vec::with_capacity(values.len());
-    for j in 0..points {
-        column.clear();
-        column.extend(values.iter().map(|row| row[j]).filter(|v| v.is_finite()));
-        column.sort_by(f64::total_cmp);
-        for (q, &p) in probs.iter().enumerate() {
-            out[q][j] = quantile(&column, p).unwrap_or(f64::NAN);
-        }
-    }
-    out
 }
 
 /// The law of run `run` on `points` interface times from 0 to `tau_end_s`, over `draws`:

@@ -614,9 +614,10 @@ fn fresh_sampler<'a, D: LogDensity + ?Sized>(
 /// says how far it is from passing
 /// ([`Problem::steps_needed`](crate::diagnostics::Problem::steps_needed), the estimate the
 /// verdict's lines show). A tenth more than that, since τ and ESS move as the chains grow.
-/// `None` when some problem does not say (an R̂, stuck walkers, no τ at all): the run then goes on by half its
-/// length. A derived quantity's τ a little longer than the parameters' (the sampler's rule
-/// sees only those) then costs the few steps it lacks rather than half the run again.
+/// `None` when some problem does not say (an R̂, stuck walkers, no τ at all): the run then
+/// goes on by half its length. A derived quantity's τ a little longer than the parameters'
+/// (the sampler's rule sees only those) then costs the few steps it lacks rather than half
+/// the run again.
 fn steps_lacking(sampler: &SamplerSummary) -> Option<u64> {
     let walkers = sampler.walkers * sampler.ensembles;
     let needed = sampler.problems.iter().try_fold(0.0_f64, |most, p| {

@@ -174,15 +174,16 @@ pub fn forecast(
     points: usize,
     seed: u64,
 ) -> Result<Band, FitError> {
-    let index = posterior
+    let (index, end) = posterior
         .record_ends()
-        .iter()
-        .position(|(name, _)| *name == run)
+        .into_iter()
+        .enumerate()
+        .find(|(_, (name, _))| *name == run)
+        .map(|(i, (_, end))| (i, end))
         .ok_or_else(|| FitError::InvalidSpec {
             what: "quantity",
             problem: format!("no run `{run}` to forecast"),
         })?;
-    let end = posterior.record_ends()[index].1;
     let points = points.max(2);
     let times: Vec<f64> = (0..points)
         .map(|i| end + (horizon_s - end).max(0.0) * i as f64 / (points - 1) as f64)

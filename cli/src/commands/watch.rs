@@ -13,7 +13,7 @@ use slipbayes::data::follow::Follower;
 use slipbayes::data::write_atomically;
 use slipbayes::fit::run_dir::RUN_OUTPUT;
 use slipbayes::fit::watch::{forecast, forecast_csv, warm_point, Criterion, Interval, PeakSoFar};
-use slipbayes::fit::{fit_model, FitError, FitOutcome, FitSettings, RunLock, SettingOverrides};
+use slipbayes::fit::{fit_model, FitError, FitSettings, FitSummary, RunLock, SettingOverrides};
 use slipbayes::law::LawKind;
 use slipbayes::model::spec::ForwardModel;
 use slipbayes::model::{ModelSpec, OneContact};
@@ -132,7 +132,8 @@ struct Row {
 
 const HISTORY_HEADER: &str = "refit,watch_s,points,record_end_s,\
 F_peak_N,F_peak_low_N,F_peak_high_N,tau_peak_s,tau_peak_low_s,tau_peak_high_s,\
-t_peak_s,t_peak_low_s,t_peak_high_s,mu_s,mu_s_low,mu_s_high,p_peak_in_record,converged,refit_s,warm_start";
+t_peak_s,t_peak_low_s,t_peak_high_s,mu_s,mu_s_low,mu_s_high,\
+p_peak_in_record,converged,refit_s,warm_start";
 
 impl Row {
     fn csv(&self) -> String {
@@ -189,7 +190,7 @@ pub(super) fn run(args: &WatchArgs) -> anyhow::Result<ExitCode> {
     let began = Instant::now();
     let mut follower = Follower::new(&args.export);
     let mut rows: Vec<Row> = Vec::new();
-    let mut warm: Option<slipbayes::fit::FitSummary> = None;
+    let mut warm: Option<FitSummary> = None;
     let mut last_change = Instant::now();
     let mut last_error = String::new();
     loop {
@@ -223,17 +224,16 @@ pub(super) fn run(args: &WatchArgs) -> anyhow::Result<ExitCode> {
         let started = Instant::now();
         match refit_once(args, &snapshot_path, refit, warm.as_ref()) {
             Ok(Refit::Done {
-                outcome,
+                summary,
                 peak,
-                points,
                 warm_started,
             }) => {
                 last_error.clear();
                 let row = Row {
                     refit,
                     watch_s: began.elapsed().as_secs_f64(),
-                    points,
-                    converged: outcome.summary.sampler.converged,
+                    points: summary.data.first().map_or(0, |d| d.points_used),
+                    converged: summary.sampler.converged,
                     peak,
                     refit_s: started.elapsed().as_secs_f64(),
                     warm: warm_started,
@@ -255,7 +255,7 @@ pub(super) fn run(args: &WatchArgs) -> anyhow::Result<ExitCode> {
                     );
                     return Ok(ExitCode::SUCCESS);
                 }
-                warm = Some(outcome.summary);
+                warm = Some(*summary);
             }
             Ok(Refit::Interrupted) => {
                 say(interrupted(&args.out));
@@ -277,9 +277,9 @@ pub(super) fn run(args: &WatchArgs) -> anyhow::Result<ExitCode> {
 
 enum Refit {
     Done {
-        outcome: Box<FitOutcome>,
+        /// The refit's summary: its verdict, and the start of the next refit.
+        summary: Box<FitSummary>,
         peak: PeakSoFar,
-        points: usize,
         warm_started: bool,
     },
     Interrupted,
@@ -291,7 +291,7 @@ fn refit_once(
     args: &WatchArgs,
     snapshot: &Path,
     refit: usize,
-    warm: Option<&slipbayes::fit::FitSummary>,
+    warm: Option<&FitSummary>,
 ) -> anyhow::Result<Refit> {
     let model = ModelSpec::one_contact(&OneContact {
         first: snapshot.to_path_buf(),
@@ -368,11 +368,9 @@ fn refit_once(
     let path = args.out.join(FORECAST);
     write_atomically(&path, forecast_csv(&band).as_bytes())
         .with_context(|| format!("writing {}", path.display()))?;
-    let points = outcome.summary.data.first().map_or(0, |d| d.points_used);
     Ok(Refit::Done {
-        outcome: Box::new(outcome),
+        summary: Box::new(outcome.summary),
         peak,
-        points,
         warm_started,
     })
 }

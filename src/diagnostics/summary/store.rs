@@ -25,10 +25,10 @@ impl Limits {
     /// 2¹⁸ draws per run (4 MB for the run being sorted): a quantity of up to 2,048 steps of
     /// 128 walkers (every quantity of a campaign's fit) is summarised in memory, to the same
     /// bits as through working files and without writing and merging them; a longer one
-    /// merges runs, so a long fit's summaries hold the same memory as a short one's. Held in
-    /// memory, a quantity costs several times 16 bytes a draw (its draws, their sorted
-    /// records, the ranks and normal scores), which at 2²¹ draws per run made a 16,000-step
-    /// fit's peak six times a 1,000-step fit's.
+    /// merges runs, so a long fit's summaries hold the same memory as a short one's
+    /// (reports/convergence.md compares the peaks at two lengths). Held in memory, a quantity
+    /// costs several times 16 bytes a draw: its draws, their sorted records, the ranks and
+    /// the normal scores.
     pub const DEFAULT: Limits = Limits { run_draws: 1 << 18 };
 
     /// Bytes the summary of one quantity holds at its peak, roughly, for walkers of `steps`

@@ -10,6 +10,7 @@ use super::layout::{SigmaSource, Source};
 use super::likelihood::RunModel;
 use super::Posterior;
 use crate::density::LogDensity;
+use crate::diagnostics::pointwise_quantiles;
 use crate::law::{LawError, ObservedSlide, Scene};
 
 /// Posterior and posterior predictive bands of one run at (a subset of) its data times.
@@ -106,9 +107,8 @@ impl Posterior {
     /// Posterior (model) and posterior predictive (model plus noise) bands of every run at
     /// every `stride`-th data time, from `draws` (sampler coordinates). The noise of each draw
     /// comes from a ChaCha8 stream seeded with `seed`, so the bands are reproducible. A draw
-    /// at which the density or the law fails is left out (a short record's posterior can
-    /// reach parameters whose slide has no quasi-static solution where the record does not
-    /// look).
+    /// at which the density or the law fails is left out rather than failing the bands (the
+    /// law's stick-slip check failed at a posterior draw of a 20-point first slide).
     ///
     /// # Errors
     /// The law's error when it fails at every draw.
@@ -250,24 +250,13 @@ fn band(
     model: &[Vec<f64>],
     noisy: &[Vec<f64>],
 ) -> Band {
-    let q = |sets: &[Vec<f64>], p: f64| -> Vec<f64> {
-        (0..time_s.len())
-            .map(|j| {
-                let mut column: Vec<f64> = sets.iter().map(|s| s[j]).collect();
-                column.sort_by(f64::total_cmp);
-                crate::diagnostics::quantile(&column, p).unwrap_or(f64::NAN)
-            })
-            .collect()
-    };
+    let points = time_s.len();
+    let model_n = pointwise_quantiles(model, points, &[0.025, 0.5, 0.975]);
+    let predictive_n = pointwise_quantiles(noisy, points, &[0.025, 0.25, 0.75, 0.975]);
     Band {
         run: run.to_owned(),
-        model_n: [q(model, 0.025), q(model, 0.5), q(model, 0.975)],
-        predictive_n: [
-            q(noisy, 0.025),
-            q(noisy, 0.25),
-            q(noisy, 0.75),
-            q(noisy, 0.975),
-        ],
+        model_n: model_n.try_into().expect("three quantiles"),
+        predictive_n: predictive_n.try_into().expect("four quantiles"),
         time_s,
         observed_n,
     }

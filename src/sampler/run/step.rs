@@ -403,7 +403,8 @@ pub const CARRY_TUNE_STEPS: u64 = 50;
 /// Steps over which a regression carrying a block's followers is tuned (where it is, see
 /// [`CarryFit`](crate::sampler::CarryFit)): fitted to every ensemble's draws of the first
 /// half of them (while the complement's regression carries the followers), then refitted to
-/// those of the second half (carried by the first fit), then fixed. The suggested burn-in covers them.
+/// those of the second half (carried by the first fit), then fixed. The suggested burn-in
+/// covers them.
 pub const CARRY_FIT_STEPS: u64 = 100;
 
 /// The carried move of such a block is kept when its squared jumps over the tuning steps are
