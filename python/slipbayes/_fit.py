@@ -191,7 +191,8 @@ def fit(
     when tqdm is installed); ``False`` shows none; a function is called instead, about five
     times a second, with ``(step, last_step, acceptance, tau_max, r_hat_max, eta_s)``. Ctrl-C (or the notebook's interrupt)
     stops the fit after its current step and a checkpoint and raises ``KeyboardInterrupt``
-    saying how to resume.
+    saying how to resume (one that comes as the last step ends raises it too, saying the fit
+    finished).
 
     The result is :func:`slipbayes.load`'s (``log_likelihood_draws`` as
     there: about that many draws of the pointwise log-likelihood and of the posterior

@@ -478,7 +478,18 @@ fn fit(
         }
     })?;
     match result {
-        Ok(outcome) => Ok(outcome.dir.path().display().to_string()),
+        // A Ctrl-C that came as the last step ended is not swallowed: the caller's script
+        // stops as it would anywhere else, and the message says the fit is whole.
+        Ok(outcome) => match interrupt {
+            Some(e) if e.is_instance_of::<PyKeyboardInterrupt>(py) => {
+                Err(PyKeyboardInterrupt::new_err(format!(
+                    "interrupted as the fit ended: it finished, and its results are in {}",
+                    outcome.dir.path().display()
+                )))
+            }
+            Some(e) => Err(e),
+            None => Ok(outcome.dir.path().display().to_string()),
+        },
         Err(FitOrReport::Fit(FitError::Interrupted { dir, step })) => {
             let message = format!(
                 "interrupted at step {step}: the chains and checkpoint in {} are written; \
