@@ -234,11 +234,10 @@ impl RhatRows {
     }
 }
 
-/// The smallest 2^a·3^b·5^c at or above `n`, as ArviZ's `_fft_next_fast_len` pads its
-/// autocovariances. rustfft transforms such a length by small radices; a length with a large
-/// prime factor (2 × 191 for the split halves of 382 kept steps) goes through Rader's
-/// algorithm, at several times the cost: on a campaign of 1,000 contacts that was about a
-/// quarter of the summaries' CPU time.
+/// The smallest 2^a·3^b·5^c at or above `n`: the length ArviZ's `autocov` pads to
+/// (`scipy.fftpack.next_fast_len`). rustfft transforms such a length by small radices; a
+/// length with a large prime factor (2 × 191 for the split halves of 382 kept steps) goes
+/// through Rader's algorithm, at several times the cost.
 fn next_fast_len(n: usize) -> usize {
     let n = n.max(1);
     let mut best = n.next_power_of_two();

@@ -55,9 +55,8 @@ const ROUND_GAIN: f64 = 1.0;
 /// A round's gain is a sum over the blocks, so the bar for handing over grows with them: past
 /// the first round or two, the rounds crawl along the coupling of the blocks with the shared
 /// coordinates (each gaining a little less than the one before), which the Newton steps
-/// resolve at once. With a bar of one unit regardless of the blocks, a campaign of 1,000
-/// contacts spent all its rounds crawling (each gaining 1.3 to 7 units, 90 % of its search's
-/// time), and the first Newton step then gained more than those rounds together.
+/// resolve at once. A bar that does not grow with the blocks keeps a large campaign crawling
+/// through every one of [`MAX_ROUNDS`].
 const ROUND_GAIN_PER_BLOCK: f64 = 0.02;
 
 /// Most Newton steps of the search.
@@ -65,11 +64,10 @@ const MAX_STEPS: usize = 200;
 
 /// A step that raises the log-density by less than this per coordinate ends the search. At
 /// a quadratic mode, a remaining gain of δ per coordinate is a distance of about √(2δ)
-/// posterior standard deviations per coordinate: here 0.0014, where the walkers are drawn
-/// from the Laplace approximation a standard deviation wide and the finite-difference
-/// curvature is good to a few parts in a thousand. A bar that does not grow with the
-/// coordinates asks a density of 1,000 contacts for a gain its finite differences cannot
-/// resolve: such a search took 20 damped steps gaining 10⁻³ to 10⁻⁵ each.
+/// posterior standard deviations per coordinate (here 0.0014), where the walkers are drawn
+/// from the Laplace approximation a standard deviation wide. A bar that does not grow with
+/// the coordinates asks a density of many contacts for a gain below what its
+/// finite-difference curvature resolves, and the damped steps then chase rounding.
 const STEP_GAIN_PER_COORDINATE: f64 = 1e-6;
 
 /// Damping beyond which no step is tried: the step is then shorter than the finite
