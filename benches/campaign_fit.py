@@ -10,9 +10,13 @@ Each campaign is made by `data/make_campaign.py --contacts N` (a 201-point first
 OUT_DIR/cN/run under GNU time. The phases come from the fit's progress lines (every 2 s, each
 with its step), timed as they arrive: the sampler's pace is the median of steps per second
 between consecutive lines, the sampling is the run's steps at that pace, the start is what
-came before the first line's steps, and the rest (the summaries, and those of a run that
-samples on when a summary finds it not yet converged, PSIS-LOO, the predictive bands, the
-report) is what is left of the wall time. The truths are the simulation's (`truth.json`):
+came before the first line's steps, and the rest what is left of the wall time. The rest
+is split by the fit's notes: when the summaries find a run that the sampler's rule called
+converged not yet converged by the strict standard, the fit says how long they took and samples
+on; those summaries are one part, and the last ones with PSIS-LOO, the predictive bands and
+the report (and the reading back of the sampler's history before it samples on) the other,
+also given per contact and step (a quantity's summary costs in proportion to its draws). The
+truths are the simulation's (`truth.json`):
 each contact's F_d and k, each first slide's t0, each run's σ, and the material's α and a/F_d.
 Writes OUT_DIR/table.md and prints it.
 """
@@ -82,7 +86,7 @@ def fit(out, n):
     cmd = ["/usr/bin/time", "-f", "peak RSS %M kB", str(ROOT / "target/release/slipbayes"), "fit",
            "campaign.toml", "--out", "run", "--overwrite", "--progress-every", "2"]
     began = time.monotonic()
-    lines, peak = [], 0
+    lines, peak, sent_on = [], 0, []
     # The fit's standard output (a table of every quantity) goes to a file: a pipe read only at
     # the end would fill and stop the fit.
     printed = d / "fit.out"
@@ -92,6 +96,9 @@ def fit(out, n):
             m = re.match(r"progress: step (\d+)/", line)
             if m:
                 lines.append((time.monotonic() - began, int(m.group(1))))
+            note = re.match(r"note: the summaries at step (\d+) \(made in ([\d.]+) s\)", line)
+            if note:
+                sent_on.append(float(note.group(2)))
             rss = re.search(r"peak RSS (\d+) kB", line)
             if rss:
                 peak = int(rss.group(1))
@@ -111,7 +118,10 @@ def fit(out, n):
     cov = coverage(run)
     inside, all_ = sum(c[0] for c in cov.values()), sum(c[1] for c in cov.values())
     kinds = "; ".join(f"{k} {a}/{b}" for k, (a, b) in cov.items())
-    return (f"| {n:,} | {converged} | {total:,.0f} | {start:,.0f} | {sampling:,.0f} | {after:,.0f} | {steps} "
+    final = after - sum(sent_on)
+    per = 1000 * final / (n * int(steps))
+    return (f"| {n:,} | {converged} | {total:,.0f} | {start:,.0f} | {sampling:,.0f} "
+            f"| {len(sent_on)} in {sum(sent_on):,.0f} | {final:,.0f} ({per:.2f}) | {steps} "
             f"| {tau} | {evaluations:,} | {rhat:.4f} | {ess:,.0f} | {peak / 1024:,.0f} "
             f"| {inside}/{all_} ({100 * inside / all_:.1f} %): {kinds} |")
 
@@ -120,10 +130,11 @@ def main():
     out = Path(sys.argv[1])
     sizes = [int(n) for n in sys.argv[2:]] or [200]
     out.mkdir(parents=True, exist_ok=True)
-    rows = ["| contacts | converged | wall (s) | start (s) | sampling (s) | summaries, LOO, report (s) "
+    rows = ["| contacts | converged | wall (s) | start (s) | sampling (s) "
+            "| summaries that sent it on: times, in s | last summaries, LOO, report: s (ms per contact and step) "
             "| steps | τ_max (steps) | evaluations | highest R̂ | lowest ESS (bulk or tail) | peak RSS (MB) "
             "| truths inside their 95 % interval |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for n in sizes:
         rows.append(fit(out, n))
         print(rows[-1], file=sys.stderr)

@@ -182,7 +182,10 @@ def main():
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for c in [int(v) for v in a.project.split(",")]:
-        shared, unshared = 2 * (t1(c) - t2(c)), max(0.0, 2 * t2(c) - t1(c))
+        # What the ranks share is what one rank does apart from what none shares, so that
+        # the two add up to one rank's sweep also when the unshared part is taken as 0.
+        unshared = max(0.0, 2 * t2(c) - t1(c))
+        shared = t1(c) - unshared
         for ranks in (1, a.ranks):
             per_sweep = t1(c) if ranks == 1 else unshared + shared / ranks
             held = other(2 * c / ranks) if ranks > 1 else None

@@ -200,6 +200,14 @@ impl Observer for ProgressBarObserver {
         }
     }
 
+    fn on_note(&mut self, note: &str) {
+        match &self.display {
+            Display::Hidden => {}
+            Display::Bar(bar) => bar.println(format!("note: {note}")),
+            Display::Lines { .. } => eprintln!("note: {note}"),
+        }
+    }
+
     fn stop_requested(&mut self) -> bool {
         self.stop.load(Ordering::Relaxed)
     }

@@ -627,6 +627,22 @@ fn steps_lacking(sampler: &SamplerSummary) -> Option<u64> {
     Some((lack + lack / 10.0).ceil() as u64)
 }
 
+/// Why a run converged by the sampler's rule samples on: the summaries (which took
+/// `summarised_s`) of every reported quantity do not pass the strict standard yet. Names the
+/// first problem and how many there are.
+fn sampling_on(sampler: &SamplerSummary, summarised_s: f64, more: u64) -> String {
+    let steps = sampler.steps;
+    let why = match sampler.problems.as_slice() {
+        [] => "no problem named".to_string(),
+        [only] => only.to_string(),
+        [first, rest @ ..] => format!("{first}; and {} more", rest.len()),
+    };
+    format!(
+        "the summaries at step {steps} (made in {summarised_s:.1} s) do not pass the strict \
+         standard yet, {more} more steps: {why}"
+    )
+}
+
 /// A fit's sampling: the sampler, its sink, and what the summaries need.
 struct Sampling<'f, 's, D: LogDensity + ?Sized> {
     sampler: EnsembleSampler<'s, D>,
@@ -650,6 +666,7 @@ impl<D: LogDensity + ?Sized> Sampling<'_, '_, D> {
         observer: &mut dyn Observer,
     ) -> Result<(RunReport, FitSummary), FitError> {
         let mut report = self.run_steps(steps, observer)?;
+        let mut summarising = Instant::now();
         let mut summary = self.summarise(&report)?;
         if finished {
             if let Steps::UntilConverged(_) = self.settings.steps {
@@ -675,6 +692,11 @@ impl<D: LogDensity + ?Sized> Sampling<'_, '_, D> {
                     .map_or(now / 2, |lack| lack.min(now / 2))
                     .max(10)
                     .min(rule.max_steps - now);
+                observer.on_note(&sampling_on(
+                    &summary.sampler,
+                    summarising.elapsed().as_secs_f64(),
+                    more,
+                ));
                 let chains = self.dir.chain_reader()?;
                 self.sampler
                     .restore_history(kept_rows_of(&chains, self.param_names, now))
@@ -687,6 +709,7 @@ impl<D: LogDensity + ?Sized> Sampling<'_, '_, D> {
                     })?;
                 drop(chains);
                 report = self.run_steps(Steps::Fixed(more), observer)?;
+                summarising = Instant::now();
                 summary = self.summarise(&report)?;
             }
             report.stopped_by = if summary.sampler.converged {
@@ -856,5 +879,26 @@ mod tests {
             {"kind": "r_hat", "quantity": "k[c1]", "r_hat": 1.02}
         ]));
         assert_eq!(steps_lacking(&rhat), None);
+    }
+
+    #[test]
+    fn the_note_of_a_run_that_samples_on_names_its_first_problem_and_counts_the_rest() {
+        let two = stopped_at_140(serde_json::json!([
+            {"kind": "tau_unreliable", "quantity": "F_peak[c1-first]", "tau": 7.57},
+            {"kind": "ess", "quantity": "k[c1]", "which": "bulk", "ess": 300.0}
+        ]));
+        let note = sampling_on(&two, 12.34, 6);
+        assert!(
+            note.starts_with(
+                "the summaries at step 140 (made in 12.3 s) do not pass the strict standard yet, \
+                 6 more steps: F_peak[c1-first]: autocorrelation time 7.6 steps"
+            ),
+            "{note}"
+        );
+        assert!(note.ends_with("; and 1 more"), "{note}");
+        let one = stopped_at_140(serde_json::json!([
+            {"kind": "ess", "quantity": "k[c1]", "which": "bulk", "ess": 300.0}
+        ]));
+        assert!(sampling_on(&one, 1.0, 33).ends_with("k[c1]: ESS bulk 300 < 400"));
     }
 }

@@ -44,6 +44,9 @@ pub trait Observer {
     fn on_step(&mut self, _progress: &Progress) {}
     /// Called once after the last step (also when the run fails, with `None`).
     fn on_finish(&mut self, _report: Option<&RunReport>) {}
+    /// A message from what drives the runs, between two of them: why a fit samples on
+    /// after its summaries, which can take minutes that no step shows.
+    fn on_note(&mut self, _note: &str) {}
     /// Asked after every step: `true` ends the run there, after a checkpoint, with
     /// [`StopReason::Interrupted`](super::StopReason::Interrupted) (e.g. on Ctrl-C), so that
     /// it can be resumed.
