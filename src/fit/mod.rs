@@ -132,8 +132,12 @@ pub fn default_updates() -> Updates {
 /// ([`CarryFit::Complement`]), also at least 2·f + 4, f the largest number of followers a
 /// block carries: the errors of all f coefficients add up in the acceptance ratio of the
 /// shared block, so τ grows as f over the walkers. Under the default ([`CarryFit::Auto`]) a
-/// block with that many followers is carried by a tuned regression instead, which needs no
-/// more walkers. The measurements behind both bounds are in `reports/fit-defaults.md`.
+/// block with that many followers is carried by a tuned regression instead, fitted to every
+/// ensemble's draws of its tuning steps rather than to half the walkers of one step, so no
+/// bound on the walkers is taken from it. Its error still grows as f over those draws, and
+/// the shared block of a campaign does mix more slowly as contacts are added (the τ_max of
+/// `reports/campaign-fit.md`). The measurements behind both bounds are in
+/// `reports/fit-defaults.md`.
 pub fn default_walkers<'d, D: LogDensity + ?Sized + 'd>(
     target: impl Into<Target<'d, D>>,
     updates: Updates,
@@ -150,7 +154,7 @@ pub fn default_walkers<'d, D: LogDensity + ?Sized + 'd>(
         (target.density().dim(), 0)
     } else {
         let followers = match updates {
-            // A tuned regression is precise whatever the number of followers.
+            // A tuned regression is fitted to many more draws (see above).
             Updates::Hierarchical if carry == CarryFit::Complement => blocks
                 .iter()
                 .map(|b| b.links.followers.len())
