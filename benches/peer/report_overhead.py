@@ -99,6 +99,8 @@ def main():
     with open(LOG, "a") as f:
         f.write(json.dumps(dict(load=load, ns=ns)) + "\n")
     print(f"load average at the end of the run: {load}")
+    # A table must follow a blank line, or Markdown reads it as the paragraph's text.
+    print()
     table(derived(ns))
 
 
