@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Issue 20's pooling targets, side by side in one sequential run on this machine: each fit with
-# the default settings until converged by the strict standard (50 τ, τ settled, R̂), its wall
+# the default settings until converged by the strict standard (τ trusted and settled, R̂), its wall
 # time and peak RSS (nothing else should run meanwhile):
 # - the demo (models/demo.toml) without pooling, with `[pooling] t0 = true`, and under
 #   `aging = "absolute"` without and with t0 pooled;

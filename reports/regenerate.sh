@@ -36,8 +36,8 @@ targets=(
   "campaign-fit|reports/campaign-fit.md: campaigns of 200 and 1,000 contacts fitted until converged: where the time goes, the verdict, the truths covered|25 min|yes"
   "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
   "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
-  "pooling|reports/pooling.md: pooled populations and carried regressions until converged|40 min|partly (wall times)"
-  "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|30 min|partly (wall times)"
+  "pooling|reports/pooling.md: pooled populations and carried regressions until converged|6 min|partly (wall times)"
+  "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|3 min|partly (wall times)"
   "mpi|reports/mpi.md: fits over MPI ranks, time per sweep and memory per rank, the same bits at 1,000 contacts, the projection to 10,000 contacts on 64 ranks|50 min|yes"
   "robustness|reports/robustness.md: a fit killed at 100 instants, a full disk, a read-only directory; inputs tried per parser by the seeded mutation tests (run as root: it mounts tmpfs)|3 min|no"
   "structure|reports/structure.md: the shape of src/ (largest files, long functions, the core trait, pub items) against 361f0fe|5 s|no"
@@ -250,7 +250,7 @@ run() {
     bash benches/pooling.sh "$scratch/pooling"
     bash benches/carry.sh "$scratch/carry"
     assemble reports/pooling.md "Pooling and carried regressions" \
-      "Each fit with the default settings until converged by the strict standard (50 τ, τ settled, R̂ < 1.01, ESS bulk and tail > 400), one after the other. First table: \`bash benches/pooling.sh DIR\`: the demo and a 10-contact campaign without and with pooled parameters, and the pooled demo with each population update alone (\`[sampler] populations\`; the carried moves alone capped at 2,000 steps). Second table: \`bash benches/carry.sh DIR\`: how a shared block's followers are carried (\`[sampler] carry\`). Targets: the pooled demo in at most 30 s and at most 2× the unpooled demo; the 10-contact campaign with t0 and F_d pooled in at most 60 s." \
+      "Each fit with the default settings until converged by the strict standard (τ trusted and settled, R̂ < 1.01, ESS bulk and tail > 400), one after the other. First table: \`bash benches/pooling.sh DIR\`: the demo and a 10-contact campaign without and with pooled parameters, and the pooled demo with each population update alone (\`[sampler] populations\`; the carried moves alone capped at 2,000 steps). Second table: \`bash benches/carry.sh DIR\`: how a shared block's followers are carried (\`[sampler] carry\`). Targets: the pooled demo in at most 30 s and at most 2× the unpooled demo; the 10-contact campaign with t0 and F_d pooled in at most 60 s." \
       "$scratch/pooling/table.md" "$scratch/carry/table.md"
     stamp "$target" "$load" "$start" reports/pooling.md
     ;;

@@ -98,6 +98,11 @@ def _model_json(model: dict, data_dir: Path) -> str:
     return json.dumps(_plain(model), allow_nan=False)
 
 
+def _note_to_stderr(text):
+    sys.stderr.write(f"note: {text}\n")
+    sys.stderr.flush()
+
+
 class _Progress:
     """One line of progress, rewritten in place (tqdm's bar when tqdm is installed)."""
 
@@ -133,6 +138,19 @@ class _Progress:
         sys.stdout.write(f"\rstep {step}/{last_step}  {extra}{eta}    ")
         sys.stdout.flush()
         self.started = True
+
+    def note(self, text):
+        """Shows a note of the fit (why it samples on after its summaries) as its own line,
+        above the progress, as the command line prints it."""
+        line = f"note: {text}"
+        if self.bar is not None:
+            self.bar.write(line)
+            return
+        if self.started:
+            sys.stdout.write("\n")
+            self.started = False
+        sys.stdout.write(line + "\n")
+        sys.stdout.flush()
 
     def close(self):
         if self.bar is not None:
@@ -189,7 +207,12 @@ def fit(
 
     The GIL is released while sampling. ``progress=True`` shows a progress line (a tqdm bar
     when tqdm is installed); ``False`` shows none; a function is called instead, about five
-    times a second, with ``(step, last_step, acceptance, tau_max, r_hat_max, eta_s)``. Ctrl-C (or the notebook's interrupt)
+    times a second, with ``(step, last_step, acceptance, tau_max, r_hat_max, eta_s)``. When the
+    sampler's rule is met but the summaries of every reported quantity are not yet, the fit
+    samples on, and says why in a line ``note: the summaries at step N ... do not pass the
+    strict standard yet, M more steps: <first problem>``: printed with the progress line,
+    written to standard error beside a function of your own, not shown with ``progress=False``.
+    Ctrl-C (or the notebook's interrupt)
     stops the fit after its current step and a checkpoint and raises ``KeyboardInterrupt``
     saying how to resume (one that comes as the last step ends raises it too, saying the fit
     finished).
@@ -208,8 +231,10 @@ def fit(
     """
     if callable(progress):
         callback = progress
+        note = _note_to_stderr
     else:
         callback = _Progress() if progress else None
+        note = callback.note if callback is not None else None
     with tempfile.TemporaryDirectory(prefix="slipbayes-") as scratch:
         run_dir = Path(out) if out is not None else Path(scratch) / "run"
         kwargs = dict(
@@ -223,6 +248,7 @@ def fit(
             resume=resume,
             report=report,
             progress=callback,
+            note=note,
         )
         if not isinstance(model, (dict, str, os.PathLike)):
             raise TypeError(f"model must be a path or a dict, not {type(model).__name__}")

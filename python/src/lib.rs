@@ -327,7 +327,18 @@ impl RunDirLock {
 #[derive(Default)]
 struct Shared {
     latest: Mutex<Option<Progress>>,
+    /// Notes not yet handed to Python (why the fit samples on after its summaries).
+    notes: Mutex<Vec<String>>,
     stop: AtomicBool,
+}
+
+impl Shared {
+    fn take_notes(&self) -> Vec<String> {
+        self.notes
+            .lock()
+            .map(|mut n| std::mem::take(&mut *n))
+            .unwrap_or_default()
+    }
 }
 
 struct SharedObserver {
@@ -341,6 +352,11 @@ impl Observer for SharedObserver {
             *latest = Some(*progress);
         }
     }
+    fn on_note(&mut self, note: &str) {
+        if let Ok(mut notes) = self.shared.notes.lock() {
+            notes.push(note.to_owned());
+        }
+    }
     fn stop_requested(&mut self) -> bool {
         self.shared.stop.load(Ordering::Relaxed)
     }
@@ -352,13 +368,14 @@ impl Observer for SharedObserver {
 /// Fits a model into the run directory that `lock` holds (as `slipbayes fit MODEL --out OUT`)
 /// and returns the directory. The sampler runs on a thread pool of its own (`threads`, default: every
 /// core) with the GIL released; meanwhile this thread hands the progress to `progress(step,
-/// last_step, acceptance, tau_max, r_hat_max, eta_s)` and watches for Ctrl-C, which stops the
-/// fit after its current step and a checkpoint (resumable with `resume=True`).
+/// last_step, acceptance, tau_max, r_hat_max, eta_s)`, each of the fit's notes (a line saying
+/// why it samples on after its summaries) to `note(text)`, and watches for Ctrl-C, which stops
+/// the fit after its current step and a checkpoint (resumable with `resume=True`).
 #[pyfunction]
 #[pyo3(signature = (
     lock, model_path=None, model_json=None, base_dir=None, seed=None, walkers=None, steps=None,
     max_steps=None, max_time_s=None, threads=None, overwrite=false, resume=false,
-    report=false, progress=None
+    report=false, progress=None, note=None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn fit(
@@ -377,6 +394,7 @@ fn fit(
     resume: bool,
     report: bool,
     progress: Option<PyObject>,
+    note: Option<PyObject>,
 ) -> PyResult<String> {
     let run = match (model_path, model_json) {
         (Some(path), None) => RunFile::load(&path).map_err(|e| error(&e))?,
@@ -437,11 +455,23 @@ fn fit(
                 Ok::<_, FitOrReport>(outcome)
             })
         });
+        // A note is handed on when it comes, whatever the progress's pace, and the last ones
+        // once the fit has ended.
+        let pass_notes = |interrupt: &mut Option<PyErr>| {
+            for text in shared.take_notes() {
+                if let Some(Err(e)) = note.as_ref().map(|f| f.call1(py, (text,))) {
+                    shared.stop.store(true, Ordering::Relaxed);
+                    interrupt.get_or_insert(e);
+                }
+            }
+        };
         loop {
             if worker.is_finished() {
+                pass_notes(&mut interrupt);
                 return Ok(worker.join().expect("the fit thread does not panic"));
             }
             py.allow_threads(|| std::thread::sleep(POLL));
+            pass_notes(&mut interrupt);
             if let Err(e) = py.check_signals() {
                 // Ctrl-C: stop after the current step and its checkpoint; wait for that.
                 shared.stop.store(true, Ordering::Relaxed);

@@ -414,3 +414,35 @@ def test_a_dict_chooses_the_law_and_the_machine(tmp_path):
     model = dict(one_contact(), priors={"a": prior})
     with pytest.raises(slipbayes.SlipbayesError, match=r"priors\.a: .*no effect"):
         slipbayes.fit(model, steps=10, progress=False)
+
+
+def test_a_note_is_a_line_of_its_own_above_the_progress(capsys):
+    """A note of the fit (why it samples on after its summaries) breaks the progress line it
+    comes in rather than being overwritten by the next step's."""
+    from slipbayes._fit import _Progress, _note_to_stderr
+
+    shown = _Progress()
+    shown.tqdm = None
+    shown(10, 200, 0.5, 3.2, 1.02, 4.0)
+    shown.note("the summaries at step 200 (made in 1.0 s) do not pass the strict standard yet")
+    shown(20, 200, 0.5, 3.2, 1.02, 3.0)
+    lines = capsys.readouterr().out.split("\n")
+    assert lines[0].startswith("\rstep 10/200")
+    assert lines[1] == ("note: the summaries at step 200 (made in 1.0 s) do not pass the strict "
+                        "standard yet")
+    assert lines[2].startswith("\rstep 20/200")
+
+    class Bar:
+        written = []
+
+        def write(self, line):
+            self.written.append(line)
+
+    with_bar = _Progress()
+    with_bar.bar = Bar()
+    with_bar.note("x")
+    assert Bar.written == ["note: x"]
+    assert capsys.readouterr().out == ""
+
+    _note_to_stderr("y")
+    assert capsys.readouterr().err == "note: y\n"
