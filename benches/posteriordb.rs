@@ -410,7 +410,7 @@ fn check<'r>(row: &'r Row, name: &str) -> &'r Check {
         .unwrap_or_else(|| panic!("{}: no check of {name}", row.label))
 }
 
-/// The largest |z| of `row`'s checks, as "<z> (the <mean|sd> of <parameter>)".
+/// The largest |z| of `row`'s checks, and which it is ("the <mean|sd> of `<parameter>`").
 fn largest_z(row: &Row) -> (f64, String) {
     row.checks
         .iter()
