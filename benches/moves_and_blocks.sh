@@ -3,7 +3,7 @@
 # five posteriors under several moves and updates, all on this machine in one sequential run
 # (so the wall times are comparable; nothing else should run meanwhile).
 #
-#   bash benches/moves_and_blocks.sh OUT_DIR [PATTERN]   # from the repository root, ~95 min idle
+#   bash benches/moves_and_blocks.sh OUT_DIR [PATTERN]   # from the repository root, ~17 min idle
 #
 # With PATTERN (an extended regular expression) only the rows whose "posterior | updates,
 # moves" label matches are run, e.g. `hierarchical`. The hard case of `slipbayes validate

@@ -35,7 +35,7 @@ targets=(
   "watch|reports/watch.md: a slide replayed at 1000× while slipbayes watch follows it: F_peak's interval against the record seen|2 min|partly (wall times)"
   "campaign-fit|reports/campaign-fit.md: campaigns of 200 and 1,000 contacts fitted until converged: where the time goes, the verdict, the truths covered|25 min|yes"
   "campaign-scaling|reports/campaign-scaling.md: campaigns of 50, 200 and 1,000 contacts, each part of loading and sampling against a previous build|45 min|partly (wall times)"
-  "moves|reports/moves.md: moves and updates on five posteriors at fixed length|100 min|partly (wall times)"
+  "moves|reports/moves.md: moves and updates on five posteriors at fixed length|17 min|partly (wall times)"
   "pooling|reports/pooling.md: pooled populations and carried regressions until converged|6 min|partly (wall times)"
   "long-records|reports/long-records.md: 10^6-point records on sufficient statistics|3 min|partly (wall times)"
   "mpi|reports/mpi.md: fits over MPI ranks, time per sweep and memory per rank, the same bits at 1,000 contacts, the projection to 10,000 contacts on 64 ranks|50 min|yes"
