@@ -395,10 +395,12 @@ fn main() {
     eprintln!("wrote {}", path.display());
 }
 
-/// The row whose label starts with `prefix` and, when `long`, names its fixed length.
+/// The row whose label starts with `prefix`, run to a fixed length when `long`.
 fn find<'r>(rows: &'r [Row], prefix: &str, long: bool) -> &'r Row {
     rows.iter()
-        .find(|r| r.label.starts_with(prefix) && r.label.ends_with(" steps)") == long)
+        .find(|r| {
+            r.label.starts_with(prefix) && matches!(r.settings.steps, Steps::Fixed(_)) == long
+        })
         .unwrap_or_else(|| panic!("no row {prefix}"))
 }
 
@@ -475,7 +477,12 @@ fn notes(rows: &[Row], hard: &[Row]) -> String {
     );
     let tau = check(bare, "tau");
     let tau_long = check(bare_long, "tau");
-    let (_, bare_sd_z) = bare.z();
+    let bare_sd_z = max_abs(
+        bare.checks
+            .iter()
+            .filter(|c| c.name.starts_with("theta"))
+            .map(Check::z_sd),
+    );
     let bare_verdict = if bare.outcome.summary.sampler.converged {
         format!(
             "the stopping rule calls it converged at {bare_steps} steps (R̂ {:.4}, lowest bulk \
@@ -509,7 +516,7 @@ fn notes(rows: &[Row], hard: &[Row]) -> String {
         tau.ours.mean,
         tau.reference.mean,
         tau.z_mean(),
-        if bare.outcome.summary.sampler.converged && bare.z().0.max(bare_sd_z) > K_MCSE {
+        if bare.outcome.summary.sampler.converged && bare.z().0.max(bare.z().1) > K_MCSE {
             "That verdict is false."
         } else {
             ""
